@@ -1,0 +1,56 @@
+// indicial/fitter/output.hpp -- outputs appear whole or not at all.
+//
+// Every command that writes results goes through these two helpers:
+//
+//   OutputDir out(dir, Overwrite::refuse);    // throws InputError if dir exists and is not empty
+//   write_text(out.path("fit.json"), json);   // written into a hidden staging directory
+//   out.commit();                             // renamed into place in one step
+//
+//   write_file_atomically(path, text, Overwrite::refuse);   // single files: temp + rename
+//
+// Warnings
+// 1. If commit() is never called (an exception, a crash) the staging directory is removed by
+//    the destructor and the previous contents of dir are untouched.
+// 2. With Overwrite::replace an existing dir is moved aside, the new one renamed in, and the
+//    old one deleted; a failure before the second rename puts the old one back.
+#pragma once
+
+#include <filesystem>
+#include <string>
+
+namespace indicial {
+
+enum class Overwrite { refuse, replace };
+
+class OutputDir {
+ public:
+  OutputDir(const std::filesystem::path& final_dir, Overwrite overwrite);
+  ~OutputDir();
+  OutputDir(const OutputDir&) = delete;
+  OutputDir& operator=(const OutputDir&) = delete;
+
+  // Where to write `name` now (inside the staging directory).
+  std::filesystem::path path(const std::string& name) const;
+  const std::filesystem::path& staging_dir() const { return staging_; }
+  const std::filesystem::path& final_dir() const { return final_; }
+  void commit();
+
+ private:
+  std::filesystem::path final_;
+  std::filesystem::path staging_;
+  Overwrite overwrite_;
+  bool committed_ = false;
+};
+
+// Writes text to path (throws InputError naming the path on any failure, e.g. a full disk).
+void write_text(const std::filesystem::path& path, const std::string& text);
+
+// Writes text to path.tmp-<pid> and renames it to path; refuses an existing path unless
+// overwrite == Overwrite::replace.
+void write_file_atomically(const std::filesystem::path& path, const std::string& text,
+                           Overwrite overwrite);
+
+// Reads a whole file (throws InputError naming the path if it cannot be read).
+std::string read_text(const std::filesystem::path& path);
+
+}  // namespace indicial

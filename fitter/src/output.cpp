@@ -1,0 +1,124 @@
+#include "indicial/fitter/output.hpp"
+
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+
+#include "indicial/fitter/error.hpp"
+
+namespace fs = std::filesystem;
+
+namespace indicial {
+namespace {
+
+std::string unique_suffix() {
+  static int counter = 0;
+  return std::to_string(::getpid()) + "-" + std::to_string(++counter);
+}
+
+bool is_nonempty_dir(const fs::path& p) {
+  std::error_code ec;
+  if (!fs::exists(p, ec)) return false;
+  if (!fs::is_directory(p, ec)) return true;  // a file in the way counts as "not empty"
+  return fs::directory_iterator(p, ec) != fs::directory_iterator();
+}
+
+}  // namespace
+
+OutputDir::OutputDir(const fs::path& final_dir, Overwrite overwrite)
+    : final_(final_dir), overwrite_(overwrite) {
+  std::error_code ec;
+  if (fs::exists(final_, ec) && !fs::is_directory(final_, ec)) {
+    throw InputError(final_.string(), 0, "output path exists and is not a directory");
+  }
+  if (is_nonempty_dir(final_) && overwrite_ == Overwrite::refuse) {
+    throw InputError(final_.string(), 0,
+                     "output directory is not empty (use --force to replace its contents)");
+  }
+  fs::path parent = final_.has_parent_path() ? final_.parent_path() : fs::path(".");
+  if (parent.empty()) parent = ".";
+  fs::create_directories(parent, ec);
+  if (ec) throw InputError(parent.string(), 0, "cannot create directory: " + ec.message());
+  staging_ = parent / ("." + final_.filename().string() + ".staging-" + unique_suffix());
+  fs::create_directory(staging_, ec);
+  if (ec) throw InputError(staging_.string(), 0, "cannot create directory: " + ec.message());
+}
+
+OutputDir::~OutputDir() {
+  if (!committed_) {
+    std::error_code ec;
+    fs::remove_all(staging_, ec);
+  }
+}
+
+fs::path OutputDir::path(const std::string& name) const { return staging_ / name; }
+
+void OutputDir::commit() {
+  std::error_code ec;
+  fs::path old;
+  if (fs::exists(final_, ec)) {
+    if (is_nonempty_dir(final_) && overwrite_ == Overwrite::refuse) {
+      throw InputError(final_.string(), 0,
+                       "output directory became non-empty while writing; results left in " +
+                           staging_.string());
+    }
+    old = final_.parent_path() / ("." + final_.filename().string() + ".old-" + unique_suffix());
+    if (final_.parent_path().empty()) old = fs::path("." + final_.filename().string() + ".old-" + unique_suffix());
+    fs::rename(final_, old, ec);
+    if (ec) throw InputError(final_.string(), 0, "cannot move previous results aside: " + ec.message());
+  }
+  fs::rename(staging_, final_, ec);
+  if (ec) {
+    std::error_code ec2;
+    if (!old.empty()) fs::rename(old, final_, ec2);
+    throw InputError(final_.string(), 0, "cannot move results into place: " + ec.message());
+  }
+  committed_ = true;
+  if (!old.empty()) fs::remove_all(old, ec);
+}
+
+void write_text(const fs::path& path, const std::string& text) {
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  if (!out) throw InputError(path.string(), 0, std::string("cannot open for writing: ") + std::strerror(errno));
+  out.write(text.data(), static_cast<std::streamsize>(text.size()));
+  out.flush();
+  if (!out) throw InputError(path.string(), 0, std::string("write failed: ") + std::strerror(errno));
+  out.close();
+  if (!out) throw InputError(path.string(), 0, std::string("write failed on close: ") + std::strerror(errno));
+}
+
+void write_file_atomically(const fs::path& path, const std::string& text, Overwrite overwrite) {
+  std::error_code ec;
+  if (fs::exists(path, ec) && overwrite == Overwrite::refuse) {
+    throw InputError(path.string(), 0, "output file exists (use --force to replace it)");
+  }
+  if (path.has_parent_path()) fs::create_directories(path.parent_path(), ec);
+  fs::path tmp = path;
+  tmp += ".tmp-" + unique_suffix();
+  try {
+    write_text(tmp, text);
+  } catch (...) {
+    fs::remove(tmp, ec);
+    throw;
+  }
+  fs::rename(tmp, path, ec);
+  if (ec) {
+    std::error_code ec2;
+    fs::remove(tmp, ec2);
+    throw InputError(path.string(), 0, "cannot move output into place: " + ec.message());
+  }
+}
+
+std::string read_text(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path.string(), 0, "cannot open file (does it exist?)");
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  if (in.bad()) throw InputError(path.string(), 0, "read failed");
+  return ss.str();
+}
+
+}  // namespace indicial
