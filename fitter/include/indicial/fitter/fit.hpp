@@ -1,0 +1,258 @@
+// indicial/fitter/fit.hpp -- the identification procedure of Klein & Murphy, as a library.
+//
+// What it is for
+// --------------
+// fit_experiment() turns an Experiment (tunnel runs + the static curve + the a priori rotary
+// term + the model's term pool, see experiment.hpp) into an identified model and everything a
+// report needs to judge it. It follows the report's "Model Identification" section and its
+// Figure 1:
+//
+//   1. y_E by eq. 12 for every run: y_E = C - C_a(x) - (l/V) C_aq(x) rate, x the model angle.
+//   2. Equation error (eq. 22): least squares of y_E' on -x^i y_E, -(x-k)_+ y_E, -x^i x',
+//      -(x-k)_+^2 x' and 1 (con), solved by SVD with a relative singular-value cut-off; white and
+//      colored-residual covariances. With structure = "stepwise" the configured terms are a
+//      candidate pool and stepwise regression (partial F to enter / remove, stop at the minimum
+//      predicted squared error) picks the structure.
+//   3. Maximum-likelihood output error (eqs. 23-24) started from the equation-error estimates:
+//      unknowns are the a(x), b1(x), con (and further-lag) coefficients and one initial state
+//      per run (periodic runs: the periodic steady state, no parameter); the state is propagated
+//      with indicial::advance_lags -- the runtime's own update -- and the Gauss-Newton /
+//      Levenberg-Marquardt iteration uses exact sensitivities from Eigen's forward AutoDiff
+//      through that same template. Cramer-Rao bounds, white and colored-residual corrected.
+//   4. When rotary.estimate = true, the two-stage loop (eqs. 25-26): stepwise regression of
+//      z = C - C_a(x) - y_model on the C_aq(x) candidates, y_E recomputed with the new C_aq, ML
+//      re-run from the previous estimates; repeated until the ML cost stops improving.
+//
+// Usage
+// -----
+//   indicial::Experiment e = indicial::load_experiment("experiment.toml");   // io.hpp
+//   indicial::FitOptions o;                                                  // documented defaults
+//   indicial::FitResult r = indicial::fit_experiment(e, o);
+//   for (const auto& p : r.parameters) fmt::print("{} {} ({})\n", p.name, p.value, p.cr_bound);
+//   // r.model is a ModelSet ready for write_coef_file (runtime/include/indicial/coef_file.hpp).
+//
+// Parameter names (../shared/reference/interface.md): a{i} for a(x)'s x^i term, A{j} for its
+// knot terms (j from 1, knots ascending), b1_{i} and B{j} for b1(x), con, Caq_{i} for the
+// estimated rotary polynomial and CaqK{j} for its knot terms, y0_{r} for run r's initial state
+// (r from 1, lag 1), y0_{r}_{k} for lag k >= 2, b{k}_{i} and c{k} for lag k >= 2.
+//
+// Warnings
+// --------
+// 1. Angles are radians everywhere in these structures (knots included); the names say _rad.
+// 2. Bad input throws indicial::InputError naming the experiment file (or run) and the problem:
+//    fewer samples than parameters, a regressor column that is zero or linearly dependent on the
+//    others (the term is named), a model that cannot be propagated. An ML divergence or an
+//    iteration limit is NOT an exception: OutputErrorSummary::termination says so and the best
+//    estimate found is kept.
+// 3. A parameter the information matrix cannot determine (its direction lies in the numerical
+//    null space) is marked Identifiability::not_identifiable and its bounds are NaN -- never a
+//    huge number; OutputErrorSummary::unidentifiable names them and termination is
+//    rank_deficient.
+// 4. The discrete update is second order in dt; at dt = 0.01 s its bias is small but not zero
+//    (docs/validation.md measures it against the Cramer-Rao bounds). The fitter does not correct
+//    it: the runtime uses the same update, so the fitted model is the best model FOR the runtime.
+// 5. Every run must share the experiment's airspeed (time_scale = 1 in the fit).
+#pragma once
+
+#include <Eigen/Core>
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include "indicial/fitter/experiment.hpp"
+#include "indicial/model.hpp"
+
+namespace indicial {
+
+// How the equation-error step obtains the state derivative y_E'.
+enum class StateDerivative {
+  smoothed_difference,  // Savitzky-Golay derivative of y_E (local polynomial, exact end points)
+  modulating_function   // report ref. 12: integrate against functions vanishing at window ends
+};
+
+// Which colored-residual lag window the sandwich covariance uses.
+enum class ColoredLagRule {
+  automatic,  // lags up to the first one where the residual autocorrelation is insignificant
+              // (|R(k)| < 2 R(0) / sqrt(N)), capped by max_correlation_lag
+  fixed       // exactly max_correlation_lag lags
+};
+
+struct FitOptions {
+  // Singular values below sv_cutoff * (largest singular value) are treated as zero, in the
+  // equation-error solve and in the information matrix (rank decision).
+  double sv_cutoff = 1e-9;
+  // Stepwise regression thresholds (Klein & Morelli use F_in = F_out = 4 as defaults).
+  double f_to_enter = 4.0;
+  double f_to_remove = 4.0;
+  // Output error: Gauss-Newton / Levenberg-Marquardt iterations (accepted or rejected steps).
+  int max_iterations = 50;
+  // Convergence: relative cost change below cost_tolerance AND every parameter change below
+  // step_tolerance times its Cramer-Rao bound.
+  double cost_tolerance = 1e-8;
+  double step_tolerance = 1e-3;
+  // Divergence: the LM damping grows above this without finding a lower cost, or the cost
+  // becomes non-finite at the start point.
+  double max_damping = 1e12;
+  // Two-stage loop (rotary.estimate = true).
+  int max_two_stage_iterations = 5;
+  StateDerivative state_derivative = StateDerivative::smoothed_difference;
+  // Savitzky-Golay derivative of y_E: window half-width (samples) and polynomial order.
+  int derivative_half_window = 5;
+  int derivative_order = 3;
+  // Modulating functions (state_derivative = modulating_function): window length in samples
+  // and shift between windows.
+  int modulating_window = 101;
+  int modulating_shift = 5;
+  // Colored-residual covariance.
+  ColoredLagRule colored_lag_rule = ColoredLagRule::automatic;
+  int max_correlation_lag = 200;
+};
+
+enum class Identifiability {
+  identified,        // the information matrix determines it; bounds are finite
+  not_identifiable   // (a component of) its direction is in the null space; bounds are NaN
+};
+
+struct ParameterEstimate {
+  std::string name;
+  double value = 0.0;
+  double cr_bound = 0.0;          // white-residual standard error (Cramer-Rao bound)
+  double cr_bound_colored = 0.0;  // colored-residual (sandwich) standard error
+  Identifiability identifiability = Identifiability::identified;
+};
+
+enum class StepwiseAction { entered, removed };
+
+// One step of stepwise regression.
+struct StepwiseStep {
+  int step = 0;              // 1-based
+  std::string term;          // parameter name the term carries (a1, A2, b1_0, con, Caq_2, ...)
+  StepwiseAction action = StepwiseAction::entered;
+  double partial_f = 0.0;    // partial F of the term at this step
+  double r_squared = 0.0;    // R^2 after the step
+  double pse = 0.0;          // predicted squared error after the step
+  int n_terms = 0;           // terms in the model after the step
+};
+
+// A stepwise selection: the log and the terms in the model at the minimum PSE.
+struct StepwiseResult {
+  std::vector<StepwiseStep> steps;
+  std::vector<std::string> selected;  // in pool order
+  double min_pse = 0.0;
+  std::size_t n_samples = 0;
+  double sigma_max_squared = 0.0;     // variance of the dependent variable about its mean
+};
+
+// The equation-error (least-squares) estimate of eq. 22.
+struct EquationErrorResult {
+  std::vector<ParameterEstimate> parameters;  // a, A, b1, B, con in that order
+  double fit_error = 0.0;                     // s(e) = sqrt(sum e^2 / (N - p))
+  double r_squared = 0.0;
+  std::size_t n_samples = 0;
+  int correlation_lag = 0;                    // lags used by the colored covariance
+  StateDerivative state_derivative = StateDerivative::smoothed_difference;
+  StepwiseResult stepwise;                    // empty steps when structure = fixed
+};
+
+enum class Termination {
+  converged,        // both convergence tests passed, full-rank information matrix
+  iteration_limit,  // max_iterations reached; the best estimate is kept
+  diverged,         // no step reduced the cost (damping exceeded max_damping) before the
+                    // convergence tests passed, or the start cost was not finite; best kept
+  rank_deficient    // the information matrix is singular at the estimate; see unidentifiable
+};
+
+inline const char* termination_name(Termination t) {
+  switch (t) {
+    case Termination::converged: return "converged";
+    case Termination::iteration_limit: return "iteration_limit";
+    case Termination::diverged: return "diverged";
+    case Termination::rank_deficient: return "rank_deficient";
+  }
+  return "?";
+}
+
+struct OutputErrorIteration {
+  int iteration = 0;
+  double cost = 0.0;       // J = 0.5 sum v^2 after the iteration
+  double damping = 0.0;    // Levenberg-Marquardt lambda used for the accepted step
+  double max_step_in_bounds = 0.0;  // max |d theta_i| / CR bound_i of the accepted step
+};
+
+struct OutputErrorSummary {
+  Termination termination = Termination::converged;
+  int iterations = 0;
+  double cost = 0.0;              // J = 0.5 sum v^2 at the estimate
+  double fit_error = 0.0;         // s(v) = sqrt(sum v^2 / N)
+  std::size_t n_samples = 0;
+  int n_parameters = 0;
+  int rank = 0;                   // numerical rank of the information matrix
+  int correlation_lag = 0;        // lags used by the colored bounds
+  std::vector<std::string> unidentifiable;  // parameters in the null space (empty if full rank)
+  std::vector<OutputErrorIteration> log;
+  std::string message;            // one line: what happened (for reports and the CLI)
+};
+
+struct TwoStageIteration {
+  int iteration = 0;                          // 1-based
+  double cost = 0.0;                          // ML cost after this iteration's ML
+  double fit_error = 0.0;                     // s(v) after it
+  std::vector<double> rotary;                 // C_aq polynomial coefficients of x^0..x^degree
+  std::vector<double> rotary_knot_coef;       // C_aq knot terms (knots ascending)
+  std::vector<ParameterEstimate> rotary_parameters;  // Caq_i / CaqK{j} selected, with bounds
+  StepwiseResult stepwise;                    // the regression of z on the C_aq candidates
+};
+
+// Per-run series for plots and tables.
+struct RunSeries {
+  std::string path;
+  std::vector<double> time_s;
+  std::vector<double> x_rad;              // model angle
+  std::vector<double> rate_radps;         // q, p or r
+  std::vector<double> measured;           // measured coefficient
+  std::vector<double> model;              // full model coefficient (static+rotary+states)
+  std::vector<double> quasi_steady;       // static + rotary only
+  std::vector<double> y_measured;         // y_E by eq. 12 with the final C_aq
+  std::vector<double> y_model;            // sum of the lag states
+  std::vector<double> residual;           // measured - model (= y_E - y_model)
+};
+
+// Indices of a spline's coefficients in FitResult::parameters / covariance, for bands.
+enum class ModelFunction { a, b1, rotary };
+
+struct FitResult {
+  ModelSet<double, FitCapacity> model;         // one coefficient; loadable by the runtime
+  std::vector<ParameterEstimate> parameters;   // final estimates (ML), y0_r last
+  Eigen::MatrixXd covariance;                  // white-residual covariance of `parameters`
+                                               // (NaN rows/cols for unidentifiable ones)
+  Eigen::MatrixXd covariance_colored;
+  std::vector<RunSeries> runs;
+  EquationErrorResult equation_error;          // the start values (first stage)
+  OutputErrorSummary output_error;             // the final ML run
+  std::vector<TwoStageIteration> two_stage;    // empty unless rotary.estimate
+  double fit_error = 0.0;                      // s(v) of the final model
+  double elapsed_s = 0.0;                      // wall time of fit_experiment
+};
+
+// The whole procedure (see the essay above). Throws InputError on bad input.
+FitResult fit_experiment(const Experiment& e, const FitOptions& o);
+
+// Value and standard deviation (white-residual covariance, or colored) of a(x), b1(x) or
+// C_aq(x) at x_rad, for +/- 2 sigma bands. Terms that were not estimated (a priori C_aq when
+// rotary.estimate = false) contribute no variance.
+enum class BoundKind { white, colored };
+struct FunctionBand { double value = 0.0; double sigma = 0.0; };
+FunctionBand function_band(const FitResult& r, ModelFunction f, double x_rad,
+                           BoundKind kind = BoundKind::white);
+
+// Building blocks, for diagnose and tests ---------------------------------------------------
+
+// Static curve and a priori rotary term from the experiment, as the model's curves (no
+// unsteady part yet). Throws InputError for a static table that is not strictly increasing.
+ModelSet<double, FitCapacity> base_model_set(const Experiment& e);
+
+// Equation error with the experiment's configured structure (stepwise when configured),
+// using the experiment's rotary polynomial as C_aq.
+EquationErrorResult fit_equation_error(const Experiment& e, const FitOptions& o);
+
+}  // namespace indicial
