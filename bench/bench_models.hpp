@@ -1,0 +1,142 @@
+// bench/bench_models.hpp -- the model sets and the motion every runtime benchmark uses.
+//
+// What it is for
+// --------------
+// The benchmarks time the runtime on the report's Example 1 structures in pitch, C_L and C_m
+// together (one model set, two coefficients):
+//   * Model I:   a(x) with 3 powers + 2 knots (power 2), b1 constant           (Table I)
+//   * Model II:  the same a(x), b1(x) = 1 power + 4 knots (power 1)            (Table I)
+//   * two lags:  Model II plus a second lag with its own b2(x) (1 power + 2 knots) and gain c2
+// C_m is Table I exactly. The report gives no C_L model for Example 1, so C_L uses the same
+// structure with plausible delta-wing numbers: the cost of a step depends on the structure
+// (number of powers, knots, lags), not on the values, as long as the angle crosses the knots the
+// way a real motion does. The motion is the report's: alpha = 35 + 35 sin(2 pi f t) deg.
+//
+// Usage
+// -----
+//   auto set = indicial::bench::make_model_set<double>(indicial::bench::ModelKind::model_ii);
+//   indicial::bench::Motion<double> motion(1000.0);   // 1 kHz samples of a 1 Hz oscillation
+//   double alpha = motion.angle_rad(i), q = motion.rate_radps(i);
+//
+// Warnings
+// --------
+// 1. These structures are for timing only; tests and examples take their models from the
+//    coefficient files and the simulator, never from here.
+// 2. The motion table holds exactly one period, so index i wraps with i % size().
+#pragma once
+
+#include <cmath>
+#include <cstddef>
+#include <vector>
+
+#include "indicial/model.hpp"
+
+namespace indicial {
+namespace bench {
+
+using Cap = DefaultCapacity;
+
+enum class ModelKind : int { model_i = 0, model_ii = 1, two_lags = 2 };
+
+inline const char* model_kind_name(ModelKind k) {
+  return k == ModelKind::model_i ? "model1" : k == ModelKind::model_ii ? "model2" : "twolag";
+}
+
+constexpr double kReferenceLengthM = 0.3765;     // l = c/2 with l/V = 0.02131 s (Table I)
+constexpr double kAirspeedMps = 17.667762;
+
+namespace detail {
+template <class Scalar, int P, int K>
+void set_poly(Spline<Scalar, P, K>& s, std::initializer_list<double> c) {
+  s.n_powers = 0;
+  for (double v : c) s.power_coef[s.n_powers++] = Scalar(v);
+}
+template <class Scalar, int P, int K>
+void add_knot(Spline<Scalar, P, K>& s, double knot_rad, int power, double coef) {
+  s.knot_rad[s.n_knots] = knot_rad;
+  s.knot_power[s.n_knots] = power;
+  s.knot_coef[s.n_knots] = Scalar(coef);
+  ++s.n_knots;
+}
+
+template <class Scalar>
+void fill_coefficient(CoefficientModel<Scalar, Cap>& m, const char* name, bool lift,
+                      ModelKind kind) {
+  for (int i = 0; name[i] != '\0' && i < 7; ++i) m.name[i] = name[i];
+  m.static_curve.kind = StaticKind::polynomial;
+  if (lift) {
+    // Plausible delta-wing C_L(alpha): slope 2.6/rad, stall-like rounding near 40-50 deg.
+    set_poly(m.static_curve.polynomial, {0.0, 2.6, 0.9, -2.1, 0.6});
+    set_poly(m.rotary, {1.5, 0.0, -1.0});
+    set_poly(m.a, {0.0, -1.1, 4.0});
+    add_knot(m.a, 0.4363, 2, -9.0);
+    add_knot(m.a, 0.9599, 2, 7.0);
+  } else {
+    // Table I.
+    set_poly(m.static_curve.polynomial, {0.0, 0.42, 0.34, -1.0, 0.40});
+    set_poly(m.rotary, {-2.0, 0.0, 0.8});
+    set_poly(m.a, {0.0, 0.28, -3.2});
+    add_knot(m.a, 0.4363, 2, 8.0);
+    add_knot(m.a, 0.9599, 2, -7.4);
+  }
+  m.n_lags = 1;
+  set_poly(m.lags[0].b, {2.5});
+  if (kind != ModelKind::model_i) {
+    add_knot(m.lags[0].b, 0.349, 1, -5.73);
+    add_knot(m.lags[0].b, 0.5236, 1, 5.73);
+    add_knot(m.lags[0].b, 0.827, 1, 5.73);
+    add_knot(m.lags[0].b, 1.0472, 1, -5.73);
+  }
+  if (kind == ModelKind::two_lags) {
+    m.n_lags = 2;
+    set_poly(m.lags[1].b, {15.0});
+    add_knot(m.lags[1].b, 0.6, 1, -6.0);
+    add_knot(m.lags[1].b, 0.9, 1, 6.0);
+    m.lags[1].gain = Scalar(lift ? 0.4 : 0.3);
+  }
+}
+}  // namespace detail
+
+template <class Scalar>
+ModelSet<Scalar, Cap> make_model_set(ModelKind kind) {
+  ModelSet<Scalar, Cap> set;
+  set.axis = Axis::pitch;
+  set.reference_length_m = kReferenceLengthM;
+  set.airspeed_mps = kAirspeedMps;
+  set.alpha0_rad = 0.0;
+  set.x_min_rad = -0.05;
+  set.x_max_rad = 1.30;
+  set.n_coefficients = 2;
+  detail::fill_coefficient(set.coefficients[0], "CL", true, kind);
+  detail::fill_coefficient(set.coefficients[1], "Cm", false, kind);
+  return set;
+}
+
+// One period of alpha = 35 + 35 sin(2 pi f t) deg sampled at rate_hz, and its rate q.
+template <class Scalar>
+class Motion {
+ public:
+  explicit Motion(double rate_hz, double frequency_hz = 1.0) {
+    const double pi = 3.14159265358979323846;
+    const std::size_t n = static_cast<std::size_t>(std::lround(rate_hz / frequency_hz));
+    const double amp_rad = 35.0 * pi / 180.0;
+    const double w = 2.0 * pi * frequency_hz;
+    angle_.resize(n);
+    rate_.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      const double t = static_cast<double>(i) / rate_hz;
+      angle_[i] = Scalar(amp_rad + amp_rad * std::sin(w * t));
+      rate_[i] = Scalar(amp_rad * w * std::cos(w * t));
+    }
+  }
+  std::size_t size() const { return angle_.size(); }
+  Scalar angle_rad(std::size_t i) const { return angle_[i % angle_.size()]; }
+  Scalar rate_radps(std::size_t i) const { return rate_[i % rate_.size()]; }
+
+ private:
+  std::vector<Scalar> angle_;
+  std::vector<Scalar> rate_;
+};
+
+}  // namespace bench
+}  // namespace indicial

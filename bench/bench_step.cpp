@@ -1,0 +1,417 @@
+// bench/bench_step.cpp -- the cost of one runtime step against its floor and its peers.
+//
+// What it measures (all in ONE binary and ONE run, so ratios share the machine's state)
+// ----------------------------------------------------------------------------------------
+// For C_L + C_m in pitch (bench_models.hpp: Model I, Model II, two lags; double and float),
+// at 1 kHz (dt = 1 ms) on the report's 35 +/- 35 deg, 1 Hz motion:
+//   step/<model>/<scalar>      indicial::Predictor::step (runtime/include/indicial/runtime.hpp)
+//   model/<model>/<scalar>     advance_lags + coefficient_output straight from model.hpp, i.e.
+//                              the step without the runtime's input checks and bookkeeping
+//   cached/<model>/<scalar>    WHAT-IF, not product code: the same update with b_j(x0) and
+//                              A(x0) carried over from the previous step and one exp per lag
+//                              (see the comment at CachedStepper); it shows what the caching
+//                              the floor assumes would buy
+//   floor/<model>/<scalar>     only the work no implementation can avoid: per coefficient the
+//                              static polynomial, the rotary polynomial and the antiderivative
+//                              A(x1) at the NEW angle, and per lag b_j(x1) and one exp(). The
+//                              values at the old angle are not in the floor: they were computed
+//                              the step before and can be kept (advance_lags recomputes them)
+//   rk4/model2/double          classic RK4 of the lag ODE (lag_derivatives) at the same dt,
+//                              angle linear between samples: what a user might write instead
+//   conv1s/model2/double       direct quadrature of the convolution integral of eq. 4b (report
+//   conv10s/model2/double      eq. 15) over the whole history: 1000 and 10000 samples at 1 kHz
+//
+// How the dependency chain is kept (and checked)
+// ----------------------------------------------
+// Every iteration's input angle is the motion sample plus 1e-9 times the previous iteration's
+// output, so step k+1 cannot start before step k has finished, and the output goes through
+// benchmark::DoNotOptimize. A compiler that dropped the work would make the time per step
+// collapse to the loop overhead (~1 ns); run_all.sh instead checks that (a) the floor's time
+// is consistent with its exp() count, (b) the conv10s/conv1s ratio is ~10 (time scales with the
+// work), and (c) callgrind instruction counts per step (--callgrind mode below) are in line
+// with the measured times. The disassembly can be inspected with
+//   objdump -d --no-show-raw-insn bench_step | grep -c 'call.*<exp'
+//
+// Heap allocations: alloc_counter.hpp replaces malloc and operator new in this binary; every
+// benchmark reports allocs_per_step over its timed loop (the goal is exactly 0).
+//
+// --callgrind NAME N: runs N steps of one variant outside Google Benchmark between
+// CALLGRIND_START/STOP_INSTRUMENTATION, for `valgrind --tool=callgrind --collect-atstart=no`.
+#include <benchmark/benchmark.h>
+#include <valgrind/callgrind.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "alloc_counter.hpp"
+#include "bench_models.hpp"
+#include "indicial/model.hpp"
+
+namespace ib = indicial::bench;
+using ib::Cap;
+using ib::ModelKind;
+
+namespace {
+
+constexpr double kDtS = 1e-3;       // 1 kHz
+constexpr double kChainGain = 1e-9; // output -> next input: keeps the dependency chain
+
+// ------------------------------------------------------------------------------------------
+// model/: the update exactly as model.hpp writes it (what the runtime's step wraps).
+// ------------------------------------------------------------------------------------------
+template <class Scalar>
+class ModelStepper {
+ public:
+  explicit ModelStepper(ModelKind kind) : set_(ib::make_model_set<Scalar>(kind)) {}
+  void reset(Scalar x_rad) {
+    x_prev_ = x_rad;
+    for (int c = 0; c < set_.n_coefficients; ++c)
+      indicial::steady_state(set_.coefficients[c], x_rad, y_[c]);
+  }
+  Scalar step(Scalar x1_rad, Scalar q_radps, Scalar dt_s) {
+    const indicial::StepGeometry<Scalar> g{x_prev_, x1_rad, x_prev_, x1_rad, dt_s, Scalar(1)};
+    const Scalar l_over_v_s = Scalar(set_.reference_length_m / set_.airspeed_mps);
+    Scalar sum = Scalar(0);
+    for (int c = 0; c < set_.n_coefficients; ++c) {
+      indicial::advance_lags(set_.coefficients[c], g, y_[c]);
+      sum += indicial::coefficient_output(set_.coefficients[c], x1_rad, q_radps, l_over_v_s,
+                                          y_[c]);
+    }
+    x_prev_ = x1_rad;
+    return sum;
+  }
+
+ private:
+  indicial::ModelSet<Scalar, Cap> set_;
+  Scalar y_[Cap::max_coefficients][Cap::max_lags] = {};
+  Scalar x_prev_ = Scalar(0);
+};
+
+// ------------------------------------------------------------------------------------------
+// cached/: WHAT-IF. The same discrete update as indicial::advance_lags (model.hpp), written
+// out here only to measure what two savings would buy; it is checked against advance_lags at
+// start-up (check_cached_matches_model) and is not used anywhere but in this benchmark:
+//  * b_j(x0) and A(x0) are the previous step's b_j(x1) and A(x1): carried over, not recomputed;
+//  * exp(-z) is computed once and reused for phi1(z) = (1 - exp(-z)) / z.
+// ------------------------------------------------------------------------------------------
+template <class Scalar>
+class CachedStepper {
+ public:
+  explicit CachedStepper(ModelKind kind) : set_(ib::make_model_set<Scalar>(kind)) {}
+  void reset(Scalar x_rad) {
+    for (int c = 0; c < set_.n_coefficients; ++c) {
+      const auto& m = set_.coefficients[c];
+      indicial::steady_state(m, x_rad, y_[c]);
+      a_prev_[c] = indicial::spline_antiderivative(m.a, x_rad);
+      for (int j = 0; j < m.n_lags; ++j) b_prev_[c][j] = indicial::spline_value(m.lags[j].b, x_rad);
+    }
+  }
+  Scalar step(Scalar x1_rad, Scalar q_radps, Scalar dt_s) {
+    using std::abs;
+    using std::exp;
+    const Scalar l_over_v_s = Scalar(set_.reference_length_m / set_.airspeed_mps);
+    Scalar sum = Scalar(0);
+    for (int c = 0; c < set_.n_coefficients; ++c) {
+      const auto& m = set_.coefficients[c];
+      const Scalar a1 = indicial::spline_antiderivative(m.a, x1_rad);
+      const Scalar forcing_integral = a1 - a_prev_[c];
+      a_prev_[c] = a1;
+      for (int j = 0; j < m.n_lags; ++j) {
+        const Scalar b1 = indicial::spline_value(m.lags[j].b, x1_rad);
+        const Scalar z = Scalar(0.5) * (b_prev_[c][j] + b1) * dt_s;
+        b_prev_[c][j] = b1;
+        const Scalar e = exp(-z);
+        // Same branch as indicial::phi1: Taylor series where (1 - e) / z cancels.
+        const Scalar phi = abs(z) < Scalar(1e-3)
+                               ? Scalar(1) + z * (Scalar(-0.5) + z * (Scalar(1.0 / 6.0) +
+                                                                      z * Scalar(-1.0 / 24.0)))
+                               : (Scalar(1) - e) / z;
+        const Scalar gain = (j == 0) ? Scalar(1) : m.lags[j].gain;
+        Scalar drive = -gain * forcing_integral;
+        if (j == 0) drive = drive + m.con * dt_s;
+        y_[c][j] = e * y_[c][j] + phi * drive;
+      }
+      sum += indicial::coefficient_output(m, x1_rad, q_radps, l_over_v_s, y_[c]);
+    }
+    return sum;
+  }
+
+ private:
+  indicial::ModelSet<Scalar, Cap> set_;
+  Scalar y_[Cap::max_coefficients][Cap::max_lags] = {};
+  Scalar a_prev_[Cap::max_coefficients] = {};
+  Scalar b_prev_[Cap::max_coefficients][Cap::max_lags] = {};
+};
+
+// ------------------------------------------------------------------------------------------
+// floor/: the unavoidable evaluations at the new angle, and one exp per lag and coefficient.
+// ------------------------------------------------------------------------------------------
+template <class Scalar>
+class FloorStepper {
+ public:
+  explicit FloorStepper(ModelKind kind) : set_(ib::make_model_set<Scalar>(kind)) {}
+  void reset(Scalar) {}
+  Scalar step(Scalar x1_rad, Scalar q_radps, Scalar dt_s) {
+    using std::exp;
+    Scalar sum = Scalar(0);
+    for (int c = 0; c < set_.n_coefficients; ++c) {
+      const auto& m = set_.coefficients[c];
+      sum += indicial::spline_value(m.static_curve.polynomial, x1_rad);
+      sum += indicial::spline_value(m.rotary, x1_rad) * q_radps;
+      sum += indicial::spline_antiderivative(m.a, x1_rad);
+      for (int j = 0; j < m.n_lags; ++j)
+        sum += exp(-indicial::spline_value(m.lags[j].b, x1_rad) * dt_s);
+    }
+    return sum;
+  }
+
+ private:
+  indicial::ModelSet<Scalar, Cap> set_;
+};
+
+// ------------------------------------------------------------------------------------------
+// rk4/: classic fourth-order Runge-Kutta of y' = -b(x) y - c a(x) x' (lag_derivatives), with
+// the angle linear between samples (x' constant over the step). Four right-hand sides per step.
+// ------------------------------------------------------------------------------------------
+template <class Scalar>
+class Rk4Stepper {
+ public:
+  explicit Rk4Stepper(ModelKind kind) : set_(ib::make_model_set<Scalar>(kind)) {}
+  void reset(Scalar x_rad) {
+    x_prev_ = x_rad;
+    for (int c = 0; c < set_.n_coefficients; ++c)
+      indicial::steady_state(set_.coefficients[c], x_rad, y_[c]);
+  }
+  Scalar step(Scalar x1_rad, Scalar q_radps, Scalar dt_s) {
+    constexpr int L = Cap::max_lags;
+    const Scalar l_over_v_s = Scalar(set_.reference_length_m / set_.airspeed_mps);
+    const Scalar xdot = (x1_rad - x_prev_) / dt_s;
+    const Scalar xm = Scalar(0.5) * (x_prev_ + x1_rad);
+    const Scalar one = Scalar(1);
+    Scalar sum = Scalar(0);
+    for (int c = 0; c < set_.n_coefficients; ++c) {
+      const auto& m = set_.coefficients[c];
+      Scalar* y = y_[c];
+      Scalar k1[L], k2[L], k3[L], k4[L], t[L];
+      indicial::lag_derivatives(m, x_prev_, x_prev_, xdot, one, y, k1);
+      for (int j = 0; j < m.n_lags; ++j) t[j] = y[j] + Scalar(0.5) * dt_s * k1[j];
+      indicial::lag_derivatives(m, xm, xm, xdot, one, t, k2);
+      for (int j = 0; j < m.n_lags; ++j) t[j] = y[j] + Scalar(0.5) * dt_s * k2[j];
+      indicial::lag_derivatives(m, xm, xm, xdot, one, t, k3);
+      for (int j = 0; j < m.n_lags; ++j) t[j] = y[j] + dt_s * k3[j];
+      indicial::lag_derivatives(m, x1_rad, x1_rad, xdot, one, t, k4);
+      for (int j = 0; j < m.n_lags; ++j)
+        y[j] += dt_s / Scalar(6) * (k1[j] + Scalar(2) * (k2[j] + k3[j]) + k4[j]);
+      sum += indicial::coefficient_output(m, x1_rad, q_radps, l_over_v_s, y);
+    }
+    x_prev_ = x1_rad;
+    return sum;
+  }
+
+ private:
+  indicial::ModelSet<Scalar, Cap> set_;
+  Scalar y_[Cap::max_coefficients][Cap::max_lags] = {};
+  Scalar x_prev_ = Scalar(0);
+};
+
+// ------------------------------------------------------------------------------------------
+// conv/: eq. 15 evaluated directly at every step over the whole (fixed-length) history:
+//   y(t_n) = - sum_k exp(-(B_n - B_k)) a(x_k) x'_k dt,   B_n = integral_0^t_n b1(x) dt
+// with B accumulated by the trapezoid rule. The history is a ring of `history` samples, so the
+// cost per step is that of a run that has been going for history * dt seconds. One exp per
+// history sample and coefficient: this is the cost a user pays without the recursive state.
+// ------------------------------------------------------------------------------------------
+template <class Scalar>
+class ConvolutionStepper {
+ public:
+  ConvolutionStepper(ModelKind kind, std::size_t history)
+      : set_(ib::make_model_set<Scalar>(kind)), n_(history) {
+    for (int c = 0; c < set_.n_coefficients; ++c) {
+      cum_b_[c].assign(n_, Scalar(0));
+      forcing_[c].assign(n_, Scalar(0));
+    }
+  }
+  void reset(Scalar x_rad) { x_prev_ = x_rad; }
+  Scalar step(Scalar x1_rad, Scalar q_radps, Scalar dt_s) {
+    using std::exp;
+    const Scalar l_over_v_s = Scalar(set_.reference_length_m / set_.airspeed_mps);
+    Scalar sum = Scalar(0);
+    for (int c = 0; c < set_.n_coefficients; ++c) {
+      const auto& m = set_.coefficients[c];
+      const Scalar b0 = indicial::spline_value(m.lags[0].b, x_prev_);
+      const Scalar b1 = indicial::spline_value(m.lags[0].b, x1_rad);
+      b_total_[c] += Scalar(0.5) * (b0 + b1) * dt_s;
+      cum_b_[c][head_] = b_total_[c];
+      forcing_[c][head_] = indicial::spline_value(m.a, x1_rad) * q_radps * dt_s;
+      const Scalar* cb = cum_b_[c].data();
+      const Scalar* f = forcing_[c].data();
+      const Scalar bn = b_total_[c];
+      Scalar y = Scalar(0);
+      for (std::size_t k = 0; k < n_; ++k) y -= exp(cb[k] - bn) * f[k];
+      sum += indicial::quasi_steady_output(m, x1_rad, q_radps, l_over_v_s) + y;
+    }
+    if (++head_ == n_) head_ = 0;
+    x_prev_ = x1_rad;
+    return sum;
+  }
+
+ private:
+  indicial::ModelSet<Scalar, Cap> set_;
+  std::size_t n_;
+  std::size_t head_ = 0;
+  std::vector<Scalar> cum_b_[Cap::max_coefficients];
+  std::vector<Scalar> forcing_[Cap::max_coefficients];
+  Scalar b_total_[Cap::max_coefficients] = {};
+  Scalar x_prev_ = Scalar(0);
+};
+
+// ------------------------------------------------------------------------------------------
+// The timed loop shared by every variant.
+// ------------------------------------------------------------------------------------------
+template <class Scalar, class Stepper>
+void run_chain(benchmark::State& state, Stepper& stepper, std::size_t warmup_steps) {
+  const ib::Motion<Scalar> motion(1.0 / kDtS);
+  const std::size_t n = motion.size();
+  std::vector<Scalar> angle(n), rate(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    angle[i] = motion.angle_rad(i);
+    rate[i] = motion.rate_radps(i);
+  }
+  const Scalar dt_s = Scalar(kDtS);
+  const Scalar chain = Scalar(kChainGain);
+  stepper.reset(angle[0]);
+  Scalar prev = Scalar(0);
+  std::size_t i = 1;
+  // Untimed warm-up: fills the convolution history, settles the lag states.
+  for (std::size_t w = 0; w < warmup_steps; ++w) {
+    prev = stepper.step(angle[i] + chain * prev, rate[i], dt_s);
+    if (++i == n) i = 0;
+  }
+  const unsigned long long allocs_before = ib::allocation_count();
+  for (auto _ : state) {
+    prev = stepper.step(angle[i] + chain * prev, rate[i], dt_s);
+    benchmark::DoNotOptimize(prev);
+    if (++i == n) i = 0;
+  }
+  const unsigned long long allocs = ib::allocation_count() - allocs_before;
+  state.counters["allocs_per_step"] =
+      static_cast<double>(allocs) / static_cast<double>(state.iterations());
+  if (!std::isfinite(static_cast<double>(prev))) state.SkipWithError("non-finite output");
+}
+
+template <class Scalar, class Stepper, class... Args>
+void register_variant(const std::string& name, std::size_t warmup, Args... args) {
+  benchmark::RegisterBenchmark(name.c_str(), [=](benchmark::State& state) {
+    auto stepper = std::make_unique<Stepper>(args...);
+    run_chain<Scalar>(state, *stepper, warmup);
+  });
+}
+
+template <class Scalar>
+const char* scalar_name();
+template <>
+const char* scalar_name<double>() { return "double"; }
+template <>
+const char* scalar_name<float>() { return "float"; }
+
+template <class Scalar>
+void register_scalar() {
+  const std::string s = scalar_name<Scalar>();
+  for (ModelKind k : {ModelKind::model_i, ModelKind::model_ii, ModelKind::two_lags}) {
+    const std::string m = ib::model_kind_name(k);
+    register_variant<Scalar, ModelStepper<Scalar>>("model/" + m + "/" + s, 1000, k);
+    register_variant<Scalar, CachedStepper<Scalar>>("cached/" + m + "/" + s, 1000, k);
+    register_variant<Scalar, FloorStepper<Scalar>>("floor/" + m + "/" + s, 1000, k);
+  }
+}
+
+// Checks, once at start-up, that the what-if CachedStepper computes what advance_lags
+// computes (to rounding), so its timing is the timing of the same answer.
+bool check_cached_matches_model() {
+  for (ModelKind k : {ModelKind::model_i, ModelKind::model_ii, ModelKind::two_lags}) {
+    ModelStepper<double> a(k);
+    CachedStepper<double> b(k);
+    const ib::Motion<double> motion(1000.0);
+    a.reset(motion.angle_rad(0));
+    b.reset(motion.angle_rad(0));
+    for (std::size_t i = 1; i < 5000; ++i) {
+      const double ya = a.step(motion.angle_rad(i), motion.rate_radps(i), kDtS);
+      const double yb = b.step(motion.angle_rad(i), motion.rate_radps(i), kDtS);
+      if (std::abs(ya - yb) > 1e-12 * (1.0 + std::abs(ya))) {
+        std::fprintf(stderr, "cached/%s differs from model.hpp at step %zu: %.17g vs %.17g\n",
+                     ib::model_kind_name(k), i, ya, yb);
+        return false;
+      }
+    }
+  }
+  return true;
+}
+
+// --callgrind NAME N
+template <class Scalar, class Stepper, class... Args>
+int callgrind_run(std::size_t steps, Args... args) {
+  auto stepper = std::make_unique<Stepper>(args...);
+  const ib::Motion<Scalar> motion(1.0 / kDtS);
+  std::vector<Scalar> angle(motion.size()), rate(motion.size());
+  for (std::size_t i = 0; i < motion.size(); ++i) {
+    angle[i] = motion.angle_rad(i);
+    rate[i] = motion.rate_radps(i);
+  }
+  stepper->reset(angle[0]);
+  Scalar prev = Scalar(0);
+  std::size_t i = 1;
+  const Scalar dt_s = Scalar(kDtS), chain = Scalar(kChainGain);
+  for (std::size_t w = 0; w < 1000; ++w) {
+    prev = stepper->step(angle[i] + chain * prev, rate[i], dt_s);
+    if (++i == angle.size()) i = 0;
+  }
+  CALLGRIND_START_INSTRUMENTATION;
+  for (std::size_t s = 0; s < steps; ++s) {
+    prev = stepper->step(angle[i] + chain * prev, rate[i], dt_s);
+    benchmark::DoNotOptimize(prev);
+    if (++i == angle.size()) i = 0;
+  }
+  CALLGRIND_STOP_INSTRUMENTATION;
+  std::printf("%.17g\n", static_cast<double>(prev));
+  return 0;
+}
+
+int callgrind_main(const std::string& name, std::size_t steps) {
+  std::vector<std::pair<std::string, std::function<int()>>> table;
+  for (ModelKind k : {ModelKind::model_i, ModelKind::model_ii, ModelKind::two_lags}) {
+    const std::string m = ib::model_kind_name(k);
+    table.push_back({"model/" + m + "/double", [=] { return callgrind_run<double, ModelStepper<double>>(steps, k); }});
+    table.push_back({"floor/" + m + "/double", [=] { return callgrind_run<double, FloorStepper<double>>(steps, k); }});
+    table.push_back({"cached/" + m + "/double", [=] { return callgrind_run<double, CachedStepper<double>>(steps, k); }});
+  }
+  for (const auto& [n, fn] : table)
+    if (n == name) return fn();
+  std::fprintf(stderr, "unknown variant %s\n", name.c_str());
+  return 2;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc == 4 && std::strcmp(argv[1], "--callgrind") == 0)
+    return callgrind_main(argv[2], std::strtoull(argv[3], nullptr, 10));
+  if (!check_cached_matches_model()) return 1;
+  register_scalar<double>();
+  register_scalar<float>();
+  register_variant<double, Rk4Stepper<double>>("rk4/model2/double", 1000, ModelKind::model_ii);
+  register_variant<double, ConvolutionStepper<double>>("conv1s/model2/double", 3000,
+                                                        ModelKind::model_ii, std::size_t{1000});
+  register_variant<double, ConvolutionStepper<double>>("conv10s/model2/double", 30000,
+                                                        ModelKind::model_ii, std::size_t{10000});
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}
