@@ -52,6 +52,7 @@
 #include "alloc_counter.hpp"
 #include "bench_models.hpp"
 #include "indicial/model.hpp"
+#include "indicial/runtime.hpp"
 
 namespace ib = indicial::bench;
 using ib::Cap;
@@ -61,6 +62,44 @@ namespace {
 
 constexpr double kDtS = 1e-3;       // 1 kHz
 constexpr double kChainGain = 1e-9; // output -> next input: keeps the dependency chain
+
+// ------------------------------------------------------------------------------------------
+// step/: the product, indicial::Predictor::step with its input checks, clamping, copy-then-
+// commit state and finite-result checks.
+// ------------------------------------------------------------------------------------------
+template <class Scalar>
+class PredictorStepper {
+ public:
+  explicit PredictorStepper(ModelKind kind) {
+    const indicial::LoadStatus s = predictor_.load(ib::make_model_set<double>(kind));
+    if (s != indicial::LoadStatus::ok) {
+      std::fprintf(stderr, "Predictor::load refused the benchmark model (status %d)\n",
+                   static_cast<int>(s));
+      std::abort();
+    }
+  }
+  void reset(Scalar x_rad) { predictor_.reset(static_cast<double>(x_rad), ib::kAirspeedMps); }
+  Scalar step(Scalar x1_rad, Scalar q_radps, Scalar dt_s) {
+    const indicial::MotionInput in{static_cast<double>(x1_rad), static_cast<double>(q_radps),
+                                   ib::kAirspeedMps};
+    const indicial::StepStatus s = predictor_.step(in, static_cast<double>(dt_s), &out_);
+    // Counted, not branched on in a way that could skip work: every status but ok means the
+    // benchmark is broken (the motion stays inside the envelope).
+    bad_steps_ += (s != indicial::StepStatus::ok);
+    return out_.value[0] + out_.value[1];
+  }
+  unsigned long long bad_steps() const { return bad_steps_; }
+
+ private:
+  indicial::Predictor<Scalar, Cap> predictor_;
+  typename indicial::Predictor<Scalar, Cap>::Outputs out_;
+  unsigned long long bad_steps_ = 0;
+};
+
+template <class Stepper>
+unsigned long long bad_steps_of(const Stepper&) { return 0; }
+template <class Scalar>
+unsigned long long bad_steps_of(const PredictorStepper<Scalar>& s) { return s.bad_steps(); }
 
 // ------------------------------------------------------------------------------------------
 // model/: the update exactly as model.hpp writes it (what the runtime's step wraps).
@@ -303,6 +342,7 @@ void run_chain(benchmark::State& state, Stepper& stepper, std::size_t warmup_ste
   state.counters["allocs_per_step"] =
       static_cast<double>(allocs) / static_cast<double>(state.iterations());
   if (!std::isfinite(static_cast<double>(prev))) state.SkipWithError("non-finite output");
+  if (bad_steps_of(stepper) != 0) state.SkipWithError("Predictor::step returned a status other than ok");
 }
 
 template <class Scalar, class Stepper, class... Args>
@@ -325,6 +365,7 @@ void register_scalar() {
   const std::string s = scalar_name<Scalar>();
   for (ModelKind k : {ModelKind::model_i, ModelKind::model_ii, ModelKind::two_lags}) {
     const std::string m = ib::model_kind_name(k);
+    register_variant<Scalar, PredictorStepper<Scalar>>("step/" + m + "/" + s, 1000, k);
     register_variant<Scalar, ModelStepper<Scalar>>("model/" + m + "/" + s, 1000, k);
     register_variant<Scalar, CachedStepper<Scalar>>("cached/" + m + "/" + s, 1000, k);
     register_variant<Scalar, FloorStepper<Scalar>>("floor/" + m + "/" + s, 1000, k);
@@ -345,6 +386,28 @@ bool check_cached_matches_model() {
       const double yb = b.step(motion.angle_rad(i), motion.rate_radps(i), kDtS);
       if (std::abs(ya - yb) > 1e-12 * (1.0 + std::abs(ya))) {
         std::fprintf(stderr, "cached/%s differs from model.hpp at step %zu: %.17g vs %.17g\n",
+                     ib::model_kind_name(k), i, ya, yb);
+        return false;
+      }
+    }
+  }
+  return true;
+}
+
+// Checks that Predictor::step (double) gives the same numbers as the model.hpp update, so that
+// step/ and model/ time the same computation.
+bool check_step_matches_model() {
+  for (ModelKind k : {ModelKind::model_i, ModelKind::model_ii, ModelKind::two_lags}) {
+    ModelStepper<double> a(k);
+    PredictorStepper<double> b(k);
+    const ib::Motion<double> motion(1000.0);
+    a.reset(motion.angle_rad(0));
+    b.reset(motion.angle_rad(0));
+    for (std::size_t i = 1; i < 5000; ++i) {
+      const double ya = a.step(motion.angle_rad(i), motion.rate_radps(i), kDtS);
+      const double yb = b.step(motion.angle_rad(i), motion.rate_radps(i), kDtS);
+      if (std::abs(ya - yb) > 1e-12 * (1.0 + std::abs(ya)) || b.bad_steps() != 0) {
+        std::fprintf(stderr, "step/%s differs from model.hpp at step %zu: %.17g vs %.17g\n",
                      ib::model_kind_name(k), i, ya, yb);
         return false;
       }
@@ -386,9 +449,12 @@ int callgrind_main(const std::string& name, std::size_t steps) {
   std::vector<std::pair<std::string, std::function<int()>>> table;
   for (ModelKind k : {ModelKind::model_i, ModelKind::model_ii, ModelKind::two_lags}) {
     const std::string m = ib::model_kind_name(k);
+    table.push_back({"step/" + m + "/double", [=] { return callgrind_run<double, PredictorStepper<double>>(steps, k); }});
+    table.push_back({"step/" + m + "/float", [=] { return callgrind_run<float, PredictorStepper<float>>(steps, k); }});
     table.push_back({"model/" + m + "/double", [=] { return callgrind_run<double, ModelStepper<double>>(steps, k); }});
     table.push_back({"floor/" + m + "/double", [=] { return callgrind_run<double, FloorStepper<double>>(steps, k); }});
     table.push_back({"cached/" + m + "/double", [=] { return callgrind_run<double, CachedStepper<double>>(steps, k); }});
+    table.push_back({"floor/" + m + "/float", [=] { return callgrind_run<float, FloorStepper<float>>(steps, k); }});
   }
   for (const auto& [n, fn] : table)
     if (n == name) return fn();
@@ -402,6 +468,7 @@ int main(int argc, char** argv) {
   if (argc == 4 && std::strcmp(argv[1], "--callgrind") == 0)
     return callgrind_main(argv[2], std::strtoull(argv[3], nullptr, 10));
   if (!check_cached_matches_model()) return 1;
+  if (!check_step_matches_model()) return 1;
   register_scalar<double>();
   register_scalar<float>();
   register_variant<double, Rk4Stepper<double>>("rk4/model2/double", 1000, ModelKind::model_ii);
