@@ -70,6 +70,9 @@ struct Experiment {
   RotaryConfig rotary;
   ModelConfig model;
   std::vector<Run> runs;
+  // The range of the model angle x over all samples of all runs (filled by load_experiment).
+  double data_x_min_rad = 0.0;
+  double data_x_max_rad = 0.0;
   double l_over_v_s() const { return reference_length_m / airspeed_mps; }
 };
 

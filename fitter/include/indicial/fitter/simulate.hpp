@@ -1,0 +1,205 @@
+// indicial/fitter/simulate.hpp -- the reference simulator: truth data for tests and examples.
+//
+// What it is for
+// --------------
+// Simulated wind-tunnel runs whose truth is known to ~1e-10: the continuous model
+//
+//   y_j' = -b_j(x) y_j - c_j a(x_f) x_f' (+ con),   C_a = C_a(x) + dC_a(x) + (l/V) C_aq(x) rate + sum_j y_j
+//
+// (shared/include/indicial/model.hpp, lag_derivatives and coefficient_output) is integrated by
+// Boost.Odeint's Dormand-Prince 5(4) with error control (abs and rel tolerance 1e-12), with the
+// motion known analytically (sine, ramp) or as a C2 cubic B-spline through a sampled history.
+// The discrete update advance_lags() is NEVER used here: the simulator is the yardstick the
+// discrete update is measured against (tests/test_discretization.cpp).
+//
+// Usage
+// -----
+//   const indicial::SimulationCase& c = indicial::find_simulation_case("tailless-model-2");
+//   std::vector<indicial::SimulatedRun> runs;
+//   for (const auto& m : c.motions) runs.push_back(indicial::simulate_reference(c.truth, m));
+//   std::vector<double> sigma = indicial::add_measurement_noise(runs, 40.0, 7);   // SNR, seed
+//   indicial::write_simulation_case(c, "out/", 40.0, 7, indicial::Overwrite::refuse);
+//
+// Adding a built-in case: add an entry to simulation_cases() in fitter/src/simulate.cpp: the
+// truth ModelSet, its motions, the run file names and the experiment configuration to write.
+//
+// Warnings
+// --------
+// 1. Every run starts at rest: y(t0) = 0 (and, for a delay, the forcing angle is held at its
+//    first value before t0). A sine motion is x(t) = mean - amplitude cos(2 pi f t), which
+//    starts at rest; a CSV motion that starts moving gets y(t0) = 0 all the same (eq. 13's
+//    integral from 0).
+// 2. The integration runs between consecutive output samples, and is also split at the kinks
+//    of a ramp and at the times a delayed forcing sees them; the plus-function knots of a(x),
+//    b(x) are left to the error control (they are C0..C1 in time, not discontinuous).
+// 3. SNR follows the corrected definition at the top of the reference report: sigma =
+//    RMS(y) over all samples of all runs of the set, divided by the SNR, with y the unsteady
+//    part (eq. 12) = sum_j y_j. Noise is white Gaussian from std::mt19937_64(seed) and
+//    std::normal_distribution; streams are reproducible with one standard library.
+// 4. The model is simulated at its reference airspeed (time_scale = 1).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "indicial/fitter/experiment.hpp"
+#include "indicial/fitter/output.hpp"
+#include "indicial/model.hpp"
+
+namespace indicial {
+
+using TruthModel = ModelSet<double, FitCapacity>;
+
+// Copies a model set of a smaller capacity (e.g. the runtime's DefaultCapacity) into the
+// simulator's. Every field is copied; counts are checked against the larger capacity by
+// construction (static_asserts).
+template <class Cap>
+TruthModel to_truth_model(const ModelSet<double, Cap>& in) {
+  static_assert(Cap::max_powers <= FitCapacity::max_powers && Cap::max_knots <= FitCapacity::max_knots &&
+                    Cap::max_lags <= FitCapacity::max_lags &&
+                    Cap::max_table_points <= FitCapacity::max_table_points &&
+                    Cap::max_coefficients <= FitCapacity::max_coefficients,
+                "to_truth_model: the source capacity must fit in FitCapacity");
+  TruthModel out;
+  out.axis = in.axis;
+  out.reference_length_m = in.reference_length_m;
+  out.airspeed_mps = in.airspeed_mps;
+  out.alpha0_rad = in.alpha0_rad;
+  out.x_min_rad = in.x_min_rad;
+  out.x_max_rad = in.x_max_rad;
+  out.n_coefficients = in.n_coefficients;
+  auto copy_spline = [](const auto& s, auto& d) {
+    d.n_powers = s.n_powers;
+    for (int i = 0; i < s.n_powers; ++i) d.power_coef[i] = s.power_coef[i];
+    d.n_knots = s.n_knots;
+    for (int j = 0; j < s.n_knots; ++j) {
+      d.knot_rad[j] = s.knot_rad[j];
+      d.knot_power[j] = s.knot_power[j];
+      d.knot_coef[j] = s.knot_coef[j];
+    }
+  };
+  for (int c = 0; c < in.n_coefficients; ++c) {
+    const auto& s = in.coefficients[c];
+    auto& d = out.coefficients[c];
+    for (int i = 0; i < 8; ++i) d.name[i] = s.name[i];
+    d.static_curve.kind = s.static_curve.kind;
+    copy_spline(s.static_curve.polynomial, d.static_curve.polynomial);
+    d.static_curve.n_table = s.static_curve.n_table;
+    for (int i = 0; i < s.static_curve.n_table; ++i) {
+      d.static_curve.table_x_rad[i] = s.static_curve.table_x_rad[i];
+      d.static_curve.table_value[i] = s.static_curve.table_value[i];
+      d.static_curve.table_second_derivative[i] = s.static_curve.table_second_derivative[i];
+    }
+    copy_spline(s.static_correction, d.static_correction);
+    copy_spline(s.rotary, d.rotary);
+    copy_spline(s.a, d.a);
+    d.n_lags = s.n_lags;
+    for (int j = 0; j < s.n_lags; ++j) {
+      copy_spline(s.lags[j].b, d.lags[j].b);
+      d.lags[j].gain = s.lags[j].gain;
+    }
+    d.con = s.con;
+    d.delay_s = s.delay_s;
+  }
+  return out;
+}
+
+// ------------------------------------------------------------------------------------------
+// Motions
+// ------------------------------------------------------------------------------------------
+enum class MotionKind { sine, ramp, samples };
+
+struct MotionSpec {
+  MotionKind kind = MotionKind::sine;
+  double dt_s = 0.01;
+  // sine: angle(t) = mean_rad - amplitude_rad cos(2 pi freq_hz t), t = 0 .. cycles / freq_hz
+  double mean_rad = 0.0;
+  double amplitude_rad = 0.0;
+  double freq_hz = 1.0;
+  double cycles = 3.0;
+  // ramp: held at from_rad for hold_before_s, then at rate_radps (> 0, the sign follows
+  // to - from) to to_rad, then held for hold_after_s.
+  double from_rad = 0.0;
+  double to_rad = 0.0;
+  double rate_radps = 0.0;
+  double hold_before_s = 0.5;
+  double hold_after_s = 2.0;
+  // samples: a uniformly sampled motion-angle history (e.g. from a CSV), interpolated by a C2
+  // cubic B-spline (Boost.Math cardinal_cubic_b_spline); output at the same times.
+  std::vector<double> time_s;
+  std::vector<double> angle_rad;
+  std::string source;  // where the samples came from (messages)
+};
+
+// Parses --motion: "sine:alpha0_deg=35,amp_deg=35,freq_hz=0.5,cycles=3,dt_s=0.01",
+// "ramp:from_deg=0,to_deg=70,rate_dps=30,dt_s=0.01[,hold_before_s=0.5,hold_after_s=2]" or
+// "csv:PATH" (a run CSV with time_s and the axis' angle column). In roll and yaw the sine's
+// mean is mean_deg (alpha0 is the model's fixed angle of attack); mean_deg is accepted in
+// pitch too. Throws InputError("--motion", 0, problem).
+MotionSpec parse_motion_spec(const std::string& spec, Axis axis);
+
+// The output sample times of a motion.
+std::vector<double> motion_sample_times(const MotionSpec& motion);
+
+// ------------------------------------------------------------------------------------------
+// Reference integration
+// ------------------------------------------------------------------------------------------
+struct ReferenceTolerance {
+  double abs = 1e-12;
+  double rel = 1e-12;
+};
+
+struct SimulatedRun {
+  std::vector<double> time_s;
+  std::vector<double> motion_angle_rad;  // alpha, phi or psi
+  std::vector<double> rate_radps;        // q, p or r (the motion angle's derivative)
+  std::vector<double> x_rad;             // model angle alpha or beta
+  std::vector<double> xdot_radps;
+  // Indexed [coefficient][...] over model.n_coefficients:
+  std::vector<std::vector<std::vector<double>>> lag_states;  // [c][j][k]
+  std::vector<std::vector<double>> y_true;                   // [c][k] = sum_j lag_states
+  std::vector<std::vector<double>> coefficient_true;         // [c][k]
+  std::vector<std::vector<double>> coefficient_measured;     // [c][k]: true + noise
+};
+
+// Integrates every coefficient's lag states of `model` along `motion` from rest.
+SimulatedRun simulate_reference(const TruthModel& model, const MotionSpec& motion,
+                                const ReferenceTolerance& tolerance = {});
+
+// Adds N(0, sigma_c) to coefficient_measured of every run, sigma_c = RMS(y_true[c] over all
+// runs) / snr. Returns sigma per coefficient. snr = +inf adds nothing (sigma 0, RNG unused).
+std::vector<double> add_measurement_noise(std::vector<SimulatedRun>& runs, double snr,
+                                          std::uint64_t seed);
+
+// ------------------------------------------------------------------------------------------
+// Built-in cases
+// ------------------------------------------------------------------------------------------
+struct SimulationCase {
+  std::string name;
+  std::string description;
+  TruthModel truth;
+  std::vector<MotionSpec> motions;
+  std::vector<std::string> run_files;  // one per motion, relative to the output directory
+  Experiment experiment;               // the configuration written to experiment.toml
+                                       // (runs[i].path = run_files[i], no data)
+};
+
+// The registry. tailless-model-1 and tailless-model-2: the report's Table I, Example 1.
+const std::vector<SimulationCase>& simulation_cases();
+// Throws InputError("--case", 0, ...) listing the known names.
+const SimulationCase& find_simulation_case(const std::string& name);
+
+// The CSV text of one simulated run: time_s, <angle>_deg, <rate>_degps, then per coefficient
+// its measured column (e.g. Cm) and <name>_true, then y_true (one coefficient) or
+// y_true_<name> (several).
+std::string simulated_run_csv(const TruthModel& model, const SimulatedRun& run,
+                              const std::vector<std::string>& comment_lines);
+
+// Simulates a case and writes DIR/<run files>, DIR/experiment.toml (and DIR/truth.coef when
+// the runtime's coefficient-file writer is available) through OutputDir. Returns sigma per
+// coefficient.
+std::vector<double> write_simulation_case(const SimulationCase& c, const std::string& out_dir,
+                                          double snr, std::uint64_t seed, Overwrite overwrite);
+
+}  // namespace indicial
