@@ -1,0 +1,372 @@
+// The embedded runtime (Predictor): it adds nothing to the model equations, keeps its state
+// on bad input, clamps and flags, replays bit for bit and scales with airspeed.
+#define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <string>
+
+#include "indicial/runtime.hpp"
+#include "runtime_test_models.hpp"
+
+namespace {
+
+using Set = indicial::ModelSet<double, indicial::DefaultCapacity>;
+using P = indicial::Predictor<double>;
+using indicial::LoadStatus;
+using indicial::StepStatus;
+
+constexpr double kPi = 3.14159265358979323846;
+
+// The report's Example 1 motion: alpha = 35 deg + 35 deg sin(2 pi f t).
+double alpha_at(double t_s, double f_hz) {
+  return (35.0 + 35.0 * std::sin(2.0 * kPi * f_hz * t_s)) * kPi / 180.0;
+}
+double q_at(double t_s, double f_hz) {
+  return 35.0 * kPi / 180.0 * 2.0 * kPi * f_hz * std::cos(2.0 * kPi * f_hz * t_s);
+}
+
+bool same_bytes(const P::Snapshot& a, const P::Snapshot& b) {
+  return std::memcmp(&a, &b, sizeof a) == 0;
+}
+
+std::string text_of(const Set& m) {
+  char buffer[16384];
+  std::size_t n = 0;
+  REQUIRE(indicial::write_coef_file(m, buffer, sizeof buffer, &n) == indicial::WriteStatus::ok);
+  return std::string(buffer, n);
+}
+
+}  // namespace
+
+TEST_CASE("Snapshot has no padding bytes (bytewise comparison is meaningful)") {
+  static_assert(std::is_trivially_copyable<P::Snapshot>::value, "snapshot must be plain data");
+  CHECK(sizeof(P::Snapshot) ==
+        sizeof(double) * (indicial::DefaultCapacity::max_coefficients *
+                              indicial::DefaultCapacity::max_lags + 1) + 2 * sizeof(int));
+}
+
+TEST_CASE("step equals a direct loop over indicial::advance_lags, bit for bit") {
+  const Set models[3] = {indicial::test_models::table_one_model_two(),
+                         indicial::test_models::lift_and_moment(),
+                         indicial::test_models::roll_three()};
+  for (const Set& m : models) {
+    P p;
+    REQUIRE(p.load(text_of(m).data(), text_of(m).size()) == LoadStatus::ok);
+    Set direct = m;  // the parsed/prepared form the runtime uses
+    for (int c = 0; c < direct.n_coefficients; ++c)
+      if (direct.coefficients[c].static_curve.kind == indicial::StaticKind::table)
+        indicial::prepare_static_table(direct.coefficients[c].static_curve);
+    const double dt_s = 0.01;
+    const double f_hz = 0.5;
+    const double v_mps = m.airspeed_mps * 1.3;  // away from V_ref so the scaling is exercised
+    // Roll: small phi so that beta stays inside the envelope; pitch: the report's motion.
+    auto angle = [&](double t) {
+      return m.axis == indicial::Axis::pitch ? alpha_at(t, f_hz) : 0.6 * std::sin(2 * kPi * f_hz * t);
+    };
+    auto rate = [&](double t) {
+      return m.axis == indicial::Axis::pitch ? q_at(t, f_hz) : 0.6 * 2 * kPi * f_hz * std::cos(2 * kPi * f_hz * t);
+    };
+    REQUIRE(p.reset(angle(0.0), v_mps) == StepStatus::ok);
+    double y[3][2] = {};
+    double x_prev = indicial::model_angle(m.axis, m.alpha0_rad, angle(0.0));
+    for (int c = 0; c < m.n_coefficients; ++c) indicial::steady_state(direct.coefficients[c], x_prev, y[c]);
+    int compared = 0;
+    for (int k = 1; k <= 600; ++k) {
+      const double t = k * dt_s;
+      P::Outputs out;
+      const StepStatus s = p.step({angle(t), rate(t), v_mps}, dt_s, &out);
+      REQUIRE(s == StepStatus::ok);
+      REQUIRE(out.count == m.n_coefficients);
+      const double x1 = indicial::model_angle(m.axis, m.alpha0_rad, angle(t));
+      const indicial::StepGeometry<double> g{x_prev, x1, x_prev, x1, dt_s, v_mps / m.airspeed_mps};
+      for (int c = 0; c < m.n_coefficients; ++c) {
+        indicial::advance_lags(direct.coefficients[c], g, y[c]);
+        const double expected = indicial::coefficient_output(
+            direct.coefficients[c], x1, rate(t), m.reference_length_m / v_mps, y[c]);
+        CHECK(out.value[c] == expected);
+        CHECK(std::string(out.name[c]) == std::string(m.coefficients[c].name));
+        ++compared;
+      }
+      x_prev = x1;
+    }
+    CHECK(compared == 600 * m.n_coefficients);
+  }
+}
+
+TEST_CASE("outputs come in file order: CL and Cm together, CY Cl Cn together") {
+  P p;
+  REQUIRE(p.load(indicial::test_models::lift_and_moment()) == LoadStatus::ok);
+  REQUIRE(p.reset(0.3, 17.667762) == StepStatus::ok);
+  P::Outputs out;
+  REQUIRE(p.step({0.31, 1.0, 17.667762}, 0.01, &out) == StepStatus::ok);
+  REQUIRE(out.count == 2);
+  CHECK(std::string(out.name[0]) == "CL");
+  CHECK(std::string(out.name[1]) == "Cm");
+  REQUIRE(p.load(indicial::test_models::roll_three()) == LoadStatus::ok);
+  REQUIRE(p.reset(0.1, 20.0) == StepStatus::ok);
+  REQUIRE(p.step({0.11, 1.0, 20.0}, 0.01, &out) == StepStatus::ok);
+  REQUIRE(out.count == 3);
+  CHECK(std::string(out.name[0]) == "CY");
+  CHECK(std::string(out.name[1]) == "Cl");
+  CHECK(std::string(out.name[2]) == "Cn");
+}
+
+TEST_CASE("reset sets the steady state; holding the angle keeps it") {
+  Set m = indicial::test_models::lift_and_moment();  // CL has con = 0.125 and b1(x) = 4 - 1.5 x
+  P p;
+  REQUIRE(p.load(m) == LoadStatus::ok);
+  const double alpha = 0.6;
+  REQUIRE(p.reset(alpha, 17.667762) == StepStatus::ok);
+  const P::Snapshot s = p.snapshot();
+  CHECK(s.y[0][0] == doctest::Approx(0.125 / (4.0 - 1.5 * alpha)).epsilon(1e-15));
+  CHECK(s.y[0][1] == 0.0);
+  CHECK(s.y[1][0] == 0.0);  // Cm has no bias
+  CHECK(s.x_prev_rad == alpha);
+  // At rest (same angle, zero rate) the state stays at its steady value and the output is
+  // static + steady lag state, at any airspeed.
+  P::Outputs out;
+  for (int k = 0; k < 100; ++k) REQUIRE(p.step({alpha, 0.0, 40.0}, 0.01, &out) == StepStatus::ok);
+  const double cl_static = indicial::static_value(p.model().coefficients[0].static_curve, alpha);
+  CHECK(out.value[0] == doctest::Approx(cl_static + 0.125 / (4.0 - 1.5 * alpha)).epsilon(1e-13));
+  const double cm_static = 0.42 * alpha + 0.34 * alpha * alpha - std::pow(alpha, 3) + 0.4 * std::pow(alpha, 4);
+  CHECK(out.value[1] == doctest::Approx(cm_static).epsilon(1e-13));
+}
+
+TEST_CASE("bad inputs return their own status and leave state and outputs untouched") {
+  P p;
+  P::Outputs out;
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double inf = std::numeric_limits<double>::infinity();
+  CHECK(p.step({0.1, 0.0, 17.0}, 0.01, &out) == StepStatus::not_loaded);
+  CHECK(p.reset(0.1, 17.0) == StepStatus::not_loaded);
+  CHECK(p.phase() == indicial::PredictorPhase::empty);
+  REQUIRE(p.load(indicial::test_models::lift_and_moment()) == LoadStatus::ok);
+  CHECK(p.phase() == indicial::PredictorPhase::loaded);
+  CHECK(p.step({0.1, 0.0, 17.0}, 0.01, &out) == StepStatus::not_reset);
+  REQUIRE(p.reset(0.2, 17.0) == StepStatus::ok);
+  for (int k = 1; k <= 50; ++k) REQUIRE(p.step({alpha_at(0.01 * k, 1.0), q_at(0.01 * k, 1.0), 17.0}, 0.01, &out) == StepStatus::ok);
+  const P::Snapshot before = p.snapshot();
+  const P::Outputs out_before = out;
+
+  struct Case {
+    indicial::MotionInput in;
+    double dt_s;
+    StepStatus expected;
+  };
+  const Case cases[] = {
+      {{nan, 0.0, 17.0}, 0.01, StepStatus::non_finite_input},
+      {{inf, 0.0, 17.0}, 0.01, StepStatus::non_finite_input},
+      {{0.3, nan, 17.0}, 0.01, StepStatus::non_finite_input},
+      {{0.3, -inf, 17.0}, 0.01, StepStatus::non_finite_input},
+      {{0.3, 0.0, nan}, 0.01, StepStatus::non_finite_input},
+      {{0.3, 0.0, inf}, 0.01, StepStatus::non_finite_input},
+      {{0.3, 0.0, 17.0}, nan, StepStatus::non_finite_input},
+      {{0.3, 0.0, 17.0}, inf, StepStatus::non_finite_input},
+      {{0.3, 0.0, 17.0}, 0.0, StepStatus::non_positive_dt},
+      {{0.3, 0.0, 17.0}, -0.01, StepStatus::non_positive_dt},
+      {{0.3, 0.0, 17.0}, 1.5, StepStatus::dt_too_large},
+      {{0.3, 0.0, 0.0}, 0.01, StepStatus::non_positive_airspeed},
+      {{0.3, 0.0, -17.0}, 0.01, StepStatus::non_positive_airspeed},
+      // Finite but absurd: l / V overflows the rotary term to Inf.
+      {{0.3, 1e300, 1e-300}, 0.01, StepStatus::non_finite_result},
+  };
+  for (const Case& c : cases) {
+    P::Outputs o = out_before;
+    CHECK(p.step(c.in, c.dt_s, &o) == c.expected);
+    CHECK(same_bytes(p.snapshot(), before));
+    CHECK(std::memcmp(&o, &out_before, sizeof o) == 0);
+  }
+  CHECK(p.step({0.3, 0.0, 17.0}, 0.01, nullptr) == StepStatus::null_output);
+  CHECK(same_bytes(p.snapshot(), before));
+  CHECK(p.reset(nan, 17.0) == StepStatus::non_finite_input);
+  CHECK(p.reset(0.3, 0.0) == StepStatus::non_positive_airspeed);
+  CHECK(same_bytes(p.snapshot(), before));
+  // dt exactly at the maximum is accepted.
+  CHECK(p.step({0.3, 0.0, 17.0}, P::max_dt_s, &out) == StepStatus::ok);
+  CHECK(std::isfinite(out.value[0]));
+}
+
+TEST_CASE("a refused load keeps the previous model and state") {
+  P p;
+  REQUIRE(p.load(indicial::test_models::table_one_model_two()) == LoadStatus::ok);
+  REQUIRE(p.reset(0.5, 17.667762) == StepStatus::ok);
+  const P::Snapshot before = p.snapshot();
+  std::string text = text_of(indicial::test_models::table_one_model_one());
+  text[text.find("0.42")] = '7';  // corrupt
+  indicial::ParseDiagnostic diag;
+  CHECK(p.load(text.data(), text.size(), &diag) == LoadStatus::checksum_mismatch);
+  CHECK(diag.line > 0);
+  CHECK(same_bytes(p.snapshot(), before));
+  CHECK(p.model().coefficients[0].lags[0].b.n_knots == 4);  // still Model II
+}
+
+TEST_CASE("validation refuses unstable lags and non-finite models") {
+  P p;
+  Set m = indicial::test_models::table_one_model_two();
+  m.coefficients[0].lags[0].b.knot_coef[0] = -20.0;  // b1 dips below zero after 0.349 rad
+  indicial::ParseDiagnostic diag;
+  CHECK(p.load(m, &diag) == LoadStatus::unstable_lag);
+  CHECK(p.load(text_of(m).data(), text_of(m).size()) == LoadStatus::unstable_lag);
+  m = indicial::test_models::table_one_model_one();
+  m.coefficients[0].lags[0].b.power_coef[0] = 0.0;  // b1 = 0: no decay
+  CHECK(p.load(m) == LoadStatus::unstable_lag);
+  // b dips to exactly zero only between samples? A step (power 0 knot) makes it negative on
+  // a narrow range that the knot check catches.
+  m = indicial::test_models::table_one_model_one();
+  m.coefficients[0].lags[0].b.n_knots = 2;
+  m.coefficients[0].lags[0].b.knot_rad[0] = 0.50000001;
+  m.coefficients[0].lags[0].b.knot_power[0] = 0;
+  m.coefficients[0].lags[0].b.knot_coef[0] = -3.0;
+  m.coefficients[0].lags[0].b.knot_rad[1] = 0.50000002;
+  m.coefficients[0].lags[0].b.knot_power[1] = 0;
+  m.coefficients[0].lags[0].b.knot_coef[1] = 3.0;
+  CHECK(p.load(m) == LoadStatus::unstable_lag);
+  m = indicial::test_models::table_one_model_one();
+  m.coefficients[0].a.power_coef[2] = std::numeric_limits<double>::infinity();
+  CHECK(p.load(m) == LoadStatus::invalid_value);
+  m = indicial::test_models::table_one_model_one();
+  m.coefficients[0].delay_s = 0.02;
+  CHECK(p.load(m) == LoadStatus::unsupported_feature);
+  CHECK(p.phase() == indicial::PredictorPhase::empty);
+  // Float: a coefficient beyond float's range is refused.
+  indicial::Predictor<float> pf;
+  m = indicial::test_models::table_one_model_one();
+  m.coefficients[0].rotary.power_coef[1] = 1e60;
+  CHECK(pf.load(m) == LoadStatus::invalid_value);
+}
+
+TEST_CASE("angles outside the envelope are clamped and flagged, outputs still produced") {
+  P p;
+  REQUIRE(p.load(indicial::test_models::table_one_model_two()) == LoadStatus::ok);
+  const double x_max = p.model().x_max_rad;
+  CHECK(p.reset(x_max + 0.2, 17.667762) == StepStatus::angle_clamped);
+  CHECK(p.snapshot().x_prev_rad == x_max);
+  P::Outputs out;
+  CHECK(p.step({x_max + 0.3, 0.5, 17.667762}, 0.01, &out) == StepStatus::angle_clamped);
+  P q;
+  REQUIRE(q.load(indicial::test_models::table_one_model_two()) == LoadStatus::ok);
+  REQUIRE(q.reset(x_max, 17.667762) == StepStatus::ok);
+  P::Outputs at_edge;
+  CHECK(q.step({x_max, 0.5, 17.667762}, 0.01, &at_edge) == StepStatus::ok);
+  CHECK(out.value[0] == at_edge.value[0]);  // same as the clamped angle with the same rate
+  CHECK(p.step({-0.5, 0.0, 17.667762}, 0.01, &out) == StepStatus::angle_clamped);
+  CHECK(p.snapshot().x_prev_rad == 0.0);
+  CHECK(std::isfinite(out.value[0]));
+  CHECK(p.step({0.5, 0.0, 17.667762}, 0.01, &out) == StepStatus::ok);
+}
+
+TEST_CASE("snapshot / restore: replaying the same inputs reproduces the outputs bit for bit") {
+  P p;
+  REQUIRE(p.load(indicial::test_models::lift_and_moment()) == LoadStatus::ok);
+  REQUIRE(p.reset(alpha_at(0.0, 1.0), 17.667762) == StepStatus::ok);
+  P::Outputs out;
+  for (int k = 1; k <= 137; ++k) REQUIRE(p.step({alpha_at(0.01 * k, 1.0), q_at(0.01 * k, 1.0), 17.667762}, 0.01, &out) == StepStatus::ok);
+  const P::Snapshot mark = p.snapshot();
+  static double first[1000][2];
+  static double second[1000][2];
+  for (int pass = 0; pass < 2; ++pass) {
+    double (*dst)[2] = pass == 0 ? first : second;
+    if (pass == 1) p.restore(mark);
+    for (int k = 0; k < 1000; ++k) {
+      const double t = 0.01 * (138 + k);
+      const double v = 17.667762 * (1.0 + 0.2 * std::sin(0.37 * k));  // varying airspeed too
+      REQUIRE(p.step({alpha_at(t, 1.0), q_at(t, 1.0), v}, 0.004 + 0.00001 * (k % 7), &out) == StepStatus::ok);
+      dst[k][0] = out.value[0];
+      dst[k][1] = out.value[1];
+    }
+  }
+  CHECK(std::memcmp(first, second, sizeof first) == 0);
+  // Restore into a fresh copy gives the same too, and a pre-reset snapshot restores the
+  // not-reset phase.
+  P fresh;
+  REQUIRE(fresh.load(indicial::test_models::lift_and_moment()) == LoadStatus::ok);
+  const P::Snapshot unreset = fresh.snapshot();
+  fresh.restore(mark);
+  CHECK(same_bytes(fresh.snapshot(), mark));
+  fresh.restore(unreset);
+  CHECK(fresh.step({0.3, 0.0, 17.0}, 0.01, &out) == StepStatus::not_reset);
+}
+
+TEST_CASE("airspeed scaling: at 2 V a motion twice as fast gives the same coefficients") {
+  // Non-dimensional time s = V t / l: doubling V and halving every time interval (so the
+  // rate doubles) leaves every sample of the response unchanged.
+  const Set m = indicial::test_models::lift_and_moment();
+  P slow;
+  P fast;
+  REQUIRE(slow.load(m) == LoadStatus::ok);
+  REQUIRE(fast.load(m) == LoadStatus::ok);
+  const double v = 15.0;
+  REQUIRE(slow.reset(alpha_at(0.0, 0.5), v) == StepStatus::ok);
+  REQUIRE(fast.reset(alpha_at(0.0, 1.0), 2 * v) == StepStatus::ok);
+  double max_diff = 0.0;
+  double max_lag = 0.0;
+  for (int k = 1; k <= 800; ++k) {
+    P::Outputs a;
+    P::Outputs b;
+    REQUIRE(slow.step({alpha_at(0.01 * k, 0.5), q_at(0.01 * k, 0.5), v}, 0.01, &a) == StepStatus::ok);
+    REQUIRE(fast.step({alpha_at(0.005 * k, 1.0), q_at(0.005 * k, 1.0), 2 * v}, 0.005, &b) == StepStatus::ok);
+    for (int c = 0; c < 2; ++c) max_diff = std::fmax(max_diff, std::fabs(a.value[c] - b.value[c]));
+    max_lag = std::fmax(max_lag, std::fabs(slow.snapshot().y[1][0]));
+  }
+  MESSAGE("max |difference| = ", max_diff, ", max |Cm lag state| = ", max_lag);
+  CHECK(max_lag > 0.01);  // the unsteady part is really exercised
+  CHECK(max_diff < 1e-12);
+  // And at 2 V with the SAME time history the response differs (time constants halve).
+  P same;
+  REQUIRE(same.load(m) == LoadStatus::ok);
+  REQUIRE(same.reset(alpha_at(0.0, 0.5), 2 * v) == StepStatus::ok);
+  REQUIRE(slow.reset(alpha_at(0.0, 0.5), v) == StepStatus::ok);
+  double diff_same_time = 0.0;
+  for (int k = 1; k <= 200; ++k) {
+    P::Outputs a;
+    P::Outputs b;
+    REQUIRE(slow.step({alpha_at(0.01 * k, 0.5), 0.0, v}, 0.01, &a) == StepStatus::ok);
+    REQUIRE(same.step({alpha_at(0.01 * k, 0.5), 0.0, 2 * v}, 0.01, &b) == StepStatus::ok);
+    diff_same_time = std::fmax(diff_same_time, std::fabs(a.value[1] - b.value[1]));
+  }
+  CHECK(diff_same_time > 1e-3);
+}
+
+TEST_CASE("float instantiation runs and stays close to double") {
+  indicial::Predictor<float> pf;
+  P pd;
+  const Set m = indicial::test_models::lift_and_moment();
+  REQUIRE(pf.load(m) == LoadStatus::ok);
+  REQUIRE(pd.load(m) == LoadStatus::ok);
+  REQUIRE(pf.reset(alpha_at(0.0, 1.0), 17.667762) == StepStatus::ok);
+  REQUIRE(pd.reset(alpha_at(0.0, 1.0), 17.667762) == StepStatus::ok);
+  double max_diff = 0.0;
+  for (int k = 1; k <= 300; ++k) {
+    indicial::Predictor<float>::Outputs of;
+    P::Outputs od;
+    REQUIRE(pf.step({alpha_at(0.01 * k, 1.0), q_at(0.01 * k, 1.0), 17.667762}, 0.01, &of) == StepStatus::ok);
+    REQUIRE(pd.step({alpha_at(0.01 * k, 1.0), q_at(0.01 * k, 1.0), 17.667762}, 0.01, &od) == StepStatus::ok);
+    for (int c = 0; c < 2; ++c) max_diff = std::fmax(max_diff, std::fabs(double(of.value[c]) - od.value[c]));
+  }
+  MESSAGE("float vs double max |difference| = ", max_diff);
+  CHECK(max_diff < 1e-5);
+  CHECK(max_diff > 0.0);  // really computed in float
+}
+
+TEST_CASE("roll and yaw use the model angle transforms") {
+  P p;
+  Set m = indicial::test_models::roll_three();
+  REQUIRE(p.load(m) == LoadStatus::ok);
+  const double phi = 0.4;
+  REQUIRE(p.reset(phi, 20.0) == StepStatus::ok);
+  CHECK(p.snapshot().x_prev_rad == std::asin(std::sin(phi) * std::sin(m.alpha0_rad)));
+  m.axis = indicial::Axis::yaw;
+  REQUIRE(p.load(m) == LoadStatus::ok);
+  const double psi = 0.3;
+  REQUIRE(p.reset(psi, 20.0) == StepStatus::ok);
+  CHECK(p.snapshot().x_prev_rad == std::asin(-std::sin(psi) * std::cos(m.alpha0_rad)));
+}
+
+TEST_CASE("to_string names every status") {
+  CHECK(std::string(indicial::to_string(StepStatus::dt_too_large)) == "dt_too_large");
+  CHECK(std::string(indicial::to_string(StepStatus::angle_clamped)) == "angle_clamped");
+  CHECK(std::string(indicial::to_string(LoadStatus::unstable_lag)) == "unstable_lag");
+}
