@@ -1,0 +1,75 @@
+// The runtime in a translation unit compiled with -fno-exceptions -fno-rtti and linked to
+// indicial::runtime only (tests/CMakeLists.txt does that for *_nothrow.cpp): load a model
+// from a character buffer, reset, step, and check the outputs.
+#define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <cstring>
+
+#include "indicial/coef_file.hpp"
+#include "indicial/runtime.hpp"
+
+#if defined(__cpp_exceptions) || defined(__GXX_RTTI)
+#error "this file must be compiled with -fno-exceptions -fno-rtti"
+#endif
+
+namespace {
+// Table I, Model II (the committed examples/tailless-model-2.coef, byte for byte).
+const char kModelTwo[] =
+    "indicial-coef 1\n"
+    "axis pitch\n"
+    "reference_length_m 0.3765\n"
+    "airspeed_mps 17.667762\n"
+    "alpha0_rad 0\n"
+    "envelope_rad 0 1.2217304763960306\n"
+    "coefficient Cm\n"
+    "static_poly 0 0.42 0.34 -1 0.4\n"
+    "rotary_poly -2 0 0.8\n"
+    "a_poly 0 0.28 -3.2\n"
+    "a_knot 0.4363 2 8\n"
+    "a_knot 0.9599 2 -7.4\n"
+    "lag_poly 1 2.5\n"
+    "lag_knot 1 0.349 1 -5.73\n"
+    "lag_knot 1 0.5236 1 5.73\n"
+    "lag_knot 1 0.827 1 5.73\n"
+    "lag_knot 1 1.0472 1 -5.73\n"
+    "end_coefficient\n"
+    "checksum 9fc9ba7e\n";
+}  // namespace
+
+TEST_CASE("load from a char buffer, reset, step without exceptions or RTTI") {
+  indicial::Predictor<double> p;
+  indicial::ParseDiagnostic diag;
+  REQUIRE(p.load(kModelTwo, std::strlen(kModelTwo), &diag) == indicial::LoadStatus::ok);
+  const double alpha0 = 35.0 * 3.14159265358979323846 / 180.0;
+  REQUIRE(p.reset(alpha0, 17.667762) == indicial::StepStatus::ok);
+  indicial::Predictor<double>::Outputs out;
+  // At rest the output is the static curve (Model I/II have no bias): C_m(alpha0).
+  REQUIRE(p.step({alpha0, 0.0, 17.667762}, 0.01, &out) == indicial::StepStatus::ok);
+  REQUIRE(out.count == 1);
+  CHECK(std::strcmp(out.name[0], "Cm") == 0);
+  const double a = alpha0;
+  const double cm_static = 0.42 * a + 0.34 * a * a - a * a * a + 0.4 * a * a * a * a;
+  CHECK(out.value[0] == doctest::Approx(cm_static).epsilon(1e-14));
+  // A pitch-up ramp at 1 rad/s for 0.2 s: a(x) < 0 around 35 deg, so the lag state y = -int
+  // exp(.) a(x) x' dt grows positive, and the rotary term (l/V) C_mq q is negative.
+  double alpha = alpha0;
+  for (int k = 0; k < 20; ++k) {
+    alpha += 0.01;
+    REQUIRE(p.step({alpha, 1.0, 17.667762}, 0.01, &out) == indicial::StepStatus::ok);
+  }
+  const double y = p.snapshot().y[0][0];
+  CHECK(y > 0.0);
+  const double b = alpha;
+  const double qs = 0.42 * b + 0.34 * b * b - b * b * b + 0.4 * b * b * b * b +
+                    (0.3765 / 17.667762) * (-2.0 + 0.8 * b * b) * 1.0;
+  CHECK(out.value[0] == doctest::Approx(qs + y).epsilon(1e-13));
+  // Bad input is refused without exceptions.
+  CHECK(p.step({alpha, 1.0, 17.667762}, -1.0, &out) == indicial::StepStatus::non_positive_dt);
+  // A damaged buffer is refused with its status.
+  char damaged[sizeof kModelTwo];
+  std::memcpy(damaged, kModelTwo, sizeof kModelTwo);
+  damaged[std::strlen("indicial-coef 1\naxis pitch\nreference_length_m 0.37")] = '8';
+  CHECK(p.load(damaged, std::strlen(damaged)) == indicial::LoadStatus::checksum_mismatch);
+}
