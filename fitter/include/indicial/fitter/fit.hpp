@@ -79,8 +79,9 @@ enum class ColoredLagRule {
 
 struct FitOptions {
   // Singular values below sv_cutoff * (largest singular value) are treated as zero, in the
-  // equation-error solve and in the information matrix (rank decision).
-  double sv_cutoff = 1e-9;
+  // equation-error solve and in the information matrix (rank decision). Columns (regressors,
+  // sensitivities) are scaled to unit norm first, so the test judges collinearity, not units.
+  double sv_cutoff = 1e-8;
   // Stepwise regression thresholds (Klein & Morelli use F_in = F_out = 4 as defaults).
   double f_to_enter = 4.0;
   double f_to_remove = 4.0;
@@ -95,6 +96,9 @@ struct FitOptions {
   double max_damping = 1e12;
   // Two-stage loop (rotary.estimate = true).
   int max_two_stage_iterations = 5;
+  // The two-stage loop stops when an iteration lowers the ML cost by less than this fraction
+  // (or raises it; then the previous iteration's estimates are kept).
+  double two_stage_tolerance = 1e-3;
   StateDerivative state_derivative = StateDerivative::smoothed_difference;
   // Savitzky-Golay derivative of y_E: window half-width (samples) and polynomial order.
   int derivative_half_window = 5;

@@ -1,0 +1,371 @@
+// fit_common.cpp -- term pools, prepared runs (eq. 12), least squares with white and colored
+// covariances, shared by the equation-error, stepwise, output-error and two-stage steps.
+#include <Eigen/Core>
+#include <Eigen/SVD>
+#include <unsupported/Eigen/AutoDiff>
+
+#include <algorithm>
+#include <cmath>
+#include <fmt/format.h>
+#include <limits>
+
+#include "fit_internal.hpp"
+#include "indicial/fitter/error.hpp"
+#include "indicial/fitter/io.hpp"
+
+namespace indicial::fit_detail {
+
+int UnsteadyStructure::n_struct() const {
+  int n = static_cast<int>(a.size() + b1.size()) + (con == Bias::present ? 1 : 0);
+  for (const auto& b : b_more) n += static_cast<int>(b.size()) + 1;
+  return n;
+}
+
+namespace {
+void add_spline_terms(std::vector<Term>& out, const SplineTerms& s, TermKind power_kind,
+                      TermKind knot_kind, int lag, const std::string& power_prefix,
+                      const std::string& knot_prefix) {
+  for (std::size_t i = 0; i < s.powers.size(); ++i) {
+    Term t;
+    t.kind = power_kind;
+    t.lag = lag;
+    t.power = s.powers[i];
+    t.index = static_cast<int>(i);
+    t.name = power_prefix + std::to_string(s.powers[i]);
+    out.push_back(t);
+  }
+  for (std::size_t j = 0; j < s.knots_rad.size(); ++j) {
+    Term t;
+    t.kind = knot_kind;
+    t.lag = lag;
+    t.power = s.knot_power;
+    t.knot_rad = s.knots_rad[j];
+    t.index = static_cast<int>(j);
+    t.name = knot_prefix + std::to_string(j + 1);
+    out.push_back(t);
+  }
+}
+
+SplineTerms spline_terms(const SplineConfig& c) {
+  SplineTerms s;
+  s.powers = c.powers;
+  std::sort(s.powers.begin(), s.powers.end());
+  s.powers.erase(std::unique(s.powers.begin(), s.powers.end()), s.powers.end());
+  s.knots_rad = c.knots_rad;
+  std::sort(s.knots_rad.begin(), s.knots_rad.end());
+  s.knot_power = c.knot_power;
+  return s;
+}
+}  // namespace
+
+std::vector<Term> structural_terms(const UnsteadyStructure& s) {
+  std::vector<Term> t;
+  add_spline_terms(t, s.a, TermKind::a_power, TermKind::a_knot, 0, "a", "A");
+  add_spline_terms(t, s.b1, TermKind::b_power, TermKind::b_knot, 0, "b1_", "B");
+  if (s.con == Bias::present) {
+    Term c;
+    c.kind = TermKind::con;
+    c.name = "con";
+    t.push_back(c);
+  }
+  for (std::size_t k = 0; k < s.b_more.size(); ++k) {
+    const int lag = static_cast<int>(k) + 1;
+    const std::string id = std::to_string(lag + 1);
+    add_spline_terms(t, s.b_more[k], TermKind::b_power, TermKind::b_knot, lag, "b" + id + "_",
+                     "B" + id + "_");
+    Term g;
+    g.kind = TermKind::gain;
+    g.lag = lag;
+    g.name = "c" + id;
+    t.push_back(g);
+  }
+  return t;
+}
+
+std::vector<Term> rotary_terms(const SplineTerms& pool) {
+  std::vector<Term> t;
+  add_spline_terms(t, pool, TermKind::rotary_power, TermKind::rotary_knot, 0, "Caq_", "CaqK");
+  return t;
+}
+
+UnsteadyStructure structure_from_config(const ModelConfig& m) {
+  UnsteadyStructure s;
+  s.a = spline_terms(m.a);
+  s.b1 = spline_terms(m.b1);
+  s.con = m.bias ? Bias::present : Bias::absent;
+  s.lags = std::max(1, m.lags);
+  for (int k = 1; k < s.lags; ++k) {
+    SplineTerms b;
+    b.powers = {0};  // why: further lags start as constant time constants (Model I-like)
+    b.knot_power = 1;
+    s.b_more.push_back(b);
+  }
+  return s;
+}
+
+UnsteadyStructure select_terms(const UnsteadyStructure& pool,
+                               const std::vector<std::string>& names) {
+  auto has = [&](const std::string& n) {
+    return std::find(names.begin(), names.end(), n) != names.end();
+  };
+  UnsteadyStructure s;
+  s.lags = pool.lags;
+  s.a.knot_power = pool.a.knot_power;
+  s.b1.knot_power = pool.b1.knot_power;
+  for (const Term& t : structural_terms(pool)) {
+    if (!has(t.name)) continue;
+    switch (t.kind) {
+      case TermKind::a_power: s.a.powers.push_back(t.power); break;
+      case TermKind::a_knot: s.a.knots_rad.push_back(t.knot_rad); break;
+      case TermKind::b_power:
+        if (t.lag == 0) s.b1.powers.push_back(t.power);
+        break;
+      case TermKind::b_knot:
+        if (t.lag == 0) s.b1.knots_rad.push_back(t.knot_rad);
+        break;
+      case TermKind::con: s.con = Bias::present; break;
+      default: break;
+    }
+  }
+  // Further lags are not subject to selection (the equation error does not see them).
+  s.b_more = pool.b_more;
+  return s;
+}
+
+// ------------------------------------------------------------------------------------------
+std::vector<double> sg_derivative(const std::vector<double>& v, double dt_s, int half_window,
+                                  int order) {
+  return smooth_derivative(v, dt_s, half_window, order);
+}
+
+std::vector<PreparedRun> prepare_runs(const Experiment& e, const ModelSet<double, Cap>& base) {
+  using Dual = Eigen::AutoDiffScalar<Eigen::Matrix<double, 1, 1>>;
+  const CoefficientModel<double, Cap>& cm = base.coefficients[0];
+  std::vector<PreparedRun> out;
+  out.reserve(e.runs.size());
+  for (const Run& r : e.runs) {
+    PreparedRun p;
+    p.path = r.path;
+    p.dt_s = r.dt_s();
+    p.periodic = r.periodic;
+    const std::size_t n = r.size();
+    if (r.coefficient.size() != n || r.motion_angle_rad.size() != n || r.rate_radps.size() != n)
+      throw InputError(r.path, 0, "run has columns of different lengths");
+    p.t = r.time_s;
+    p.rate = r.rate_radps;
+    p.coef = r.coefficient;
+    p.x.resize(n);
+    p.xdot.resize(n);
+    p.static_value.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      // x' = dx/d(motion angle) * motion rate, the derivative taken through model_angle itself
+      // (pitch: 1; roll and yaw: the chain rule of eqs. 17 and 20).
+      const Dual m(r.motion_angle_rad[i], Eigen::Matrix<double, 1, 1>::Ones());
+      const Dual x = model_angle(e.axis, e.alpha0_rad, m);
+      p.x[i] = x.value();
+      p.xdot[i] = x.derivatives()(0) * r.rate_radps[i];
+      p.static_value[i] =
+          static_value(cm.static_curve, p.x[i]) + spline_value(cm.static_correction, p.x[i]);
+    }
+    out.push_back(std::move(p));
+  }
+  update_rotary(out, cm.rotary, e.l_over_v_s());
+  return out;
+}
+
+void update_rotary(std::vector<PreparedRun>& runs, const SplineD& rotary, double l_over_v_s) {
+  for (PreparedRun& p : runs) {
+    const std::size_t n = p.x.size();
+    p.rotary_value.resize(n);
+    p.y_e.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      p.rotary_value[i] = l_over_v_s * spline_value(rotary, p.x[i]) * p.rate[i];
+      p.y_e[i] = p.coef[i] - p.static_value[i] - p.rotary_value[i];  // eq. 12
+    }
+  }
+}
+
+// ------------------------------------------------------------------------------------------
+int choose_correlation_lag(const Eigen::VectorXd& v, const std::vector<std::size_t>& starts,
+                           const FitOptions& o) {
+  const int cap = std::max(0, o.max_correlation_lag);
+  if (o.colored_lag_rule == ColoredLagRule::fixed) return cap;
+  const double n = static_cast<double>(v.size());
+  double r0 = v.squaredNorm() / n;
+  if (!(r0 > 0.0)) return 0;
+  // Why this rule: for white residuals the sample autocorrelation R(k)/R(0) is approximately
+  // N(0, 1/N); the window extends while |R(k)| exceeds two of those standard deviations, i.e.
+  // while the correlation is distinguishable from zero, so white residuals get (almost) the
+  // white bounds and colored ones the lags over which their correlation lives.
+  const double threshold = 2.0 * r0 / std::sqrt(n);
+  for (int k = 1; k <= cap; ++k) {
+    double rk = 0.0;
+    for (std::size_t s = 0; s + 1 < starts.size(); ++s) {
+      for (std::size_t i = starts[s]; i + static_cast<std::size_t>(k) < starts[s + 1]; ++i)
+        rk += v[static_cast<Eigen::Index>(i)] * v[static_cast<Eigen::Index>(i) + k];
+    }
+    rk /= n;
+    if (std::abs(rk) < threshold) return k - 1;
+  }
+  return cap;
+}
+
+Eigen::MatrixXd colored_middle(const Eigen::MatrixXd& G, const Eigen::VectorXd& v,
+                               const std::vector<std::size_t>& starts, int lag) {
+  const Eigen::Index p = G.cols();
+  const double n = static_cast<double>(v.size());
+  Eigen::MatrixXd mid = Eigen::MatrixXd::Zero(p, p);
+  for (int k = 0; k <= lag; ++k) {
+    double rk = 0.0;
+    Eigen::MatrixXd cross = Eigen::MatrixXd::Zero(p, p);
+    for (std::size_t s = 0; s + 1 < starts.size(); ++s) {
+      const auto b = static_cast<Eigen::Index>(starts[s]);
+      const auto len = static_cast<Eigen::Index>(starts[s + 1] - starts[s]) - k;
+      if (len <= 0) continue;
+      rk += v.segment(b, len).dot(v.segment(b + k, len));
+      cross.noalias() += G.middleRows(b, len).transpose() * G.middleRows(b + k, len);
+    }
+    rk /= n;
+    // R(-k) = R(k): the pair sums for +k and -k are transposes of each other.
+    if (k == 0) mid += rk * cross;
+    else mid += rk * (cross + cross.transpose());
+  }
+  return mid;
+}
+
+void refuse_zero_columns(const Eigen::MatrixXd& X, const std::vector<std::string>& names,
+                         const std::string& context_file) {
+  for (Eigen::Index j = 0; j < X.cols(); ++j) {
+    if (X.col(j).squaredNorm() == 0.0) {
+      throw InputError(context_file, 0,
+                       fmt::format("regressor of term {} is zero at every sample (a knot at or "
+                                   "beyond the data's angle range?); remove the term",
+                                   names[static_cast<std::size_t>(j)]));
+    }
+  }
+}
+
+LinearFit least_squares(const Eigen::MatrixXd& X, const Eigen::VectorXd& z,
+                        const std::vector<std::size_t>& starts,
+                        const std::vector<std::string>& names, const FitOptions& o,
+                        const std::string& context_file) {
+  const Eigen::Index n = X.rows(), p = X.cols();
+  if (n <= p) {
+    throw InputError(context_file, 0,
+                     fmt::format("{} samples for {} parameters: need more samples than "
+                                 "parameters", n, p));
+  }
+  refuse_zero_columns(X, names, context_file);
+  // Why the scaling: the singular-value cut-off should judge collinearity, not units, so the
+  // columns are scaled to unit norm before the SVD and the solution scaled back.
+  Eigen::VectorXd scale = X.colwise().norm().transpose();
+  Eigen::MatrixXd Xs = X * scale.cwiseInverse().asDiagonal();
+  Eigen::BDCSVD<Eigen::MatrixXd> svd(Xs, Eigen::ComputeThinU | Eigen::ComputeThinV);
+  const Eigen::VectorXd& sv = svd.singularValues();
+  const double cut = o.sv_cutoff * sv(0);
+  int rank = 0;
+  for (Eigen::Index i = 0; i < sv.size(); ++i)
+    if (sv(i) > cut) ++rank;
+  if (rank < p) {
+    // Name the terms that take part in the null space.
+    const Eigen::MatrixXd& V = svd.matrixV();
+    std::string list;
+    for (Eigen::Index j = 0; j < p; ++j) {
+      const double w = V.row(j).tail(p - rank).squaredNorm();
+      if (w > 0.01) list += (list.empty() ? "" : ", ") + names[static_cast<std::size_t>(j)];
+    }
+    throw InputError(context_file, 0,
+                     fmt::format("regressors are linearly dependent (rank {} of {}): terms {} "
+                                 "cannot be told apart on these data; remove one",
+                                 rank, p, list));
+  }
+  LinearFit f;
+  Eigen::VectorXd beta_s = svd.solve(z);
+  f.beta = scale.cwiseInverse().asDiagonal() * beta_s;
+  f.residual = z - X * f.beta;
+  f.sse = f.residual.squaredNorm();
+  const double zbar = z.mean();
+  const double sst = (z.array() - zbar).square().sum();
+  f.r_squared = sst > 0.0 ? 1.0 - f.sse / sst : 0.0;
+  const Eigen::VectorXd inv_s2 = sv.cwiseInverse().cwiseAbs2();
+  // (X'X)^-1 = D^-1 V S^-2 V' D^-1
+  const Eigen::MatrixXd Vd = scale.cwiseInverse().asDiagonal() * svd.matrixV();
+  const Eigen::MatrixXd xtx_inv = Vd * inv_s2.asDiagonal() * Vd.transpose();
+  const double s2 = f.sse / static_cast<double>(n - p);
+  f.cov_white = s2 * xtx_inv;
+  f.lag = choose_correlation_lag(f.residual, starts, o);
+  // The sandwich with R(k) normalised by N; scale by N / (N - p) like s^2 so that the colored
+  // bound reduces to the white one for white residuals.
+  const Eigen::MatrixXd mid = colored_middle(X, f.residual, starts, f.lag) *
+                              (static_cast<double>(n) / static_cast<double>(n - p));
+  f.cov_colored = xtx_inv * mid * xtx_inv;
+  return f;
+}
+
+}  // namespace indicial::fit_detail
+
+// ------------------------------------------------------------------------------------------
+// Public helpers.
+// ------------------------------------------------------------------------------------------
+namespace indicial {
+
+ModelSet<double, FitCapacity> base_model_set(const Experiment& e) {
+  using fit_detail::Cap;
+  ModelSet<double, Cap> ms;
+  ms.axis = e.axis;
+  ms.reference_length_m = e.reference_length_m;
+  ms.airspeed_mps = e.airspeed_mps;
+  ms.alpha0_rad = e.alpha0_rad;
+  ms.n_coefficients = 1;
+  CoefficientModel<double, Cap>& cm = ms.coefficients[0];
+  const std::size_t name_len = std::min<std::size_t>(e.coefficient.size(), sizeof(cm.name) - 1);
+  for (std::size_t i = 0; i < name_len; ++i) cm.name[i] = e.coefficient[i];
+  auto& sc = cm.static_curve;
+  if (e.static_curve.kind == StaticKind::polynomial) {
+    sc.kind = StaticKind::polynomial;
+    if (static_cast<int>(e.static_curve.polynomial.size()) > Cap::max_powers)
+      throw InputError(e.path, 0, fmt::format("static polynomial has {} terms; at most {}",
+                                              e.static_curve.polynomial.size(), Cap::max_powers));
+    sc.polynomial.n_powers = static_cast<int>(e.static_curve.polynomial.size());
+    for (int i = 0; i < sc.polynomial.n_powers; ++i)
+      sc.polynomial.power_coef[i] = e.static_curve.polynomial[static_cast<std::size_t>(i)];
+  } else {
+    sc.kind = StaticKind::table;
+    const auto& tx = e.static_curve.table_x_rad;
+    const auto& tv = e.static_curve.table_value;
+    if (tx.size() != tv.size() || tx.size() < 2)
+      throw InputError(e.path, 0, "static table needs at least 2 rows");
+    if (static_cast<int>(tx.size()) > Cap::max_table_points)
+      throw InputError(e.path, 0, fmt::format("static table has {} rows; at most {}", tx.size(),
+                                              Cap::max_table_points));
+    for (std::size_t i = 1; i < tx.size(); ++i)
+      if (!(tx[i] > tx[i - 1]))
+        throw InputError(e.path, 0, "static table angles are not strictly increasing");
+    sc.n_table = static_cast<int>(tx.size());
+    for (std::size_t i = 0; i < tx.size(); ++i) {
+      sc.table_x_rad[i] = tx[i];
+      sc.table_value[i] = tv[i];
+    }
+    prepare_static_table(sc);
+  }
+  if (static_cast<int>(e.rotary.polynomial.size()) > Cap::max_powers)
+    throw InputError(e.path, 0, "rotary polynomial has too many terms");
+  cm.rotary.n_powers = static_cast<int>(e.rotary.polynomial.size());
+  for (int i = 0; i < cm.rotary.n_powers; ++i)
+    cm.rotary.power_coef[i] = e.rotary.polynomial[static_cast<std::size_t>(i)];
+  // Envelope: the model-angle range of the data.
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  for (const Run& r : e.runs)
+    for (double m : r.motion_angle_rad) {
+      const double x = model_angle(e.axis, e.alpha0_rad, m);
+      lo = std::min(lo, x);
+      hi = std::max(hi, x);
+    }
+  if (lo <= hi) {
+    ms.x_min_rad = lo;
+    ms.x_max_rad = hi;
+  }
+  return ms;
+}
+
+}  // namespace indicial

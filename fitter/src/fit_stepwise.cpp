@@ -1,0 +1,170 @@
+// fit_stepwise.cpp -- stepwise regression for model structure (Klein & Morelli, "Aircraft
+// System Identification", ch. 5): forward entry by the largest partial F above F_in, a
+// backward check that removes the weakest term below F_out after each entry, and the model
+// finally kept is the one with the minimum predicted squared error
+//   PSE = SSE / N + sigma_max^2 * p / N,   sigma_max^2 = sum (z - mean z)^2 / N.
+// Written by hand: no library we use does stepwise regression.
+#include <Eigen/Cholesky>
+#include <Eigen/Core>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "fit_internal.hpp"
+
+namespace indicial::fit_detail {
+
+namespace {
+
+// Residual sum of squares of z on the columns `set` from the Gram matrix G = X'X and c = X'z.
+// Columns are unit-norm scaled so G is a correlation-like matrix.
+double subset_sse(const Eigen::MatrixXd& G, const Eigen::VectorXd& c, double zz,
+                  const std::vector<int>& set) {
+  if (set.empty()) return zz;
+  const auto k = static_cast<Eigen::Index>(set.size());
+  Eigen::MatrixXd Gs(k, k);
+  Eigen::VectorXd cs(k);
+  for (Eigen::Index i = 0; i < k; ++i) {
+    cs(i) = c(set[static_cast<std::size_t>(i)]);
+    for (Eigen::Index j = 0; j < k; ++j)
+      Gs(i, j) = G(set[static_cast<std::size_t>(i)], set[static_cast<std::size_t>(j)]);
+  }
+  Eigen::LDLT<Eigen::MatrixXd> ldlt(Gs);
+  const double sse = zz - cs.dot(ldlt.solve(cs));
+  // Why the clamp: with a near-perfect fit the subtraction can round below zero.
+  return std::max(sse, 0.0);
+}
+
+// Squared norm of column j after projecting out the columns of `set` (unit-norm columns):
+// near zero means j is (numerically) a combination of them and must not enter.
+double independent_part(const Eigen::MatrixXd& G, const std::vector<int>& set, int j) {
+  if (set.empty()) return G(j, j);
+  const auto k = static_cast<Eigen::Index>(set.size());
+  Eigen::MatrixXd Gs(k, k);
+  Eigen::VectorXd gj(k);
+  for (Eigen::Index a = 0; a < k; ++a) {
+    gj(a) = G(set[static_cast<std::size_t>(a)], j);
+    for (Eigen::Index b = 0; b < k; ++b)
+      Gs(a, b) = G(set[static_cast<std::size_t>(a)], set[static_cast<std::size_t>(b)]);
+  }
+  return G(j, j) - gj.dot(Eigen::LDLT<Eigen::MatrixXd>(Gs).solve(gj));
+}
+
+}  // namespace
+
+std::vector<int> stepwise_select(const Eigen::MatrixXd& X, const Eigen::VectorXd& z,
+                                 const std::vector<std::string>& names, const FitOptions& o,
+                                 StepwiseResult& log) {
+  const Eigen::Index n = X.rows();
+  const int pool = static_cast<int>(X.cols());
+  const double nd = static_cast<double>(n);
+  Eigen::VectorXd scale = X.colwise().norm().transpose();
+  for (Eigen::Index j = 0; j < scale.size(); ++j)
+    if (scale(j) == 0.0) scale(j) = 1.0;  // zero columns are refused before we get here
+  const Eigen::MatrixXd Xs = X * scale.cwiseInverse().asDiagonal();
+  const Eigen::MatrixXd G = Xs.transpose() * Xs;
+  const Eigen::VectorXd c = Xs.transpose() * z;
+  const double zz = z.squaredNorm();
+  const double zbar = z.mean();
+  const double sst = (z.array() - zbar).square().sum();
+  log = StepwiseResult{};
+  log.n_samples = static_cast<std::size_t>(n);
+  log.sigma_max_squared = sst / nd;
+
+  auto pse_of = [&](double sse, std::size_t p) {
+    return sse / nd + log.sigma_max_squared * static_cast<double>(p) / nd;
+  };
+  auto r2_of = [&](double sse) { return sst > 0.0 ? 1.0 - sse / sst : 0.0; };
+
+  std::vector<int> in;
+  double sse = zz;
+  // The empty model is a candidate too (PSE with p = 0).
+  double best_pse = pse_of(sse, 0);
+  std::vector<int> best_set;
+  const int max_steps = 4 * pool + 4;  // guard against entry/removal cycles
+  int just_entered = -1;
+  for (int step = 0; step < max_steps; ++step) {
+    // Forward: the candidate with the largest partial F.
+    int best_j = -1;
+    double best_f = -1.0, best_sse = sse;
+    for (int j = 0; j < pool; ++j) {
+      if (std::find(in.begin(), in.end(), j) != in.end()) continue;
+      // Why: a column (numerically) in the span of the entered ones adds nothing but
+      // round-off; letting it in would make the next solves singular.
+      if (independent_part(G, in, j) < 1e-10) continue;
+      std::vector<int> trial = in;
+      trial.push_back(j);
+      const double s1 = subset_sse(G, c, zz, trial);
+      const double dof = nd - static_cast<double>(trial.size());
+      if (dof <= 0.0) continue;
+      const double f = s1 > 0.0 ? (sse - s1) / (s1 / dof) : std::numeric_limits<double>::max();
+      if (f > best_f) {
+        best_f = f;
+        best_j = j;
+        best_sse = s1;
+      }
+    }
+    if (best_j < 0 || best_f < o.f_to_enter) break;
+    in.push_back(best_j);
+    just_entered = best_j;
+    sse = best_sse;
+    {
+      StepwiseStep s;
+      s.step = static_cast<int>(log.steps.size()) + 1;
+      s.term = names[static_cast<std::size_t>(best_j)];
+      s.action = StepwiseAction::entered;
+      s.partial_f = best_f;
+      s.r_squared = r2_of(sse);
+      s.pse = pse_of(sse, in.size());
+      s.n_terms = static_cast<int>(in.size());
+      log.steps.push_back(s);
+      if (s.pse < best_pse) {
+        best_pse = s.pse;
+        best_set = in;
+      }
+    }
+    // Backward: remove the weakest term (not the one just entered) if below F_out.
+    if (in.size() >= 2) {
+      int worst = -1;
+      double worst_f = std::numeric_limits<double>::max(), worst_sse = sse;
+      const double dof = nd - static_cast<double>(in.size());
+      for (int t : in) {
+        if (t == just_entered) continue;
+        std::vector<int> trial;
+        for (int u : in)
+          if (u != t) trial.push_back(u);
+        const double s0 = subset_sse(G, c, zz, trial);
+        const double f = sse > 0.0 ? (s0 - sse) / (sse / dof) : std::numeric_limits<double>::max();
+        if (f < worst_f) {
+          worst_f = f;
+          worst = t;
+          worst_sse = s0;
+        }
+      }
+      if (worst >= 0 && worst_f < o.f_to_remove) {
+        in.erase(std::find(in.begin(), in.end(), worst));
+        sse = worst_sse;
+        StepwiseStep s;
+        s.step = static_cast<int>(log.steps.size()) + 1;
+        s.term = names[static_cast<std::size_t>(worst)];
+        s.action = StepwiseAction::removed;
+        s.partial_f = worst_f;
+        s.r_squared = r2_of(sse);
+        s.pse = pse_of(sse, in.size());
+        s.n_terms = static_cast<int>(in.size());
+        log.steps.push_back(s);
+        if (s.pse < best_pse) {
+          best_pse = s.pse;
+          best_set = in;
+        }
+      }
+    }
+  }
+  std::sort(best_set.begin(), best_set.end());
+  log.min_pse = best_pse;
+  for (int j : best_set) log.selected.push_back(names[static_cast<std::size_t>(j)]);
+  return best_set;
+}
+
+}  // namespace indicial::fit_detail

@@ -1,0 +1,60 @@
+// fit_test_data.hpp -- simulated experiments for the fitter tests (tests/test_fit_*.cpp).
+//
+// Builds an Experiment in memory from a built-in simulation case (fitter/simulate.hpp: the
+// accurate reference integration, never the discrete update), with white measurement noise of
+// a given SNR and seed. The noise-free reference runs of a case are simulated once per process.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "indicial/fitter/experiment.hpp"
+#include "indicial/fitter/simulate.hpp"
+
+namespace indicial::testing {
+
+inline const std::vector<SimulatedRun>& reference_runs(const std::string& case_name) {
+  static std::map<std::string, std::vector<SimulatedRun>> cache;
+  auto it = cache.find(case_name);
+  if (it != cache.end()) return it->second;
+  const SimulationCase& c = find_simulation_case(case_name);
+  std::vector<SimulatedRun> runs;
+  for (const auto& m : c.motions) runs.push_back(simulate_reference(c.truth, m));
+  return cache.emplace(case_name, std::move(runs)).first->second;
+}
+
+// snr = +infinity gives noise-free data. `noise_sigma` (optional) receives the noise std.
+inline Experiment simulated_experiment(const std::string& case_name, double snr,
+                                       std::uint64_t seed, double* noise_sigma = nullptr) {
+  const SimulationCase& c = find_simulation_case(case_name);
+  std::vector<SimulatedRun> runs = reference_runs(case_name);
+  const std::vector<double> sigma = add_measurement_noise(runs, snr, seed);
+  if (noise_sigma) *noise_sigma = sigma.empty() ? 0.0 : sigma[0];
+  Experiment e = c.experiment;
+  e.path = case_name + ".toml";
+  e.runs.clear();
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  for (std::size_t i = 0; i < runs.size(); ++i) {
+    Run r;
+    r.path = c.run_files[i];
+    r.time_s = runs[i].time_s;
+    r.motion_angle_rad = runs[i].motion_angle_rad;
+    r.rate_radps = runs[i].rate_radps;
+    r.rate_from_file = true;
+    r.coefficient = runs[i].coefficient_measured[0];
+    for (double x : runs[i].x_rad) {
+      lo = std::min(lo, x);
+      hi = std::max(hi, x);
+    }
+    e.runs.push_back(std::move(r));
+  }
+  e.data_x_min_rad = lo;
+  e.data_x_max_rad = hi;
+  return e;
+}
+
+}  // namespace indicial::testing
