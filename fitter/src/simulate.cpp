@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "indicial/fitter/error.hpp"
+#include "indicial/coef_file.hpp"
 #include "indicial/fitter/io.hpp"
 
 namespace indicial {
@@ -489,6 +490,16 @@ std::string simulated_run_csv(const TruthModel& model, const SimulatedRun& run,
   return write_run_csv(cols, comment_lines);
 }
 
+std::string truth_coef_text(const TruthModel& model) {
+  std::vector<char> buffer(1 << 16);
+  std::size_t length = 0;
+  const WriteStatus st = write_coef_file(model, buffer.data(), buffer.size(), &length);
+  if (st != WriteStatus::ok) {
+    throw InputError("truth.coef", 0, std::string("cannot write the truth model: ") + to_string(st));
+  }
+  return std::string(buffer.data(), length);
+}
+
 std::vector<double> write_simulation_case(const SimulationCase& c, const std::string& out_dir,
                                           double snr, std::uint64_t seed, Overwrite overwrite) {
   OutputDir out(out_dir, overwrite);
@@ -508,6 +519,7 @@ std::vector<double> write_simulation_case(const SimulationCase& c, const std::st
     write_text(out.path(c.run_files[r]), simulated_run_csv(c.truth, runs[r], comments));
   }
   write_text(out.path("experiment.toml"), write_experiment_toml(c.experiment, comments));
+  write_text(out.path("truth.coef"), truth_coef_text(c.truth));
   out.commit();
   return sigma;
 }

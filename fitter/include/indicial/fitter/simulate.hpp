@@ -196,9 +196,12 @@ const SimulationCase& find_simulation_case(const std::string& name);
 std::string simulated_run_csv(const TruthModel& model, const SimulatedRun& run,
                               const std::vector<std::string>& comment_lines);
 
-// Simulates a case and writes DIR/<run files>, DIR/experiment.toml (and DIR/truth.coef when
-// the runtime's coefficient-file writer is available) through OutputDir. Returns sigma per
-// coefficient.
+// The truth model as coefficient-file text (runtime/include/indicial/coef_file.hpp's writer).
+std::string truth_coef_text(const TruthModel& model);
+
+// Simulates a case and writes DIR/<run files>, DIR/experiment.toml and DIR/truth.coef (the
+// true model, loadable by the runtime and by `simulate --model`) through OutputDir. Returns
+// sigma per coefficient.
 std::vector<double> write_simulation_case(const SimulationCase& c, const std::string& out_dir,
                                           double snr, std::uint64_t seed, Overwrite overwrite);
 
