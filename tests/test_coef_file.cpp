@@ -151,6 +151,8 @@ TEST_CASE("the committed examples are what the writer produces from Table I") {
         write(indicial::test_models::table_one_model_one()));
   CHECK(indicial::read_text(dir + "tailless-model-2.coef") ==
         write(indicial::test_models::table_one_model_two()));
+  CHECK(indicial::read_text(dir + "synthetic-lift-moment.coef") ==
+        write(indicial::test_models::lift_and_moment()));
 }
 
 TEST_CASE("table curves are prepared after parsing") {

@@ -1,0 +1,160 @@
+// `indicial codegen`: the generated constexpr headers (made at build time from the committed
+// examples by the built executable, see tests/CMakeLists.txt) compile, are constant
+// expressions, and run bit for bit like loading the same files as text. Also the command's
+// refusals.
+#define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <unistd.h>
+
+#include "indicial/coef_file.hpp"
+#include "indicial/fitter/output.hpp"
+#include "indicial/runtime.hpp"
+#include "synthetic_lift_moment.hpp"
+#include "tailless_model_1.hpp"
+#include "tailless_model_2.hpp"
+#include "runtime_test_models.hpp"
+
+// The generated models are constant expressions: usable where only constants are allowed.
+static_assert(tailless_model_1.n_coefficients == 1, "Model I has one coefficient (Cm)");
+static_assert(tailless_model_2.coefficients[0].lags[0].b.n_knots == 4, "Model II's b1 has 4 knots");
+static_assert(synthetic_lift_moment.coefficients[0].static_curve.kind == indicial::StaticKind::table,
+              "CL is a table");
+static_assert(synthetic_lift_moment.coefficients[0].lags[1].gain == -0.35, "exact literal");
+
+namespace {
+
+using Set = indicial::ModelSet<double, indicial::DefaultCapacity>;
+using P = indicial::Predictor<double>;
+constexpr double kPi = 3.14159265358979323846;
+
+std::string example(const std::string& name) {
+  return indicial::read_text(std::string(INDICIAL_SOURCE_DIR) + "/examples/" + name + ".coef");
+}
+
+std::string write(const Set& m) {
+  char buffer[16384];
+  std::size_t n = 0;
+  REQUIRE(indicial::write_coef_file(m, buffer, sizeof buffer, &n) == indicial::WriteStatus::ok);
+  return std::string(buffer, n);
+}
+
+void compare_runs(const std::string& text, const Set& generated) {
+  P from_text;
+  P from_header;
+  indicial::ParseDiagnostic diag;
+  REQUIRE(from_text.load(text.data(), text.size(), &diag) == indicial::LoadStatus::ok);
+  REQUIRE(from_header.load(generated) == indicial::LoadStatus::ok);
+  REQUIRE(from_text.reset(0.61, 17.667762) == indicial::StepStatus::ok);
+  REQUIRE(from_header.reset(0.61, 17.667762) == indicial::StepStatus::ok);
+  int steps = 0;
+  for (int k = 1; k <= 1500; ++k) {
+    const double t = 0.002 * k;
+    const double w = 2 * kPi * 1.0;
+    const indicial::MotionInput in{0.61 + 0.61 * std::sin(w * t), 0.61 * w * std::cos(w * t), 20.0};
+    P::Outputs a;
+    P::Outputs b;
+    REQUIRE(from_text.step(in, 0.002, &a) == indicial::StepStatus::ok);
+    REQUIRE(from_header.step(in, 0.002, &b) == indicial::StepStatus::ok);
+    REQUIRE(a.count == b.count);
+    for (int c = 0; c < a.count; ++c) {
+      CHECK(std::memcmp(&a.value[c], &b.value[c], sizeof(double)) == 0);
+      CHECK(std::strcmp(a.name[c], b.name[c]) == 0);
+    }
+    ++steps;
+  }
+  CHECK(steps == 1500);
+  const P::Snapshot sa = from_text.snapshot();
+  const P::Snapshot sb = from_header.snapshot();
+  CHECK(std::memcmp(&sa, &sb, sizeof sa) == 0);
+}
+
+// Runs the built CLI; returns its exit status and (via *output) stdout + stderr.
+int run(const std::string& args, std::string* output) {
+  const std::string log = std::filesystem::temp_directory_path() /
+                          ("indicial_codegen_" + std::to_string(::getpid()) + ".log");
+  const std::string cmd = std::string("\"") + INDICIAL_EXE + "\" " + args + " > \"" + log + "\" 2>&1";
+  const int rc = std::system(cmd.c_str());
+  std::ifstream in(log);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  *output = ss.str();
+  std::filesystem::remove(log);
+  return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+}
+
+}  // namespace
+
+TEST_CASE("generated models equal the parsed files exactly") {
+  const char* names[3] = {"tailless-model-1", "tailless-model-2", "synthetic-lift-moment"};
+  const Set* generated[3] = {&tailless_model_1, &tailless_model_2, &synthetic_lift_moment};
+  for (int i = 0; i < 3; ++i) {
+    const std::string text = example(names[i]);
+    // Writing the constexpr model gives back the committed file byte for byte.
+    CHECK(write(*generated[i]) == text);
+    // And the table's second derivatives in the header are the parser's.
+    Set parsed{};
+    REQUIRE(indicial::parse_coef_file(text.data(), text.size(), &parsed, nullptr) ==
+            indicial::LoadStatus::ok);
+    for (int c = 0; c < parsed.n_coefficients; ++c) {
+      const auto& x = parsed.coefficients[c].static_curve;
+      const auto& y = generated[i]->coefficients[c].static_curve;
+      for (int r = 0; r < x.n_table; ++r)
+        CHECK(std::memcmp(&x.table_second_derivative[r], &y.table_second_derivative[r], sizeof(double)) == 0);
+    }
+  }
+}
+
+TEST_CASE("the generated header runs bit for bit like the text file") {
+  compare_runs(example("tailless-model-1"), tailless_model_1);
+  compare_runs(example("tailless-model-2"), tailless_model_2);
+  compare_runs(example("synthetic-lift-moment"), synthetic_lift_moment);
+}
+
+TEST_CASE("codegen refuses damaged files with file:line: reason, and existing output") {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() /
+                                    ("indicial_codegen_test_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  std::string text = example("tailless-model-2");
+  const std::string bad = (dir / "bad.coef").string();
+  text[text.find("2.5")] = '3';  // corrupt lag_poly 1 2.5 -> 3.5
+  indicial::write_file_atomically(bad, text, indicial::Overwrite::refuse);
+  std::string out;
+  CHECK(run("codegen \"" + bad + "\" --out \"" + (dir / "bad.hpp").string() + "\"", &out) == 1);
+  CHECK(out.find("bad.coef:19: checksum mismatch") != std::string::npos);
+  CHECK(out.find("checksum_mismatch") != std::string::npos);
+  CHECK(!std::filesystem::exists(dir / "bad.hpp"));
+
+  const std::string good = std::string(INDICIAL_SOURCE_DIR) + "/examples/tailless-model-1.coef";
+  const std::string hpp = (dir / "m1.hpp").string();
+  CHECK(run("codegen \"" + good + "\" --out \"" + hpp + "\"", &out) == 0);
+  CHECK(indicial::read_text(hpp).find("inline constexpr indicial::ModelSet<double, indicial::DefaultCapacity> "
+                                      "tailless_model_1 =") != std::string::npos);
+  CHECK(run("codegen \"" + good + "\" --out \"" + hpp + "\" --name other", &out) == 1);  // exists
+  CHECK(run("codegen \"" + good + "\" --out \"" + hpp + "\" --name other --force", &out) == 0);
+  CHECK(indicial::read_text(hpp).find(" other =") != std::string::npos);
+  CHECK(run("codegen \"" + good + "\" --out \"" + hpp + "\" --name 9lives --force", &out) == 1);
+
+  // An unstable model (b1 < 0 somewhere) is refused like Predictor::load refuses it.
+  Set unstable = indicial::test_models::table_one_model_two();
+  unstable.coefficients[0].lags[0].b.knot_coef[0] = -30.0;
+  indicial::write_file_atomically((dir / "unstable.coef").string(), write(unstable), indicial::Overwrite::refuse);
+  CHECK(run("codegen \"" + (dir / "unstable.coef").string() + "\" --out \"" + (dir / "u.hpp").string() + "\"",
+            &out) == 1);
+  CHECK(out.find("unstable_lag") != std::string::npos);
+
+  // coef check agrees.
+  CHECK(run("coef check \"" + good + "\"", &out) == 0);
+  CHECK(out.find("ok") != std::string::npos);
+  CHECK(run("coef check \"" + bad + "\"", &out) == 1);
+  CHECK(out.find("checksum_mismatch") != std::string::npos);
+  std::filesystem::remove_all(dir);
+}
