@@ -1,0 +1,124 @@
+// indicial/fitter/predict.hpp -- run a fitted model on a new motion and score it.
+//
+// What it is for
+// --------------
+// A model is only as good as its predictions on motions it was NOT fitted to (other
+// amplitudes, other frequencies, ramps). predict_motion() runs a model set over a sampled
+// motion with the embedded runtime itself (indicial::Predictor: the same load-time
+// validation, clamping and discrete update a simulator would use), and returns, per
+// coefficient, the full model (static + rotary + unsteady, report eq. 4b) and the
+// quasi-steady model (static + rotary only). score_prediction() compares either with a
+// measured coefficient: RMS error, maximum absolute error and Theil's inequality coefficient
+//
+//   TIC = sqrt(mean e^2) / (sqrt(mean m^2) + sqrt(mean p^2)),   e = p - m,
+//
+// which is 0 for a perfect prediction and 1 for the worst (p = -m, or one of them zero); it is
+// scale-free, so a TIC can be compared across coefficients. The quasi-steady metrics show what
+// the unsteady term buys.
+//
+// Usage
+// -----
+//   indicial::Run run = indicial::read_run_csv("ramp.csv", model.axis, "Cm",
+//                                              indicial::CoefficientPresence::optional);
+//   indicial::Prediction p = indicial::predict_motion(model, run.time_s, run.motion_angle_rad,
+//                                                     run.rate_radps, model.airspeed_mps);
+//   indicial::ErrorMetrics m = indicial::score_prediction(run.coefficient, p.coefficients[0].predicted);
+//   indicial::write_prediction_plot(p, "ramp.png", "alpha_deg");   // gnuplot, pngcairo
+//
+// Warnings
+// --------
+// 1. The predictor is reset to the steady state at the FIRST sample (y_0 = con / b_1(x), other
+//    lags 0) and then stepped sample by sample; the first output is that steady state. A run
+//    that begins in motion (or a simulated run that begins with y = 0 while con != 0) starts
+//    with a transient error that decays like exp(-b t).
+// 2. Angles outside the model's envelope are clamped by the runtime (its warning 3); the
+//    number of clamped samples is reported (Prediction::clamped_samples) -- a prediction with
+//    clamped samples is an extrapolation the model was never fitted for.
+// 3. Bad model files throw InputError naming the file and line (parse or runtime validation,
+//    e.g. b_j(x) <= 0 in the envelope). A runtime step refusal (non-finite result) throws too.
+// 4. The time step must be uniform (read_run_csv checks it) and at most the runtime's
+//    Predictor::max_dt_s.
+#pragma once
+
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include "indicial/fitter/output.hpp"
+#include "indicial/model.hpp"
+
+namespace indicial {
+
+// Error metrics of a prediction p against a measurement m (same length, e = p - m).
+struct ErrorMetrics {
+  std::size_t n_samples = 0;
+  double rms_error = 0.0;   // sqrt(mean e^2)
+  double max_error = 0.0;   // max |e|
+  double theil_inequality = 0.0;  // TIC, see the essay; 0 when m and p are both identically 0
+};
+
+// Throws std::invalid_argument when the lengths differ or are zero.
+ErrorMetrics score_prediction(const std::vector<double>& measured,
+                              const std::vector<double>& predicted);
+
+struct CoefficientPrediction {
+  std::string name;                   // "CL", "Cm", ...
+  std::vector<double> predicted;      // full model (runtime output)
+  std::vector<double> quasi_steady;   // static + static correction + rotary
+  std::vector<double> measured;       // empty when the data had no such column
+  // Filled by score_coefficients when measured is not empty.
+  enum class Scored { no_measurement, scored };
+  Scored scored = Scored::no_measurement;
+  ErrorMetrics model_metrics;
+  ErrorMetrics quasi_steady_metrics;
+};
+
+struct Prediction {
+  Axis axis = Axis::pitch;
+  std::vector<double> time_s;
+  std::vector<double> motion_angle_rad;  // alpha, phi or psi as given
+  std::vector<double> rate_radps;
+  std::vector<double> x_rad;             // model angle (alpha or beta), before clamping
+  std::size_t clamped_samples = 0;       // samples whose model angle left the envelope
+  std::vector<CoefficientPrediction> coefficients;  // in model-file order
+};
+
+// Runs the runtime Predictor (FitCapacity, so any model the fitter writes fits) over the
+// motion. rate_radps is q, p or r; airspeed_mps the tunnel speed (normally the model's
+// reference airspeed). Throws InputError("model", 0, ...) if the runtime refuses the model or
+// a step, std::invalid_argument for inconsistent vector lengths.
+Prediction predict_motion(const ModelSet<double, FitCapacity>& model,
+                          const std::vector<double>& time_s,
+                          const std::vector<double>& motion_angle_rad,
+                          const std::vector<double>& rate_radps, double airspeed_mps);
+
+// Scores every coefficient whose measured vector is filled (model and quasi-steady).
+void score_coefficients(Prediction& p);
+
+// Reads a coefficient file (parse_coef_file, FitCapacity); throws InputError(path, line, ...).
+ModelSet<double, FitCapacity> read_model_file(const std::string& path);
+
+// The motion column of a run CSV as written in its header (e.g. "alpha_deg", "phi_rad");
+// throws InputError when absent. Used to echo the angle "as given".
+std::string motion_column_name(const std::string& csv_path, Axis axis);
+
+// predict's CSV: time_s, the angle column (angle_column: "<base>_deg" or "<base>_rad"), then
+// per coefficient <c>_pred, <c>_quasi_steady and, where measured, <c>. Metrics go into the
+// comment lines as well.
+std::string prediction_csv(const Prediction& p, const std::string& angle_column,
+                           const std::vector<std::string>& comment_lines);
+
+// The metrics as a JSON document: {"coefficients": [{"name", "n_samples", "model": {rms_error,
+// max_error, theil_inequality}, "quasi_steady": {...}}], "clamped_samples": n}.
+std::string prediction_metrics_json(const Prediction& p);
+
+// One-line human summaries of the metrics (for stdout and the CSV comments).
+std::vector<std::string> prediction_metrics_lines(const Prediction& p);
+
+// Overlay plot (gnuplot, pngcairo): per coefficient, measured / predicted / quasi-steady
+// against time (left) and against the motion angle in degrees (right). Writes `png_path`
+// atomically (refuses an existing file unless overwrite). Throws InputError if gnuplot fails.
+void write_prediction_plot(const Prediction& p, const std::string& png_path,
+                           const std::string& title, Overwrite overwrite);
+
+}  // namespace indicial

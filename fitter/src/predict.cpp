@@ -1,0 +1,305 @@
+// Prediction with the runtime and its metrics. See indicial/fitter/predict.hpp.
+#include "indicial/fitter/predict.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <stdexcept>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include "indicial/coef_file.hpp"
+#include "indicial/fitter/error.hpp"
+#include "indicial/fitter/io.hpp"
+#include "indicial/runtime.hpp"
+
+namespace indicial {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kRadToDeg = 180.0 / kPi;
+
+const char* motion_base(Axis axis) {
+  return axis == Axis::pitch ? "alpha" : axis == Axis::roll ? "phi" : "psi";
+}
+
+std::string trim(const std::string& s) {
+  std::size_t b = 0, e = s.size();
+  while (b < e && (s[b] == ' ' || s[b] == '\t' || s[b] == '\r')) ++b;
+  while (e > b && (s[e - 1] == ' ' || s[e - 1] == '\t' || s[e - 1] == '\r')) --e;
+  return s.substr(b, e - b);
+}
+
+std::string fmt_num(double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.6g", v);
+  return buf;
+}
+
+}  // namespace
+
+ErrorMetrics score_prediction(const std::vector<double>& measured,
+                              const std::vector<double>& predicted) {
+  if (measured.empty() || measured.size() != predicted.size())
+    throw std::invalid_argument("score_prediction: measured and predicted differ in length or are empty");
+  ErrorMetrics m;
+  m.n_samples = measured.size();
+  double see = 0.0, smm = 0.0, spp = 0.0;
+  for (std::size_t i = 0; i < measured.size(); ++i) {
+    const double e = predicted[i] - measured[i];
+    see += e * e;
+    smm += measured[i] * measured[i];
+    spp += predicted[i] * predicted[i];
+    m.max_error = std::max(m.max_error, std::abs(e));
+  }
+  const double n = static_cast<double>(measured.size());
+  m.rms_error = std::sqrt(see / n);
+  const double denominator = std::sqrt(smm / n) + std::sqrt(spp / n);
+  // Why the branch: both signals identically zero is a perfect (if empty) prediction; the
+  // formula would be 0/0.
+  m.theil_inequality = denominator > 0.0 ? m.rms_error / denominator : 0.0;
+  return m;
+}
+
+Prediction predict_motion(const ModelSet<double, FitCapacity>& model,
+                          const std::vector<double>& time_s,
+                          const std::vector<double>& motion_angle_rad,
+                          const std::vector<double>& rate_radps, double airspeed_mps) {
+  const std::size_t n = time_s.size();
+  if (n == 0 || motion_angle_rad.size() != n || rate_radps.size() != n)
+    throw std::invalid_argument("predict_motion: time, angle and rate differ in length or are empty");
+  // The predictor holds a whole model set with FitCapacity (tens of KB): heap, not stack.
+  auto predictor = std::make_unique<Predictor<double, FitCapacity>>();
+  ParseDiagnostic diag;
+  const LoadStatus ls = predictor->load(model, &diag);
+  if (ls != LoadStatus::ok)
+    throw InputError("model", 0, std::string("the runtime refuses the model: ") + diag.reason +
+                                     " (" + to_string(ls) + ")");
+  const auto& m = predictor->model();
+
+  Prediction p;
+  p.axis = model.axis;
+  p.time_s = time_s;
+  p.motion_angle_rad = motion_angle_rad;
+  p.rate_radps = rate_radps;
+  p.x_rad.resize(n);
+  p.coefficients.resize(static_cast<std::size_t>(m.n_coefficients));
+  for (int c = 0; c < m.n_coefficients; ++c) {
+    auto& cp = p.coefficients[static_cast<std::size_t>(c)];
+    cp.name = m.coefficients[c].name;
+    cp.predicted.resize(n);
+    cp.quasi_steady.resize(n);
+  }
+  const double l_over_v_s = m.reference_length_m / airspeed_mps;
+  auto clamp_x = [&](double x) { return std::min(std::max(x, m.x_min_rad), m.x_max_rad); };
+
+  for (std::size_t i = 0; i < n; ++i) {
+    const double x = model_angle<double>(m.axis, m.alpha0_rad, motion_angle_rad[i]);
+    p.x_rad[i] = x;
+    StepStatus st;
+    Predictor<double, FitCapacity>::Outputs out;
+    if (i == 0) {
+      st = predictor->reset(motion_angle_rad[0], airspeed_mps);
+      // The runtime's reset() produces no output; the first sample's output is the model at
+      // the steady state it set (the same model.hpp function the runtime's step uses).
+      const auto snap = predictor->snapshot();
+      for (int c = 0; c < m.n_coefficients; ++c) {
+        out.value[c] = coefficient_output(m.coefficients[c], clamp_x(x), rate_radps[0],
+                                          l_over_v_s, snap.y[c]);
+      }
+    } else {
+      st = predictor->step(MotionInput{motion_angle_rad[i], rate_radps[i], airspeed_mps},
+                           time_s[i] - time_s[i - 1], &out);
+    }
+    if (st == StepStatus::angle_clamped) {
+      ++p.clamped_samples;
+    } else if (st != StepStatus::ok) {
+      throw InputError("model", 0, "the runtime refused sample " + std::to_string(i) + " (t = " +
+                                       fmt_num(time_s[i]) + " s): " + to_string(st));
+    }
+    for (int c = 0; c < m.n_coefficients; ++c) {
+      auto& cp = p.coefficients[static_cast<std::size_t>(c)];
+      cp.predicted[i] = out.value[c];
+      // The quasi-steady model sees the same (clamped) angle as the runtime.
+      cp.quasi_steady[i] =
+          quasi_steady_output(m.coefficients[c], clamp_x(x), rate_radps[i], l_over_v_s);
+    }
+  }
+  return p;
+}
+
+void score_coefficients(Prediction& p) {
+  for (auto& c : p.coefficients) {
+    if (c.measured.empty()) {
+      c.scored = CoefficientPrediction::Scored::no_measurement;
+      continue;
+    }
+    c.model_metrics = score_prediction(c.measured, c.predicted);
+    c.quasi_steady_metrics = score_prediction(c.measured, c.quasi_steady);
+    c.scored = CoefficientPrediction::Scored::scored;
+  }
+}
+
+ModelSet<double, FitCapacity> read_model_file(const std::string& path) {
+  const std::string text = read_text(path);
+  auto m = std::make_unique<ModelSet<double, FitCapacity>>();
+  ParseDiagnostic diag;
+  const LoadStatus st = parse_coef_file(text.data(), text.size(), m.get(), &diag);
+  if (st != LoadStatus::ok)
+    throw InputError(path, static_cast<long>(diag.line),
+                     std::string(diag.reason) + " (" + to_string(st) + ")");
+  return *m;
+}
+
+std::string motion_column_name(const std::string& csv_path, Axis axis) {
+  std::ifstream in(csv_path);
+  if (!in) throw InputError(csv_path, 0, "cannot open");
+  std::string line;
+  long line_no = 0;
+  while (std::getline(in, line)) {
+    ++line_no;
+    const std::string t = trim(line);
+    if (t.empty() || t[0] == '#') continue;
+    std::stringstream ss(t);
+    std::string cell;
+    const std::string base = motion_base(axis);
+    while (std::getline(ss, cell, ',')) {
+      cell = trim(cell);
+      if (cell == base + "_deg" || cell == base + "_rad") return cell;
+    }
+    throw InputError(csv_path, line_no, "missing column '" + base + "_deg' or '" + base + "_rad'");
+  }
+  throw InputError(csv_path, 0, "no header row");
+}
+
+std::string prediction_csv(const Prediction& p, const std::string& angle_column,
+                           const std::vector<std::string>& comment_lines) {
+  std::vector<CsvColumn> cols;
+  cols.push_back({"time_s", p.time_s});
+  CsvColumn a{angle_column, p.motion_angle_rad};
+  // Why the branch: echo the angle in the unit the input used.
+  if (angle_column.size() > 4 && angle_column.compare(angle_column.size() - 4, 4, "_deg") == 0)
+    for (double& v : a.values) v *= kRadToDeg;
+  cols.push_back(a);
+  for (const auto& c : p.coefficients) {
+    cols.push_back({c.name + "_pred", c.predicted});
+    cols.push_back({c.name + "_quasi_steady", c.quasi_steady});
+    if (!c.measured.empty()) cols.push_back({c.name, c.measured});
+  }
+  return write_run_csv(cols, comment_lines);
+}
+
+std::string prediction_metrics_json(const Prediction& p) {
+  nlohmann::json j;
+  j["clamped_samples"] = p.clamped_samples;
+  j["n_samples"] = p.time_s.size();
+  auto metrics = [](const ErrorMetrics& m) {
+    return nlohmann::json{{"rms_error", m.rms_error},
+                          {"max_error", m.max_error},
+                          {"theil_inequality", m.theil_inequality}};
+  };
+  nlohmann::json arr = nlohmann::json::array();
+  for (const auto& c : p.coefficients) {
+    nlohmann::json e;
+    e["name"] = c.name;
+    e["measured"] = c.scored == CoefficientPrediction::Scored::scored;
+    if (c.scored == CoefficientPrediction::Scored::scored) {
+      e["n_samples"] = c.model_metrics.n_samples;
+      e["model"] = metrics(c.model_metrics);
+      e["quasi_steady"] = metrics(c.quasi_steady_metrics);
+    }
+    arr.push_back(e);
+  }
+  j["coefficients"] = arr;
+  return j.dump(2) + "\n";
+}
+
+std::vector<std::string> prediction_metrics_lines(const Prediction& p) {
+  std::vector<std::string> lines;
+  for (const auto& c : p.coefficients) {
+    if (c.scored != CoefficientPrediction::Scored::scored) {
+      lines.push_back(c.name + ": no measured column; prediction only");
+      continue;
+    }
+    const auto& a = c.model_metrics;
+    const auto& q = c.quasi_steady_metrics;
+    lines.push_back(c.name + " model:        RMS " + fmt_num(a.rms_error) + "  max " +
+                    fmt_num(a.max_error) + "  TIC " + fmt_num(a.theil_inequality));
+    lines.push_back(c.name + " quasi-steady: RMS " + fmt_num(q.rms_error) + "  max " +
+                    fmt_num(q.max_error) + "  TIC " + fmt_num(q.theil_inequality));
+  }
+  if (p.clamped_samples > 0)
+    lines.push_back("warning: " + std::to_string(p.clamped_samples) +
+                    " samples outside the model's envelope were clamped (extrapolation)");
+  return lines;
+}
+
+void write_prediction_plot(const Prediction& p, const std::string& png_path,
+                           const std::string& title, Overwrite overwrite) {
+  namespace fs = std::filesystem;
+  const fs::path target(png_path);
+  if (overwrite == Overwrite::refuse && fs::exists(target))
+    throw InputError(png_path, 0, "exists; use --force to replace it");
+  const fs::path tmp = target.string() + ".tmp-" + std::to_string(::getpid()) + ".png";
+  const std::size_t nc = p.coefficients.size();
+  const char* base = motion_base(p.axis);
+
+  std::ostringstream s;
+  s.precision(10);
+  // Data inline as a gnuplot datablock: no temporary data files to clean up.
+  s << "$d << EOD\n";
+  for (std::size_t i = 0; i < p.time_s.size(); ++i) {
+    s << p.time_s[i] << ' ' << p.motion_angle_rad[i] * kRadToDeg;
+    for (const auto& c : p.coefficients) {
+      s << ' ' << c.predicted[i] << ' ' << c.quasi_steady[i] << ' '
+        << (c.measured.empty() ? std::string("NaN") : fmt_num(c.measured[i]));
+    }
+    s << '\n';
+  }
+  s << "EOD\n";
+  s << "set terminal pngcairo size 1200," << 360 * nc + 40 << " font 'sans,10'\n";
+  s << "set output '" << tmp.string() << "'\n";
+  s << "set datafile missing 'NaN'\nset grid\nset key top left\n";
+  s << "set multiplot layout " << nc << ",2 title '" << title << "'\n";
+  for (std::size_t c = 0; c < nc; ++c) {
+    const std::string& name = p.coefficients[c].name;
+    const std::size_t col = 3 + 3 * c;  // predicted; quasi-steady col + 1; measured col + 2
+    const bool has_measured = !p.coefficients[c].measured.empty();
+    for (int panel = 0; panel < 2; ++panel) {
+      const std::string xcol = panel == 0 ? "1" : "2";
+      s << "set xlabel '" << (panel == 0 ? std::string("time, s") : std::string(base) + ", deg")
+        << "'\nset ylabel '" << name << "'\n";
+      s << "plot ";
+      if (has_measured)
+        s << "$d using " << xcol << ":" << col + 2 << " with lines lw 2 lc rgb '#000000' title 'measured', ";
+      s << "$d using " << xcol << ":" << col << " with lines lw 1.5 lc rgb '#d62728' title 'predicted', "
+        << "$d using " << xcol << ":" << col + 1
+        << " with lines lw 1.5 dt 2 lc rgb '#1f77b4' title 'quasi-steady'\n";
+    }
+  }
+  s << "unset multiplot\nset output\n";
+
+  FILE* g = ::popen("gnuplot 2>&1", "w");
+  if (g == nullptr) throw InputError(png_path, 0, "cannot start gnuplot");
+  const std::string script = s.str();
+  std::fwrite(script.data(), 1, script.size(), g);
+  const int status = ::pclose(g);
+  if (status != 0 || !fs::exists(tmp)) {
+    std::error_code ec;
+    fs::remove(tmp, ec);
+    throw InputError(png_path, 0, "gnuplot failed (is gnuplot with the pngcairo terminal installed?)");
+  }
+  std::error_code ec;
+  fs::rename(tmp, target, ec);
+  if (ec) {
+    fs::remove(tmp, ec);
+    throw InputError(png_path, 0, "cannot move the plot into place");
+  }
+}
+
+}  // namespace indicial

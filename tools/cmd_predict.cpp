@@ -1,0 +1,112 @@
+// `indicial predict`: run a model on the motion of a run CSV with the embedded runtime.
+//
+//   indicial predict MODEL.coef DATA.csv --out FILE.csv [--plot FILE.png] [--metrics FILE.json]
+//                    [--airspeed-mps V] [--force]
+//
+// Writes time_s, the angle column as given, <c>_pred, <c>_quasi_steady and the measured <c>
+// where DATA.csv has it; where measured, prints the metrics (RMS, max, Theil's inequality
+// coefficient, for the model and for the quasi-steady model) and writes them to the CSV's
+// comment lines and to FILE.metrics.json (or --metrics). See fitter/.../predict.hpp.
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <string>
+
+#include "command.hpp"
+#include "indicial/fitter/error.hpp"
+#include "indicial/fitter/io.hpp"
+#include "indicial/fitter/output.hpp"
+#include "indicial/fitter/predict.hpp"
+
+namespace {
+
+struct PredictOptions {
+  std::string model_path;
+  std::string data_path;
+  std::string out;
+  std::string plot;
+  std::string metrics;
+  double airspeed_mps = 0.0;  // 0: the model's reference airspeed
+  bool force = false;
+};
+
+std::string default_metrics_path(const std::string& out) {
+  std::filesystem::path p(out);
+  if (p.extension() == ".csv") p.replace_extension("");
+  return p.string() + ".metrics.json";
+}
+
+void run_predict(const PredictOptions& o) {
+  using namespace indicial;
+  const Overwrite overwrite = o.force ? Overwrite::replace : Overwrite::refuse;
+  if (o.out.empty()) throw InputError("--out", 0, "an output CSV path is required");
+  const auto model = std::make_unique<ModelSet<double, FitCapacity>>(read_model_file(o.model_path));
+  if (o.airspeed_mps < 0.0) throw InputError("--airspeed-mps", 0, "must be > 0");
+  const double airspeed = o.airspeed_mps > 0.0 ? o.airspeed_mps : model->airspeed_mps;
+
+  // One read per coefficient: the measured column is optional for each.
+  std::vector<Run> runs;
+  for (int c = 0; c < model->n_coefficients; ++c)
+    runs.push_back(read_run_csv(o.data_path, model->axis, model->coefficients[c].name,
+                                CoefficientPresence::optional));
+  const Run& run = runs.front();
+  const std::string angle_column = motion_column_name(o.data_path, model->axis);
+
+  Prediction p = predict_motion(*model, run.time_s, run.motion_angle_rad, run.rate_radps, airspeed);
+  bool any_measured = false;
+  for (std::size_t c = 0; c < p.coefficients.size(); ++c) {
+    p.coefficients[c].measured = runs[c].coefficient;
+    any_measured = any_measured || !runs[c].coefficient.empty();
+  }
+  score_coefficients(p);
+  const std::vector<std::string> lines = prediction_metrics_lines(p);
+
+  // Refuse before writing anything, so that outputs appear all or none (barring disk errors).
+  const std::string metrics_path =
+      any_measured ? (o.metrics.empty() ? default_metrics_path(o.out) : o.metrics) : std::string();
+  if (overwrite == Overwrite::refuse) {
+    for (const std::string& f : {o.out, metrics_path, o.plot})
+      if (!f.empty() && std::filesystem::exists(f))
+        throw InputError(f, 0, "exists; use --force to replace it");
+  }
+  std::vector<std::string> comments = {"indicial predict " + o.model_path + " " + o.data_path,
+                                       "predicted with the runtime (indicial::Predictor), reset "
+                                       "to the steady state at the first sample"};
+  for (const auto& l : lines) comments.push_back(l);
+  if (!o.plot.empty()) {
+    write_prediction_plot(p, o.plot, "indicial predict: " + std::filesystem::path(o.data_path).filename().string(),
+                          overwrite);
+  }
+  if (!metrics_path.empty()) write_file_atomically(metrics_path, prediction_metrics_json(p), overwrite);
+  write_file_atomically(o.out, prediction_csv(p, angle_column, comments), overwrite);
+
+  std::printf("predict: %zu samples, %zu coefficient(s) -> %s\n", p.time_s.size(),
+              p.coefficients.size(), o.out.c_str());
+  for (const auto& l : lines) std::printf("predict: %s\n", l.c_str());
+  if (!metrics_path.empty()) std::printf("predict: metrics -> %s\n", metrics_path.c_str());
+  if (!o.plot.empty()) std::printf("predict: plot -> %s\n", o.plot.c_str());
+}
+
+const indicial::tools::RegisterCommand register_predict([](CLI::App& app) {
+  auto opt = std::make_shared<PredictOptions>();
+  CLI::App* sub = app.add_subcommand(
+      "predict",
+      "Predict the coefficient(s) of a model for the motion in a run CSV, with the runtime.\n"
+      "Writes time_s, the angle column, <c>_pred (static + rotary + unsteady), <c>_quasi_steady\n"
+      "(static + rotary) and the measured <c> where present. Where measured, prints and writes\n"
+      "RMS error, maximum error and Theil's inequality coefficient\n"
+      "  TIC = sqrt(mean e^2) / (sqrt(mean m^2) + sqrt(mean p^2))   (0 perfect, 1 worst)\n"
+      "for the model and for the quasi-steady model.");
+  sub->add_option("MODEL", opt->model_path, "coefficient file (.coef)")->required();
+  sub->add_option("DATA", opt->data_path, "run CSV: time_s, the angle column, optional rate and coefficients")
+      ->required();
+  sub->add_option("--out", opt->out, "output CSV")->required();
+  sub->add_option("--plot", opt->plot, "overlay plot PNG (gnuplot): against time and against angle");
+  sub->add_option("--metrics", opt->metrics, "metrics JSON (default: OUT with .metrics.json)");
+  sub->add_option("--airspeed-mps", opt->airspeed_mps,
+                  "tunnel airspeed of the run (default: the model's reference airspeed)");
+  sub->add_flag("--force", opt->force, "replace existing outputs");
+  sub->callback([opt]() { run_predict(*opt); });
+});
+
+}  // namespace
