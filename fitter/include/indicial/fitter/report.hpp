@@ -1,0 +1,140 @@
+// indicial/fitter/report.hpp -- what `indicial fit` writes: fit.json, model.coef, report.md, plots.
+//
+// What it is for
+// --------------
+// A FitResult (fit.hpp) is turned into the three outputs of the user-facing contract
+// (../shared/reference/interface.md):
+//
+//   fit.json    the contract fields (converged, iterations, fit_error, parameters with name,
+//               value, cr_bound, cr_bound_colored; two_stage when rotary.estimate), extended
+//               with termination, unidentifiable parameters, the equation-error start values,
+//               the stepwise log, the output-error iteration log, per-run fit errors, the
+//               options used, the runtime check and elapsed_s. A bound that the information
+//               matrix cannot determine is written as null with "identifiable": false.
+//   model.coef  the identified model, written by the runtime's own writer (write_coef_file),
+//               then loaded back by the runtime's Predictor and replayed over every run: the
+//               largest difference from the fitter's model output is reported (same equations,
+//               so it is at rounding level).
+//   report.md   estimates with white and colored bounds, equation-error start values, the
+//               stepwise log, the output-error log and termination, the two-stage log, and
+//               plots made by gnuplot (pngcairo): measured vs model per run with the
+//               quasi-steady curve, residuals per run, a(x) and b1(x) with +/- 2 sigma bands,
+//               C_aq(x) (with its band when estimated). Images live in DIR/plots/ and are
+//               referenced by relative paths; the gnuplot script and data files stay beside
+//               them so a plot can be restyled and regenerated (`cd DIR/plots && gnuplot plots.gp`).
+//
+// Usage
+// -----
+//   indicial::Experiment e = indicial::load_experiment("experiment.toml");
+//   indicial::FitOptions o;
+//   indicial::FitResult r = indicial::fit_experiment(e, o);
+//   indicial::FitOutputs w = indicial::write_fit_outputs(r, e, o, "out", indicial::Overwrite::refuse);
+//   if (w.plots != indicial::PlotStatus::written) std::puts(w.plot_message.c_str());
+//
+// Warnings
+// --------
+// 1. Everything goes through OutputDir (output.hpp): DIR appears whole or not at all, and a
+//    non-empty DIR is refused (InputError) unless Overwrite::replace.
+// 2. gnuplot is run as a subprocess (`gnuplot plots.gp` inside the staging directory). If it
+//    is not installed, or fails, every other file is still written, report.md says so, and
+//    FitOutputs::plots tells the caller; that is not an error.
+// 3. model.coef is written at the fitter's capacity (FitCapacity). The default runtime
+//    (Predictor<>, DefaultCapacity) may refuse a model with a larger candidate pool; the
+//    runtime check loads the file with the default capacity first and reports
+//    RuntimeFit::needs_fit_capacity (with the runtime's reason) if it does not fit there.
+// 4. The runtime replay starts each run from the fitter's estimated initial state (y0_r, or the
+//    periodic steady state for a periodic run) by restoring a Predictor snapshot, then steps
+//    from sample 1 on; sample 0 is the initial state itself and is not compared.
+#pragma once
+
+#include <cstddef>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "indicial/coef_file.hpp"
+#include "indicial/fitter/experiment.hpp"
+#include "indicial/fitter/fit.hpp"
+#include "indicial/fitter/output.hpp"
+
+namespace indicial {
+
+// Whether the plots were made.
+enum class PlotStatus {
+  written,            // every PNG was produced
+  gnuplot_not_found,  // the gnuplot executable could not be run; report.md says so
+  gnuplot_failed,     // gnuplot ran but failed (its log is DIR/plots/gnuplot.log)
+  not_requested       // ReportOptions::plots == PlotRequest::none
+};
+const char* plot_status_name(PlotStatus s);
+
+enum class PlotRequest { gnuplot, none };
+
+// Which runtime capacity the written model.coef loads with.
+enum class RuntimeFit {
+  default_capacity,    // Predictor<> (DefaultCapacity) loads it
+  needs_fit_capacity,  // only Predictor<double, FitCapacity> loads it (too many terms)
+  refused              // the runtime refuses it even at FitCapacity (see RuntimeCheck::detail)
+};
+const char* runtime_fit_name(RuntimeFit f);
+
+// The written model.coef, loaded by the runtime and replayed over every run of the fit.
+struct RuntimeCheck {
+  RuntimeFit fit = RuntimeFit::refused;
+  LoadStatus load_status = LoadStatus::ok;  // of the load that decided `fit`
+  std::string detail;                       // the runtime's reason when not default_capacity
+  double max_abs_difference = 0.0;          // |runtime - FitResult::runs[].model|, samples >= 1
+  std::size_t samples_compared = 0;
+  std::size_t steps_not_ok = 0;             // steps whose status was neither ok nor angle_clamped
+};
+
+struct ReportOptions {
+  PlotRequest plots = PlotRequest::gnuplot;
+  std::string gnuplot = "gnuplot";  // executable (looked up on PATH)
+  std::string command_line;         // shown at the top of report.md
+};
+
+// What write_fit_outputs wrote (the texts are also returned, for tests and the example).
+struct FitOutputs {
+  std::filesystem::path dir;
+  std::string fit_json;
+  std::string model_coef;
+  std::string report_md;
+  PlotStatus plots = PlotStatus::not_requested;
+  std::string plot_message;          // one line: what happened with gnuplot
+  std::vector<std::string> images;   // relative to dir, e.g. "plots/run1_fit.png"
+  RuntimeCheck runtime;
+};
+
+// The model as coefficient-file text (the runtime's writer, at FitCapacity). Throws
+// InputError naming `origin` if the writer refuses the model (its status is in the message).
+std::string model_coef_text(const FitResult& r, const std::string& origin);
+
+// Loads coef_text with the runtime (DefaultCapacity first, then FitCapacity) and replays every
+// run of r (the motion angle and rate of e.runs, at e.airspeed_mps) from its estimated initial
+// state (warning 4).
+RuntimeCheck replay_in_runtime(const FitResult& r, const Experiment& e,
+                               const std::string& coef_text);
+
+// fit.json as a JSON value (see the essay for the fields). `runtime` may be null.
+nlohmann::json fit_json(const FitResult& r, const Experiment& e, const FitOptions& o,
+                        const RuntimeCheck* runtime);
+
+// Writes DIR/fit.json, DIR/model.coef, DIR/report.md and DIR/plots/ through OutputDir.
+FitOutputs write_fit_outputs(const FitResult& r, const Experiment& e, const FitOptions& o,
+                             const std::filesystem::path& dir, Overwrite overwrite,
+                             const ReportOptions& ro = {});
+
+// A plain-text table of estimates (name, value, CR bound, colored bound) for terminals;
+// undetermined bounds print as "not identifiable".
+std::string estimates_text_table(const std::vector<ParameterEstimate>& parameters);
+
+// Root-mean-square of a run's residuals (measured - model); NaN for an empty run.
+double run_fit_error(const RunSeries& s);
+
+// The number as JSON: null when it is not finite (JSON has no NaN or Inf).
+nlohmann::json finite_or_null(double v);
+
+}  // namespace indicial

@@ -1,0 +1,129 @@
+// `indicial fit`: identify the model of an experiment and write fit.json, model.coef,
+// report.md and plots.
+//
+//   indicial fit EXPERIMENT.toml --out DIR [--force] [--f-to-enter F] [--f-to-remove F]
+//                [--max-iterations N] [--state-derivative smoothed|modulating] [--no-plots]
+//
+// Exit status (also in --help and the README):
+//   0  converged (or the iteration limit was reached: a "warning:" line says so; the best
+//      estimate is written)
+//   1  bad input: one line "indicial: error: FILE:LINE: problem"; nothing written
+//   4  the output-error iteration diverged: the best estimate found IS written, and a
+//      "warning:" line says so
+//   5  the information matrix is rank deficient: outputs written, the parameters that cannot
+//      be identified are named (bounds null in fit.json)
+#include <cstdio>
+#include <memory>
+#include <string>
+
+#include "command.hpp"
+#include "indicial/fitter/error.hpp"
+#include "indicial/fitter/fit.hpp"
+#include "indicial/fitter/io.hpp"
+#include "indicial/fitter/report.hpp"
+
+namespace {
+
+struct FitCliOptions {
+  std::string experiment;
+  std::string out;
+  bool force = false;
+  bool no_plots = false;
+  std::string gnuplot = "gnuplot";
+  std::string state_derivative = "smoothed";
+  indicial::FitOptions fit;
+};
+
+// Exit codes of `indicial fit` when outputs were written (see the file comment).
+enum class FitExit : int { ok = 0, diverged = 4, rank_deficient = 5 };
+
+void run_fit(const FitCliOptions& o, const std::string& command_line) {
+  using namespace indicial;
+  if (o.out.empty()) throw InputError("--out", 0, "an output directory is required");
+  FitOptions fo = o.fit;
+  if (o.state_derivative == "smoothed") fo.state_derivative = StateDerivative::smoothed_difference;
+  else if (o.state_derivative == "modulating") fo.state_derivative = StateDerivative::modulating_function;
+  else
+    throw InputError("--state-derivative", 0,
+                     "expected 'smoothed' or 'modulating', found '" + o.state_derivative + "'");
+  if (!(fo.f_to_enter > 0.0) || !(fo.f_to_remove > 0.0) || fo.f_to_remove > fo.f_to_enter)
+    throw InputError("--f-to-enter", 0, "need F to enter >= F to remove > 0");
+  if (fo.max_iterations < 1) throw InputError("--max-iterations", 0, "must be at least 1");
+
+  const Experiment e = load_experiment(o.experiment);
+  // Refuse a non-empty DIR before the (possibly long) fit, not after it.
+  const Overwrite overwrite = o.force ? Overwrite::replace : Overwrite::refuse;
+  { OutputDir probe(o.out, overwrite); }
+  const FitResult r = fit_experiment(e, fo);
+  ReportOptions ro;
+  ro.plots = o.no_plots ? PlotRequest::none : PlotRequest::gnuplot;
+  ro.gnuplot = o.gnuplot;
+  ro.command_line = command_line;
+  const FitOutputs w = write_fit_outputs(r, e, fo, o.out, overwrite, ro);
+
+  const OutputErrorSummary& oe = r.output_error;
+  std::size_t samples = 0;
+  for (const Run& run : e.runs) samples += run.size();
+  std::printf("fit: %s: %zu runs, %zu samples, %s of %s\n", o.experiment.c_str(), e.runs.size(), samples,
+              e.coefficient.c_str(), axis_name(e.axis));
+  std::printf("fit: output error %s after %d iterations, s(v) = %.6g (%.2f s)\n",
+              termination_name(oe.termination), oe.iterations, r.fit_error, r.elapsed_s);
+  std::fputs(estimates_text_table(r.parameters).c_str(), stdout);
+  std::printf("fit: wrote %s/fit.json, model.coef, report.md (%s)\n", o.out.c_str(), w.plot_message.c_str());
+  if (w.runtime.fit == RuntimeFit::refused)
+    std::printf("fit: WARNING: the runtime refuses model.coef: %s\n", w.runtime.detail.c_str());
+  else
+    std::printf("fit: runtime replay of model.coef: max |runtime - fitter| = %.3g over %zu samples%s\n",
+                w.runtime.max_abs_difference, w.runtime.samples_compared,
+                w.runtime.fit == RuntimeFit::needs_fit_capacity ? " (needs Predictor<double, FitCapacity>)" : "");
+  if (w.plots == PlotStatus::gnuplot_not_found || w.plots == PlotStatus::gnuplot_failed)
+    std::fprintf(stderr, "indicial: warning: %s\n", w.plot_message.c_str());
+  std::fflush(stdout);
+  switch (oe.termination) {
+    case Termination::converged: return;
+    case Termination::iteration_limit:
+      std::fprintf(stderr, "indicial: warning: %s: iteration limit (%d) reached before convergence; "
+                   "the best estimate was written: %s\n", o.experiment.c_str(), fo.max_iterations, oe.message.c_str());
+      return;
+    case Termination::diverged:
+      std::fprintf(stderr, "indicial: warning: %s: the output-error iteration diverged; the best estimate "
+                   "was written to %s: %s\n", o.experiment.c_str(), o.out.c_str(), oe.message.c_str());
+      throw CLI::RuntimeError(static_cast<int>(FitExit::diverged));
+    case Termination::rank_deficient: {
+      std::string names;
+      for (const std::string& n : oe.unidentifiable) names += (names.empty() ? "" : ", ") + n;
+      std::fprintf(stderr, "indicial: warning: %s: rank-deficient information matrix; not identifiable: %s "
+                   "(outputs written to %s)\n", o.experiment.c_str(), names.c_str(), o.out.c_str());
+      throw CLI::RuntimeError(static_cast<int>(FitExit::rank_deficient));
+    }
+  }
+}
+
+const indicial::tools::RegisterCommand register_fit([](CLI::App& app) {
+  auto opt = std::make_shared<FitCliOptions>();
+  CLI::App* sub = app.add_subcommand(
+      "fit",
+      "Identify the model of an experiment (equation error, stepwise, ML output error, two-stage)\n"
+      "and write DIR/fit.json, DIR/model.coef, DIR/report.md and DIR/plots/.\n"
+      "Exit status: 0 converged, or iteration limit reached (a warning line; outputs written);\n"
+      "  1 bad input (one-line message, nothing written); 4 output error diverged (best estimate\n"
+      "  written, warning line); 5 rank-deficient information matrix (outputs written, the\n"
+      "  unidentifiable parameters named).");
+  sub->add_option("experiment", opt->experiment, "experiment file (TOML)")->required();
+  sub->add_option("--out", opt->out, "output directory (refused if not empty, unless --force)")->required();
+  sub->add_flag("--force", opt->force, "replace the contents of a non-empty output directory");
+  sub->add_option("--f-to-enter", opt->fit.f_to_enter, "stepwise: partial F to enter (default 4)");
+  sub->add_option("--f-to-remove", opt->fit.f_to_remove, "stepwise: partial F to remove (default 4)");
+  sub->add_option("--max-iterations", opt->fit.max_iterations, "output-error iteration limit (default 50)");
+  sub->add_option("--state-derivative", opt->state_derivative,
+                  "equation error's y_E': smoothed (Savitzky-Golay, default) or modulating (ref. 12)");
+  sub->add_flag("--no-plots", opt->no_plots, "do not run gnuplot");
+  sub->add_option("--gnuplot", opt->gnuplot, "gnuplot executable (default: gnuplot on PATH)");
+  sub->callback([opt]() {
+    std::string cl = "indicial fit " + opt->experiment + " --out " + opt->out;
+    if (opt->force) cl += " --force";
+    run_fit(*opt, cl);
+  });
+});
+
+}  // namespace
