@@ -448,11 +448,20 @@ SimulationCase tailless_case(TaillessB1 kind) {
 
 }  // namespace
 
+// Cases defined in their own files (fitter/src/cases_f16xl.cpp).
+std::vector<SimulationCase> f16xl_like_cases();
+std::vector<SimulationCase> lateral_cases();
+
 const std::vector<SimulationCase>& simulation_cases() {
-  static const std::vector<SimulationCase> cases = {
-      tailless_case(TaillessB1::constant_model_1),
-      tailless_case(TaillessB1::spline_model_2),
-  };
+  static const std::vector<SimulationCase> cases = [] {
+    std::vector<SimulationCase> all = {
+        tailless_case(TaillessB1::constant_model_1),
+        tailless_case(TaillessB1::spline_model_2),
+    };
+    for (auto& c : f16xl_like_cases()) all.push_back(std::move(c));
+    for (auto& c : lateral_cases()) all.push_back(std::move(c));
+    return all;
+  }();
   return cases;
 }
 
