@@ -68,6 +68,10 @@ EquationErrorProblem equation_error_problem(const std::vector<PreparedRun>& runs
   for (const PreparedRun& r : runs) {
     const std::size_t n = r.x.size();
     if (o.state_derivative == StateDerivative::smoothed_difference) {
+      const std::size_t need = 2 * static_cast<std::size_t>(std::max(1, o.derivative_half_window)) + 1;
+      if (n < need)
+        throw InputError(r.path, 0, fmt::format("run has {} samples; the Savitzky-Golay "
+                                                "derivative of y_E needs at least {}", n, need));
       const std::vector<double> ydot =
           sg_derivative(r.y_e, r.dt_s, o.derivative_half_window, o.derivative_order);
       for (std::size_t i = 0; i < n; ++i) {

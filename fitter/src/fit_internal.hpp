@@ -38,7 +38,12 @@ struct UnsteadyStructure {
   int lags = 1;
   // Lags 2..lags: b_k(x) terms (same shape as b1 by default) and a gain c_k each.
   std::vector<SplineTerms> b_more;
-  // Number of structural (non-initial-state) parameters.
+  // Rotary terms estimated jointly in the output-error step (two-stage loop, joint_ml):
+  // the output is then y_model + (l/V) C_aq(x) rate and the target C - C_a(x). Empty: C_aq is
+  // known (the a priori one or the last regression's) and the target is y_E.
+  SplineTerms rotary;
+  double l_over_v_s = 0.0;
+  // Number of structural parameters that drive the states (rotary and y0 not included).
   int n_struct() const;
 };
 
@@ -152,6 +157,9 @@ struct MLResult {
   OutputErrorSummary summary;
   std::vector<std::vector<double>> y_model;  // per run
 };
+
+// Value of the rotary basis term k (rotary_terms order) at x.
+double rotary_basis(const SplineTerms& rotary, std::size_t k, double x);
 
 // Layout of y0 parameters: for every non-periodic run, `lags` values.
 int n_initial_states(const UnsteadyStructure& s, const std::vector<PreparedRun>& runs);

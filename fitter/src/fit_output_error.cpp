@@ -137,6 +137,7 @@ void propagate(const CoefficientModel<S, Cap>& m, const PreparedRun& r, S* y, Em
 
 struct Layout {
   int n_struct = 0;
+  int n_rotary = 0;  // rotary coefficients, after the structural ones
   int lags = 1;
   std::vector<int> y0_offset;  // per run: index of its first y0 parameter, -1 if periodic
   int n_params = 0;
@@ -147,8 +148,9 @@ struct Layout {
 Layout make_layout(const UnsteadyStructure& s, const std::vector<PreparedRun>& runs) {
   Layout L;
   L.n_struct = s.n_struct();
+  L.n_rotary = static_cast<int>(s.rotary.size());
   L.lags = s.lags;
-  int next = L.n_struct;
+  int next = L.n_struct + L.n_rotary;
   L.starts.push_back(0);
   for (const PreparedRun& r : runs) {
     if (r.periodic) {
@@ -162,6 +164,20 @@ Layout make_layout(const UnsteadyStructure& s, const std::vector<PreparedRun>& r
   }
   L.n_params = next;
   return L;
+}
+
+// The measured side and the rotary part of the model at sample i: with jointly estimated
+// rotary terms the target is C - C_a(x) and the model adds (l/V) C_aq(x) rate; otherwise the
+// target is y_E (eq. 12) and the rotary part is already in it.
+double target(const PreparedRun& r, std::size_t i, const Layout& L) {
+  return L.n_rotary > 0 ? r.coef[i] - r.static_value[i] : r.y_e[i];
+}
+double rotary_part(const UnsteadyStructure& s, const Layout& L, const Eigen::VectorXd& theta,
+                   const PreparedRun& r, std::size_t i) {
+  double c = 0.0;
+  for (int k = 0; k < L.n_rotary; ++k)
+    c += theta(L.n_struct + k) * rotary_basis(s.rotary, static_cast<std::size_t>(k), r.x[i]);
+  return s.l_over_v_s * c * r.rate[i];
 }
 
 // Residuals at theta (double). Returns false if the model cannot be propagated (no periodic
@@ -184,7 +200,7 @@ bool residuals(const UnsteadyStructure& s, const Layout& L, const std::vector<Pr
     const auto base = static_cast<Eigen::Index>(L.starts[ri]);
     if (y_model) (*y_model)[ri].resize(r.x.size());
     propagate(m, r, y, [&](std::size_t i, double ys) {
-      v(base + static_cast<Eigen::Index>(i)) = r.y_e[i] - ys;
+      v(base + static_cast<Eigen::Index>(i)) = target(r, i, L) - ys - rotary_part(s, L, theta, r, i);
       if (y_model) (*y_model)[ri][i] = ys;
     });
   }
@@ -231,9 +247,14 @@ bool jacobian_n(const UnsteadyStructure& s, const Layout& L, const std::vector<P
     const int off = L.y0_offset[ri];
     propagate(m, r, y, [&](std::size_t i, const ADN& ys) {
       const Eigen::Index row = base + static_cast<Eigen::Index>(i);
-      v(row) = r.y_e[i] - ys.value();
+      v(row) = target(r, i, L) - ys.value() - rotary_part(s, L, theta, r, i);
       const auto& d = ys.derivatives();
       for (int k = 0; k < L.n_struct; ++k) J(row, k) = -d(k);
+      // The rotary part is linear in its coefficients: exact sensitivities without autodiff.
+      for (int k = 0; k < L.n_rotary; ++k)
+        J(row, L.n_struct + k) = -s.l_over_v_s *
+                                 rotary_basis(s.rotary, static_cast<std::size_t>(k), r.x[i]) *
+                                 r.rate[i];
       if (off >= 0)
         for (int j = 0; j < L.lags; ++j) J(row, off + j) = -d(L.n_struct + j);
     });
@@ -293,6 +314,15 @@ InfoAnalysis analyse_information(const Eigen::MatrixXd& A, double sv_cutoff) {
 
 }  // namespace
 
+double rotary_basis(const SplineTerms& rotary, std::size_t k, double x) {
+  if (k < rotary.powers.size()) return std::pow(x, rotary.powers[k]);
+  const double u = x - rotary.knots_rad[k - rotary.powers.size()];
+  if (!(u > 0.0)) return 0.0;
+  double r = 1.0;
+  for (int i = 0; i < rotary.knot_power; ++i) r *= u;
+  return r;
+}
+
 int n_initial_states(const UnsteadyStructure& s, const std::vector<PreparedRun>& runs) {
   int n = 0;
   for (const PreparedRun& r : runs)
@@ -304,6 +334,7 @@ std::vector<std::string> parameter_names(const UnsteadyStructure& s,
                                          const std::vector<PreparedRun>& runs) {
   std::vector<std::string> names;
   for (const Term& t : structural_terms(s)) names.push_back(t.name);
+  for (const Term& t : rotary_terms(s.rotary)) names.push_back(t.name);
   for (std::size_t r = 0; r < runs.size(); ++r) {
     if (runs[r].periodic) continue;
     names.push_back("y0_" + std::to_string(r + 1));

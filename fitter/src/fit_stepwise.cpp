@@ -84,6 +84,44 @@ std::vector<int> stepwise_select(const Eigen::MatrixXd& X, const Eigen::VectorXd
   std::vector<int> best_set;
   const int max_steps = 4 * pool + 4;  // guard against entry/removal cycles
   int just_entered = -1;
+  // Backward: remove the weakest term (not `protect`, the one just entered) while its partial
+  // F is below F_out.
+  auto backward = [&](int protect) {
+    while (in.size() >= 2) {
+      int worst = -1;
+      double worst_f = std::numeric_limits<double>::max(), worst_sse = sse;
+      const double dof = nd - static_cast<double>(in.size());
+      for (int t : in) {
+        if (t == protect) continue;
+        std::vector<int> trial;
+        for (int u : in)
+          if (u != t) trial.push_back(u);
+        const double s0 = subset_sse(G, c, zz, trial);
+        const double f = sse > 0.0 ? (s0 - sse) / (sse / dof) : std::numeric_limits<double>::max();
+        if (f < worst_f) {
+          worst_f = f;
+          worst = t;
+          worst_sse = s0;
+        }
+      }
+      if (worst < 0 || worst_f >= o.f_to_remove) return;
+      in.erase(std::find(in.begin(), in.end(), worst));
+      sse = worst_sse;
+      StepwiseStep s;
+      s.step = static_cast<int>(log.steps.size()) + 1;
+      s.term = names[static_cast<std::size_t>(worst)];
+      s.action = StepwiseAction::removed;
+      s.partial_f = worst_f;
+      s.r_squared = r2_of(sse);
+      s.pse = pse_of(sse, in.size());
+      s.n_terms = static_cast<int>(in.size());
+      log.steps.push_back(s);
+      if (s.pse < best_pse) {
+        best_pse = s.pse;
+        best_set = in;
+      }
+    }
+  };
   for (int step = 0; step < max_steps; ++step) {
     // Forward: the candidate with the largest partial F.
     int best_j = -1;
@@ -124,43 +162,11 @@ std::vector<int> stepwise_select(const Eigen::MatrixXd& X, const Eigen::VectorXd
         best_set = in;
       }
     }
-    // Backward: remove the weakest term (not the one just entered) if below F_out.
-    if (in.size() >= 2) {
-      int worst = -1;
-      double worst_f = std::numeric_limits<double>::max(), worst_sse = sse;
-      const double dof = nd - static_cast<double>(in.size());
-      for (int t : in) {
-        if (t == just_entered) continue;
-        std::vector<int> trial;
-        for (int u : in)
-          if (u != t) trial.push_back(u);
-        const double s0 = subset_sse(G, c, zz, trial);
-        const double f = sse > 0.0 ? (s0 - sse) / (sse / dof) : std::numeric_limits<double>::max();
-        if (f < worst_f) {
-          worst_f = f;
-          worst = t;
-          worst_sse = s0;
-        }
-      }
-      if (worst >= 0 && worst_f < o.f_to_remove) {
-        in.erase(std::find(in.begin(), in.end(), worst));
-        sse = worst_sse;
-        StepwiseStep s;
-        s.step = static_cast<int>(log.steps.size()) + 1;
-        s.term = names[static_cast<std::size_t>(worst)];
-        s.action = StepwiseAction::removed;
-        s.partial_f = worst_f;
-        s.r_squared = r2_of(sse);
-        s.pse = pse_of(sse, in.size());
-        s.n_terms = static_cast<int>(in.size());
-        log.steps.push_back(s);
-        if (s.pse < best_pse) {
-          best_pse = s.pse;
-          best_set = in;
-        }
-      }
-    }
+    backward(just_entered);
   }
+  // A last backward pass: a term that entered early may have lost its significance to later
+  // ones without a removal being triggered yet.
+  backward(-1);
   std::sort(best_set.begin(), best_set.end());
   log.min_pse = best_pse;
   for (int j : best_set) log.selected.push_back(names[static_cast<std::size_t>(j)]);

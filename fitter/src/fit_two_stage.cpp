@@ -149,8 +149,18 @@ FitResult fit_experiment(const Experiment& e, const FitOptions& o) {
   res.equation_error = run_equation_error(runs, pool, e.model.structure, o, e.path, s);
 
   // 3. ML output error.
-  MLResult ml = fit_output_error(s, runs, start_values(s, runs, res.equation_error.parameters), o,
-                                 e.path);
+  Eigen::VectorXd theta0 = start_values(s, runs, res.equation_error.parameters);
+  {
+    const std::vector<std::string> names = parameter_names(s, runs);
+    for (const auto& [name, value] : o.start_values) {
+      const auto it = std::find(names.begin(), names.end(), name);
+      if (it == names.end())
+        throw InputError(e.path, 0, fmt::format("start value for {}: the model has no such "
+                                                "parameter", name));
+      theta0(it - names.begin()) = value;
+    }
+  }
+  MLResult ml = fit_output_error(s, runs, theta0, o, e.path);
   SplineD rotary = model.coefficients[0].rotary;
   std::vector<ParameterEstimate> rotary_params;
 
@@ -171,15 +181,75 @@ FitResult fit_experiment(const Experiment& e, const FitOptions& o) {
     for (int it = 1; it <= o.max_two_stage_iterations; ++it) {
       RotaryStage st = rotary_stage(runs, ml, rpool, l_over_v, o, e.path);
       std::vector<PreparedRun> trial_runs = runs;
-      update_rotary(trial_runs, st.rotary, l_over_v);
-      MLResult trial = fit_output_error(s, trial_runs, ml.theta, o, e.path);
+      MLResult trial;
+      std::vector<ParameterEstimate> trial_rotary_params;
+      if (o.rotary_refinement == RotaryRefinement::joint_ml) {
+        // The regression picked the terms and start values; ML refines them with the rest.
+        UnsteadyStructure sr = s;
+        sr.l_over_v_s = l_over_v;
+        sr.rotary.knot_power = rpool.knot_power;
+        std::vector<double> rstart;
+        for (const Term& t : rotary_terms(rpool)) {
+          for (const auto& p : st.params) {
+            if (p.name != t.name) continue;
+            if (t.kind == TermKind::rotary_power) sr.rotary.powers.push_back(t.power);
+            else sr.rotary.knots_rad.push_back(t.knot_rad);
+            rstart.push_back(p.value);
+          }
+        }
+        // Powers first, then knots (rotary_terms order), matching rstart's order by
+        // construction since rotary_terms lists powers before knots.
+        const int ns = s.n_struct();
+        const auto n_prev_rot = static_cast<Eigen::Index>(ml.structure.rotary.size());
+        const Eigen::Index n_y0 = ml.theta.size() - ns - n_prev_rot;
+        Eigen::VectorXd th0(ns + static_cast<Eigen::Index>(rstart.size()) + n_y0);
+        th0.head(ns) = ml.theta.head(ns);
+        for (std::size_t k = 0; k < rstart.size(); ++k)
+          th0(ns + static_cast<Eigen::Index>(k)) = rstart[k];
+        th0.tail(n_y0) = ml.theta.tail(n_y0);
+        trial = fit_output_error(sr, trial_runs, th0, o, e.path);
+        // The estimated C_aq as a spline over the pool's shape, and y_E recomputed with it.
+        SplineD rot = st.rotary;
+        for (int i = 0; i < rot.n_powers; ++i) rot.power_coef[i] = 0.0;
+        for (int j = 0; j < rot.n_knots; ++j) rot.knot_coef[j] = 0.0;
+        const std::vector<Term> rts = rotary_terms(sr.rotary);
+        for (std::size_t k = 0; k < rts.size(); ++k) {
+          const double val = trial.theta(ns + static_cast<Eigen::Index>(k));
+          if (rts[k].kind == TermKind::rotary_power) {
+            rot.power_coef[rts[k].power] = val;
+          } else {
+            for (int j = 0; j < rot.n_knots; ++j)
+              if (rot.knot_rad[j] == rts[k].knot_rad) rot.knot_coef[j] = val;
+          }
+          ParameterEstimate pe;
+          const auto ix = ns + static_cast<Eigen::Index>(k);
+          pe.name = rts[k].name;
+          pe.value = val;
+          pe.cr_bound = std::sqrt(trial.cov_white(ix, ix));
+          pe.cr_bound_colored = std::sqrt(trial.cov_colored(ix, ix));
+          pe.identifiability = trial.identifiability[static_cast<std::size_t>(ix)];
+          trial_rotary_params.push_back(pe);
+        }
+        st.rotary = rot;
+        update_rotary(trial_runs, st.rotary, l_over_v);
+      } else {
+        update_rotary(trial_runs, st.rotary, l_over_v);
+        UnsteadyStructure sr = s;
+        const int ns = s.n_struct();
+        const Eigen::Index n_y0 = ml.theta.size() - ns;
+        Eigen::VectorXd th0(ns + n_y0);
+        th0.head(ns) = ml.theta.head(ns);
+        th0.tail(n_y0) = ml.theta.tail(n_y0);
+        trial = fit_output_error(sr, trial_runs, th0, o, e.path);
+        trial_rotary_params = st.params;
+      }
       TwoStageIteration log;
       log.iteration = it;
       log.cost = trial.summary.cost;
       log.fit_error = trial.summary.fit_error;
       for (int i = 0; i < st.rotary.n_powers; ++i) log.rotary.push_back(st.rotary.power_coef[i]);
       for (int j = 0; j < st.rotary.n_knots; ++j) log.rotary_knot_coef.push_back(st.rotary.knot_coef[j]);
-      log.rotary_parameters = st.params;
+      log.rotary_parameters = trial_rotary_params;
       log.stepwise = st.stepwise;
       res.two_stage.push_back(log);
       const double prev = ml.summary.cost;
@@ -187,7 +257,10 @@ FitResult fit_experiment(const Experiment& e, const FitOptions& o) {
       runs = std::move(trial_runs);
       ml = std::move(trial);
       rotary = st.rotary;
-      rotary_params = st.params;
+      // joint_ml: the rotary estimates are ML parameters already (in ml.names).
+      rotary_params = o.rotary_refinement == RotaryRefinement::joint_ml
+                          ? std::vector<ParameterEstimate>{}
+                          : trial_rotary_params;
       if ((prev - ml.summary.cost) / prev < o.two_stage_tolerance) break;
     }
   }
