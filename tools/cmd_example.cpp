@@ -136,7 +136,9 @@ ColumnResult fit_column(const fs::path& experiment, const fs::path& fit_dir, dou
   cr.fit = fit_experiment(e, fo);
   ReportOptions ro;
   ro.plots = o.no_plots ? PlotRequest::none : PlotRequest::gnuplot;
-  ro.command_line = "indicial fit " + experiment.filename().string() + " --out " + fit_dir.filename().string();
+  const std::string shown = "../" + experiment.parent_path().filename().string() + "/" + experiment.filename().string();
+  ro.command_line = "indicial fit " + shown + " --out " + fit_dir.filename().string();
+  ro.experiment_display = shown;
   write_fit_outputs(cr.fit, e, fo, fit_dir, Overwrite::refuse, ro);
   // The runtime loads the file as written on disk, not the in-memory text.
   cr.runtime = replay_in_runtime(cr.fit, e, read_text(fit_dir / "model.coef"));

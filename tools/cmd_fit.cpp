@@ -82,8 +82,9 @@ void run_fit(const FitCliOptions& o, const std::string& command_line) {
   switch (oe.termination) {
     case Termination::converged: return;
     case Termination::iteration_limit:
-      std::fprintf(stderr, "indicial: warning: %s: iteration limit (%d) reached before convergence; "
-                   "the best estimate was written: %s\n", o.experiment.c_str(), fo.max_iterations, oe.message.c_str());
+      std::fprintf(stderr, "indicial: warning: %s: output error stopped at the iteration limit (%d) before "
+                   "converging; the best estimate was written to %s\n", o.experiment.c_str(), fo.max_iterations,
+                   o.out.c_str());
       return;
     case Termination::diverged:
       std::fprintf(stderr, "indicial: warning: %s: the output-error iteration diverged; the best estimate "

@@ -74,6 +74,16 @@ std::string model_coef_text(const FitResult& r, const std::string& origin) {
 
 namespace {
 
+// A run or experiment path as the report shows it: relative to the experiment's directory when
+// it lies inside it (so a report does not carry a temporary or absolute prefix).
+std::string display_path(const std::string& path, const Experiment& e) {
+  const std::string base = fs::path(e.path).parent_path().string();
+  if (!base.empty() && path.size() > base.size() + 1 && path.compare(0, base.size(), base) == 0 &&
+      path[base.size()] == '/')
+    return path.substr(base.size() + 1);
+  return path;
+}
+
 // The initial lag states of run `ri` (0-based) as the fitter estimated them.
 // Returns false when they cannot be recovered (a periodic run of a multi-lag model).
 bool initial_states(const FitResult& r, std::size_t ri, int n_lags, double* y) {
@@ -283,7 +293,7 @@ nlohmann::json fit_json(const FitResult& r, const Experiment& e, const FitOption
   j["rotary"] = rot;
   j["runs"] = nlohmann::json::array();
   for (const RunSeries& s : r.runs)
-    j["runs"].push_back({{"path", s.path}, {"samples", s.time_s.size()}, {"fit_error", finite_or_null(run_fit_error(s))}});
+    j["runs"].push_back({{"path", display_path(s.path, e)}, {"samples", s.time_s.size()}, {"fit_error", finite_or_null(run_fit_error(s))}});
   j["experiment"] = {{"path", e.path},
                      {"axis", axis_name(e.axis)},
                      {"coefficient", e.coefficient},
@@ -386,7 +396,7 @@ PlotSet make_plots(const FitResult& r, const Experiment& e, const fs::path& plot
     const std::string fit_png = fmt::format("run{}_fit.png", ri + 1);
     const std::string res_png = fmt::format("run{}_residual.png", ri + 1);
     gp += fmt::format("set output {}\n", gp_quote(fit_png));
-    gp += fmt::format("set title {} noenhanced\n", gp_quote("run " + std::to_string(ri + 1) + ": " + s.path));
+    gp += fmt::format("set title {} noenhanced\n", gp_quote("run " + std::to_string(ri + 1) + ": " + display_path(s.path, e)));
     gp += fmt::format("set xlabel 'time, s'\nset ylabel {}\n", gp_quote(coef));
     gp += fmt::format(
         "plot {0} using 1:2 with lines lw 1 lc rgb '#888888' title 'measured', \\\n"
@@ -395,7 +405,7 @@ PlotSet make_plots(const FitResult& r, const Experiment& e, const fs::path& plot
         gp_quote(dat));
     gp += fmt::format("set output {}\n", gp_quote(res_png));
     gp += fmt::format("set title {} noenhanced\n",
-                      gp_quote("residuals, run " + std::to_string(ri + 1) + ": " + s.path +
+                      gp_quote("residuals, run " + std::to_string(ri + 1) + ": " + display_path(s.path, e) +
                                fmt::format("  (rms {:.4g})", run_fit_error(s))));
     gp += fmt::format("set ylabel {}\n", gp_quote(coef + " measured - model"));
     gp += fmt::format("plot {} using 1:5 with lines lc rgb '#2ca02c' title 'residual'\n", gp_quote(dat));
@@ -440,16 +450,16 @@ PlotSet make_plots(const FitResult& r, const Experiment& e, const fs::path& plot
     if (band) {
       cmd += fmt::format(
           "'functions.dat' using 1:{}:{} with filledcurves fc rgb '#9ecae1' fs transparent solid 0.5 "
-          "title '+/- 2 sigma (Cramer-Rao)', \\\n     ",
+          "title '+/- 2 sigma (Cramer-Rao)' noenhanced, \\\n     ",
           f.col + 1, f.col + 2);
     }
     if (f.colored) {
       cmd += fmt::format(
-          "'functions.dat' using 1:{} with lines dt 2 lc rgb '#555555' title '+/- 2 sigma (colored)', \\\n"
+          "'functions.dat' using 1:{} with lines dt 2 lc rgb '#555555' title '+/- 2 sigma (colored)' noenhanced, \\\n"
           "     'functions.dat' using 1:{} with lines dt 2 lc rgb '#555555' notitle, \\\n     ",
           f.col + 3, f.col + 4);
     }
-    cmd += fmt::format("'functions.dat' using 1:{} with lines lw 2 lc rgb '#08519c' title {}\n", f.col,
+    cmd += fmt::format("'functions.dat' using 1:{} with lines lw 2 lc rgb '#08519c' title {} noenhanced\n", f.col,
                        gp_quote(std::string(f.label) +
                                 (f.col == 12 && !rotary_estimated ? " (a priori)" : " (estimate)")));
     gp += cmd;
@@ -535,7 +545,7 @@ std::string report_markdown(const FitResult& r, const Experiment& e, const FitOp
   m += fmt::format(
       "Experiment `{}`: {} runs, {} samples, model angle {:.3f} to {:.3f} deg, l/V = {:.6g} s, "
       "structure {}, state derivative for the equation error: {}. Fit took {:.2f} s.\n\n",
-      e.path, e.runs.size(), samples, e.data_x_min_rad * kDegPerRad, e.data_x_max_rad * kDegPerRad,
+      ro.experiment_display.empty() ? e.path : ro.experiment_display, e.runs.size(), samples, e.data_x_min_rad * kDegPerRad, e.data_x_max_rad * kDegPerRad,
       e.l_over_v_s(), e.model.structure == StructureMode::stepwise ? "stepwise" : "fixed",
       o.state_derivative == StateDerivative::smoothed_difference ? "Savitzky-Golay smoothed derivative"
                                                                  : "modulating functions",
@@ -561,7 +571,7 @@ std::string report_markdown(const FitResult& r, const Experiment& e, const FitOp
   m += "\n";
 
   m += "### Per-run fit\n\n| run | samples | rms residual |\n|---|---:|---:|\n";
-  for (const RunSeries& s : r.runs) m += fmt::format("| {} | {} | {} |\n", s.path, s.time_s.size(), num(run_fit_error(s)));
+  for (const RunSeries& s : r.runs) m += fmt::format("| {} | {} | {} |\n", display_path(s.path, e), s.time_s.size(), num(run_fit_error(s)));
   m += "\n";
 
   m += "### Runtime check\n\n";
@@ -585,7 +595,7 @@ std::string report_markdown(const FitResult& r, const Experiment& e, const FitOp
   m += image(ps, "plots/b1_band.png", "b1(x) with +/- 2 sigma bands");
   m += image(ps, "plots/caq_band.png", "C_aq(x)");
   for (std::size_t ri = 0; ri < r.runs.size(); ++ri) {
-    m += fmt::format("### Run {}: {}\n\n", ri + 1, r.runs[ri].path);
+    m += fmt::format("### Run {}: {}\n\n", ri + 1, display_path(r.runs[ri].path, e));
     m += image(ps, fmt::format("plots/run{}_fit.png", ri + 1), "measured, model and quasi-steady");
     m += image(ps, fmt::format("plots/run{}_residual.png", ri + 1), "residuals");
   }
@@ -659,6 +669,7 @@ FitOutputs write_fit_outputs(const FitResult& r, const Experiment& e, const FitO
   w.plot_message = ps.message;
   w.images = ps.images;
   nlohmann::json j = fit_json(r, e, o, &w.runtime);
+  if (!ro.experiment_display.empty()) j["experiment"]["path"] = ro.experiment_display;
   j["plots"] = {{"status", plot_status_name(ps.status)}, {"message", ps.message}, {"images", ps.images}};
   w.fit_json = j.dump(2) + "\n";
   w.report_md = report_markdown(r, e, o, w.runtime, ps, ro);

@@ -94,6 +94,9 @@ struct ReportOptions {
   PlotRequest plots = PlotRequest::gnuplot;
   std::string gnuplot = "gnuplot";  // executable (looked up on PATH)
   std::string command_line;         // shown at the top of report.md
+  std::string experiment_display;   // how report.md and fit.json name the experiment file
+                                    // (default: Experiment::path); run paths are shown
+                                    // relative to the experiment file's directory
 };
 
 // What write_fit_outputs wrote (the texts are also returned, for tests and the example).

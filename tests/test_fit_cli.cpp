@@ -1,0 +1,273 @@
+// `indicial fit` end to end: the contract fields of fit.json, model.coef in the runtime, the
+// report and its plots, output-directory rules, and bad input.
+#define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
+#include <doctest/doctest.h>
+#include <sys/wait.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <sstream>
+#include <string>
+
+#include "indicial/fitter/fit.hpp"
+#include "indicial/fitter/io.hpp"
+#include "indicial/runtime.hpp"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Run {
+  int exit_code = -1;
+  std::string out;
+  std::string err;
+};
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+// A fresh directory under /tmp for this process.
+const fs::path& scratch() {
+  static const fs::path dir = [] {
+    char tmpl[] = "/tmp/indicial-test-fit-cli-XXXXXX";
+    const char* d = ::mkdtemp(tmpl);
+    REQUIRE(d != nullptr);
+    return fs::path(d);
+  }();
+  return dir;
+}
+
+Run run_cli(const std::string& args) {
+  static int counter = 0;
+  const fs::path o = scratch() / ("stdout-" + std::to_string(++counter));
+  const fs::path e = scratch() / ("stderr-" + std::to_string(counter));
+  const std::string cmd = std::string("'") + INDICIAL_EXE + "' " + args + " > '" + o.string() + "' 2> '" + e.string() + "'";
+  const int rc = std::system(cmd.c_str());
+  Run r;
+  r.exit_code = (rc != -1 && WIFEXITED(rc)) ? WEXITSTATUS(rc) : -1;
+  r.out = slurp(o);
+  r.err = slurp(e);
+  return r;
+}
+
+std::size_t count_lines(const std::string& s) {
+  std::size_t n = 0;
+  for (char c : s) n += (c == '\n');
+  return n;
+}
+
+// The simulated data set every test case fits (seed not used by any tuning).
+const fs::path& data_dir() {
+  static const fs::path dir = [] {
+    const fs::path d = scratch() / "data";
+    const Run r = run_cli("simulate --case tailless-model-1 --out '" + d.string() + "' --snr 40 --seed 11");
+    REQUIRE_MESSAGE(r.exit_code == 0, r.err);
+    return d;
+  }();
+  return dir;
+}
+
+const fs::path& fitted_dir() {
+  static const fs::path dir = [] {
+    const fs::path d = scratch() / "fit";
+    const Run r = run_cli("fit '" + (data_dir() / "experiment.toml").string() + "' --out '" + d.string() + "'");
+    REQUIRE_MESSAGE(r.exit_code == 0, r.err);
+    CHECK(r.out.find("fit: output error converged") != std::string::npos);
+    return d;
+  }();
+  return dir;
+}
+
+}  // namespace
+
+TEST_CASE("fit writes fit.json with the contract fields") {
+  const nlohmann::json j = nlohmann::json::parse(slurp(fitted_dir() / "fit.json"));
+  REQUIRE(j.contains("converged"));
+  CHECK(j["converged"].is_boolean());
+  CHECK(j["converged"].get<bool>());
+  CHECK(j["iterations"].is_number_integer());
+  CHECK(j["iterations"].get<int>() >= 1);
+  REQUIRE(j["fit_error"].is_number());
+  // s(v) near the noise level of SNR 40 on this case (about 0.0036).
+  CHECK(j["fit_error"].get<double>() > 0.002);
+  CHECK(j["fit_error"].get<double>() < 0.006);
+  CHECK(j["termination"] == "converged");
+  CHECK_FALSE(j.contains("two_stage"));  // rotary.estimate = false
+  REQUIRE(j["parameters"].is_array());
+  std::set<std::string> names;
+  for (const auto& p : j["parameters"]) {
+    REQUIRE(p["name"].is_string());
+    names.insert(p["name"].get<std::string>());
+    CHECK(p["value"].is_number());
+    CHECK(p["cr_bound"].is_number());
+    CHECK(p["cr_bound_colored"].is_number());
+    CHECK(p["cr_bound"].get<double>() > 0.0);
+    CHECK(p["identifiable"].get<bool>());
+  }
+  for (const char* n : {"a0", "a1", "a2", "A1", "A2", "b1_0", "y0_1", "y0_2", "y0_3"}) CHECK(names.count(n) == 1);
+  CHECK(j["equation_error"]["parameters"].is_array());
+  CHECK(j["output_error_log"].is_array());
+  CHECK(j["elapsed_s"].is_number());
+}
+
+TEST_CASE("fit.json agrees with an in-process fit, and model.coef predicts the fitter's model output") {
+  using namespace indicial;
+  const Experiment e = load_experiment((data_dir() / "experiment.toml").string());
+  const FitResult r = fit_experiment(e, FitOptions{});
+  const nlohmann::json j = nlohmann::json::parse(slurp(fitted_dir() / "fit.json"));
+  REQUIRE(j["parameters"].size() == r.parameters.size());
+  for (std::size_t i = 0; i < r.parameters.size(); ++i) {
+    CHECK(j["parameters"][i]["name"] == r.parameters[i].name);
+    CHECK(j["parameters"][i]["value"].get<double>() == doctest::Approx(r.parameters[i].value).epsilon(1e-12));
+    CHECK(j["parameters"][i]["cr_bound"].get<double>() == doctest::Approx(r.parameters[i].cr_bound).epsilon(1e-9));
+  }
+
+  // The runtime, written independently of report.cpp's replay: load the file, start each run from
+  // its y0_r, step through it and compare every sample with the fitter's model series.
+  const std::string text = slurp(fitted_dir() / "model.coef");
+  auto p = std::make_unique<Predictor<>>();
+  ParseDiagnostic diag;
+  REQUIRE_MESSAGE(p->load(text.data(), text.size(), &diag) == LoadStatus::ok, diag.reason);
+  REQUIRE(r.runs.size() == e.runs.size());
+  double worst = 0.0;
+  std::size_t compared = 0;
+  for (std::size_t ri = 0; ri < e.runs.size(); ++ri) {
+    double y0 = std::nan("");
+    for (const auto& q : j["parameters"])
+      if (q["name"] == "y0_" + std::to_string(ri + 1)) y0 = q["value"].get<double>();
+    REQUIRE(std::isfinite(y0));
+    const indicial::Run& run = e.runs[ri];
+    REQUIRE(p->reset(run.motion_angle_rad[0], e.airspeed_mps) == StepStatus::ok);
+    auto snap = p->snapshot();
+    snap.y[0][0] = y0;
+    p->restore(snap);
+    Predictor<>::Outputs out;
+    for (std::size_t k = 1; k < run.size(); ++k) {
+      const StepStatus st = p->step({run.motion_angle_rad[k], run.rate_radps[k], e.airspeed_mps},
+                                    run.time_s[k] - run.time_s[k - 1], &out);
+      REQUIRE((st == StepStatus::ok || st == StepStatus::angle_clamped));
+      worst = std::max(worst, std::fabs(out.value[0] - r.runs[ri].model[k]));
+      ++compared;
+    }
+  }
+  CHECK(compared > 2000);
+  CHECK(worst < 1e-10);
+  // The fit reported its own replay too.
+  CHECK(j["runtime_check"]["loads_with"] == "default_capacity");
+  CHECK(j["runtime_check"]["max_abs_difference"].get<double>() < 1e-10);
+}
+
+TEST_CASE("report.md and the plots exist and are referenced") {
+  const std::string md = slurp(fitted_dir() / "report.md");
+  CHECK(md.find("| parameter | estimate | CR bound") != std::string::npos);
+  CHECK(md.find("b1_0") != std::string::npos);
+  CHECK(md.find("## Equation error") != std::string::npos);
+  CHECK(md.find("## Output-error iterations") != std::string::npos);
+  CHECK(md.find("Termination: **converged**") != std::string::npos);
+  for (const char* png : {"plots/run1_fit.png", "plots/run1_residual.png", "plots/run3_fit.png",
+                          "plots/a_band.png", "plots/b1_band.png", "plots/caq_band.png"}) {
+    CAPTURE(png);
+    CHECK(fs::exists(fitted_dir() / png));
+    CHECK(fs::file_size(fitted_dir() / png) > 1000);
+    CHECK(md.find(std::string("](") + png + ")") != std::string::npos);
+  }
+  // PNG signature.
+  CHECK(slurp(fitted_dir() / "plots/a_band.png").substr(1, 3) == "PNG");
+}
+
+TEST_CASE("without gnuplot everything else is still written and the report says so") {
+  const fs::path d = scratch() / "fit-no-gnuplot";
+  const Run r = run_cli("fit '" + (data_dir() / "experiment.toml").string() + "' --out '" + d.string() +
+                        "' --gnuplot /nonexistent/gnuplot");
+  CHECK_MESSAGE(r.exit_code == 0, r.err);
+  CHECK(r.err.find("warning") != std::string::npos);
+  CHECK(fs::exists(d / "fit.json"));
+  CHECK(fs::exists(d / "model.coef"));
+  const std::string md = slurp(d / "report.md");
+  CHECK(md.find("No plots") != std::string::npos);
+  CHECK(md.find("![") == std::string::npos);
+  const nlohmann::json j = nlohmann::json::parse(slurp(d / "fit.json"));
+  CHECK(j["plots"]["status"] == "gnuplot_not_found");
+}
+
+TEST_CASE("a non-empty output directory is refused without --force and replaced with it") {
+  const fs::path d = scratch() / "busy";
+  fs::create_directories(d);
+  { std::ofstream(d / "keep.txt") << "precious\n"; }
+  const std::string base = "fit '" + (data_dir() / "experiment.toml").string() + "' --out '" + d.string() + "'";
+  const Run refused = run_cli(base);
+  CHECK(refused.exit_code == 1);
+  CHECK(count_lines(refused.err) == 1);
+  CHECK(refused.err.find("not empty") != std::string::npos);
+  CHECK(slurp(d / "keep.txt") == "precious\n");
+  std::size_t entries = 0;
+  for (const auto& ent : fs::directory_iterator(d)) (void)ent, ++entries;
+  CHECK(entries == 1);
+  // No staging directory left beside it.
+  for (const auto& ent : fs::directory_iterator(scratch()))
+    CHECK(ent.path().filename().string().find(".busy.staging") == std::string::npos);
+
+  const Run forced = run_cli(base + " --force");
+  CHECK_MESSAGE(forced.exit_code == 0, forced.err);
+  CHECK_FALSE(fs::exists(d / "keep.txt"));
+  CHECK(fs::exists(d / "fit.json"));
+  CHECK(fs::exists(d / "model.coef"));
+  CHECK(fs::exists(d / "report.md"));
+}
+
+TEST_CASE("a missing experiment file gives one line naming it, exit 1, nothing written") {
+  const fs::path d = scratch() / "never";
+  const Run r = run_cli("fit '" + (scratch() / "no-such-experiment.toml").string() + "' --out '" + d.string() + "'");
+  CHECK(r.exit_code == 1);
+  CHECK(count_lines(r.err) == 1);
+  CHECK(r.err.find("no-such-experiment.toml") != std::string::npos);
+  CHECK_FALSE(fs::exists(d));
+}
+
+TEST_CASE("a bad experiment (unknown key) gives one line naming the file and exit 1") {
+  const fs::path bad = data_dir().parent_path() / "bad-data";
+  fs::create_directories(bad);
+  for (const auto& ent : fs::directory_iterator(data_dir())) fs::copy_file(ent.path(), bad / ent.path().filename(),
+                                                                           fs::copy_options::overwrite_existing);
+  { std::ofstream(bad / "experiment.toml", std::ios::app) << "\nunknown_key = 3\n"; }
+  const Run r = run_cli("fit '" + (bad / "experiment.toml").string() + "' --out '" + (scratch() / "bad-out").string() + "'");
+  CHECK(r.exit_code == 1);
+  CHECK(count_lines(r.err) == 1);
+  CHECK(r.err.find("experiment.toml") != std::string::npos);
+  CHECK_FALSE(fs::exists(scratch() / "bad-out"));
+}
+
+TEST_CASE("an iteration limit still writes the best estimate, exits 0 and warns") {
+  const fs::path d = scratch() / "fit-limited";
+  const Run r = run_cli("fit '" + (data_dir() / "experiment.toml").string() + "' --out '" + d.string() +
+                        "' --max-iterations 1 --no-plots");
+  CHECK_MESSAGE(r.exit_code == 0, r.err);
+  const nlohmann::json j = nlohmann::json::parse(slurp(d / "fit.json"));
+  if (j["termination"] == "iteration_limit") {
+    CHECK_FALSE(j["converged"].get<bool>());
+    CHECK(r.err.find("warning") != std::string::npos);
+    CHECK(r.err.find("iteration limit") != std::string::npos);
+  } else {
+    // A start from the equation-error estimates may already satisfy the tests in one step.
+    CHECK(j["termination"] == "converged");
+  }
+  CHECK(j["parameters"].size() > 5);
+  CHECK(fs::exists(d / "model.coef"));
+}
+
+TEST_CASE("bad option values are refused with one line") {
+  const Run r = run_cli("fit '" + (data_dir() / "experiment.toml").string() + "' --out '" +
+                        (scratch() / "opt-out").string() + "' --state-derivative wavelet");
+  CHECK(r.exit_code == 1);
+  CHECK(count_lines(r.err) == 1);
+  CHECK(r.err.find("--state-derivative") != std::string::npos);
+}
