@@ -1,0 +1,32 @@
+#!/usr/bin/env bash
+# Builds the whole ctest suite with AddressSanitizer + UndefinedBehaviorSanitizer in build-asan/
+# and runs it. Any sanitizer report fails the run: -fno-sanitize-recover=all turns every UBSan
+# finding into an abort, ASan aborts on its first error, LeakSanitizer fails the process at exit.
+#
+#   tools/run-sanitizers.sh                     # build-asan/, all cores
+#   INDICIAL_ASAN_BUILD_DIR=/tmp/x INDICIAL_JOBS=2 tools/run-sanitizers.sh
+#
+# RelWithDebInfo at -O1 (with line tables only, -g1): fast enough to run the suite, still
+# precise stack traces. Benchmarks are not built. -DINDICIAL_SANITIZE=ON leaves out
+# tests/test_alloc.cpp, which replaces malloc/free (forwarding to glibc's __libc_malloc) and
+# operator new: that bypasses ASan's allocator, so ASan would see frees of memory it never
+# allocated, and the allocation count is not a question for a sanitizer run anyway (the normal
+# build runs it).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+build_dir=${INDICIAL_ASAN_BUILD_DIR:-build-asan}
+jobs=${INDICIAL_JOBS:-$(nproc)}
+san="-fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer"
+
+start=$(date +%s)
+cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+  -DCMAKE_CXX_FLAGS="$san" -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1" \
+  -DCMAKE_EXE_LINKER_FLAGS="$san" -DINDICIAL_BUILD_BENCH=OFF -DINDICIAL_SANITIZE=ON
+cmake --build "$build_dir" -j"$jobs"
+built=$(date +%s)
+
+export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1:strict_string_checks=1:detect_stack_use_after_return=1:check_initialization_order=1:strict_init_order=1}
+export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
+ctest --test-dir "$build_dir" --output-on-failure -j"$jobs" --timeout 900
+done_s=$(date +%s)
+echo "run-sanitizers: build $((built - start)) s, ctest $((done_s - built)) s"
