@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <array>
 #include <charconv>
+#include <cstdio>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -151,6 +152,13 @@ const char* rate_base(Axis axis) {
 const std::set<std::string>& coefficient_names() {
   static const std::set<std::string> names = {"CL", "Cm", "CD", "CY", "Cl", "Cn"};
   return names;
+}
+
+// Degrees for messages: 6 significant digits (59.99999999999999 reads as 60).
+std::string deg_text(double rad) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.6g", rad * kRadToDeg);
+  return buf;
 }
 
 double median_of(std::vector<double> v) {
@@ -739,10 +747,10 @@ Experiment load_experiment(const std::string& toml_path) {
       // Why strictly inside: a knot at or beyond the range makes its term identically zero or
       // a polynomial on the data, which cannot be identified separately.
       if (!(k > x_min && k < x_max)) {
-        r.fail(ks.where, "'" + ks.key + "': knot " + format_double(k * kRadToDeg) +
+        r.fail(ks.where, "'" + ks.key + "': knot " + deg_text(k) +
                              " deg is outside the data's " + xname + " range [" +
-                             format_double(x_min * kRadToDeg) + ", " +
-                             format_double(x_max * kRadToDeg) + "] deg");
+                             deg_text(x_min) + ", " +
+                             deg_text(x_max) + "] deg");
       }
     }
   }
@@ -752,10 +760,10 @@ Experiment load_experiment(const std::string& toml_path) {
     const double tol = 1e-9;  // rad: rounding of degree columns
     if (tmin > x_min + tol || tmax < x_max - tol) {
       r.fail(static_where, "the static table '" + e.static_curve.table_path + "' covers " + xname +
-                               " [" + format_double(tmin * kRadToDeg) + ", " +
-                               format_double(tmax * kRadToDeg) + "] deg but the runs reach [" +
-                               format_double(x_min * kRadToDeg) + ", " +
-                               format_double(x_max * kRadToDeg) + "] deg");
+                               " [" + deg_text(tmin) + ", " +
+                               deg_text(tmax) + "] deg but the runs reach [" +
+                               deg_text(x_min) + ", " +
+                               deg_text(x_max) + "] deg");
     }
   }
   return e;

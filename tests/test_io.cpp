@@ -1,0 +1,465 @@
+// Ingest: run CSVs, experiment TOML, Savitzky-Golay differentiation (fitter/io.hpp).
+#define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <sstream>
+#include <string>
+
+#include "indicial/fitter/error.hpp"
+#include "indicial/fitter/io.hpp"
+#include "indicial/fitter/simulate.hpp"
+
+namespace fs = std::filesystem;
+
+// Checks that message m contains s, showing m when it does not.
+#define CHECK_HAS(m, s)                                \
+  do {                                                 \
+    INFO("message: " << (m));                          \
+    CHECK((m).find(s) != std::string::npos);           \
+  } while (0)
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+fs::path fresh_dir() {
+  std::string tmpl = (fs::temp_directory_path() / "indicial-test-io-XXXXXX").string();
+  REQUIRE(::mkdtemp(tmpl.data()) != nullptr);
+  return fs::path(tmpl);
+}
+
+const fs::path& dir() {
+  static const fs::path d = fresh_dir();
+  return d;
+}
+
+std::string write(const std::string& name, const std::string& text) {
+  const fs::path p = dir() / name;
+  fs::create_directories(p.parent_path());
+  std::ofstream(p, std::ios::binary) << text;
+  return p.string();
+}
+
+// A good run CSV: comment, header, n rows of a 1 Hz sine at dt = 0.01.
+std::string good_csv(int n, bool with_rate = true) {
+  std::ostringstream s;
+  s.precision(17);
+  s << "# a comment before the header\n";
+  s << (with_rate ? "time_s,alpha_deg,q_degps,Cm\n" : "time_s,alpha_deg,Cm\n");
+  for (int k = 0; k < n; ++k) {
+    const double t = 0.01 * k;
+    const double a = 35.0 - 35.0 * std::cos(2 * kPi * t);
+    const double q = 35.0 * 2 * kPi * std::sin(2 * kPi * t);
+    s << indicial::format_double(t) << "," << indicial::format_double(a) << ",";
+    if (with_rate) s << indicial::format_double(q) << ",";
+    s << indicial::format_double(0.01 * a) << "\n";
+  }
+  return s.str();
+}
+
+// Runs f and returns the InputError's message (fails the test if none is thrown).
+std::string error_of(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const indicial::InputError& e) {
+    return e.what();
+  }
+  FAIL("no InputError thrown");
+  return "";
+}
+
+std::string csv_error(const std::string& name, const std::string& text) {
+  const std::string p = write(name, text);
+  return error_of([&] {
+    indicial::read_run_csv(p, indicial::Axis::pitch, "Cm", indicial::CoefficientPresence::required);
+  });
+}
+
+// Replaces line `line` (1-based) of text.
+std::string replace_line(const std::string& text, int line, const std::string& with) {
+  std::istringstream in(text);
+  std::string out, l;
+  int n = 0;
+  while (std::getline(in, l)) out += (++n == line ? with : l) + "\n";
+  return out;
+}
+
+}  // namespace
+
+TEST_CASE("a good run CSV is read, converted to rad and rad/s") {
+  const std::string p = write("good.csv", good_csv(101));
+  const indicial::Run r = indicial::read_run_csv(p, indicial::Axis::pitch, "Cm",
+                                                 indicial::CoefficientPresence::required);
+  REQUIRE(r.size() == 101);
+  CHECK(r.rate_from_file);
+  CHECK(r.dt_s() == doctest::Approx(0.01));
+  CHECK(r.motion_angle_rad[25] == doctest::Approx(35.0 * kPi / 180).epsilon(1e-12));
+  CHECK(r.rate_radps[25] == doctest::Approx(35.0 * kPi / 180 * 2 * kPi).epsilon(1e-12));
+  CHECK(r.coefficient[25] == doctest::Approx(0.35));
+  // Without the rate column the rate is the Savitzky-Golay derivative of alpha.
+  const std::string p2 = write("norate.csv", good_csv(101, false));
+  const indicial::Run r2 = indicial::read_run_csv(p2, indicial::Axis::pitch, "Cm",
+                                                  indicial::CoefficientPresence::required);
+  CHECK_FALSE(r2.rate_from_file);
+  double err = 0;
+  for (std::size_t k = 0; k < r.size(); ++k) err = std::max(err, std::abs(r2.rate_radps[k] - r.rate_radps[k]));
+  // 1 Hz at 100 samples per cycle, 35 deg amplitude (rate amplitude 3.84 rad/s): the
+  // end-point error of the Savitzky-Golay derivative of a cosine is ~2.5e-3 relative (see the
+  // Savitzky-Golay test), i.e. ~0.0095 rad/s here; inside the run it is ~1e-4 rad/s.
+  INFO("max rate error " << err);
+  CHECK(err < 1.5e-2);
+  double err_inside = 0;
+  for (std::size_t k = 5; k + 5 < r.size(); ++k) {
+    err_inside = std::max(err_inside, std::abs(r2.rate_radps[k] - r.rate_radps[k]));
+  }
+  CHECK(err_inside < 3e-4);
+  // The coefficient may be optional (predict); extra columns are ignored.
+  const std::string p3 = write("extra.csv", "time_s,alpha_rad,Cm_true,y_true,label\n" + [] {
+    std::string s;
+    for (int k = 0; k < 20; ++k) s += std::to_string(0.5 * k) + ",0.1,1,2,x\n";
+    return s;
+  }());
+  const indicial::Run r3 = indicial::read_run_csv(p3, indicial::Axis::pitch, "Cm",
+                                                  indicial::CoefficientPresence::optional);
+  CHECK(r3.coefficient.empty());
+  CHECK(r3.motion_angle_rad[3] == 0.1);
+}
+
+TEST_CASE("roll and yaw runs use phi / psi and p / r") {
+  std::string s = "time_s,phi_rad,p_radps,alpha_deg,Cl\n";
+  for (int k = 0; k < 15; ++k) s += std::to_string(0.1 * k) + ",0.2,0.3,30,0.01\n";
+  const indicial::Run r = indicial::read_run_csv(write("roll.csv", s), indicial::Axis::roll, "Cl",
+                                                 indicial::CoefficientPresence::required);
+  CHECK(r.motion_angle_rad[0] == 0.2);
+  CHECK(r.rate_radps[0] == 0.3);
+  const std::string msg = error_of([&] {
+    indicial::read_run_csv(write("roll2.csv", s), indicial::Axis::yaw, "Cl",
+                           indicial::CoefficientPresence::required);
+  });
+  CHECK(msg.find("psi_deg") != std::string::npos);
+}
+
+TEST_CASE("each bad run CSV names the file, the line and the problem") {
+  const std::string good = good_csv(30);  // line 1 comment, line 2 header, rows from line 3
+  SUBCASE("missing file") {
+    const std::string m = error_of([] {
+      indicial::read_run_csv((dir() / "nope.csv").string(), indicial::Axis::pitch, "Cm",
+                             indicial::CoefficientPresence::required);
+    });
+    CHECK_HAS(m, "nope.csv");
+    CHECK_HAS(m, "cannot open");
+  }
+  SUBCASE("empty file") {
+    const std::string m = csv_error("empty.csv", "");
+    CHECK_HAS(m, "empty.csv: file is empty");
+  }
+  SUBCASE("header only") {
+    const std::string m = csv_error("header.csv", "# c\ntime_s,alpha_deg,Cm\n");
+    CHECK_HAS(m, "header.csv:2: header only");
+  }
+  SUBCASE("missing column") {
+    const std::string m = csv_error("nocm.csv", replace_line(good, 2, "time_s,alpha_deg,q_degps,CL"));
+    CHECK_HAS(m, "nocm.csv:2: missing column 'Cm'");
+    const std::string m2 = csv_error("noalpha.csv", replace_line(good, 2, "time_s,theta_deg,q_degps,Cm"));
+    CHECK_HAS(m2, "noalpha.csv:2: missing column 'alpha_deg' or 'alpha_rad'");
+    const std::string m3 = csv_error("notime.csv", replace_line(good, 2, "t,alpha_deg,q_degps,Cm"));
+    CHECK_HAS(m3, "notime.csv:2: missing column 'time_s'");
+  }
+  SUBCASE("duplicate column") {
+    const std::string m = csv_error("dup.csv", replace_line(good, 2, "time_s,alpha_deg,Cm,Cm"));
+    CHECK_HAS(m, "dup.csv:2: duplicate column 'Cm'");
+    const std::string m2 = csv_error("dup2.csv", replace_line(good, 2, "time_s,alpha_deg,alpha_rad,Cm"));
+    CHECK_HAS(m2, "dup2.csv:2: both 'alpha_deg' and 'alpha_rad'");
+  }
+  SUBCASE("no unit suffix, unknown suffix") {
+    const std::string m = csv_error("nounit.csv", replace_line(good, 2, "time_s,alpha,q_degps,Cm"));
+    CHECK_HAS(m, "nounit.csv:2: column 'alpha' has no unit suffix (use alpha_deg or alpha_rad)");
+    const std::string m2 = csv_error("grad.csv", replace_line(good, 2, "time_s,alpha_grad,q_degps,Cm"));
+    CHECK_HAS(m2, "grad.csv:2: column 'alpha_grad' has unknown unit suffix '_grad'");
+    const std::string m3 = csv_error("ms.csv", replace_line(good, 2, "time_ms,alpha_deg,q_degps,Cm"));
+    CHECK_HAS(m3, "ms.csv:2: column 'time_ms' has unknown unit suffix '_ms' (use time_s)");
+  }
+  SUBCASE("non-numeric, NaN, Inf, empty cells") {
+    const std::string m = csv_error("text.csv", replace_line(good, 7, "0.04,abc,1,2"));
+    CHECK_HAS(m, "text.csv:7: column 'alpha_deg': non-numeric value 'abc'");
+    const std::string m2 = csv_error("nan.csv", replace_line(good, 8, "0.05,1,1,nan"));
+    CHECK_HAS(m2, "nan.csv:8: column 'Cm': NaN or Inf value 'nan'");
+    const std::string m3 = csv_error("inf.csv", replace_line(good, 9, "0.06,1,-inf,1"));
+    CHECK_HAS(m3, "inf.csv:9: column 'q_degps': NaN or Inf value '-inf'");
+    const std::string m4 = csv_error("cell.csv", replace_line(good, 9, "0.06,1,,1"));
+    CHECK_HAS(m4, "cell.csv:9: column 'q_degps': empty cell");
+  }
+  SUBCASE("wrong field count") {
+    const std::string m = csv_error("fields.csv", replace_line(good, 10, "0.07,1,1"));
+    CHECK_HAS(m, "fields.csv:10: expected 4 comma-separated fields as in the header, found 3");
+  }
+  SUBCASE("non-monotonic and duplicate time") {
+    const std::string m = csv_error("back.csv", replace_line(good, 12, "0.05,1,1,1"));
+    CHECK_HAS(m, "back.csv:12: time_s is not strictly increasing (0.05 after 0.08)");
+    const std::string m2 = csv_error("same.csv", replace_line(good, 12, "0.08,1,1,1"));
+    CHECK_HAS(m2, "same.csv:12: duplicate time: time_s is not strictly increasing (0.08 after 0.08)");
+  }
+  SUBCASE("non-uniform step") {
+    const std::string m = csv_error("step.csv", replace_line(good, 12, "0.0900001,1,1,1"));
+    CHECK_HAS(m, "step.csv:12: non-uniform time step");
+    // 1e-6 relative is allowed: 0.09 + 1e-9 is a relative step deviation of 1e-7.
+    const std::string p = write("stepok.csv", replace_line(good, 12, "0.090000001,1,1,1"));
+    CHECK_NOTHROW(indicial::read_run_csv(p, indicial::Axis::pitch, "Cm",
+                                         indicial::CoefficientPresence::required));
+  }
+  SUBCASE("too few rows") {
+    const std::string m = csv_error("short.csv", good_csv(10));
+    CHECK_HAS(m, "short.csv:12: only 10 data rows; a run needs at least 11");
+  }
+}
+
+TEST_CASE("Savitzky-Golay derivative: exact on cubics, accurate on a sine at the ends too") {
+  // A cubic is reproduced exactly by a cubic local fit: the derivative is exact at every
+  // sample, including the first and last half_window samples (the asymmetric end windows).
+  const double dt = 0.02;
+  std::vector<double> v(40), dv(40);
+  for (int k = 0; k < 40; ++k) {
+    const double t = dt * k;
+    v[static_cast<std::size_t>(k)] = 1 - 2 * t + 3 * t * t - 0.7 * t * t * t;
+    dv[static_cast<std::size_t>(k)] = -2 + 6 * t - 2.1 * t * t;
+  }
+  const std::vector<double> d = indicial::smooth_derivative(v, dt, 5, 3);
+  for (std::size_t k = 0; k < 40; ++k) CHECK(d[k] == doctest::Approx(dv[k]).epsilon(1e-10));
+
+  // sin(2 pi f t + phase), f = 1 Hz, dt = 0.01 s (100 samples per cycle), window 11, cubic;
+  // phases 0 (largest 3rd derivative at the ends) and pi/2 (largest 4th derivative).
+  const double w = 2 * kPi;
+  double err_inner = 0, err_end = 0;
+  for (double phase : {0.0, kPi / 2}) {
+    std::vector<double> s(301);
+    for (std::size_t k = 0; k < s.size(); ++k) s[k] = std::sin(w * 0.01 * static_cast<double>(k) + phase);
+    const std::vector<double> ds = indicial::smooth_derivative(s, 0.01, 5, 3);
+    for (std::size_t k = 0; k < s.size(); ++k) {
+      const double e = std::abs(ds[k] - w * std::cos(w * 0.01 * static_cast<double>(k) + phase));
+      if (k < 5 || k + 5 >= s.size()) err_end = std::max(err_end, e);
+      else err_inner = std::max(err_inner, e);
+    }
+  }
+  std::printf("Savitzky-Golay (11 samples, cubic) on sin(2 pi t + phase), dt = 0.01: max |error| / "
+              "omega interior %.2e, end points %.2e\n", err_inner / w, err_end / w);
+  // Truncation of a cubic SG derivative ~ (m dt w)^4 * const: measured 2.5e-5 relative inside
+  // and 2.5e-3 at the very ends (the off-centre fit), vs. 3.1e-2 (= dt w / 2) for a one-sided
+  // first difference at the ends.
+  CHECK(err_inner / w < 1e-4);
+  CHECK(err_end / w < 5e-3);
+  CHECK_THROWS_AS(indicial::smooth_derivative(std::vector<double>(5, 1.0), 0.01, 5, 3), std::invalid_argument);
+}
+
+// ---------------------------------------------------------------------------------------
+// Experiment files
+// ---------------------------------------------------------------------------------------
+namespace {
+
+// interface.md's example, verbatim.
+const char* kInterfaceExample = R"(axis = "pitch"                 # pitch | roll | yaw
+coefficient = "Cm"             # column to model
+reference_length_m = 0.3765    # l: mean chord / 2 in pitch, span / 2 in roll and yaw
+airspeed_mps = 17.667762       # V
+# alpha0_deg = 30.0            # roll and yaw: the fixed angle of attack
+runs = ["run_f0.25.csv", "run_f0.50.csv", "run_f1.00.csv"]
+
+[static]                       # C_a(x), known from static tests
+polynomial = [0.0, 0.42, 0.34, -1.0, 0.40]   # coefficients of x^0, x^1, ... with x in rad
+# table = "static.csv"         # or a table: columns alpha_deg (or beta_deg) and the coefficient
+
+[rotary]                       # C_aq(x), a priori
+polynomial = [-2.0, 0.0, 0.8]
+estimate = false               # true: two-stage re-estimation (report eq. 25-26)
+# degree = 2                   # with estimate = true: candidate powers x^0..x^degree for C_aq(x)
+# knots_deg = []               #   and candidate plus-function terms (x - k)_+ ; stepwise picks
+
+[model]
+a_degree = 2                   # a(x)  = sum_i a_i x^i (i = 0..a_degree) + sum_j A_j (x - k_j)_+^2
+# a_powers = [1, 2]            # instead of a_degree: exactly these powers (the report's Tables
+#                              #   II-IV fit a(x) without a0); b1_powers likewise for b1(x)
+a_knots_deg = [24.998149, 54.998219]
+b1_degree = 0                  # b1(x) = sum_i b1_i x^i + sum_j B_j (x - k_j)_+
+b1_knots_deg = []
+bias = false                   # the constant 'con' in the state equation (report Table V)
+structure = "fixed"            # fixed | stepwise (stepwise: the terms above are the candidate pool)
+)";
+
+// The simulated runs (tailless Model I, no noise) in dir()/exp.
+const fs::path& runs_dir() {
+  static const fs::path d = [] {
+    const fs::path p = dir() / "exp";
+    indicial::write_simulation_case(indicial::find_simulation_case("tailless-model-1"), p.string(),
+                                    std::numeric_limits<double>::infinity(), 1,
+                                    indicial::Overwrite::refuse);
+    return p;
+  }();
+  return d;
+}
+
+std::string write_exp(const std::string& name, const std::string& text) {
+  const fs::path p = runs_dir() / name;
+  std::ofstream(p, std::ios::binary) << text;
+  return p.string();
+}
+
+std::string exp_error(const std::string& name, const std::string& text) {
+  const std::string p = write_exp(name, text);
+  return error_of([&] { indicial::load_experiment(p); });
+}
+
+std::string replace(std::string s, const std::string& from, const std::string& to) {
+  const std::size_t i = s.find(from);
+  REQUIRE(i != std::string::npos);
+  return s.replace(i, from.size(), to);
+}
+
+}  // namespace
+
+TEST_CASE("interface.md's experiment file is accepted verbatim") {
+  const std::string p = write_exp("interface.toml", kInterfaceExample);
+  const indicial::Experiment e = indicial::load_experiment(p);
+  CHECK(e.axis == indicial::Axis::pitch);
+  CHECK(e.coefficient == "Cm");
+  CHECK(e.reference_length_m == 0.3765);
+  CHECK(e.airspeed_mps == 17.667762);
+  REQUIRE(e.runs.size() == 3);
+  CHECK(e.runs[0].size() == 1201);
+  CHECK(e.runs[2].size() == 301);
+  CHECK(e.static_curve.polynomial == std::vector<double>{0.0, 0.42, 0.34, -1.0, 0.40});
+  CHECK(e.rotary.polynomial == std::vector<double>{-2.0, 0.0, 0.8});
+  CHECK_FALSE(e.rotary.estimate);
+  CHECK(e.model.a.powers == std::vector<int>{0, 1, 2});
+  REQUIRE(e.model.a.knots_rad.size() == 2);
+  CHECK(e.model.a.knots_rad[0] == doctest::Approx(0.4363).epsilon(1e-7));
+  CHECK(e.model.a.knots_rad[1] == doctest::Approx(0.9599).epsilon(1e-7));
+  CHECK(e.model.b1.powers == std::vector<int>{0});
+  CHECK(e.model.b1.knots_rad.empty());
+  CHECK(e.model.structure == indicial::StructureMode::fixed);
+  CHECK(e.data_x_min_rad == doctest::Approx(0.0));
+  CHECK(e.data_x_max_rad == doctest::Approx(70 * kPi / 180));
+  // And the copy in the reference, if the checkout has shared/ beside it, says the same.
+  const fs::path ref = fs::path(INDICIAL_SOURCE_DIR) / ".." / "shared" / "reference" / "interface.md";
+  if (fs::exists(ref)) {
+    std::ifstream in(ref);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    const std::string md = ss.str();
+    const std::size_t a = md.find("```toml\n");
+    const std::size_t b = md.find("```", a + 8);
+    REQUIRE(a != std::string::npos);
+    CHECK(md.substr(a + 8, b - a - 8) == kInterfaceExample);
+  }
+}
+
+TEST_CASE("the simulator's experiment file round-trips through the reader") {
+  const indicial::Experiment e = indicial::load_experiment((runs_dir() / "experiment.toml").string());
+  const indicial::Experiment& c = indicial::find_simulation_case("tailless-model-1").experiment;
+  CHECK(e.airspeed_mps == c.airspeed_mps);
+  CHECK(e.model.a.knots_rad[0] == doctest::Approx(c.model.a.knots_rad[0]).epsilon(1e-15));
+  CHECK(e.static_curve.polynomial == c.static_curve.polynomial);
+  const std::string text = indicial::write_experiment_toml(e, {});
+  // Paths were resolved on read; writing and reading again gives the same configuration.
+  const std::string p = write_exp("again.toml", text);
+  const indicial::Experiment e2 = indicial::load_experiment(p);
+  CHECK(e2.runs.size() == 3);
+  CHECK(e2.model.a.knots_rad == e.model.a.knots_rad);
+}
+
+TEST_CASE("experiment extensions: run tables, powers, rotary pool, static table") {
+  std::string t = kInterfaceExample;
+  t = replace(t, R"(runs = ["run_f0.25.csv", "run_f0.50.csv", "run_f1.00.csv"])",
+              R"(runs = ["run_f0.25.csv", {file = "run_f1.00.csv", periodic = true}])");
+  t = replace(t, "a_degree = 2 ", "a_powers = [1, 2]");
+  t = replace(t, "estimate = false", "estimate = true\ndegree = 2\nknots_deg = [20.0]");
+  t = replace(t, "polynomial = [0.0, 0.42, 0.34, -1.0, 0.40]", "table = \"tables/static.csv\"");
+  std::string table = "# static Cm\nalpha_deg,Cm\n";
+  for (int d = 0; d <= 70; d += 2) table += std::to_string(d) + "," + std::to_string(0.001 * d) + "\n";
+  fs::create_directories(runs_dir() / "tables");
+  std::ofstream(runs_dir() / "tables" / "static.csv") << table;
+  const indicial::Experiment e = indicial::load_experiment(write_exp("ext.toml", t));
+  REQUIRE(e.runs.size() == 2);
+  CHECK_FALSE(e.runs[0].periodic);
+  CHECK(e.runs[1].periodic);
+  CHECK(e.model.a.powers == std::vector<int>{1, 2});
+  CHECK(e.rotary.estimate);
+  CHECK(e.rotary.candidates.powers == std::vector<int>{0, 1, 2});
+  CHECK(e.rotary.candidates.knots_rad.size() == 1);
+  CHECK(e.static_curve.kind == indicial::StaticKind::table);
+  CHECK(e.static_curve.table_x_rad.size() == 36);
+  CHECK(e.static_curve.table_value[35] == doctest::Approx(0.07));
+
+  // A table that stops at 60 deg does not cover the runs' 70 deg.
+  std::string short_table = "alpha_deg,Cm\n";
+  for (int d = 0; d <= 60; d += 2) short_table += std::to_string(d) + ",0\n";
+  std::ofstream(runs_dir() / "tables" / "short.csv") << short_table;
+  const std::string m = exp_error("short.toml", replace(t, "tables/static.csv", "tables/short.csv"));
+  CHECK_HAS(m, "short.toml:9: the static table");
+  CHECK_HAS(m, "covers alpha [0, 60] deg but the runs reach [0, 70");
+  // A table that is not increasing.
+  std::ofstream(runs_dir() / "tables" / "bad.csv") << "alpha_deg,Cm\n0,0\n10,0\n10,1\n70,0\n";
+  const std::string m2 = exp_error("badtable.toml", replace(t, "tables/static.csv", "tables/bad.csv"));
+  CHECK_HAS(m2, "bad.csv:4: the angle column is not strictly increasing (10 after 10)");
+}
+
+TEST_CASE("each bad experiment file names the file, the line and the key") {
+  const std::string t = kInterfaceExample;
+  SUBCASE("unknown keys at every level") {
+    std::string m = exp_error("u1.toml", replace(t, "coefficient = \"Cm\"", "coefficient = \"Cm\"\ncoeficient = 1"));
+    CHECK_HAS(m, "u1.toml:3: unknown key 'coeficient'");
+    m = exp_error("u2.toml", replace(t, "b1_degree = 0", "b1_degree = 0\nb_degree = 1"));
+    CHECK_HAS(m, "u2.toml:24: unknown key 'model.b_degree'");
+    m = exp_error("u3.toml", replace(t, "estimate = false", "estimate = false\nestimated = true"));
+    CHECK_HAS(m, "u3.toml:15: unknown key 'rotary.estimated'");
+    m = exp_error("u4.toml", replace(t, "\"run_f0.25.csv\",", "{file = \"run_f0.25.csv\", periodc = true},"));
+    CHECK_HAS(m, "u4.toml:6: unknown key 'runs.periodc'");
+    m = exp_error("u5.toml", t + "[fit]\nx = 1\n");
+    CHECK_HAS(m, "u5.toml:27: unknown key 'fit'");
+  }
+  SUBCASE("wrong types") {
+    std::string m = exp_error("w1.toml", replace(t, "reference_length_m = 0.3765", "reference_length_m = \"0.3765\""));
+    CHECK_HAS(m, "w1.toml:3: wrong type: 'reference_length_m' must be a number, found a string");
+    m = exp_error("w2.toml", replace(t, "bias = false", "bias = 0"));
+    CHECK_HAS(m, "w2.toml:25: wrong type: 'model.bias' must be true or false, found an integer");
+    m = exp_error("w3.toml", replace(t, "a_degree = 2", "a_degree = 2.5"));
+    CHECK_HAS(m, "w3.toml:19: wrong type: 'model.a_degree' must be an integer");
+    m = exp_error("w4.toml", replace(t, "runs = [", "runs = [3, "));
+    CHECK_HAS(m, "w4.toml:6: wrong type: 'runs' entries must be strings");
+    m = exp_error("w5.toml", replace(t, "axis = \"pitch\"", "axis = \"pich\""));
+    CHECK_HAS(m, "w5.toml:1: 'axis' must be \"pitch\", \"roll\" or \"yaw\"");
+    m = exp_error("w6.toml", replace(t, "a_knots_deg = [24.998149, 54.998219]", "a_knots_deg = [\"25\"]"));
+    CHECK_HAS(m, "w6.toml:22: wrong type: 'model.a_knots_deg entry' must be a number");
+  }
+  SUBCASE("missing required keys") {
+    std::string m = exp_error("m1.toml", replace(t, "coefficient = \"Cm\"", ""));
+    CHECK_HAS(m, "m1.toml");
+    CHECK_HAS(m, "missing required key 'coefficient'");
+    m = exp_error("m2.toml", replace(t, "polynomial = [0.0, 0.42, 0.34, -1.0, 0.40]", ""));
+    CHECK_HAS(m, "m2.toml:8: missing required key 'static.polynomial' or 'static.table'");
+    m = exp_error("m3.toml", replace(t, "axis = \"pitch\"", "axis = \"roll\""));
+    CHECK_HAS(m, "missing required key 'alpha0_deg'");
+  }
+  SUBCASE("non-positive length and airspeed") {
+    std::string m = exp_error("l.toml", replace(t, "reference_length_m = 0.3765", "reference_length_m = 0"));
+    CHECK_HAS(m, "l.toml:3: 'reference_length_m' must be > 0");
+    m = exp_error("v.toml", replace(t, "airspeed_mps = 17.667762", "airspeed_mps = -17.6"));
+    CHECK_HAS(m, "v.toml:4: 'airspeed_mps' must be > 0");
+  }
+  SUBCASE("knots outside the data's angle range, unordered knots") {
+    std::string m = exp_error("k.toml", replace(t, "b1_knots_deg = []", "b1_knots_deg = [30.0, 75.0]"));
+    CHECK_HAS(m, "k.toml:24: 'model.b1_knots_deg': knot 75 deg is outside the data's alpha range [0, 70");
+    m = exp_error("k2.toml", replace(t, "b1_knots_deg = []", "b1_knots_deg = [40.0, 30.0]"));
+    CHECK_HAS(m, "k2.toml:24: 'model.b1_knots_deg' must be strictly increasing");
+  }
+  SUBCASE("TOML syntax and a bad run file named from the experiment") {
+    std::string m = exp_error("syn.toml", replace(t, "bias = false", "bias = "));
+    CHECK_HAS(m, "syn.toml:25: TOML syntax error");
+    m = exp_error("run.toml", replace(t, "run_f0.50.csv", "missing_run.csv"));
+    CHECK_HAS(m, "missing_run.csv: cannot open file");
+  }
+}
