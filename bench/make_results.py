@@ -59,7 +59,8 @@ w("# Benchmark results")
 w("")
 w("Written by `bench/run_all.sh` (see the README's Benchmarks section); every number below was")
 w("measured in the run described here. Times are medians over Google Benchmark repetitions")
-w("(wall time). The machine is a shared, noisy 2-vCPU virtual machine: other work ran on it")
+w("(CPU time of the benchmark thread for the single-threaded microbenchmarks, wall time")
+w("for the multi-threaded ones and the fitter). The machine is a shared, noisy 2-vCPU virtual machine: other work ran on it")
 w("during the run (see the load averages), so absolute times carry tens of percent of noise;")
 w("ratios taken within one binary and one run, and the callgrind instruction counts, are")
 w("the more reliable numbers.")
@@ -77,8 +78,15 @@ goals = []  # (goal, measured, verdict)
 
 
 def t(name):
+    # CPU time of the (single-threaded) benchmark thread: on a shared machine the wall time
+    # also counts the time the thread waited for a CPU, which is not the step's cost.
     b = step.get(name)
-    return to_ns(b) if b else None
+    return to_ns(b, "cpu_time") if b else None
+
+
+def t_wall(name):
+    b = step.get(name)
+    return to_ns(b, "real_time") if b else None
 
 
 w("## 1. Runtime step against its floor (bench_step)")
@@ -91,8 +99,12 @@ w("unavoidable work: static, rotary and A at the new angle, b_j at the new angle
 w("exp per lag and coefficient. Each iteration's angle depends on the previous output")
 w("(latency of a dependent chain, as in a real-time loop).")
 w("")
-w("| model | scalar | step ns | model ns | cached ns | floor ns | step/floor | model/floor | cached/floor | allocs/step |")
-w("|---|---|---|---|---|---|---|---|---|---|")
+w("Times are the median CPU time per step of the benchmark thread (ns); `step wall` is the")
+w("median wall time of the same benchmark, inflated by time spent waiting for a CPU when the")
+w("machine is shared.")
+w("")
+w("| model | scalar | step ns | model ns | cached ns | floor ns | step/floor | model/floor | cached/floor | step wall ns | allocs/step |")
+w("|---|---|---|---|---|---|---|---|---|---|---|")
 for m in ("model1", "model2", "twolag"):
     for s in ("double", "float"):
         st, mo, ca, fl = (t(f"{k}/{m}/{s}") for k in ("step", "model", "cached", "floor"))
@@ -101,7 +113,7 @@ for m in ("model1", "model2", "twolag"):
                      default=None)
         r = lambda a: a / fl if (a and fl) else None
         w(f"| {m} | {s} | {fmt(st)} | {fmt(mo)} | {fmt(ca)} | {fmt(fl)} | {fmt(r(st))} | "
-          f"{fmt(r(mo))} | {fmt(r(ca))} | {fmt(allocs)} |")
+          f"{fmt(r(mo))} | {fmt(r(ca))} | {fmt(t_wall(f'step/{m}/{s}'))} | {fmt(allocs)} |")
 w("")
 ratio_m2 = (t("step/model2/double") / t("floor/model2/double")) if t("floor/model2/double") else None
 allocs_all = [b.get("allocs_per_step", 0.0) for n, b in step.items()]
@@ -143,7 +155,7 @@ if cg:
     w("Instruction counts per step (valgrind --tool=callgrind, noise-free; exp calls counted")
     w("from the call graph):")
     w("")
-    w("| variant | instructions/step | exp() calls/step | ns/step (median) | vs floor (instructions) |")
+    w("| variant | instructions/step | exp() calls/step | CPU ns/step (median) | vs floor (instructions) |")
     w("|---|---|---|---|---|")
     for name, (ir, ex) in cg.items():
         parts = name.split("/")
@@ -154,7 +166,7 @@ if cg:
 
 w("### Peers (Model II, double)")
 w("")
-w("| variant | ns/step | vs step |")
+w("| variant | CPU ns/step | vs step |")
 w("|---|---|---|")
 st = t("step/model2/double")
 for name, what in (("step/model2/double", "Predictor::step (recursive, exponential integrator)"),
@@ -229,23 +241,28 @@ ml = medians(load_json("fitter_ml.json"))
 if fit or ml:
     w("## 4. Fitter (bench_fitter)")
     w("")
-    w("| benchmark | median | notes |")
-    w("|---|---|---|")
+    w("fit_experiment is single-threaded, so its CPU time is what it costs on an idle core;")
+    w("the wall time includes waiting for a CPU on this shared machine.")
+    w("")
+    w("| benchmark | median CPU | median wall | notes |")
+    w("|---|---|---|---|")
     for name, b in fit.items():
         if name.startswith("fit/"):
             notes = f"ML iterations {b.get('ml_iterations', 0):.0f}, two-stage iterations {b.get('two_stage_iterations', 0):.0f}"
-            w(f"| {name} | {fmt(to_ns(b) / 1e6)} ms | {notes} |")
+            w(f"| {name} | {fmt(to_ns(b, 'cpu_time') / 1e6)} ms | {fmt(to_ns(b) / 1e6)} ms | {notes} |")
     full = fit.get("fit/example1/full")
     if full:
-        ms = to_ns(full) / 1e6
-        goals.append(("full Example 1 identification <= 50 ms", f"{fmt(ms)} ms (stepwise + ML + bounds + two-stage)",
+        ms = to_ns(full, "cpu_time") / 1e6
+        wall = to_ns(full) / 1e6
+        goals.append(("full Example 1 identification <= 50 ms",
+                      f"{fmt(ms)} ms CPU, {fmt(wall)} ms wall on the loaded machine (stepwise + ML + bounds + two-stage)",
                       "met" if ms <= 50 else "NOT met"))
     mc1 = fit.get("montecarlo/threads/1/real_time")
     mc2 = fit.get("montecarlo/threads/2/real_time")
     if mc1:
-        w(f"| Monte Carlo, 1 thread | {fmt(mc1['seeds_per_s'])} seeds/s | fixed-structure Example 1 fit per seed |")
+        w(f"| Monte Carlo, 1 thread | {fmt(mc1['seeds_per_s'])} seeds/s (wall) | | fixed-structure Example 1 fit per seed |")
     if mc2:
-        w(f"| Monte Carlo, 2 threads | {fmt(mc2['seeds_per_s'])} seeds/s | scaling {fmt(mc2['seeds_per_s'] / mc1['seeds_per_s']) if mc1 else 'n/a'}x |")
+        w(f"| Monte Carlo, 2 threads | {fmt(mc2['seeds_per_s'])} seeds/s (wall) | | scaling {fmt(mc2['seeds_per_s'] / mc1['seeds_per_s']) if mc1 else 'n/a'}x |")
     w("")
     xs, ys = [], []
     w("Time per Gauss-Newton/LM iteration of the output-error step, T(1 iteration) - T(0 iterations), from the equation-error start:")
@@ -267,12 +284,23 @@ if fit or ml:
         return sum((a - mx) * (b - my) for a, b in zip(x, y)) / sum((a - mx) ** 2 for a in x)
     if len(xs) >= 2:
         s_all = slope(xs, ys)
-        s_top = slope(xs[1:], ys[1:]) if len(xs) >= 3 else s_all
-        w(f"Log-log slope of time per iteration against samples: {s_all:.2f} over all points, "
-          f"{s_top:.2f} from 1e4 up (1.00 = linear).")
+        decades = [(math.exp(xs[i]), math.exp(xs[i + 1]),
+                    (ys[i + 1] - ys[i]) / (xs[i + 1] - xs[i])) for i in range(len(xs) - 1)]
+        per = ", ".join(f"{a:.0e}->{b:.0e}: {d:.2f}" for a, b, d in decades)
+        w(f"Log-log slope of time per iteration against samples: {s_all:.2f} fitted over all "
+          f"points; per interval {per} (1.00 = linear).")
         w("")
-        goals.append(("linear growth in samples", f"log-log slope {s_all:.2f} (all), {s_top:.2f} (>= 1e4)",
-                      "met" if 0.8 <= s_top <= 1.15 else "NOT met"))
+        linear = [0.85 <= d <= 1.15 for _, _, d in decades]
+        if all(linear):
+            verdict = "met"
+        elif linear[-1]:
+            first = next(i for i in range(len(linear)) if all(linear[i:]))
+            verdict = (f"partly: linear from {math.exp(xs[first]):.0e} samples up; "
+                       "superlinear below")
+        else:
+            verdict = "NOT met"
+        goals.append(("linear growth in samples", f"log-log slope {s_all:.2f} overall; {per}",
+                      verdict))
     w("| structural parameters (+1 initial state) | samples | ms per iteration |")
     w("|---|---|---|")
     for name, b in sorted(ml.items(), key=lambda kv: (kv[0].split("/")[1], int(kv[0].split("/")[2]))):
