@@ -6,7 +6,7 @@
 # Environment: HIL_SECONDS (default 60: the 10 kHz loaded loop of the goal), HIL_SHORT_SECONDS
 # (default 10: the other loops), REPS (default 5:
 # Google Benchmark repetitions; medians are reported), SKIP_FITTER=1 (runtime only),
-# SKIP_CALLGRIND=1. Takes about 5-6 minutes on a 2-core machine. Needs cmake, ninja, a C++17
+# SKIP_CALLGRIND=1. The runs take about 6 minutes on an idle 2-core machine, plus the build. Needs cmake, ninja, a C++17
 # compiler, Google Benchmark, python3; valgrind for the instruction counts (optional).
 set -euo pipefail
 
