@@ -7,4 +7,5 @@ $SUDO apt-get update
 $SUDO apt-get install -y --no-install-recommends \
   ca-certificates cmake ninja-build g++ pkg-config git \
   libeigen3-dev libboost-dev libtomlplusplus-dev libcli11-dev libfmt-dev nlohmann-json3-dev \
-  doctest-dev libbenchmark-dev gnuplot-nox
+  doctest-dev libbenchmark-dev gnuplot-nox \
+  clang libclang-rt-14-dev   # tools/run-fuzz.sh: clang 14 with libFuzzer and its sanitizer runtimes
