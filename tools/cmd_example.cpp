@@ -122,8 +122,12 @@ double simulate_into(const std::string& case_name, const fs::path& data_dir, dou
 }
 
 // Rewrites an experiment file with a changed configuration (the runs stay the same files).
+// load_experiment resolved the run paths; the file names them relative to itself again (they
+// sit beside it), so the data set stays valid after the output directory is moved into place.
 void write_variant(const indicial::Experiment& e, const fs::path& path, const std::string& comment) {
-  indicial::write_text(path, indicial::write_experiment_toml(e, {comment}));
+  indicial::Experiment rel = e;
+  for (indicial::Run& r : rel.runs) r.path = fs::path(r.path).filename().string();
+  indicial::write_text(path, indicial::write_experiment_toml(rel, {comment}));
 }
 
 ColumnResult fit_column(const fs::path& experiment, const fs::path& fit_dir, double sigma,

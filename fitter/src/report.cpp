@@ -77,11 +77,12 @@ namespace {
 // A run or experiment path as the report shows it: relative to the experiment's directory when
 // it lies inside it (so a report does not carry a temporary or absolute prefix).
 std::string display_path(const std::string& path, const Experiment& e) {
-  const std::string base = fs::path(e.path).parent_path().string();
-  if (!base.empty() && path.size() > base.size() + 1 && path.compare(0, base.size(), base) == 0 &&
-      path[base.size()] == '/')
-    return path.substr(base.size() + 1);
-  return path;
+  const fs::path base = fs::path(e.path).parent_path().lexically_normal();
+  const fs::path rel = fs::path(path).lexically_normal().lexically_relative(base);
+  // Why the checks: a path outside the experiment's directory (or on another root) keeps its
+  // full form rather than a confusing ../../ chain.
+  if (base.empty() || rel.empty() || *rel.begin() == "..") return path;
+  return rel.string();
 }
 
 // The initial lag states of run `ri` (0-based) as the fitter estimated them.
