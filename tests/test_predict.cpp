@@ -1,0 +1,183 @@
+// Prediction with the runtime (fitter/.../predict.hpp) and `indicial predict`.
+#define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <unistd.h>
+
+#include "indicial/fitter/io.hpp"
+#include "indicial/fitter/predict.hpp"
+#include "indicial/fitter/simulate.hpp"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kDeg = kPi / 180.0;
+
+struct TempDir {
+  fs::path path;
+  TempDir() {
+    path = fs::temp_directory_path() / ("indicial_predict_" + std::to_string(::getpid()));
+    fs::remove_all(path);
+    fs::create_directories(path);
+  }
+  ~TempDir() { fs::remove_all(path); }
+};
+
+int run(const std::string& cmd) { return std::system((cmd + " > /dev/null 2>&1").c_str()); }
+
+}  // namespace
+
+TEST_CASE("predict: metrics on hand-checked values") {
+  const auto perfect = indicial::score_prediction({1.0, -2.0, 3.0}, {1.0, -2.0, 3.0});
+  CHECK(perfect.rms_error == 0.0);
+  CHECK(perfect.max_error == 0.0);
+  CHECK(perfect.theil_inequality == 0.0);
+  // e = (0, 2): RMS = sqrt(2), max 2; RMS(m) = 1, RMS(p) = 1 -> TIC = sqrt(2) / 2.
+  const auto m = indicial::score_prediction({1.0, -1.0}, {1.0, 1.0});
+  CHECK(m.rms_error == doctest::Approx(std::sqrt(2.0)));
+  CHECK(m.max_error == doctest::Approx(2.0));
+  CHECK(m.theil_inequality == doctest::Approx(std::sqrt(2.0) / 2.0));
+  // p = -m is the worst case: TIC = 1; p = 0 also gives 1.
+  CHECK(indicial::score_prediction({0.3, -0.1, 0.7}, {-0.3, 0.1, -0.7}).theil_inequality ==
+        doctest::Approx(1.0));
+  CHECK(indicial::score_prediction({0.3, -0.1, 0.7}, {0.0, 0.0, 0.0}).theil_inequality ==
+        doctest::Approx(1.0));
+  CHECK_THROWS_AS(indicial::score_prediction({1.0}, {1.0, 2.0}), std::invalid_argument);
+}
+
+TEST_CASE("predict: the runtime's prediction follows the reference integration on a new motion") {
+  // Model II of Example 1 on a motion it was never built around: 20 deg amplitude, 0.7 Hz.
+  const auto& c = indicial::find_simulation_case("tailless-model-2");
+  indicial::MotionSpec s;
+  s.kind = indicial::MotionKind::sine;
+  s.mean_rad = 30.0 * kDeg;
+  s.amplitude_rad = 20.0 * kDeg;
+  s.freq_hz = 0.7;
+  s.cycles = 3;
+  s.dt_s = 0.01;
+  const indicial::SimulatedRun sim = indicial::simulate_reference(c.truth, s);
+  indicial::Prediction p =
+      indicial::predict_motion(c.truth, sim.time_s, sim.motion_angle_rad, sim.rate_radps,
+                               c.truth.airspeed_mps);
+  REQUIRE(p.coefficients.size() == 1);
+  CHECK(p.clamped_samples == 0);
+  p.coefficients[0].measured = sim.coefficient_true[0];
+  indicial::score_coefficients(p);
+  const auto& cp = p.coefficients[0];
+  MESSAGE("runtime vs reference integration: RMS " << cp.model_metrics.rms_error << ", max "
+                                                   << cp.model_metrics.max_error << ", TIC "
+                                                   << cp.model_metrics.theil_inequality);
+  MESSAGE("quasi-steady vs reference: RMS " << cp.quasi_steady_metrics.rms_error << ", TIC "
+                                            << cp.quasi_steady_metrics.theil_inequality);
+  // The runtime's update is second order in dt: measured RMS 1.6e-5, max 3.4e-5 at dt = 0.01 s
+  // (tolerance 1e-4 / 2e-4); the quasi-steady model misses the whole unsteady part (~0.14).
+  CHECK(cp.model_metrics.rms_error < 1e-4);
+  CHECK(cp.model_metrics.max_error < 2e-4);
+  CHECK(cp.quasi_steady_metrics.rms_error > 0.05);
+  // The quasi-steady column is exactly static + rotary at the sample.
+  const auto& m = c.truth.coefficients[0];
+  for (std::size_t i = 0; i < sim.time_s.size(); i += 37) {
+    const double qs = indicial::spline_value(m.static_curve.polynomial, sim.x_rad[i]) +
+                      c.truth.reference_length_m / c.truth.airspeed_mps *
+                          indicial::spline_value(m.rotary, sim.x_rad[i]) * sim.rate_radps[i];
+    CHECK(cp.quasi_steady[i] == doctest::Approx(qs).epsilon(1e-12));
+  }
+}
+
+TEST_CASE("predict: angles outside the envelope are clamped and counted") {
+  const auto& c = indicial::find_simulation_case("tailless-model-1");  // envelope 0..70 deg
+  std::vector<double> t, a, q;
+  for (int i = 0; i < 200; ++i) {
+    t.push_back(0.01 * i);
+    a.push_back((60.0 + 0.1 * i) * kDeg);  // reaches 79.9 deg
+    q.push_back(10.0 * kDeg);
+  }
+  const auto p = indicial::predict_motion(c.truth, t, a, q, c.truth.airspeed_mps);
+  CHECK(p.clamped_samples == 99);  // 70.1 .. 79.9 deg
+}
+
+TEST_CASE("predict: CLI writes the CSV, metrics and plot; refuses overwrite and bad input") {
+  TempDir tmp;
+  const std::string exe = INDICIAL_EXE;
+  const std::string sim_dir = (tmp.path / "sim").string();
+  REQUIRE(run(exe + " simulate --case tailless-model-2 --out " + sim_dir + " --snr 40 --seed 3") == 0);
+  const std::string coef = sim_dir + "/truth.coef";
+  const std::string data = sim_dir + "/run_f0.50.csv";
+  const std::string out = (tmp.path / "pred.csv").string();
+  const std::string png = (tmp.path / "pred.png").string();
+  const std::string cmd = exe + " predict " + coef + " " + data + " --out " + out + " --plot " + png;
+  REQUIRE(run(cmd) == 0);
+
+  // Columns: time_s, alpha_deg as given, Cm_pred, Cm_quasi_steady, Cm.
+  std::ifstream in(out);
+  std::string line, header;
+  std::vector<std::vector<double>> rows;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    if (header.empty()) {
+      header = line;
+      continue;
+    }
+    std::stringstream ss(line);
+    std::string cell;
+    std::vector<double> r;
+    while (std::getline(ss, cell, ',')) r.push_back(std::stod(cell));
+    rows.push_back(r);
+  }
+  CHECK(header == "time_s,alpha_deg,Cm_pred,Cm_quasi_steady,Cm");
+  const indicial::Run run_in =
+      indicial::read_run_csv(data, indicial::Axis::pitch, "Cm", indicial::CoefficientPresence::required);
+  REQUIRE(rows.size() == run_in.size());
+  for (std::size_t i = 0; i < rows.size(); i += 50) {
+    CHECK(rows[i][1] == doctest::Approx(run_in.motion_angle_rad[i] / kDeg).epsilon(1e-14));
+    CHECK(rows[i][4] == run_in.coefficient[i]);
+  }
+  // The metrics file agrees with the library on the same data.
+  const auto model = indicial::read_model_file(coef);
+  indicial::Prediction p = indicial::predict_motion(model, run_in.time_s, run_in.motion_angle_rad,
+                                                    run_in.rate_radps, model.airspeed_mps);
+  p.coefficients[0].measured = run_in.coefficient;
+  indicial::score_coefficients(p);
+  std::ifstream jf((tmp.path / "pred.metrics.json").string());
+  REQUIRE(jf.good());
+  const nlohmann::json j = nlohmann::json::parse(jf);
+  const auto& jc = j["coefficients"][0];
+  CHECK(jc["name"] == "Cm");
+  CHECK(jc["model"]["rms_error"].get<double>() == doctest::Approx(p.coefficients[0].model_metrics.rms_error));
+  CHECK(jc["quasi_steady"]["theil_inequality"].get<double>() ==
+        doctest::Approx(p.coefficients[0].quasi_steady_metrics.theil_inequality));
+  // With the true model on noisy data the model's error is the noise (SNR 40: sigma ~ 0.0035).
+  CHECK(jc["model"]["rms_error"].get<double>() < 0.006);
+  CHECK(jc["model"]["rms_error"].get<double>() < jc["quasi_steady"]["rms_error"].get<double>() / 5);
+  CHECK(fs::file_size(png) > 1000);
+
+  CHECK(run(cmd) != 0);                // exists: refused without --force
+  CHECK(run(cmd + " --force") == 0);
+  CHECK(run(exe + " predict " + coef + " " + sim_dir + "/nope.csv --out " + out + "x") != 0);
+  CHECK(run(exe + " predict " + data + " " + data + " --out " + out + "y") != 0);  // not a model
+
+  // No measured column: prediction only, no metrics file.
+  const std::string motion = (tmp.path / "motion.csv").string();
+  {
+    std::ofstream f(motion);
+    f << "# a motion without a coefficient\ntime_s,alpha_rad\n";
+    for (int i = 0; i < 100; ++i) f << 0.01 * i << "," << 0.3 + 0.2 * std::sin(0.05 * i) << "\n";
+  }
+  const std::string out2 = (tmp.path / "pred2.csv").string();
+  REQUIRE(run(exe + " predict " + coef + " " + motion + " --out " + out2) == 0);
+  CHECK_FALSE(fs::exists(tmp.path / "pred2.metrics.json"));
+  std::ifstream in2(out2);
+  std::string h2;
+  while (std::getline(in2, h2))
+    if (!h2.empty() && h2[0] != '#') break;
+  CHECK(h2 == "time_s,alpha_rad,Cm_pred,Cm_quasi_steady");
+}
