@@ -79,10 +79,10 @@ double check_model(const indicial::TruthModel& model, double m0) {
     const double rel = std::abs(h_sim - h_lin) / std::abs(h_lin);
     INFO("m0 = " << m0 / kDeg << " deg, k = " << ks[i] << ": linear " << h_lin << ", simulated "
                  << h_sim << ", relative difference " << rel);
-    // Tolerance: the runtime's update is second order in dt (2000 steps per cycle: ~1e-6
-    // relative) and the amplitude 1e-4 rad leaves cubic terms ~1e-8; 1e-4 leaves margin
-    // while catching any missing term (the steady-state term is ~1e-2 of H for f16xl-like-CL).
-    CHECK(rel < 1e-4);
+    // Tolerance: the runtime's update is second order in dt (2000 steps per cycle) and the
+    // amplitude 1e-4 rad leaves cubic terms ~1e-8; measured at most 3.9e-6 over these models
+    // (mean angles off the knots). 2e-5 leaves margin while catching any missing term.
+    CHECK(rel < 2e-5);
     worst = std::max(worst, rel);
   }
   MESSAGE(model.coefficients[0].name << " about " << m0 / kDeg << " deg: largest relative |H_sim - H_lin| / |H_lin| = " << worst);

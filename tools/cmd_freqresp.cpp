@@ -63,6 +63,8 @@ void write_plot(const std::vector<indicial::FrequencyResponse>& r, const std::st
   namespace fs = std::filesystem;
   if (overwrite == indicial::Overwrite::refuse && fs::exists(path))
     throw indicial::InputError(path, 0, "exists; use --force to replace it");
+  const fs::path parent = fs::path(path).parent_path().empty() ? fs::path(".") : fs::path(path).parent_path();
+  if (!fs::is_directory(parent)) throw indicial::InputError(path, 0, "the directory does not exist");
   const std::string tmp = path + ".tmp-" + std::to_string(::getpid()) + ".png";
   std::ostringstream s;
   s.precision(10);
@@ -83,7 +85,7 @@ void write_plot(const std::vector<indicial::FrequencyResponse>& r, const std::st
     s << "\n";
   }
   s << "unset multiplot\nset output\n";
-  FILE* g = ::popen("gnuplot 2>&1", "w");
+  FILE* g = ::popen("gnuplot > /dev/null 2>&1", "w");
   if (g == nullptr) throw indicial::InputError(path, 0, "cannot start gnuplot");
   const std::string script = s.str();
   std::fwrite(script.data(), 1, script.size(), g);

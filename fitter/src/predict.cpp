@@ -245,6 +245,8 @@ void write_prediction_plot(const Prediction& p, const std::string& png_path,
   const fs::path target(png_path);
   if (overwrite == Overwrite::refuse && fs::exists(target))
     throw InputError(png_path, 0, "exists; use --force to replace it");
+  const fs::path parent = target.parent_path().empty() ? fs::path(".") : target.parent_path();
+  if (!fs::is_directory(parent)) throw InputError(png_path, 0, "the directory does not exist");
   const fs::path tmp = target.string() + ".tmp-" + std::to_string(::getpid()) + ".png";
   const std::size_t nc = p.coefficients.size();
   const char* base = motion_base(p.axis);
@@ -264,7 +266,7 @@ void write_prediction_plot(const Prediction& p, const std::string& png_path,
   s << "EOD\n";
   s << "set terminal pngcairo size 1200," << 360 * nc + 40 << " font 'sans,10'\n";
   s << "set output '" << tmp.string() << "'\n";
-  s << "set datafile missing 'NaN'\nset grid\nset key top left\n";
+  s << "set datafile missing 'NaN'\nset grid\nset key below horizontal\n";
   s << "set multiplot layout " << nc << ",2 title '" << title << "'\n";
   for (std::size_t c = 0; c < nc; ++c) {
     const std::string& name = p.coefficients[c].name;
@@ -284,7 +286,7 @@ void write_prediction_plot(const Prediction& p, const std::string& png_path,
   }
   s << "unset multiplot\nset output\n";
 
-  FILE* g = ::popen("gnuplot 2>&1", "w");
+  FILE* g = ::popen("gnuplot > /dev/null 2>&1", "w");
   if (g == nullptr) throw InputError(png_path, 0, "cannot start gnuplot");
   const std::string script = s.str();
   std::fwrite(script.data(), 1, script.size(), g);
