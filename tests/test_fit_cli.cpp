@@ -199,6 +199,65 @@ TEST_CASE("without gnuplot everything else is still written and the report says 
   CHECK(j["plots"]["status"] == "gnuplot_not_found");
 }
 
+// A copy of the data set with the experiment file edited (old -> new, which must occur).
+fs::path edited_data(const std::string& name, const std::string& old_text, const std::string& new_text) {
+  const fs::path d = scratch() / name;
+  fs::create_directories(d);
+  for (const auto& ent : fs::directory_iterator(data_dir()))
+    fs::copy_file(ent.path(), d / ent.path().filename(), fs::copy_options::overwrite_existing);
+  std::string toml = slurp(d / "experiment.toml");
+  const std::size_t at = toml.find(old_text);
+  REQUIRE(at != std::string::npos);
+  toml.replace(at, old_text.size(), new_text);
+  { std::ofstream(d / "experiment.toml", std::ios::trunc) << toml; }
+  return d;
+}
+
+TEST_CASE("stepwise structure: the report and fit.json carry every step of the log") {
+  const fs::path d = edited_data("data-stepwise", "structure = \"fixed\"", "structure = \"stepwise\"");
+  const Run r = run_cli("fit '" + (d / "experiment.toml").string() + "' --out '" + (d / "fit").string() + "' --no-plots");
+  REQUIRE_MESSAGE(r.exit_code == 0, r.err);
+  const nlohmann::json j = nlohmann::json::parse(slurp(d / "fit" / "fit.json"));
+  const auto& steps = j["equation_error"]["stepwise"]["steps"];
+  REQUIRE(steps.is_array());
+  REQUIRE(steps.size() >= 1);
+  for (const auto& st : steps) {
+    CHECK(st["term"].is_string());
+    CHECK(st["partial_f"].is_number());
+    CHECK(st["r_squared"].is_number());
+    CHECK(st["pse"].is_number());
+  }
+  const std::string md = slurp(d / "fit" / "report.md");
+  CHECK(md.find("### Stepwise regression") != std::string::npos);
+  CHECK(md.find("| step | term | action | partial F | R^2 | PSE |") != std::string::npos);
+  CHECK(md.find("Selected at the minimum PSE") != std::string::npos);
+}
+
+TEST_CASE("rotary.estimate = true: fit.json has the two_stage log and report.md the loop's table") {
+  const fs::path d = edited_data("data-two-stage", "polynomial = [-2, 0, 0.8]\nestimate = false",
+                                 "polynomial = [-1.4]\nestimate = true\ndegree = 2");
+  const Run r = run_cli("fit '" + (d / "experiment.toml").string() + "' --out '" + (d / "fit").string() + "'");
+  REQUIRE_MESSAGE(r.exit_code == 0, r.err);
+  const nlohmann::json j = nlohmann::json::parse(slurp(d / "fit" / "fit.json"));
+  REQUIRE(j.contains("two_stage"));
+  REQUIRE(j["two_stage"].is_array());
+  REQUIRE(j["two_stage"].size() >= 1);
+  CHECK(j["two_stage"].size() <= 5);
+  for (const auto& it : j["two_stage"]) {
+    CHECK(it["iteration"].is_number_integer());
+    CHECK(it["cost"].is_number());
+    CHECK(it["rotary"].is_array());
+  }
+  // The final C_aq near the truth -2 + 0.8 x^2 (x^0 and x^2 terms; x^1 small or absent).
+  const auto& rot = j["rotary"]["polynomial"];
+  REQUIRE(rot.size() >= 3);
+  CHECK(rot[0].get<double>() == doctest::Approx(-2.0).epsilon(0.05));
+  CHECK(rot[2].get<double>() == doctest::Approx(0.8).epsilon(0.1));
+  const std::string md = slurp(d / "fit" / "report.md");
+  CHECK(md.find("## Two-stage loop") != std::string::npos);
+  CHECK(fs::exists(d / "fit" / "plots" / "caq_band.png"));
+}
+
 TEST_CASE("a non-empty output directory is refused without --force and replaced with it") {
   const fs::path d = scratch() / "busy";
   fs::create_directories(d);

@@ -56,6 +56,28 @@ TEST_CASE("Monte Carlo, Model I, SNR 40, 200 seeds: empirical std / mean CR boun
   CHECK(r.mean_fit_error == doctest::Approx(r.noise_sigma).epsilon(0.05));
 }
 
+// The same check on Model II (b1(alpha) a spline with four knots: 13 parameters).
+TEST_CASE("Monte Carlo, Model II, SNR 40, 200 seeds: empirical std / mean CR bound in [0.8, 1.25]") {
+  indicial::MonteCarloOptions o;
+  o.case_name = "tailless-model-2";
+  o.seeds = 200;
+  o.first_seed = 2001;
+  o.snr = 40.0;
+  o.threads = 2;
+  const indicial::MonteCarloResult r = indicial::run_monte_carlo(o);
+  MESSAGE(indicial::monte_carlo_markdown(r));
+  CHECK(r.fitted == 200);
+  REQUIRE(r.parameters.size() >= 13);
+  for (const auto& p : r.parameters) {
+    CAPTURE(p.name);
+    CAPTURE(p.std_dev);
+    CAPTURE(p.mean_cr_bound);
+    CHECK(p.count == 200);
+    CHECK(p.ratio >= 0.8);
+    CHECK(p.ratio <= 1.25);
+  }
+}
+
 TEST_CASE("results do not depend on the thread count") {
   indicial::MonteCarloOptions o;
   o.seeds = 6;
