@@ -150,10 +150,10 @@ void study(const char* case_name, std::uint64_t seed) {
 
 }  // namespace
 
-TEST_CASE("f16xl-like-CL: fit on 35 deg oscillations, predict 20 deg oscillations and ramps") {
+TEST_CASE("f16xl-like-CL: fit on 35 deg oscillations then predict 20 deg oscillations and ramps") {
   study("f16xl-like-CL", 101);
 }
 
-TEST_CASE("f16xl-like-Cm: fit on 35 deg oscillations, predict 20 deg oscillations and ramps") {
+TEST_CASE("f16xl-like-Cm: fit on 35 deg oscillations then predict 20 deg oscillations and ramps") {
   study("f16xl-like-Cm", 202);
 }

@@ -91,11 +91,11 @@ double check_model(const indicial::TruthModel& model, double m0) {
 
 }  // namespace
 
-TEST_CASE("freqresp: linearisation matches the runtime's small-amplitude response, tailless Model II") {
+TEST_CASE("freqresp: linearisation matches the runtime's small-amplitude response (tailless Model II)") {
   check_model(indicial::find_simulation_case("tailless-model-2").truth, 40.0 * kDeg);  // between knots
 }
 
-TEST_CASE("freqresp: the steady-state term (con != 0, b1'(x0) != 0) is needed and right, f16xl-like-CL") {
+TEST_CASE("freqresp: the steady-state term (con != 0 and b1'(x0) != 0) is needed and right (f16xl-like-CL)") {
   const auto& model = indicial::find_simulation_case("f16xl-like-CL").truth;
   check_model(model, 30.0 * kDeg);
   check_model(model, 50.0 * kDeg);
@@ -112,12 +112,12 @@ TEST_CASE("freqresp: the steady-state term (con != 0, b1'(x0) != 0) is needed an
   CHECK(std::abs(r[0].steady_state_slope - r[0].static_slope) > 1e-2);  // the term matters here
 }
 
-TEST_CASE("freqresp: roll and yaw linearise in the motion angle (eqs. 17, 20)") {
+TEST_CASE("freqresp: roll and yaw linearise in the motion angle (eqs. 17 and 20)") {
   check_model(indicial::find_simulation_case("lateral-roll-Cl").truth, 10.0 * kDeg);
   check_model(indicial::find_simulation_case("lateral-yaw-Cn").truth, -8.0 * kDeg);
 }
 
-TEST_CASE("freqresp: CLI writes the table and the plot, refuses bad input") {
+TEST_CASE("freqresp: CLI writes the table and the plot and refuses bad input") {
   namespace fs = std::filesystem;
   const fs::path dir = fs::temp_directory_path() / ("indicial_freqresp_" + std::to_string(::getpid()));
   fs::remove_all(dir);

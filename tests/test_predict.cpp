@@ -105,7 +105,7 @@ TEST_CASE("predict: angles outside the envelope are clamped and counted") {
   CHECK(p.clamped_samples == 99);  // 70.1 .. 79.9 deg
 }
 
-TEST_CASE("predict: CLI writes the CSV, metrics and plot; refuses overwrite and bad input") {
+TEST_CASE("predict: CLI writes the CSV and metrics and plot and refuses overwrite and bad input") {
   TempDir tmp;
   const std::string exe = INDICIAL_EXE;
   const std::string sim_dir = (tmp.path / "sim").string();
