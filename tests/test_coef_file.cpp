@@ -137,6 +137,29 @@ TEST_CASE("awkward doubles survive exactly (shortest round-trip form)") {
   CHECK(write(back) == text);
 }
 
+TEST_CASE("delay_s round trip: written after con when not +0, byte-identical, bit for bit") {
+  Set m = indicial::test_models::lift_and_moment();
+  m.coefficients[0].delay_s = 0.1 + 0.2;  // 0.30000000000000004: shortest form needed
+  m.coefficients[1].delay_s = 0.0237;
+  const std::string text = write(m);
+  CHECK(text.find("con 0.125\ndelay_s 0.30000000000000004\nend_coefficient\n") != std::string::npos);
+  CHECK(text.find("delay_s 0.0237\nend_coefficient\n") != std::string::npos);
+  Set back{};
+  indicial::ParseDiagnostic diag;
+  REQUIRE_MESSAGE(parse(text, &back, &diag) == LoadStatus::ok, diag.line, ": ", diag.reason);
+  check_models_equal(m, back);
+  CHECK(write(back) == text);
+  // -0 survives like con's; +0 is not written, so undelayed files are unchanged.
+  m.coefficients[0].delay_s = -0.0;
+  m.coefficients[1].delay_s = 0.0;
+  const std::string signed_zero = write(m);
+  CHECK(signed_zero.find("delay_s -0\n") != std::string::npos);
+  REQUIRE(parse(signed_zero, &back) == LoadStatus::ok);
+  CHECK(std::signbit(back.coefficients[0].delay_s));
+  CHECK(write(back) == signed_zero);
+  CHECK(write(indicial::test_models::lift_and_moment()).find("delay_s") == std::string::npos);
+}
+
 TEST_CASE("the report's models are compact: Model II well under 2 KB") {
   const std::string one = write(indicial::test_models::table_one_model_one());
   const std::string two = write(indicial::test_models::table_one_model_two());
@@ -304,12 +327,25 @@ TEST_CASE("damaged files are refused, each with its own status, and *out is unto
                                       "envelope_rad 1.2217304763960306 0")),
            LoadStatus::invalid_value);
   }
-  SUBCASE("unsupported feature: a delay") {
-    expect(with_checksum(replace_once(good, "con 0.125", "con 0.125\ndelay_s 0.01")),
-           LoadStatus::unsupported_feature);
+  SUBCASE("a delay: >= 0 and finite, given once") {
     Set out{};
+    CHECK(parse(with_checksum(replace_once(good, "con 0.125", "con 0.125\ndelay_s 0.01")), &out) ==
+          LoadStatus::ok);
+    CHECK(out.coefficients[0].delay_s == 0.01);
+    CHECK(out.coefficients[1].delay_s == 0.0);
     CHECK(parse(with_checksum(replace_once(good, "con 0.125", "con 0.125\ndelay_s 0")), &out) ==
           LoadStatus::ok);
+    CHECK(out.coefficients[0].delay_s == 0.0);
+    expect(with_checksum(replace_once(good, "con 0.125", "con 0.125\ndelay_s -0.01")),
+           LoadStatus::invalid_value);
+    expect(with_checksum(replace_once(good, "con 0.125", "con 0.125\ndelay_s nan")),
+           LoadStatus::invalid_value);
+    expect(with_checksum(replace_once(good, "con 0.125", "con 0.125\ndelay_s 1e999")),
+           LoadStatus::invalid_value);
+    expect(with_checksum(replace_once(good, "con 0.125", "con 0.125\ndelay_s 0.01 0.02")),
+           LoadStatus::syntax_error);
+    expect(with_checksum(replace_once(good, "con 0.125", "con 0.125\ndelay_s 0.01\ndelay_s 0.01")),
+           LoadStatus::syntax_error);
   }
 }
 
@@ -325,9 +361,10 @@ TEST_CASE("the writer refuses what would not read back, and a small buffer") {
   m.coefficients[0].a.power_coef[1] = std::nan("");
   CHECK(indicial::write_coef_file(m, buffer, sizeof buffer, &n) == indicial::WriteStatus::invalid_model);
   m = indicial::test_models::table_one_model_two();
-  m.coefficients[0].delay_s = 0.01;
-  CHECK(indicial::write_coef_file(m, buffer, sizeof buffer, &n) ==
-        indicial::WriteStatus::unsupported_feature);
+  m.coefficients[0].delay_s = -0.01;
+  CHECK(indicial::write_coef_file(m, buffer, sizeof buffer, &n) == indicial::WriteStatus::invalid_model);
+  m.coefficients[0].delay_s = std::nan("");
+  CHECK(indicial::write_coef_file(m, buffer, sizeof buffer, &n) == indicial::WriteStatus::invalid_model);
   m = indicial::test_models::table_one_model_two();
   m.coefficients[0].lags[0].gain = 2.0;
   CHECK(indicial::write_coef_file(m, buffer, sizeof buffer, &n) == indicial::WriteStatus::invalid_model);

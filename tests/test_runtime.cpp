@@ -41,11 +41,37 @@ std::string text_of(const Set& m) {
 
 }  // namespace
 
+// Sum of the member sizes of a Snapshot: doubles (time, history times), Scalars (lag states,
+// previous angle, history angles), ints (phase, newest, count, origin, reserved).
+template <class Pred, class Cap>
+std::size_t snapshot_member_bytes() {
+  using S = typename Pred::Snapshot;
+  const std::size_t doubles = 1 + Cap::max_delay_samples;
+  const std::size_t scalars = Cap::max_coefficients * Cap::max_lags + 1 + Cap::max_delay_samples;
+  return doubles * sizeof(double) + scalars * sizeof(decltype(S{}.x_prev_rad)) +
+         4 * sizeof(int) + sizeof(S{}.reserved);
+}
+
 TEST_CASE("Snapshot has no padding bytes (bytewise comparison is meaningful)") {
   static_assert(std::is_trivially_copyable<P::Snapshot>::value, "snapshot must be plain data");
-  CHECK(sizeof(P::Snapshot) ==
-        sizeof(double) * (indicial::DefaultCapacity::max_coefficients *
-                              indicial::DefaultCapacity::max_lags + 1) + 2 * sizeof(int));
+  using Small = indicial::Capacity<8, 8, 2, 64, 3, 16>;
+  using Odd = indicial::Capacity<4, 4, 3, 16, 1, 7>;
+  CHECK(sizeof(P::Snapshot) == snapshot_member_bytes<P, indicial::DefaultCapacity>());
+  CHECK(sizeof(indicial::Predictor<float>::Snapshot) ==
+        snapshot_member_bytes<indicial::Predictor<float>, indicial::DefaultCapacity>());
+  CHECK(sizeof(indicial::Predictor<double, Small>::Snapshot) ==
+        snapshot_member_bytes<indicial::Predictor<double, Small>, Small>());
+  CHECK(sizeof(indicial::Predictor<float, Small>::Snapshot) ==
+        snapshot_member_bytes<indicial::Predictor<float, Small>, Small>());
+  CHECK(sizeof(indicial::Predictor<double, Odd>::Snapshot) ==
+        snapshot_member_bytes<indicial::Predictor<double, Odd>, Odd>());
+  CHECK(sizeof(indicial::Predictor<float, Odd>::Snapshot) ==
+        snapshot_member_bytes<indicial::Predictor<float, Odd>, Odd>());
+  MESSAGE("sizeof(Predictor<double>::Snapshot) = ", sizeof(P::Snapshot), " bytes");
+  // The five-parameter form still names a capacity (MaxDelaySamples defaults to 256).
+  static_assert(indicial::Capacity<8, 8, 2, 64, 3>::max_delay_samples == 256, "default");
+  static_assert(std::is_same<indicial::DefaultCapacity, indicial::Capacity<8, 8, 2, 64, 3, 256>>::value,
+                "DefaultCapacity keeps its five listed limits");
 }
 
 TEST_CASE("step equals a direct loop over indicial::advance_lags, bit for bit") {
@@ -228,9 +254,18 @@ TEST_CASE("validation refuses unstable lags and non-finite models") {
   m.coefficients[0].a.power_coef[2] = std::numeric_limits<double>::infinity();
   CHECK(p.load(m) == LoadStatus::invalid_value);
   m = indicial::test_models::table_one_model_one();
-  m.coefficients[0].delay_s = 0.02;
-  CHECK(p.load(m) == LoadStatus::unsupported_feature);
+  m.coefficients[0].delay_s = -0.02;
+  CHECK(p.load(m) == LoadStatus::invalid_value);
+  m.coefficients[0].delay_s = std::numeric_limits<double>::infinity();
+  CHECK(p.load(m) == LoadStatus::invalid_value);
+  // Longer than (256 - 2) steps of max_dt_s: no step at V_ref could ever serve it.
+  m.coefficients[0].delay_s = 254.5;
+  CHECK(p.load(m, &diag) == LoadStatus::over_capacity);
   CHECK(p.phase() == indicial::PredictorPhase::empty);
+  m.coefficients[0].delay_s = 254.0;  // the longest a 1 s step could serve
+  CHECK(p.load(m) == LoadStatus::ok);
+  P empty;
+  CHECK(empty.phase() == indicial::PredictorPhase::empty);
   // Float: a coefficient beyond float's range is refused.
   indicial::Predictor<float> pf;
   m = indicial::test_models::table_one_model_one();
@@ -369,4 +404,238 @@ TEST_CASE("to_string names every status") {
   CHECK(std::string(indicial::to_string(StepStatus::dt_too_large)) == "dt_too_large");
   CHECK(std::string(indicial::to_string(StepStatus::angle_clamped)) == "angle_clamped");
   CHECK(std::string(indicial::to_string(LoadStatus::unstable_lag)) == "unstable_lag");
+  CHECK(std::string(indicial::to_string(StepStatus::delay_exceeds_history)) == "delay_exceeds_history");
+}
+
+// ==========================================================================================
+// Delayed forcing (CoefficientModel::delay_s)
+// ==========================================================================================
+namespace {
+
+// Lift and moment with CL's forcing delayed by delay_cl_s and Cm's by delay_cm_s.
+Set delayed_lift_and_moment(double delay_cl_s, double delay_cm_s) {
+  Set m = indicial::test_models::lift_and_moment();
+  m.coefficients[0].delay_s = delay_cl_s;
+  m.coefficients[1].delay_s = delay_cm_s;
+  return m;
+}
+
+}  // namespace
+
+TEST_CASE("delayed step equals a direct loop over advance_lags with delayed_angle over arrays") {
+  // What the fitter will do (ArrayHistory over a run's arrays) and what the runtime does (its
+  // ring) must give the same bits: same function, same times, same angles. Varying dt and
+  // airspeed, 900 steps, so the 256-sample ring wraps and the delay (scaled by V_ref / V)
+  // lands between samples.
+  const Set m = delayed_lift_and_moment(0.0237, 0.05);
+  P p;
+  REQUIRE(p.load(text_of(m).data(), text_of(m).size()) == LoadStatus::ok);
+  Set direct = m;
+  indicial::prepare_static_table(direct.coefficients[0].static_curve);
+  const int n = 900;
+  static double t[n + 1];
+  static double x[n + 1];
+  double y[2][2] = {};
+  x[0] = alpha_at(0.0, 1.0);
+  t[0] = 0.0;
+  REQUIRE(p.reset(x[0], 17.667762) == StepStatus::ok);
+  for (int c = 0; c < 2; ++c) indicial::steady_state(direct.coefficients[c], x[0], y[c]);
+  double physical_t = 0.0;
+  int compared = 0;
+  for (int k = 1; k <= n; ++k) {
+    const double dt = 0.004 + 0.0003 * (k % 5);
+    const double v = 17.667762 * (1.0 + 0.25 * std::sin(0.01 * k));
+    physical_t += dt;
+    t[k] = t[k - 1] + dt;  // the runtime accumulates its clock the same way
+    x[k] = alpha_at(physical_t, 1.0);
+    P::Outputs out;
+    REQUIRE(p.step({x[k], q_at(physical_t, 1.0), v}, dt, &out) == StepStatus::ok);
+    const indicial::ArrayHistory<double> h{t, x, k + 1};
+    for (int c = 0; c < 2; ++c) {
+      const auto& cm = direct.coefficients[c];
+      const double d = indicial::delay_at_airspeed(cm.delay_s, m.airspeed_mps, v);
+      const indicial::StepGeometry<double> g{x[k - 1], x[k], indicial::delayed_angle(h, t[k - 1], d),
+                                             indicial::delayed_angle(h, t[k], d), dt,
+                                             v / m.airspeed_mps};
+      indicial::advance_lags(cm, g, y[c]);
+      const double expected = indicial::coefficient_output(cm, x[k], q_at(physical_t, 1.0),
+                                                           m.reference_length_m / v, y[c]);
+      CHECK(out.value[c] == expected);
+      ++compared;
+    }
+  }
+  CHECK(compared == 2 * n);
+  CHECK(p.snapshot().history_origin == static_cast<int>(indicial::HistoryOrigin::samples_dropped));
+}
+
+TEST_CASE("a delayed model sees the reset angle until the delay has passed") {
+  // Reset at rest at x0, then move: with a delay d the forcing sees x0 for t <= d, so the lag
+  // states stay at their steady values (0 for Cm, no bias) exactly; just after d they move.
+  const double d = 0.05;
+  const Set m = delayed_lift_and_moment(0.0, d);
+  P p;
+  REQUIRE(p.load(m) == LoadStatus::ok);
+  REQUIRE(p.reset(0.3, 17.667762) == StepStatus::ok);
+  const double cl_steady = p.snapshot().y[0][0];
+  P::Outputs out;
+  // t = 0.01 .. 0.04 < d: at rest for the forcing. (t = 0.05 = d is left out: the clock's
+  // rounding decides which side of the reset sample it lands on.)
+  for (int k = 1; k <= 4; ++k) {
+    REQUIRE(p.step({0.3 + 0.2 * k * 0.01, 0.2, 17.667762}, 0.01, &out) == StepStatus::ok);
+    CHECK(p.snapshot().y[1][0] == 0.0);
+    CHECK(p.snapshot().y[0][0] != cl_steady);  // CL (undelayed) moves at once
+  }
+  for (int k = 5; k <= 6; ++k)
+    REQUIRE(p.step({0.3 + 0.2 * k * 0.01, 0.2, 17.667762}, 0.01, &out) == StepStatus::ok);
+  CHECK(p.snapshot().y[1][0] != 0.0);
+  // At twice the airspeed the delay halves: 0.025 s.
+  REQUIRE(p.reset(0.3, 2 * 17.667762) == StepStatus::ok);
+  for (int i = 1; i <= 2; ++i) {
+    REQUIRE(p.step({0.3 + 0.2 * i * 0.01, 0.2, 2 * 17.667762}, 0.01, &out) == StepStatus::ok);
+    CHECK(p.snapshot().y[1][0] == 0.0);
+  }
+  REQUIRE(p.step({0.3 + 0.2 * 0.03, 0.2, 2 * 17.667762}, 0.01, &out) == StepStatus::ok);
+  CHECK(p.snapshot().y[1][0] != 0.0);
+}
+
+TEST_CASE("a delay longer than the history: delay_exceeds_history, nothing changed") {
+  using Small = indicial::Capacity<8, 8, 2, 64, 3, 16>;
+  using PS = indicial::Predictor<double, Small>;
+  // The same file, loaded with a 16-sample history (Cm delayed by 0.2 s).
+  const std::string text = text_of(delayed_lift_and_moment(0.0, 0.2));
+  PS p;
+  CHECK(p.history_samples_needed(0.01, 17.0) == 0);  // nothing loaded
+  REQUIRE(p.load(text.data(), text.size()) == LoadStatus::ok);
+  CHECK(PS::history_capacity == 16);
+  const double v = p.model().airspeed_mps;
+  // 0.2 s at 10 ms is 20 steps: 2 + 20 samples, plus the spare one at an exact multiple.
+  CHECK(p.history_samples_needed(0.01, v) == 23);
+  CHECK(p.history_samples_needed(0.02, v) == 13);
+  CHECK(p.history_samples_needed(0.0213, v) == 12);  // 9.4 steps -> 10
+  CHECK(p.history_samples_needed(0.0143, v) == 16);  // 13.99 steps -> 14
+  CHECK(p.history_samples_needed(0.02, 2 * v) == 8);  // 2 V: 0.1 s
+  CHECK(p.history_samples_needed(0.0, v) == 0);
+  CHECK(p.history_samples_needed(1e-9, v) == 2 + 200000001);  // exact multiple: + 1
+  CHECK(p.history_samples_needed(1e-12, v) == std::numeric_limits<int>::max());  // saturated
+  REQUIRE(p.reset(0.4, v) == StepStatus::ok);
+  PS::Outputs out;
+  // Until the ring wraps, the reset (rest) sample serves any delay.
+  int k = 1;
+  for (; k <= 15; ++k) REQUIRE(p.step({0.4 + 0.01 * k, 1.0, v}, 0.01, &out) == StepStatus::ok);
+  CHECK(p.snapshot().history_count == 16);
+  const PS::Snapshot before = p.snapshot();
+  const PS::Outputs out_before = out;
+  CHECK(p.step({0.4 + 0.01 * k, 1.0, v}, 0.01, &out) == StepStatus::delay_exceeds_history);
+  const PS::Snapshot after = p.snapshot();
+  CHECK(std::memcmp(&before, &after, sizeof before) == 0);
+  CHECK(std::memcmp(&out, &out_before, sizeof out) == 0);
+  // Twice the airspeed halves the delay: 0.1 s fits in 14 steps of 10 ms.
+  for (int i = 0; i < 40; ++i) REQUIRE(p.step({0.5, 0.0, 2 * v}, 0.01, &out) == StepStatus::ok);
+  CHECK(p.snapshot().history_origin == static_cast<int>(indicial::HistoryOrigin::samples_dropped));
+  CHECK(p.step({0.5, 0.0, v}, 0.01, &out) == StepStatus::delay_exceeds_history);
+  // A new reset starts at rest again, and 14.3 ms steps need exactly the 16 samples held.
+  REQUIRE(p.reset(0.4, v) == StepStatus::ok);
+  for (int i = 1; i <= 100; ++i)
+    REQUIRE(p.step({0.4 + 0.3 * std::sin(0.05 * i), 1.0, v}, 0.0143, &out) == StepStatus::ok);
+  // ... and 10 ms steps at V again do not, once the ring has wrapped.
+  REQUIRE(p.reset(0.4, v) == StepStatus::ok);
+  int ok_steps = 0;
+  while (p.step({0.45, 0.0, v}, 0.01, &out) == StepStatus::ok) ++ok_steps;
+  CHECK(ok_steps == 15);
+}
+
+TEST_CASE("snapshot / restore with a delay replays bit for bit, the history included") {
+  P p;
+  REQUIRE(p.load(delayed_lift_and_moment(0.031, 0.0173)) == LoadStatus::ok);
+  REQUIRE(p.reset(alpha_at(0.0, 1.0), 17.667762) == StepStatus::ok);
+  P::Outputs out;
+  for (int k = 1; k <= 300; ++k)  // past the ring's wrap (256)
+    REQUIRE(p.step({alpha_at(0.004 * k, 1.0), q_at(0.004 * k, 1.0), 17.667762}, 0.004, &out) ==
+            StepStatus::ok);
+  const P::Snapshot mark = p.snapshot();
+  CHECK(mark.history_count == P::history_capacity);
+  static double first[700][2];
+  static double second[700][2];
+  for (int pass = 0; pass < 2; ++pass) {
+    double (*dst)[2] = pass == 0 ? first : second;
+    if (pass == 1) p.restore(mark);
+    for (int k = 0; k < 700; ++k) {
+      const double t = 1.2 + 0.004 * k;
+      const double v = 17.667762 * (1.0 + 0.2 * std::sin(0.37 * k));
+      REQUIRE(p.step({alpha_at(t, 1.0), q_at(t, 1.0), v}, 0.004 + 0.00001 * (k % 7), &out) ==
+              StepStatus::ok);
+      dst[k][0] = out.value[0];
+      dst[k][1] = out.value[1];
+    }
+  }
+  CHECK(std::memcmp(first, second, sizeof first) == 0);
+  // The history matters: a predictor restored with the same lag states but a history of the
+  // wrong angles gives different outputs.
+  P other;
+  REQUIRE(other.load(delayed_lift_and_moment(0.031, 0.0173)) == LoadStatus::ok);
+  P::Snapshot altered = mark;
+  for (int i = 0; i < P::history_capacity; ++i) altered.history_x_rad[i] += 0.01;
+  other.restore(altered);
+  p.restore(mark);
+  P::Outputs a;
+  P::Outputs b;
+  REQUIRE(p.step({alpha_at(1.2, 1.0), q_at(1.2, 1.0), 17.667762}, 0.004, &a) == StepStatus::ok);
+  REQUIRE(other.step({alpha_at(1.2, 1.0), q_at(1.2, 1.0), 17.667762}, 0.004, &b) == StepStatus::ok);
+  CHECK(a.value[1] != b.value[1]);
+}
+
+TEST_CASE("airspeed scaling with a delay: at 2 V a motion twice as fast gives the same") {
+  // The delay is in s at V_ref and scales by V_ref / V, like every time of the model.
+  const Set m = delayed_lift_and_moment(0.0237, 0.05);
+  P slow;
+  P fast;
+  REQUIRE(slow.load(m) == LoadStatus::ok);
+  REQUIRE(fast.load(m) == LoadStatus::ok);
+  const double v = m.airspeed_mps;
+  REQUIRE(slow.reset(alpha_at(0.0, 0.5), v) == StepStatus::ok);
+  REQUIRE(fast.reset(alpha_at(0.0, 1.0), 2 * v) == StepStatus::ok);
+  double max_diff = 0.0;
+  for (int k = 1; k <= 800; ++k) {
+    P::Outputs a;
+    P::Outputs b;
+    REQUIRE(slow.step({alpha_at(0.01 * k, 0.5), q_at(0.01 * k, 0.5), v}, 0.01, &a) == StepStatus::ok);
+    REQUIRE(fast.step({alpha_at(0.005 * k, 1.0), q_at(0.005 * k, 1.0), 2 * v}, 0.005, &b) == StepStatus::ok);
+    for (int c = 0; c < 2; ++c) max_diff = std::fmax(max_diff, std::fabs(a.value[c] - b.value[c]));
+  }
+  MESSAGE("delayed, V vs 2 V: max |difference| = ", max_diff);
+  CHECK(max_diff < 1e-12);
+  // And the delay really acts: the same motion without delays differs.
+  P undelayed;
+  REQUIRE(undelayed.load(indicial::test_models::lift_and_moment()) == LoadStatus::ok);
+  REQUIRE(undelayed.reset(alpha_at(0.0, 0.5), v) == StepStatus::ok);
+  REQUIRE(slow.reset(alpha_at(0.0, 0.5), v) == StepStatus::ok);
+  double diff_delay = 0.0;
+  for (int k = 1; k <= 200; ++k) {
+    P::Outputs a;
+    P::Outputs b;
+    REQUIRE(slow.step({alpha_at(0.01 * k, 0.5), q_at(0.01 * k, 0.5), v}, 0.01, &a) == StepStatus::ok);
+    REQUIRE(undelayed.step({alpha_at(0.01 * k, 0.5), q_at(0.01 * k, 0.5), v}, 0.01, &b) == StepStatus::ok);
+    diff_delay = std::fmax(diff_delay, std::fabs(a.value[1] - b.value[1]));
+  }
+  CHECK(diff_delay > 1e-3);
+}
+
+TEST_CASE("float predictor with a delay stays close to double") {
+  indicial::Predictor<float> pf;
+  P pd;
+  const Set m = delayed_lift_and_moment(0.0237, 0.05);
+  REQUIRE(pf.load(m) == LoadStatus::ok);
+  REQUIRE(pd.load(m) == LoadStatus::ok);
+  REQUIRE(pf.reset(alpha_at(0.0, 1.0), 17.667762) == StepStatus::ok);
+  REQUIRE(pd.reset(alpha_at(0.0, 1.0), 17.667762) == StepStatus::ok);
+  double max_diff = 0.0;
+  for (int k = 1; k <= 1000; ++k) {  // 10 s: the clock is double in both
+    indicial::Predictor<float>::Outputs of;
+    P::Outputs od;
+    REQUIRE(pf.step({alpha_at(0.01 * k, 1.0), q_at(0.01 * k, 1.0), 17.667762}, 0.01, &of) == StepStatus::ok);
+    REQUIRE(pd.step({alpha_at(0.01 * k, 1.0), q_at(0.01 * k, 1.0), 17.667762}, 0.01, &od) == StepStatus::ok);
+    for (int c = 0; c < 2; ++c) max_diff = std::fmax(max_diff, std::fabs(double(of.value[c]) - od.value[c]));
+  }
+  MESSAGE("delayed, float vs double max |difference| = ", max_diff);
+  CHECK(max_diff < 1e-5);
 }

@@ -34,8 +34,11 @@
 // 4. write_coef_file writes exactly *length bytes and no terminating NUL. Numbers are written
 //    by std::to_chars in their shortest round-trip form, so write -> parse -> write is
 //    byte-identical and every double comes back bit for bit (including -0).
-// 5. delay_s is part of the format but a nonzero delay is refused (unsupported_feature) by
-//    both the parser and the writer until the runtime supports delayed forcing.
+// 5. delay_s (the pure delay of a coefficient's unsteady forcing, s at the reference
+//    airspeed) must be finite and >= 0; it is written only when it is not +0, after `con`.
+//    (Versions before delay support refused a nonzero delay with unsupported_feature; that
+//    value is kept in the enums so their numbering and callers stay valid, but nothing
+//    returns it now.)
 #pragma once
 
 #include <charconv>
@@ -60,7 +63,7 @@ enum class LoadStatus : int {
   syntax_error,         // unknown or duplicate key, bad number, wrong token count, bad order
   invalid_value,        // NaN/Inf, non-increasing table, lag 1 gain != 1, bad power,
                         // non-positive length or airspeed, envelope min >= max, ...
-  unsupported_feature,  // a nonzero delay_s (not supported by this runtime yet)
+  unsupported_feature,  // no longer returned (was: nonzero delay_s before delay support)
   unstable_lag,         // (runtime validation) b_j(x) <= 0 somewhere inside the envelope
 };
 
@@ -86,7 +89,7 @@ enum class WriteStatus : int {
   null_argument,        // buffer == nullptr (with capacity > 0) or length == nullptr
   buffer_too_small,     // the text does not fit in capacity bytes; nothing usable written
   invalid_model,        // the model would not read back (non-finite value, bad count, name...)
-  unsupported_feature,  // a nonzero delay_s
+  unsupported_feature,  // no longer returned (was: nonzero delay_s before delay support)
 };
 
 inline constexpr const char* to_string(WriteStatus s) {
@@ -147,7 +150,7 @@ inline std::uint32_t crc32(const char* data, std::size_t n, std::uint32_t crc = 
 // ------------------------------------------------------------------------------------------
 // Structural validation shared by the parser, the writer and the runtime: counts within Cap,
 // finite values, positive length and airspeed, ordered envelope and table, valid powers and
-// names, lag 1's gain 1, no delay. (The runtime adds the b_j(x) > 0 check.)
+// names, lag 1's gain 1, delay finite and >= 0. (The runtime adds the b_j(x) > 0 check.)
 // ------------------------------------------------------------------------------------------
 namespace detail {
 
@@ -282,9 +285,9 @@ inline LoadStatus validate_model_set(const ModelSet<double, Cap>& m, ParseDiagno
       return refuse(diag, 0, "con is NaN or Inf", LoadStatus::invalid_value);
     if (!std::isfinite(cm.delay_s))
       return refuse(diag, 0, "delay_s is NaN or Inf", LoadStatus::invalid_value);
-    if (cm.delay_s != 0.0)
-      return refuse(diag, 0, "delay_s != 0 is not supported by this runtime yet",
-                    LoadStatus::unsupported_feature);
+    if (cm.delay_s < 0.0)
+      return refuse(diag, 0, "delay_s must be >= 0 (a delay, not a prediction)",
+                    LoadStatus::invalid_value);
   }
   return LoadStatus::ok;
 }
@@ -800,10 +803,10 @@ LoadStatus parse_coef_file(const char* text, std::size_t length, ModelSet<double
       once_bit = seen_delay;
       double d = 0.0;
       if ((st = read_numbers(t, &d, 1, &reason)) != LoadStatus::ok) return refuse(diag, line, reason, st);
-      if (d != 0.0)
-        return refuse(diag, line, "delay_s != 0 is not supported by this runtime yet",
-                      LoadStatus::unsupported_feature);
-      cm->delay_s = 0.0;
+      if (d < 0.0)
+        return refuse(diag, line, "delay_s must be >= 0 (a delay, not a prediction)",
+                      LoadStatus::invalid_value);
+      cm->delay_s = d;
     } else {
       return refuse(diag, line, "unknown key", LoadStatus::syntax_error);
     }
@@ -958,6 +961,13 @@ WriteStatus write_coef_file(const ModelSet<double, Cap>& m, char* buffer, std::s
     if (differs_from_positive_zero(cm.con)) {
       s.put("con ");
       s.put_double(cm.con);
+      s.put_char('\n');
+    }
+    // Why not when +0: files of undelayed models stay byte-identical to those written before
+    // delays were supported (-0 is written so that it reads back bit for bit).
+    if (differs_from_positive_zero(cm.delay_s)) {
+      s.put("delay_s ");
+      s.put_double(cm.delay_s);
       s.put_char('\n');
     }
     s.put("end_coefficient\n");

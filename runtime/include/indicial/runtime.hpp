@@ -32,7 +32,14 @@
 // term uses l / V, so the model is a function of the non-dimensional time s = V t / l: at
 // another airspeed every time constant scales by V / l (twice the airspeed, half the time
 // constants). Example: the response at 2 V to a motion played twice as fast equals the
-// response at V (tests/test_runtime.cpp checks it).
+// response at V (tests/test_runtime.cpp checks it). A delay (the file's delay_s, at V_ref)
+// is delay_s * V_ref / V at airspeed V, the airspeed of the current step.
+//
+// Delayed forcing: a coefficient with delay_s > 0 drives its lag states with the angle
+// x(t - delay) instead of x(t) (model.hpp, delayed_angle: linear interpolation in time of the
+// stored samples). The predictor keeps a ring of the last Cap::max_delay_samples (time,
+// clamped model angle) samples for that, in the Snapshot (so snapshot/restore replays bit for
+// bit); reset() starts it "at rest at the reset angle since forever".
 //
 // Warnings
 // --------
@@ -53,7 +60,17 @@
 //    also leaves everything untouched: NaN never comes out.
 // 5. Outputs::name points into the predictor's model; it stays valid until the next load().
 // 6. A Snapshot belongs to the model it was taken with; restoring it after loading another
-//    model gives meaningless (but finite) states.
+//    model gives meaningless (but finite) states. With DefaultCapacity and double it is
+//    4184 bytes (the delay history is 4 KB of it), so keep snapshots out of tight loops.
+// 7. A delay needs history: at a fixed step dt and airspeed V a delayed model needs
+//    2 + ceil(delay_s * V_ref / V / dt) samples (history_samples_needed(dt, V); 256 with
+//    DefaultCapacity serve 0.254 s at 1 kHz). Until the ring has wrapped after reset() any
+//    delay is served (before the first sample the motion was at rest); after that a step
+//    whose t - delay falls before the oldest kept sample returns
+//    StepStatus::delay_exceeds_history and changes nothing (choose a larger
+//    Capacity<..., MaxDelaySamples>, a larger dt, or check history_samples_needed at start).
+//    load() refuses (over_capacity) a delay_s that no step at V_ref could serve:
+//    delay_s > (MaxDelaySamples - 2) * max_dt_s.
 #pragma once
 
 #include <cmath>
@@ -79,6 +96,8 @@ enum class StepStatus : int {
   dt_too_large,          // dt_s > max_dt_s (almost certainly a unit error: ms for s)
   non_positive_airspeed, // airspeed_mps <= 0
   non_finite_result,     // finite but absurd input would give a non-finite output; refused
+  delay_exceeds_history, // a delayed coefficient needs the angle further back than the
+                         // history ring holds at this dt and airspeed (see warning 7)
 };
 
 inline constexpr const char* to_string(StepStatus s) {
@@ -93,6 +112,7 @@ inline constexpr const char* to_string(StepStatus s) {
     case StepStatus::dt_too_large: return "dt_too_large";
     case StepStatus::non_positive_airspeed: return "non_positive_airspeed";
     case StepStatus::non_finite_result: return "non_finite_result";
+    case StepStatus::delay_exceeds_history: return "delay_exceeds_history";
   }
   return "unknown_step_status";
 }
@@ -115,8 +135,8 @@ inline constexpr int validation_samples = 4096;
 namespace detail {
 template <class T>
 struct is_capacity : std::false_type {};
-template <int P, int K, int L, int T, int C>
-struct is_capacity<Capacity<P, K, L, T, C>> : std::true_type {};
+template <int P, int K, int L, int T, int C, int D>
+struct is_capacity<Capacity<P, K, L, T, C, D>> : std::true_type {};
 
 template <class Cap>
 inline bool model_values_finite(const CoefficientModel<double, Cap>& cm, double x) {
@@ -172,6 +192,13 @@ inline LoadStatus validate_for_runtime(const ModelSet<double, Cap>& m, ParseDiag
   return LoadStatus::ok;
 }
 
+// Where the delay history's record begins (Predictor::Snapshot::history_origin).
+enum class HistoryOrigin : int {
+  rest_before_oldest = 0,  // nothing dropped since reset(): before the oldest sample the
+                           // angle was the reset angle (at rest), so any delay is served
+  samples_dropped = 1,     // the ring wrapped: angles older than the oldest sample are gone
+};
+
 template <class Scalar = double, class Cap = DefaultCapacity>
 class Predictor {
   static_assert(std::is_floating_point<Scalar>::value,
@@ -179,11 +206,13 @@ class Predictor {
                 "(autodiff types belong to the fitter, not the runtime)");
   static_assert(detail::is_capacity<Cap>::value,
                 "Predictor<Scalar, Cap>: Cap must be an indicial::Capacity<MaxPowers, MaxKnots, "
-                "MaxLags, MaxTablePoints, MaxCoefficients>");
+                "MaxLags, MaxTablePoints, MaxCoefficients[, MaxDelaySamples]>");
 
  public:
   static constexpr int max_coefficients = Cap::max_coefficients;
   static constexpr int max_lags = Cap::max_lags;
+  // Samples of (time, model angle) kept for delayed coefficients, the current one included.
+  static constexpr int history_capacity = Cap::max_delay_samples;
   // Largest accepted step. The update is stable for any dt, but a step over 1 s at a
   // real-time rate is almost certainly a unit error (milliseconds passed as seconds).
   static constexpr double max_dt_s = 1.0;
@@ -194,13 +223,34 @@ class Predictor {
     const char* name[Cap::max_coefficients] = {};  // "CL", "Cm", ... in file order
   };
 
+ private:
+  // Number of int words that make Snapshot free of padding for double and float: the
+  // 4-byte words (ints, and the Scalars when Scalar is float) must fill whole 8-byte units
+  // after the leading doubles. At least 1 (no zero-length arrays).
+  static constexpr int snapshot_scalar_count =
+      Cap::max_coefficients * Cap::max_lags + 1 + Cap::max_delay_samples;
+  static constexpr int snapshot_int_count = 4;  // phase, newest, count, origin
+  static constexpr int snapshot_four_byte_words =
+      (sizeof(Scalar) == 4 ? snapshot_scalar_count : 0) + snapshot_int_count;
+  static constexpr int snapshot_pad_ints = (snapshot_four_byte_words % 2 == 0) ? 2 : 1;
+
+ public:
   // The whole mutable state. Laid out without padding for double and float so that two
-  // snapshots can be compared bytewise.
+  // snapshots can be compared bytewise (doubles first, then Scalars, then ints).
   struct Snapshot {
+    double time_s = 0.0;  // time of the newest sample, counted from reset() (t = 0)
+    // The delay history: a ring of the last history_count samples, newest at slot
+    // history_newest, older ones at decreasing slots (modulo history_capacity). Unused slots
+    // are 0. Kept for every model (delayed or not) so that a snapshot is always complete.
+    double history_time_s[Cap::max_delay_samples] = {};
     Scalar y[Cap::max_coefficients][Cap::max_lags] = {};  // lag states
     Scalar x_prev_rad = Scalar(0);  // the (clamped) model angle of the previous sample
+    Scalar history_x_rad[Cap::max_delay_samples] = {};    // the (clamped) model angles
     int phase = 0;                  // PredictorPhase as int
-    int reserved = 0;               // keeps the struct free of padding bytes
+    int history_newest = 0;         // slot of the newest sample
+    int history_count = 0;          // samples held: 1..history_capacity once running
+    int history_origin = 0;         // HistoryOrigin as int
+    int reserved[snapshot_pad_ints] = {};  // keeps the struct free of padding bytes
   };
 
   using Model = ModelSet<Scalar, Cap>;
@@ -219,6 +269,15 @@ class Predictor {
   LoadStatus load(const ModelSet<double, Cap>& model, ParseDiagnostic* diag = nullptr) {
     const LoadStatus s = validate_for_runtime(model, diag);
     if (s != LoadStatus::ok) return s;
+    for (int c = 0; c < model.n_coefficients; ++c) {
+      // Why: at the reference airspeed the ring serves (history_capacity - 2) steps of at
+      // most max_dt_s; a longer delay could never be served by any accepted step.
+      if (model.coefficients[c].delay_s > (history_capacity - 2) * max_dt_s)
+        return detail::refuse(diag, 0,
+                              "delay_s is longer than the runtime's delay history can hold "
+                              "even at max_dt_s (raise Capacity's MaxDelaySamples)",
+                              LoadStatus::over_capacity);
+    }
     Model converted;
     if (!convert(model, &converted))
       return detail::refuse(diag, 0, "a model value does not fit the Scalar type",
@@ -229,23 +288,35 @@ class Predictor {
     return LoadStatus::ok;
   }
 
-  // Sets every lag state to the steady state at the given motion angle (x' = 0).
+  // Sets every lag state to the steady state at the given motion angle (x' = 0), and the
+  // delay history to "at rest at that angle since forever": one sample at t = 0, the other
+  // slots cleared, origin rest_before_oldest.
   StepStatus reset(double motion_angle_rad, double airspeed_mps) {
     if (phase() == PredictorPhase::empty) return StepStatus::not_loaded;
     if (!std::isfinite(motion_angle_rad) || !std::isfinite(airspeed_mps))
       return StepStatus::non_finite_input;
     if (!(airspeed_mps > 0.0)) return StepStatus::non_positive_airspeed;
     ClampResult clamp = clamp_model_angle(motion_angle_rad);
-    Snapshot next = state_;
+    Scalar y[Cap::max_coefficients][Cap::max_lags] = {};
     for (int c = 0; c < model_.n_coefficients; ++c) {
-      steady_state(model_.coefficients[c], clamp.x_rad, next.y[c]);
+      steady_state(model_.coefficients[c], clamp.x_rad, y[c]);
       for (int j = 0; j < model_.coefficients[c].n_lags; ++j) {
-        if (!std::isfinite(next.y[c][j])) return StepStatus::non_finite_result;
+        if (!std::isfinite(y[c][j])) return StepStatus::non_finite_result;
       }
     }
-    next.x_prev_rad = clamp.x_rad;
-    next.phase = static_cast<int>(PredictorPhase::running);
-    state_ = next;
+    for (int c = 0; c < Cap::max_coefficients; ++c)
+      for (int j = 0; j < Cap::max_lags; ++j) state_.y[c][j] = y[c][j];
+    for (int i = 0; i < history_capacity; ++i) {
+      state_.history_time_s[i] = 0.0;
+      state_.history_x_rad[i] = Scalar(0);
+    }
+    state_.time_s = 0.0;
+    state_.history_x_rad[0] = clamp.x_rad;
+    state_.history_newest = 0;
+    state_.history_count = 1;
+    state_.history_origin = static_cast<int>(HistoryOrigin::rest_before_oldest);
+    state_.x_prev_rad = clamp.x_rad;
+    state_.phase = static_cast<int>(PredictorPhase::running);
     return clamp.clamped ? StepStatus::angle_clamped : StepStatus::ok;
   }
 
@@ -267,26 +338,86 @@ class Predictor {
     const Scalar time_scale = Scalar(in.airspeed_mps / model_.airspeed_mps);
     const Scalar l_over_v_s = Scalar(model_.reference_length_m / in.airspeed_mps);
     const Scalar rate = Scalar(in.rate_radps);
-    const StepGeometry<Scalar> g{state_.x_prev_rad, x1, state_.x_prev_rad, x1, Scalar(dt_s),
-                                 time_scale};
-    // Work on a copy; commit only if every number is finite (warning 4).
-    Snapshot next = state_;
+    const double t0_s = state_.time_s;
+    const double t1_s = t0_s + dt_s;
+    // The history as it will be after this step: the new sample on top of the ring (whose
+    // oldest sample drops out if the ring is full). Nothing is written until the commit.
+    const bool ring_full = state_.history_count >= history_capacity;
+    const HistoryView view{&state_, t1_s, x1,
+                           ring_full ? history_capacity : state_.history_count + 1};
+    const bool rest_before_oldest =
+        !ring_full &&
+        state_.history_origin == static_cast<int>(HistoryOrigin::rest_before_oldest);
+
+    // Work on copies; commit only if every number is finite (warning 4).
+    Scalar y[Cap::max_coefficients][Cap::max_lags];
     Outputs result;
     result.count = model_.n_coefficients;
     for (int c = 0; c < model_.n_coefficients; ++c) {
       const CoefficientModel<Scalar, Cap>& cm = model_.coefficients[c];
-      advance_lags(cm, g, next.y[c]);
-      result.value[c] = coefficient_output(cm, x1, rate, l_over_v_s, next.y[c]);
+      for (int j = 0; j < Cap::max_lags; ++j) y[c][j] = state_.y[c][j];
+      StepGeometry<Scalar> g{state_.x_prev_rad, x1, state_.x_prev_rad, x1, Scalar(dt_s),
+                             time_scale};
+      // Why the branch: an undelayed coefficient uses the sample angles themselves, exactly
+      // as before delays existed (bit for bit); only a delayed one reads the history.
+      if (cm.delay_s != Scalar(0)) {
+        // Times in double (model.hpp warning 5): the delay at this airspeed, then x(t - d)
+        // at both ends of the step by the shared interpolation.
+        const double d_s = delay_at_airspeed(static_cast<double>(cm.delay_s),
+                                             model_.airspeed_mps, in.airspeed_mps);
+        // Why: t0 - d before the oldest kept sample, with older samples already dropped, is
+        // an angle the runtime no longer knows; refuse rather than guess (warning 7). The
+        // comparison is delayed_angle's own (age of the oldest sample < delay).
+        if (!rest_before_oldest && !(d_s <= t0_s - view.time_s(view.size() - 1)))
+          return StepStatus::delay_exceeds_history;
+        g.forcing_x0_rad = Scalar(delayed_angle(view, t0_s, d_s));
+        g.forcing_x1_rad = Scalar(delayed_angle(view, t1_s, d_s));
+      }
+      advance_lags(cm, g, y[c]);
+      result.value[c] = coefficient_output(cm, x1, rate, l_over_v_s, y[c]);
       result.name[c] = cm.name;
       if (!std::isfinite(result.value[c])) return StepStatus::non_finite_result;
       for (int j = 0; j < cm.n_lags; ++j) {
-        if (!std::isfinite(next.y[c][j])) return StepStatus::non_finite_result;
+        if (!std::isfinite(y[c][j])) return StepStatus::non_finite_result;
       }
     }
-    next.x_prev_rad = x1;
-    state_ = next;
+    // Commit.
+    for (int c = 0; c < model_.n_coefficients; ++c)
+      for (int j = 0; j < Cap::max_lags; ++j) state_.y[c][j] = y[c][j];
+    const int slot = state_.history_newest + 1 == history_capacity ? 0 : state_.history_newest + 1;
+    state_.history_time_s[slot] = t1_s;
+    state_.history_x_rad[slot] = x1;
+    state_.history_newest = slot;
+    if (ring_full) state_.history_origin = static_cast<int>(HistoryOrigin::samples_dropped);
+    else ++state_.history_count;
+    state_.time_s = t1_s;
+    state_.x_prev_rad = x1;
     *out = result;
     return clamp.clamped ? StepStatus::angle_clamped : StepStatus::ok;
+  }
+
+  // How many history samples a run at a fixed step dt_s and airspeed needs so that no step
+  // returns delay_exceeds_history: 2 + ceil(d / dt_s) with d the longest delay of the model
+  // at that airspeed (2 without a delay: the two samples of the step). Compare it with
+  // history_capacity at initialisation. Conservative by one sample when d / dt_s is an exact
+  // integer (accumulated sample times round either way). 0 when nothing is loaded or dt_s /
+  // airspeed_mps is not finite and > 0; saturates at INT_MAX for absurd ratios.
+  int history_samples_needed(double dt_s, double airspeed_mps) const {
+    if (phase() == PredictorPhase::empty) return 0;
+    if (!std::isfinite(dt_s) || !(dt_s > 0.0) || !std::isfinite(airspeed_mps) ||
+        !(airspeed_mps > 0.0))
+      return 0;
+    double longest_s = 0.0;
+    for (int c = 0; c < model_.n_coefficients; ++c) {
+      const double d = delay_at_airspeed(static_cast<double>(model_.coefficients[c].delay_s),
+                                         model_.airspeed_mps, airspeed_mps);
+      if (d > longest_s) longest_s = d;
+    }
+    const double steps = std::ceil(longest_s / dt_s * (1.0 + 1e-9));
+    // Why the saturation: the ratio may exceed int's range (tiny dt, tiny airspeed).
+    if (!(steps < static_cast<double>(std::numeric_limits<int>::max() - 2)))
+      return std::numeric_limits<int>::max();
+    return 2 + static_cast<int>(steps);
   }
 
   Snapshot snapshot() const { return state_; }
@@ -309,6 +440,22 @@ class Predictor {
   struct ClampResult {
     Scalar x_rad;
     bool clamped;
+  };
+
+  // The delay history seen newest-first by indicial::delayed_angle (model.hpp): index 0 is
+  // the pending new sample, index i >= 1 the ring's (i-1)-th newest. Reads only.
+  struct HistoryView {
+    const Snapshot* s;
+    double new_time_s;
+    Scalar new_x_rad;
+    int n;
+    int size() const { return n; }
+    int slot(int i) const {
+      const int k = s->history_newest - (i - 1);
+      return k < 0 ? k + history_capacity : k;
+    }
+    double time_s(int i) const { return i == 0 ? new_time_s : s->history_time_s[slot(i)]; }
+    Scalar x_rad(int i) const { return i == 0 ? new_x_rad : s->history_x_rad[slot(i)]; }
   };
 
   // Model angle in double (the envelope is double), clamped, then converted to Scalar.
@@ -381,7 +528,7 @@ class Predictor {
       }
       b.con = static_cast<Scalar>(a.con);
       b.delay_s = static_cast<Scalar>(a.delay_s);
-      ok = ok && fits(a.con);
+      ok = ok && fits(a.con) && fits(a.delay_s);
       // The natural-spline second derivatives, recomputed in Scalar by the one function that
       // defines them (a hand-built or generated model need not carry them).
       if (c < in.n_coefficients && b.static_curve.kind == StaticKind::table)

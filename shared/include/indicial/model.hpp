@@ -40,6 +40,11 @@
 //    forcing integral is the exact difference of a(x)'s antiderivative, see its comment.
 // 4. Knot positions and plus-function powers are structure, not parameters: they are plain
 //    double / int and carry no derivative.
+// 5. The delayed forcing angle x_f = x(t - delay) is obtained ONLY through delayed_angle()
+//    (linear interpolation in time over stored samples, the first sample's angle before
+//    them; see its comment) and goes into StepGeometry::forcing_x0_rad / forcing_x1_rad.
+//    The delay (CoefficientModel::delay_s) is in seconds at V_ref; at airspeed V it is
+//    delay_s * V_ref / V (delay_at_airspeed).
 #pragma once
 
 #include <cmath>
@@ -51,7 +56,12 @@ namespace indicial {
 // Capacity: compile-time limits shared by the model structures, the runtime and the file
 // parser. The runtime refuses (LoadStatus::over_capacity) a file that needs more.
 // ------------------------------------------------------------------------------------------
-template <int MaxPowers, int MaxKnots, int MaxLags, int MaxTablePoints, int MaxCoefficients>
+// MaxDelaySamples (last, defaulted so that Capacity<P, K, L, T, C> keeps compiling) is the
+// number of past (time, model angle) samples the runtime keeps for a delayed forcing
+// (Predictor's ring buffer): at a fixed step dt it serves delays up to
+// (MaxDelaySamples - 2) dt at the current airspeed (Predictor::history_samples_needed).
+template <int MaxPowers, int MaxKnots, int MaxLags, int MaxTablePoints, int MaxCoefficients,
+          int MaxDelaySamples = 256>
 struct Capacity {
   static_assert(MaxPowers >= 1 && MaxPowers <= 16,
                 "MaxPowers counts x^0..x^(n-1) terms of a spline: 1..16");
@@ -61,15 +71,20 @@ struct Capacity {
                 "MaxTablePoints (static table rows) must be 2..512");
   static_assert(MaxCoefficients >= 1 && MaxCoefficients <= 3,
                 "MaxCoefficients: one model set holds 1..3 coefficients (CL+Cm, CY+Cl+Cn)");
+  static_assert(MaxDelaySamples >= 2 && MaxDelaySamples <= 65536,
+                "MaxDelaySamples (the runtime's delay history) must be 2..65536: the two "
+                "samples of the current step are always kept");
   static constexpr int max_powers = MaxPowers;
   static constexpr int max_knots = MaxKnots;
   static constexpr int max_lags = MaxLags;
   static constexpr int max_table_points = MaxTablePoints;
   static constexpr int max_coefficients = MaxCoefficients;
+  static constexpr int max_delay_samples = MaxDelaySamples;
 };
 
 // Enough for the report's models (a(x): 3 powers + 2 knots; b1(x): 2 powers + 4 knots;
-// C_Lq: 3 powers + 2 knots) with room for diagnose's extensions.
+// C_Lq: 3 powers + 2 knots) with room for diagnose's extensions; 256 delay samples serve a
+// delay of 0.254 s at 1 kHz (2.54 s at 100 Hz) at the reference airspeed.
 using DefaultCapacity = Capacity<8, 8, 2, 64, 3>;
 // The fitter's working capacity: larger candidate pools for stepwise regression.
 using FitCapacity = Capacity<10, 16, 3, 256, 3>;
@@ -295,6 +310,113 @@ struct StepGeometry {
   Scalar dt_s;
   Scalar time_scale;      // V / V_ref: 1 at the reference airspeed
 };
+
+// ------------------------------------------------------------------------------------------
+// The delayed forcing angle x_f(t) = x(t - delay): the one definition, used by the fitter
+// (over a run's arrays) and by the runtime (over its ring buffer).
+// ------------------------------------------------------------------------------------------
+// The model angle is known only at stored samples, so x(t - delay) is interpolated LINEARLY
+// in time between the two samples around t - delay. Why linear:
+//   * it is exact at the samples and as fine as the data's own resolution: no angle between
+//     samples is invented beyond the straight line (a higher-order interpolant would
+//     overshoot at the corners of a ramp and at the start of a motion from rest);
+//   * it is monotone between samples: the delayed angle never leaves the range of the two
+//     samples around it, so it stays inside the envelope when the samples do;
+//   * it is differentiable with respect to the delay inside every segment, with
+//     d x_f / d delay = -(slope of x in time on that segment), so an autodiff Scalar delay
+//     carries the sensitivity the fitter needs to estimate the delay. (At a delay that lands
+//     exactly on a sample time the derivative is the NEWER segment's, i.e. the right-hand
+//     derivative in the delay; at delay 0 that is -(x_0 - x_1) / (t_0 - t_1), not 0, so an
+//     estimate started at 0 can move.)
+//   * it is second order overall: the interpolation error is O(dt^2) and smooth in time, and
+//     advance_lags uses only differences of A(x_f), which telescope, so the delayed update
+//     keeps the order 2 of the undelayed one (tests/test_discretization.cpp measures it).
+//
+// A History is any object with
+//   int    size() const;          // number of stored samples, >= 1
+//   double time_s(int i) const;   // i = 0 the NEWEST sample; strictly decreasing in i
+//   X      x_rad(int i) const;    // the model angle at that sample (X converts to Scalar)
+// Samples newer than t_now_s may be present (the fitter passes a whole run); they are used
+// only where t_now_s - delay_s lands among them (a negative delay).
+//
+// Rules at the ends (no extrapolation):
+//   * t_now_s - delay_s before the OLDEST sample: that sample's angle. Why: histories start
+//     at rest -- the runtime's reset() is a steady state, a run starts from rest (the reference
+//     simulator holds the motion at its first angle before t = 0) -- so the angle there is
+//     the first sample's. The derivative with respect to the delay is 0 there. A caller
+//     whose history does not reach back to rest must check the coverage itself (the runtime
+//     returns StepStatus::delay_exceeds_history instead of calling with too short a history).
+//   * t_now_s - delay_s after the NEWEST sample (a negative delay): the newest sample's angle.
+//     Why: the future is not known; a fitter should keep the delay >= 0 by construction.
+//
+// Times are double (the delay is a small difference of large times: computing t - delay in
+// float would lose it); the delay is Scalar so that autodiff types carry d/d delay. Ages
+// t_now - t_i are formed in double and only then converted. No heap, no exceptions: a binary
+// search over the history, O(log size) evaluations of the accessor.
+template <class Scalar, class History>
+inline Scalar delayed_angle(const History& h, double t_now_s, const Scalar& delay_s) {
+  const int n = h.size();
+  // Why: an empty history has no angle at all; callers always hold >= 1 sample (the
+  // runtime's reset sample, a run's first sample). Return 0 rather than read out of bounds.
+  if (n < 1) return Scalar(0);
+  const double age_newest = t_now_s - h.time_s(0);
+  // Why strict <: at delay == age_newest (delay 0 with t_now the newest time) the newest
+  // segment is used below, with weight 0 on its older end: the value is x_0 exactly and the
+  // derivative is the segment's, not 0.
+  if (n == 1 || delay_s < Scalar(age_newest)) return Scalar(h.x_rad(0));
+  const double age_oldest = t_now_s - h.time_s(n - 1);
+  if (delay_s > Scalar(age_oldest)) return Scalar(h.x_rad(n - 1));  // at rest before it
+  // Binary search for the segment [newer, older] with age_newer < delay <= age_older (or
+  // newer = 0 when delay == age_newest). Invariant: age(lo) <= delay <= age(hi).
+  int lo = 0;
+  int hi = n - 1;
+  while (hi - lo > 1) {
+    const int mid = lo + (hi - lo) / 2;
+    if (Scalar(t_now_s - h.time_s(mid)) >= delay_s) hi = mid; else lo = mid;
+  }
+  const double age_lo = t_now_s - h.time_s(lo);
+  // The span from the same two ages the delay is compared with (not t_lo - t_hi, which
+  // rounds differently): a delay equal to a sample's age then gives w = 1 or 0 exactly,
+  // i.e. exactly the stored angle.
+  const double span = (t_now_s - h.time_s(hi)) - age_lo;
+  // Why: a history with two samples at the same time (not strictly decreasing, a caller's
+  // error) has no slope to interpolate; take the older one instead of dividing by 0.
+  if (!(span > 0.0)) return Scalar(h.x_rad(hi));
+  // One operation per named Scalar: autodiff types whose constants carry an empty
+  // derivative vector (Eigen::AutoDiffScalar<VectorXd>) are made coherent only between
+  // plain scalars, not inside nested expressions.
+  const Scalar offset = delay_s - Scalar(age_lo);
+  const Scalar w = offset / Scalar(span);  // 0 at the newer sample, 1 at the older
+  const Scalar w_newer = Scalar(1) - w;
+  const Scalar part_newer = w_newer * Scalar(h.x_rad(lo));
+  const Scalar part_older = w * Scalar(h.x_rad(hi));
+  // (1 - w) a + w b rather than a + w (b - a): exact at both ends (w = 0 gives a, w = 1 b).
+  return part_newer + part_older;
+}
+
+// A History over oldest-first arrays (e.g. a run's time_s and its model angle x(t) computed
+// with model_angle), seen newest-first as delayed_angle expects. `count` samples, index
+// count - 1 the newest. The arrays must outlive the view; nothing is copied.
+//   indicial::ArrayHistory<double> h{run.time_s.data(), x_rad.data(), int(run.size())};
+//   x_f = indicial::delayed_angle(h, run.time_s[k], delay_eff_s);   // any k: the future
+//                                                                   // samples do not matter
+template <class X>
+struct ArrayHistory {
+  const double* time_s_oldest_first = nullptr;
+  const X* x_rad_oldest_first = nullptr;
+  int count = 0;
+  int size() const { return count; }
+  double time_s(int i) const { return time_s_oldest_first[count - 1 - i]; }
+  X x_rad(int i) const { return x_rad_oldest_first[count - 1 - i]; }
+};
+
+// The delay in seconds at airspeed V: delay_s is given at V_ref and, like every time of the
+// model, scales with the non-dimensional time s = V t / l: at V it is delay_s * V_ref / V.
+template <class Scalar>
+inline Scalar delay_at_airspeed(const Scalar& delay_s, double reference_airspeed_mps,
+                                double airspeed_mps) {
+  return delay_s * Scalar(reference_airspeed_mps / airspeed_mps);
+}
 
 // Advances every lag state of one coefficient over one step, in place (y has n_lags entries):
 //
