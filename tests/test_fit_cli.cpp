@@ -35,12 +35,25 @@ std::string slurp(const fs::path& p) {
   return ss.str();
 }
 
-// A fresh directory under /tmp for this process.
+fs::path& scratch_holder() {
+  static fs::path dir;
+  return dir;
+}
+
+// A fresh directory under /tmp for this process, removed at exit (kept when the environment
+// variable INDICIAL_KEEP_TEST_FILES is set, for debugging).
 const fs::path& scratch() {
   static const fs::path dir = [] {
     char tmpl[] = "/tmp/indicial-test-fit-cli-XXXXXX";
     const char* d = ::mkdtemp(tmpl);
     REQUIRE(d != nullptr);
+    scratch_holder() = fs::path(d);
+    if (std::getenv("INDICIAL_KEEP_TEST_FILES") == nullptr) {
+      std::atexit([] {
+        std::error_code ec;
+        fs::remove_all(scratch_holder(), ec);
+      });
+    }
     return fs::path(d);
   }();
   return dir;
