@@ -18,6 +18,7 @@ namespace indicial::fit_detail {
 int UnsteadyStructure::n_struct() const {
   int n = static_cast<int>(a.size() + b1.size()) + (con == Bias::present ? 1 : 0);
   for (const auto& b : b_more) n += static_cast<int>(b.size()) + 1;
+  if (delay == DelayTerm::estimated) ++n;
   return n;
 }
 
@@ -79,6 +80,18 @@ std::vector<Term> structural_terms(const UnsteadyStructure& s) {
     g.name = "c" + id;
     t.push_back(g);
   }
+  if (s.delay == DelayTerm::estimated) {
+    Term d;
+    d.kind = TermKind::delay;
+    d.name = "delay_s";
+    t.push_back(d);
+  }
+  return t;
+}
+
+std::vector<Term> static_corr_terms(const SplineTerms& pool) {
+  std::vector<Term> t;
+  add_spline_terms(t, pool, TermKind::static_power, TermKind::static_knot, 0, "dCa_", "dCaK");
   return t;
 }
 
@@ -100,6 +113,12 @@ UnsteadyStructure structure_from_config(const ModelConfig& m) {
     b.knot_power = 1;
     s.b_more.push_back(b);
   }
+  // Diagnose's extensions (experiment.hpp): ML-only terms.
+  s.static_corr = spline_terms(m.static_correction);
+  s.rotary = spline_terms(m.rotary_correction);
+  if (s.rotary.size() > 0) s.rotary_role = RotaryRole::corrects_a_priori;
+  s.delay = m.delay == DelayEstimation::estimated ? DelayTerm::estimated : DelayTerm::absent;
+  s.further_lag_start = m.further_lag_start;
   return s;
 }
 
@@ -127,8 +146,15 @@ UnsteadyStructure select_terms(const UnsteadyStructure& pool,
       default: break;
     }
   }
-  // Further lags are not subject to selection (the equation error does not see them).
+  // Further lags are not subject to selection (the equation error does not see them), nor are
+  // the ML-only terms (delay, rotary correction, static correction).
   s.b_more = pool.b_more;
+  s.rotary = pool.rotary;
+  s.rotary_role = pool.rotary_role;
+  s.static_corr = pool.static_corr;
+  s.delay = pool.delay;
+  s.further_lag_start = pool.further_lag_start;
+  s.l_over_v_s = pool.l_over_v_s;
   return s;
 }
 

@@ -50,7 +50,7 @@ double term_antiderivative(const Term& t, double x) {
 std::vector<Term> ee_terms(const UnsteadyStructure& s) {
   std::vector<Term> out;
   for (const Term& t : structural_terms(s))
-    if (t.lag == 0 && t.kind != TermKind::gain) out.push_back(t);
+    if (t.lag == 0 && t.kind != TermKind::gain && t.kind != TermKind::delay) out.push_back(t);
   return out;
 }
 

@@ -30,6 +30,13 @@ struct SplineTerms {
 };
 
 enum class Bias { absent, present };
+// Whether the ML estimates a delay of the unsteady forcing (parameter delay_s, last of the
+// structural parameters: it drives the states through indicial::delayed_angle).
+enum class DelayTerm { absent, estimated };
+// What jointly estimated rotary terms (UnsteadyStructure::rotary) mean: the two-stage loop's
+// terms REPLACE the a priori C_aq (target C - C_a(x)); diagnose's rotary_alpha terms CORRECT
+// it (target y_E of eq. 12, the a priori C_aq already subtracted).
+enum class RotaryRole { replaces_a_priori, corrects_a_priori };
 
 struct UnsteadyStructure {
   SplineTerms a;
@@ -42,12 +49,21 @@ struct UnsteadyStructure {
   // the output is then y_model + (l/V) C_aq(x) rate and the target C - C_a(x). Empty: C_aq is
   // known (the a priori one or the last regression's) and the target is y_E.
   SplineTerms rotary;
+  RotaryRole rotary_role = RotaryRole::replaces_a_priori;
+  // Angle-only static correction dC_a(x) terms estimated jointly (linear in the output, after
+  // the rotary terms in the parameter vector; names dCa_{i}, dCaK{j}).
+  SplineTerms static_corr;
+  DelayTerm delay = DelayTerm::absent;
+  // Lags 2..: initial state per run estimated, or 0 (experiment.hpp LagStart).
+  LagStart further_lag_start = LagStart::estimated;
+  int y0_per_run() const { return further_lag_start == LagStart::at_rest ? 1 : lags; }
   double l_over_v_s = 0.0;
   // Number of structural parameters that drive the states (rotary and y0 not included).
   int n_struct() const;
 };
 
-enum class TermKind { a_power, a_knot, b_power, b_knot, con, gain, rotary_power, rotary_knot };
+enum class TermKind { a_power, a_knot, b_power, b_knot, con, gain, rotary_power, rotary_knot,
+                      delay, static_power, static_knot };
 
 struct Term {
   TermKind kind = TermKind::a_power;
@@ -65,6 +81,7 @@ UnsteadyStructure structure_from_config(const ModelConfig& m);
 UnsteadyStructure select_terms(const UnsteadyStructure& pool,
                                const std::vector<std::string>& names);
 std::vector<Term> rotary_terms(const SplineTerms& pool);
+std::vector<Term> static_corr_terms(const SplineTerms& pool);  // dCa_{i}, dCaK{j}
 
 // ------------------------------------------------------------------------------------------
 // Prepared runs.
@@ -158,7 +175,8 @@ struct MLResult {
   std::vector<std::vector<double>> y_model;  // per run
 };
 
-// Value of the rotary basis term k (rotary_terms order) at x.
+// Value of the rotary basis term k (rotary_terms order) at x. Also the basis of the static
+// correction terms (static_corr_terms order): the same powers-then-knots layout.
 double rotary_basis(const SplineTerms& rotary, std::size_t k, double x);
 
 // Layout of y0 parameters: for every non-periodic run, `lags` values.
@@ -173,5 +191,12 @@ MLResult fit_output_error(const UnsteadyStructure& s, const std::vector<Prepared
 
 // Writes the unsteady part of theta (structural part) into a double model.
 void set_unsteady(const UnsteadyStructure& s, const double* theta, CoefficientModel<double, Cap>& m);
+
+// Adds the jointly estimated linear output terms of theta (after the n_struct structural
+// values: rotary, then static correction) to m: rotary terms into m.rotary (added to what is
+// there when s.rotary_role == corrects_a_priori, replacing it otherwise), static terms into
+// m.static_correction (added). Used to build the final model of fit_experiment.
+void add_output_terms(const UnsteadyStructure& s, const double* theta,
+                      CoefficientModel<double, Cap>& m);
 
 }  // namespace indicial::fit_detail

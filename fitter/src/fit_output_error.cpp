@@ -67,6 +67,8 @@ void build_model(const UnsteadyStructure& s, const S* th, CoefficientModel<S, Ca
     p += s.b_more[k].size();
     m.lags[k + 1].gain = *p++;
   }
+  m.delay_s = S(0);
+  if (s.delay == DelayTerm::estimated) m.delay_s = *p++;
 }
 
 void check_capacity(const UnsteadyStructure& s, const std::string& file) {
@@ -81,9 +83,33 @@ void check_capacity(const UnsteadyStructure& s, const std::string& file) {
   check(s.a, "a(x)");
   check(s.b1, "b1(x)");
   for (const auto& b : s.b_more) check(b, "a further lag's b(x)");
+  check(s.rotary, "C_aq(x)");
+  check(s.static_corr, "the static correction dC_a(x)");
   if (s.lags > Cap::max_lags)
     throw InputError(file, 0, fmt::format("{} lags; at most {}", s.lags, Cap::max_lags));
 }
+
+// The forcing angles x_f(t_k) of a run: x itself without a delay; with an estimated delay,
+// x(t_k - delay) through the shared indicial::delayed_angle (linear interpolation in time over
+// the run's samples, the first sample's angle before them), whose derivative with respect to
+// the delay an autodiff S carries into the sensitivities.
+template <class S>
+struct Forcing {
+  const PreparedRun& r;
+  const S* delay = nullptr;  // null: no delay
+  ArrayHistory<double> h{};
+  Forcing(const PreparedRun& run, const CoefficientModel<S, Cap>& m, DelayTerm d) : r(run) {
+    if (d == DelayTerm::estimated) {
+      delay = &m.delay_s;
+      h = ArrayHistory<double>{run.t.data(), run.x.data(), static_cast<int>(run.x.size())};
+    }
+  }
+  S at(std::size_t k) const {
+    // Why the branch: without a delay the forcing angle is the sample itself (no search).
+    if (!delay) return S(r.x[k]);
+    return delayed_angle(h, r.t[k], *delay);
+  }
+};
 
 // Whether the run's last sample repeats the first (a closed cycle) -- then the cycle closes at
 // the last sample; otherwise one more step of dt from the last sample back to the first.
@@ -94,7 +120,8 @@ bool closes_on_last_sample(const PreparedRun& r) {
 // Periodic steady state of every lag; false when some lag has no periodic solution
 // (Phi >= 1: the time constant is not positive on average over the cycle).
 template <class S>
-bool periodic_state(const CoefficientModel<S, Cap>& m, const PreparedRun& r, S* y0) {
+bool periodic_state(const CoefficientModel<S, Cap>& m, const PreparedRun& r, DelayTerm d, S* y0) {
+  const Forcing<S> f(r, m, d);
   S ya[Cap::max_lags], yb[Cap::max_lags];
   for (int j = 0; j < m.n_lags; ++j) {
     ya[j] = S(0);
@@ -105,7 +132,9 @@ bool periodic_state(const CoefficientModel<S, Cap>& m, const PreparedRun& r, S* 
   const std::size_t steps = closed ? n - 1 : n;
   for (std::size_t k = 0; k < steps; ++k) {
     const std::size_t k1 = (k + 1 == n) ? 0 : k + 1;
-    const StepGeometry<S> g{S(r.x[k]), S(r.x[k1]), S(r.x[k]), S(r.x[k1]), S(r.dt_s), S(1)};
+    // With a delay the cycle's start uses the first sample's angle before it (delayed_angle's
+    // rule), not the previous cycle's end: a small approximation for periodic runs.
+    const StepGeometry<S> g{S(r.x[k]), S(r.x[k1]), f.at(k), f.at(k1), S(r.dt_s), S(1)};
     advance_lags(m, g, ya);
     advance_lags(m, g, yb);
   }
@@ -121,7 +150,10 @@ bool periodic_state(const CoefficientModel<S, Cap>& m, const PreparedRun& r, S* 
 
 // Propagates run r from state y (in/out, n_lags values) and calls emit(i, y_sum) per sample.
 template <class S, class Emit>
-void propagate(const CoefficientModel<S, Cap>& m, const PreparedRun& r, S* y, Emit&& emit) {
+void propagate(const CoefficientModel<S, Cap>& m, const PreparedRun& r, DelayTerm d, S* y,
+               Emit&& emit) {
+  const Forcing<S> f(r, m, d);
+  S xf0 = f.at(0);
   auto sum = [&]() {
     S s = y[0];
     for (int j = 1; j < m.n_lags; ++j) s = s + y[j];
@@ -129,8 +161,10 @@ void propagate(const CoefficientModel<S, Cap>& m, const PreparedRun& r, S* y, Em
   };
   emit(std::size_t{0}, sum());
   for (std::size_t k = 0; k + 1 < r.x.size(); ++k) {
-    const StepGeometry<S> g{S(r.x[k]), S(r.x[k + 1]), S(r.x[k]), S(r.x[k + 1]), S(r.dt_s), S(1)};
+    const S xf1 = f.at(k + 1);
+    const StepGeometry<S> g{S(r.x[k]), S(r.x[k + 1]), xf0, xf1, S(r.dt_s), S(1)};
     advance_lags(m, g, y);
+    xf0 = xf1;
     emit(k + 1, sum());
   }
 }
@@ -138,7 +172,10 @@ void propagate(const CoefficientModel<S, Cap>& m, const PreparedRun& r, S* y, Em
 struct Layout {
   int n_struct = 0;
   int n_rotary = 0;  // rotary coefficients, after the structural ones
+  int n_static = 0;  // static correction coefficients, after the rotary ones
+  bool replaces_rotary = false;
   int lags = 1;
+  int y0_per_run = 1;  // lags, or 1 when the further lags start at rest
   std::vector<int> y0_offset;  // per run: index of its first y0 parameter, -1 if periodic
   int n_params = 0;
   std::size_t n_samples = 0;
@@ -149,15 +186,18 @@ Layout make_layout(const UnsteadyStructure& s, const std::vector<PreparedRun>& r
   Layout L;
   L.n_struct = s.n_struct();
   L.n_rotary = static_cast<int>(s.rotary.size());
+  L.n_static = static_cast<int>(s.static_corr.size());
+  L.replaces_rotary = L.n_rotary > 0 && s.rotary_role == RotaryRole::replaces_a_priori;
   L.lags = s.lags;
-  int next = L.n_struct + L.n_rotary;
+  L.y0_per_run = s.y0_per_run();
+  int next = L.n_struct + L.n_rotary + L.n_static;
   L.starts.push_back(0);
   for (const PreparedRun& r : runs) {
     if (r.periodic) {
       L.y0_offset.push_back(-1);
     } else {
       L.y0_offset.push_back(next);
-      next += s.lags;
+      next += L.y0_per_run;
     }
     L.n_samples += r.x.size();
     L.starts.push_back(L.n_samples);
@@ -169,15 +209,20 @@ Layout make_layout(const UnsteadyStructure& s, const std::vector<PreparedRun>& r
 // The measured side and the rotary part of the model at sample i: with jointly estimated
 // rotary terms the target is C - C_a(x) and the model adds (l/V) C_aq(x) rate; otherwise the
 // target is y_E (eq. 12) and the rotary part is already in it.
+// Diagnose's correcting rotary terms and static-correction terms add to y_E's model likewise.
 double target(const PreparedRun& r, std::size_t i, const Layout& L) {
-  return L.n_rotary > 0 ? r.coef[i] - r.static_value[i] : r.y_e[i];
+  return L.replaces_rotary ? r.coef[i] - r.static_value[i] : r.y_e[i];
 }
 double rotary_part(const UnsteadyStructure& s, const Layout& L, const Eigen::VectorXd& theta,
                    const PreparedRun& r, std::size_t i) {
   double c = 0.0;
   for (int k = 0; k < L.n_rotary; ++k)
     c += theta(L.n_struct + k) * rotary_basis(s.rotary, static_cast<std::size_t>(k), r.x[i]);
-  return s.l_over_v_s * c * r.rate[i];
+  double d = 0.0;
+  for (int k = 0; k < L.n_static; ++k)
+    d += theta(L.n_struct + L.n_rotary + k) *
+         rotary_basis(s.static_corr, static_cast<std::size_t>(k), r.x[i]);
+  return s.l_over_v_s * c * r.rate[i] + d;
 }
 
 // Residuals at theta (double). Returns false if the model cannot be propagated (no periodic
@@ -193,13 +238,13 @@ bool residuals(const UnsteadyStructure& s, const Layout& L, const std::vector<Pr
     const PreparedRun& r = runs[ri];
     double y[Cap::max_lags] = {};
     if (L.y0_offset[ri] < 0) {
-      if (!periodic_state(m, r, y)) return false;
+      if (!periodic_state(m, r, s.delay, y)) return false;
     } else {
-      for (int j = 0; j < L.lags; ++j) y[j] = theta(L.y0_offset[ri] + j);
+      for (int j = 0; j < L.y0_per_run; ++j) y[j] = theta(L.y0_offset[ri] + j);
     }
     const auto base = static_cast<Eigen::Index>(L.starts[ri]);
     if (y_model) (*y_model)[ri].resize(r.x.size());
-    propagate(m, r, y, [&](std::size_t i, double ys) {
+    propagate(m, r, s.delay, y, [&](std::size_t i, double ys) {
       v(base + static_cast<Eigen::Index>(i)) = target(r, i, L) - ys - rotary_part(s, L, theta, r, i);
       if (y_model) (*y_model)[ri][i] = ys;
     });
@@ -239,13 +284,13 @@ bool jacobian_n(const UnsteadyStructure& s, const Layout& L, const std::vector<P
     ADN y[Cap::max_lags];
     for (int j = 0; j < Cap::max_lags; ++j) y[j] = ADN(0.0);
     if (L.y0_offset[ri] < 0) {
-      if (!periodic_state(m, r, y)) return false;
+      if (!periodic_state(m, r, s.delay, y)) return false;
     } else {
-      for (int j = 0; j < L.lags; ++j) y[j] = seeded(theta(L.y0_offset[ri] + j), L.n_struct + j);
+      for (int j = 0; j < L.y0_per_run; ++j) y[j] = seeded(theta(L.y0_offset[ri] + j), L.n_struct + j);
     }
     const auto base = static_cast<Eigen::Index>(L.starts[ri]);
     const int off = L.y0_offset[ri];
-    propagate(m, r, y, [&](std::size_t i, const ADN& ys) {
+    propagate(m, r, s.delay, y, [&](std::size_t i, const ADN& ys) {
       const Eigen::Index row = base + static_cast<Eigen::Index>(i);
       v(row) = target(r, i, L) - ys.value() - rotary_part(s, L, theta, r, i);
       const auto& d = ys.derivatives();
@@ -255,8 +300,11 @@ bool jacobian_n(const UnsteadyStructure& s, const Layout& L, const std::vector<P
         J(row, L.n_struct + k) = -s.l_over_v_s *
                                  rotary_basis(s.rotary, static_cast<std::size_t>(k), r.x[i]) *
                                  r.rate[i];
+      for (int k = 0; k < L.n_static; ++k)
+        J(row, L.n_struct + L.n_rotary + k) =
+            -rotary_basis(s.static_corr, static_cast<std::size_t>(k), r.x[i]);
       if (off >= 0)
-        for (int j = 0; j < L.lags; ++j) J(row, off + j) = -d(L.n_struct + j);
+        for (int j = 0; j < L.y0_per_run; ++j) J(row, off + j) = -d(L.n_struct + j);
     });
   }
   return v.allFinite() && J.allFinite();
@@ -326,7 +374,7 @@ double rotary_basis(const SplineTerms& rotary, std::size_t k, double x) {
 int n_initial_states(const UnsteadyStructure& s, const std::vector<PreparedRun>& runs) {
   int n = 0;
   for (const PreparedRun& r : runs)
-    if (!r.periodic) n += s.lags;
+    if (!r.periodic) n += s.y0_per_run();
   return n;
 }
 
@@ -335,10 +383,11 @@ std::vector<std::string> parameter_names(const UnsteadyStructure& s,
   std::vector<std::string> names;
   for (const Term& t : structural_terms(s)) names.push_back(t.name);
   for (const Term& t : rotary_terms(s.rotary)) names.push_back(t.name);
+  for (const Term& t : static_corr_terms(s.static_corr)) names.push_back(t.name);
   for (std::size_t r = 0; r < runs.size(); ++r) {
     if (runs[r].periodic) continue;
     names.push_back("y0_" + std::to_string(r + 1));
-    for (int j = 1; j < s.lags; ++j)
+    for (int j = 1; j < s.y0_per_run(); ++j)
       names.push_back("y0_" + std::to_string(r + 1) + "_" + std::to_string(j + 1));
   }
   return names;
@@ -346,6 +395,44 @@ std::vector<std::string> parameter_names(const UnsteadyStructure& s,
 
 void set_unsteady(const UnsteadyStructure& s, const double* theta, CoefficientModel<double, Cap>& m) {
   build_model(s, theta, m);
+}
+
+namespace {
+// Adds coef * basis term into a double spline: powers into power_coef (n_powers grown), knots
+// merged with an existing knot of the same position and power or appended.
+void add_term(SplineD& sp, const Term& t, double coef, const char* what) {
+  const bool power = t.kind == TermKind::rotary_power || t.kind == TermKind::static_power;
+  if (power) {
+    if (t.power >= Cap::max_powers) throw std::logic_error(std::string(what) + ": power too high");
+    for (int i = sp.n_powers; i <= t.power; ++i) sp.power_coef[i] = 0.0;
+    sp.n_powers = std::max(sp.n_powers, t.power + 1);
+    sp.power_coef[t.power] += coef;
+    return;
+  }
+  for (int j = 0; j < sp.n_knots; ++j)
+    if (sp.knot_rad[j] == t.knot_rad && sp.knot_power[j] == t.power) {
+      sp.knot_coef[j] += coef;
+      return;
+    }
+  if (sp.n_knots >= Cap::max_knots) throw std::logic_error(std::string(what) + ": too many knots");
+  sp.knot_rad[sp.n_knots] = t.knot_rad;
+  sp.knot_power[sp.n_knots] = t.power;
+  sp.knot_coef[sp.n_knots] = coef;
+  ++sp.n_knots;
+}
+}  // namespace
+
+void add_output_terms(const UnsteadyStructure& s, const double* theta,
+                      CoefficientModel<double, Cap>& m) {
+  const int ns = s.n_struct();
+  const std::vector<Term> rt = rotary_terms(s.rotary);
+  if (!rt.empty() && s.rotary_role == RotaryRole::replaces_a_priori) m.rotary = SplineD{};
+  for (std::size_t k = 0; k < rt.size(); ++k)
+    add_term(m.rotary, rt[k], theta[static_cast<std::size_t>(ns) + k], "C_aq(x)");
+  const std::vector<Term> st = static_corr_terms(s.static_corr);
+  for (std::size_t k = 0; k < st.size(); ++k)
+    add_term(m.static_correction, st[k], theta[static_cast<std::size_t>(ns) + rt.size() + k],
+             "dC_a(x)");
 }
 
 MLResult fit_output_error(const UnsteadyStructure& s, const std::vector<PreparedRun>& runs,

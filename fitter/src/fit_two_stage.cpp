@@ -28,7 +28,7 @@ double plus_pow(double u, int p) {
 // Start vector for the ML step from the equation-error estimates (by name), further lags'
 // defaults, and y0 = y_E at each run's first sample.
 Eigen::VectorXd start_values(const UnsteadyStructure& s, const std::vector<PreparedRun>& runs,
-                             const std::vector<ParameterEstimate>& ee) {
+                             const std::vector<ParameterEstimate>& ee, double delay_start_s) {
   const std::vector<std::string> names = parameter_names(s, runs);
   Eigen::VectorXd th = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(names.size()));
   double b1_0 = 1.0;
@@ -49,14 +49,16 @@ Eigen::VectorXd start_values(const UnsteadyStructure& s, const std::vector<Prepa
       if (n.size() > 1 && n[0] == 'b' && n[1] != '1' && n.back() == '0' && n.find('_') != std::string::npos)
         v = 4.0 * std::abs(b1_0) * (n[1] - '0');
       else if (n.size() > 1 && n[0] == 'c') v = 0.1;
+      else if (n == "delay_s") v = delay_start_s;
     }
     th(static_cast<Eigen::Index>(i)) = v;
   }
-  std::size_t k = static_cast<std::size_t>(s.n_struct());
+  // y0 follow the structural and the jointly estimated output terms (rotary, static).
+  std::size_t k = static_cast<std::size_t>(s.n_struct()) + s.rotary.size() + s.static_corr.size();
   for (const PreparedRun& r : runs) {
     if (r.periodic) continue;
     th(static_cast<Eigen::Index>(k)) = r.y_e.front();
-    k += static_cast<std::size_t>(s.lags);
+    k += static_cast<std::size_t>(s.y0_per_run());
   }
   return th;
 }
@@ -144,12 +146,19 @@ FitResult fit_experiment(const Experiment& e, const FitOptions& o) {
   const double l_over_v = e.l_over_v_s();
 
   // 1-2. Equation error (stepwise when configured): structure and start values.
-  const UnsteadyStructure pool = structure_from_config(e.model);
+  UnsteadyStructure pool = structure_from_config(e.model);
+  pool.l_over_v_s = l_over_v;
+  if (e.rotary.estimate && pool.rotary.size() > 0)
+    throw InputError(e.path, 0, "rotary correction terms (diagnose's rotary_alpha) need "
+                                "rotary.estimate = false: the two-stage loop owns C_aq otherwise");
+  if (e.model.delay == DelayEstimation::estimated && !std::isfinite(e.model.delay_start_s))
+    throw InputError(e.path, 0, "the delay's start value is not finite");
   UnsteadyStructure s;
   res.equation_error = run_equation_error(runs, pool, e.model.structure, o, e.path, s);
 
   // 3. ML output error.
-  Eigen::VectorXd theta0 = start_values(s, runs, res.equation_error.parameters);
+  Eigen::VectorXd theta0 = start_values(s, runs, res.equation_error.parameters,
+                                        e.model.delay_start_s);
   {
     const std::vector<std::string> names = parameter_names(s, runs);
     for (const auto& [name, value] : o.start_values) {
@@ -269,6 +278,24 @@ FitResult fit_experiment(const Experiment& e, const FitOptions& o) {
   CoefficientModel<double, Cap>& cm = model.coefficients[0];
   set_unsteady(s, ml.theta.data(), cm);
   cm.rotary = rotary;
+  // Diagnose's extensions: correcting rotary terms and static-correction terms (the two-stage
+  // loop's replacing rotary terms are already in `rotary`).
+  UnsteadyStructure extension = ml.structure;
+  if (extension.rotary_role == RotaryRole::replaces_a_priori) extension.rotary = SplineTerms{};
+  const bool extended = extension.rotary.size() + extension.static_corr.size() > 0;
+  if (extended) {
+    // add_output_terms reads theta by the layout of ml.structure; rebuild it with the
+    // replacing rotary coefficients removed (they are not in theta as correcting terms).
+    Eigen::VectorXd th = ml.theta;
+    const auto ns = static_cast<Eigen::Index>(s.n_struct());
+    const auto nrep = static_cast<Eigen::Index>(ml.structure.rotary.size() - extension.rotary.size());
+    if (nrep > 0) {
+      Eigen::VectorXd t2(th.size() - nrep);
+      t2 << th.head(ns), th.tail(th.size() - ns - nrep);
+      th = t2;
+    }
+    add_output_terms(extension, th.data(), cm);
+  }
   res.model = model;
   res.output_error = ml.summary;
   res.fit_error = ml.summary.fit_error;
@@ -337,6 +364,11 @@ FitResult fit_experiment(const Experiment& e, const FitOptions& o) {
     rs.residual.resize(n);
     for (std::size_t i = 0; i < n; ++i) {
       rs.quasi_steady[i] = r.static_value[i] + r.rotary_value[i];
+      if (extended) {
+        // The fitted corrections are part of the quasi-steady curve and of y_E (eq. 12).
+        rs.quasi_steady[i] = quasi_steady_output(cm, r.x[i], r.rate[i], l_over_v);
+        rs.y_measured[i] = r.coef[i] - rs.quasi_steady[i];
+      }
       rs.model[i] = rs.quasi_steady[i] + rs.y_model[i];
       rs.residual[i] = rs.measured[i] - rs.model[i];
     }

@@ -51,12 +51,35 @@ struct RotaryConfig {
   SplineConfig candidates;           // with estimate: powers 0..degree and knots (power 1)
 };
 
+// Whether the fit estimates a pure delay of the unsteady forcing (x_f = x(t - delay)).
+enum class DelayEstimation { none, estimated };
+// The initial state of lags 2.. in each run: estimated (y0_{r}_{k}, like lag 1's y0_{r}) or
+// at rest (0). Why at rest exists: with a free initial state, a slow further lag is a per-run
+// constant offset, which would mimic the state-equation constant (diagnose tests the second
+// lag at rest: tunnel runs start from rest, and lag 1's estimated y0 keeps the fit's freedom
+// for a run that does not).
+enum class LagStart { estimated, at_rest };
+
 struct ModelConfig {
   SplineConfig a{{0, 1, 2}, {}, 2};
   SplineConfig b1{{0}, {}, 1};
   bool bias = false;
   StructureMode structure = StructureMode::fixed;
   int lags = 1;                      // extension: number of lag states (>= 1)
+  // Extensions used by `indicial diagnose` (library only: no TOML keys yet). All are estimated
+  // in the maximum-likelihood output-error step only (the equation error does not see them);
+  // they start at 0 (delay: delay_start_s) unless FitOptions::start_values names them.
+  //  * static_correction: dC_a(x) terms (ML names dCa_{i}, dCaK{j}), an angle-only
+  //    correction of the static curve, CoefficientModel::static_correction.
+  //  * rotary_correction: C_aq(x) terms ADDED to the a priori C_aq (names Caq_{i}, CaqK{j});
+  //    requires rotary.estimate = false (the two-stage loop owns C_aq otherwise).
+  //  * delay: DelayEstimation::estimated adds the parameter delay_s (s at V_ref), with its
+  //    sensitivity through indicial::delayed_angle.
+  SplineConfig static_correction{{}, {}, 2};
+  SplineConfig rotary_correction{{}, {}, 1};
+  DelayEstimation delay = DelayEstimation::none;
+  double delay_start_s = 0.0;
+  LagStart further_lag_start = LagStart::estimated;
 };
 
 struct Experiment {

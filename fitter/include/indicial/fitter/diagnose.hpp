@@ -1,0 +1,199 @@
+// indicial/fitter/diagnose.hpp -- the missing-effect workflow (`indicial diagnose`).
+//
+// What it is for
+// --------------
+// diagnose_experiment() fits the configured model (ML output error, fit.hpp), looks at what
+// the residuals still hold, and names the effect the model lacks, with statistics:
+//
+//   1. Fit the configured model; residuals per run; the noise level from the residuals'
+//      short-lag structure (estimate_noise_level below: the second difference of the
+//      residual, which white noise passes with variance 6 sigma^2 and the smooth, low-frequency
+//      model error of a tunnel motion does not).
+//   2. Every candidate of the vocabulary (interface.md) is a concrete extension of the model
+//      in shared/ (so the runtime evaluates it too), fitted by fit_experiment with the current
+//      estimates as start values:
+//        b1_alpha      a b1(x) plus-function term (x - k)_+ at a knot k of a scan grid inside
+//                      the data's angle range, or b1's next power
+//        a_alpha       an a(x) knot term (x - k)_+^2 from the same scan, or a(x)'s next power
+//        rotary_alpha  a C_aq(x) term x^i or (x - k)_+ added to the a priori C_aq and
+//                      estimated jointly (the joint-ML refinement of the two-stage step)
+//        bias          the state-equation constant con
+//        time_delay    a pure delay of the unsteady forcing, x_f = x(t - delay), estimated by
+//                      ML with its sensitivity through indicial::delayed_angle (two starts)
+//        second_lag    a second lag state b2, c2 (three starts of b2)
+//        static_error  an angle-only correction dC_a(x): x^i (i >= 1) or (x - k)_+^2
+//                      (no x^0: a constant offset equals con / b1 when b1 is constant, so it
+//                      is tested, and named, as `bias`)
+//   3. Score: the likelihood-ratio statistic LR = N ln(s0^2 / s1^2) (Gaussian residuals of
+//      unknown variance, N samples; s = s(v) of the base and the extended fit), against
+//      chi^2(dp), dp = the number of added ML parameters (Boost.Math), and Delta BIC =
+//      N ln(s1^2 / s0^2) + dp ln N. Multiplicity (Bonferroni): a candidate enters only if
+//      p < alpha / M, M = every candidate model fitted in that round, each scanned knot
+//      position counted (and the refinement positions of a winning knot), AND Delta BIC < 0.
+//   4. The most significant candidate (smallest p) is added, the model refitted (that fit IS
+//      the candidate's fit), and the round repeated until nothing is significant or
+//      max_steps. The verdict is the first step's effect ("none" without steps: the model is
+//      left as configured).
+//
+// Usage
+// -----
+//   indicial::Experiment e = indicial::load_experiment("experiment.toml");
+//   indicial::DiagnoseOptions o;                                   // alpha = 0.01
+//   indicial::DiagnoseResult d = indicial::diagnose_experiment(e, o);
+//   std::puts(d.verdict.c_str());                                  // "time_delay", "none", ...
+//   indicial::write_diagnose_outputs(d, e, o, "out", indicial::Overwrite::refuse);
+//
+// Warnings
+// --------
+// 1. A knot scan's position is a parameter that does not exist under the null hypothesis
+//    (Davies' problem): the chi^2 p-value of one position is not the p-value of the best of
+//    many; the Bonferroni count over every scanned position is what keeps the false-positive
+//    rate at or below alpha per round (measured: tests/test_diagnose_null.cpp).
+// 2. LR assumes white Gaussian residuals. Colored measurement noise inflates LR; check the
+//    noise estimate against the final fit error (they agree when the model is complete and
+//    the noise white).
+// 3. Names can be ambiguous where the model cannot tell effects apart on the data (e.g. a
+//    delay and a lower b1 at a single frequency); the candidate table in report.md shows how
+//    close the runner-up was.
+// 4. When rotary.estimate = true, the two-stage fit's C_aq is frozen as the a priori C_aq for
+//    the diagnosis (its power terms; knot terms are kept as estimated correction terms).
+#pragma once
+
+#include <cstddef>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "indicial/fitter/experiment.hpp"
+#include "indicial/fitter/fit.hpp"
+#include "indicial/fitter/output.hpp"
+#include "indicial/fitter/report.hpp"
+
+namespace indicial {
+
+enum class Effect { b1_alpha, a_alpha, rotary_alpha, bias, time_delay, second_lag, static_error };
+inline constexpr int effect_count = 7;
+const char* effect_name(Effect e);  // the contract's names: "b1_alpha", ...
+
+struct DiagnoseOptions {
+  double alpha = 0.01;               // family-wise significance level per round
+  int max_steps = 6;                 // effects added at most
+  double knot_spacing_deg = 5.0;     // scan grid of knot positions (model angle x)
+  double knot_margin_fraction = 0.1; // the grid stays this fraction of the range inside it
+  int max_scan_knots = 16;           // the spacing widens when the range needs more
+  FitOptions fit;                    // for every fit (start_values are set per candidate)
+};
+
+// One candidate model of one round.
+enum class CandidateStatus {
+  fitted,              // the extended model was fitted; statistic and p_value are valid
+  fit_failed,          // fit_experiment threw (e.g. collinear terms) or did not converge
+  not_identifiable     // the extended fit's information matrix is rank deficient
+};
+const char* candidate_status_name(CandidateStatus s);
+
+struct CandidateScore {
+  Effect effect = Effect::bias;
+  std::string term;         // what was added, e.g. "B at 30.0 deg", "delay_s", "con"
+  std::string detail;       // for reports: "knot 30.0 deg", "delay 0.061 s", ...
+  CandidateStatus status = CandidateStatus::fitted;
+  int added_parameters = 0; // dp
+  double fit_error = 0.0;   // s(v) of the extended fit
+  double statistic = 0.0;   // LR = N ln(s0^2 / s1^2), >= 0
+  double p_value = 1.0;     // chi^2(dp) upper tail of LR
+  double log10_p = 0.0;     // log10 p, finite even when p underflows (asymptotic tail)
+  double delta_bic = 0.0;   // BIC(extended) - BIC(base)
+  std::string message;      // why it failed, when it did
+};
+
+struct DiagnoseStep {
+  int step = 0;                        // 1-based
+  Effect effect = Effect::bias;
+  std::string detail;
+  std::string term;
+  double statistic = 0.0;
+  double p_value = 1.0;
+  double log10_p = 0.0;
+  double threshold = 0.0;              // alpha / candidates_tested
+  int candidates_tested = 0;           // M of the round (knot positions counted)
+  int added_parameters = 0;
+  double delta_bic = 0.0;
+  double fit_error_before = 0.0;
+  double fit_error_after = 0.0;
+  std::vector<double> run_rms_before;  // per run RMS residual
+  std::vector<double> run_rms_after;
+};
+
+// A round: every candidate tested against the model of that round.
+struct DiagnoseRound {
+  int round = 0;                       // 1-based; round k decides step k
+  double base_fit_error = 0.0;
+  int candidates_tested = 0;
+  double threshold = 0.0;
+  std::vector<CandidateScore> candidates;
+  int best = -1;                       // index into candidates of the smallest p (fitted)
+  bool added = false;                  // whether `best` became a step
+};
+
+struct NoiseEstimate {
+  double sigma = 0.0;                  // pooled over runs
+  std::vector<double> run_sigma;       // per run
+};
+
+struct DiagnoseResult {
+  double initial_fit_error = 0.0;
+  NoiseEstimate noise;                 // from the INITIAL fit's residuals
+  NoiseEstimate final_noise;           // from the final fit's residuals
+  std::vector<DiagnoseStep> steps;
+  std::vector<DiagnoseRound> rounds;
+  double final_fit_error = 0.0;
+  std::string verdict = "none";
+  std::vector<std::string> effects_added;
+  std::vector<FitResult> fits;         // fits[0] the configured model, fits[k] after step k
+  std::vector<ModelConfig> configs;    // the model configuration of each fit
+  Experiment experiment;               // the working experiment (rotary frozen, warning 4)
+  double alpha = 0.01;
+  double elapsed_s = 0.0;
+  int fits_run = 0;                    // fit_experiment calls
+};
+
+// The noise level of residual series (one per run) from their second differences:
+// sigma^2 = sum (v[k+1] - 2 v[k] + v[k-1])^2 / (6 (n - 2)), pooled over runs.
+// Why: white noise of variance s^2 gives E[(second difference)^2] = 6 s^2 exactly (its
+// autocorrelation vanishes beyond lag 0), while a model error that is smooth on the scale of
+// the sample step (motion frequency f, step dt) is attenuated by (2 pi f dt)^4: 2.4e-5 at
+// 1 Hz and 100 samples/s. A plateau of the residual spectrum would need a choice of band;
+// the second difference is that high-pass filter with its gain known exactly.
+NoiseEstimate estimate_noise_level(const std::vector<RunSeries>& runs);
+
+// The whole workflow (see the essay). Throws InputError for bad input (as fit_experiment).
+DiagnoseResult diagnose_experiment(const Experiment& e, const DiagnoseOptions& o);
+
+// diagnosis.json: the contract fields (initial_fit_error, noise_estimate, steps with effect,
+// detail, statistic, p_value, fit_error_before, fit_error_after; final_fit_error, verdict),
+// extended with effects_added, per-step p threshold, dp, Delta BIC, per-run RMS, the rounds'
+// candidate tables, the final model's parameters and the runtime check.
+nlohmann::json diagnosis_json(const DiagnoseResult& d, const Experiment& e,
+                              const DiagnoseOptions& o, const RuntimeCheck* runtime);
+
+struct DiagnoseOutputs {
+  std::filesystem::path dir;
+  std::string diagnosis_json;
+  std::string model_coef;
+  std::string report_md;
+  PlotStatus plots = PlotStatus::not_requested;
+  std::string plot_message;
+  std::vector<std::string> images;     // relative to dir
+  RuntimeCheck runtime;
+};
+
+// Writes DIR/diagnosis.json, DIR/model.coef (the final model, by the runtime's writer, replayed
+// by the runtime), DIR/report.md and DIR/plots/ through OutputDir (whole or nothing; a
+// non-empty DIR only with Overwrite::replace). gnuplot problems are reported, not thrown.
+DiagnoseOutputs write_diagnose_outputs(const DiagnoseResult& d, const Experiment& e,
+                                       const DiagnoseOptions& o, const std::filesystem::path& dir,
+                                       Overwrite overwrite, const ReportOptions& ro = {});
+
+}  // namespace indicial

@@ -1,0 +1,50 @@
+// diagnose_test_common.hpp -- the check every single-effect diagnose test makes.
+#pragma once
+
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <cstdint>
+#include <string>
+
+#include "diagnose_test_data.hpp"
+#include "indicial/fitter/diagnose.hpp"
+
+namespace indicial::testing {
+
+// Data with the hidden `effect` of hidden_effect() on `case_name`, SNR 40, `seed`; runs
+// diagnose and checks: the configured model's fit error is at least twice the noise (the
+// effect is sized as the issue asks), the first step names the effect, the final fit error is
+// within 15 % of the true noise level, and so is the noise estimate from the initial
+// residuals. Returns the result for further checks.
+inline DiagnoseResult check_single_effect(const std::string& case_name, const std::string& effect,
+                                          const TruthModifier& modify, std::uint64_t seed) {
+  double sigma = 0.0;
+  const Experiment e = hidden_effect_experiment(case_name, effect, modify, 40.0, seed, &sigma);
+  const DiagnoseResult d = diagnose_experiment(e, DiagnoseOptions{});
+  INFO(case_name, " hidden ", effect, " seed ", seed, ": sigma ", sigma, " initial ",
+       d.initial_fit_error, " final ", d.final_fit_error, " noise estimate ", d.noise.sigma,
+       " verdict ", d.verdict);
+  MESSAGE(effect, " seed ", seed, ": initial/sigma ", d.initial_fit_error / sigma,
+          ", final/sigma ", d.final_fit_error / sigma, ", noise est/sigma ", d.noise.sigma / sigma,
+          ", steps ", d.steps.size(),
+          (d.steps.empty() ? std::string() : ", first LR " + std::to_string(d.steps[0].statistic) +
+                                                 " log10 p " + std::to_string(d.steps[0].log10_p) +
+                                                 " (" + d.steps[0].detail + ")"),
+          ", ", d.elapsed_s, " s");
+  CHECK(d.initial_fit_error >= 2.0 * sigma);
+  REQUIRE(!d.steps.empty());
+  CHECK(std::string(effect_name(d.steps.front().effect)) == effect);
+  CHECK(d.verdict == effect);
+  CHECK(std::abs(d.final_fit_error / sigma - 1.0) < 0.15);
+  CHECK(std::abs(d.noise.sigma / sigma - 1.0) < 0.15);
+  // Each step lowers the fit error; the p-values pass their Bonferroni thresholds.
+  for (const DiagnoseStep& s : d.steps) {
+    CHECK(s.fit_error_after < s.fit_error_before);
+    CHECK(s.p_value < s.threshold);
+    CHECK(s.delta_bic < 0.0);
+  }
+  return d;
+}
+
+}  // namespace indicial::testing

@@ -1,0 +1,104 @@
+// Diagnose: two hidden effects at once (both found, in either order), and the `indicial diagnose` command end to end (contract fields of
+// diagnosis.json, model.coef loaded by the runtime, report and plots, output-directory rules).
+#define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
+#include <doctest/doctest.h>
+#include <sys/wait.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+
+#include "diagnose_test_common.hpp"
+#include "indicial/fitter/io.hpp"
+#include "indicial/fitter/simulate.hpp"
+#include "indicial/runtime.hpp"
+
+namespace fs = std::filesystem;
+using namespace indicial;
+using namespace indicial::testing;
+
+namespace {
+bool contains(const std::vector<std::string>& v, const std::string& s) {
+  return std::find(v.begin(), v.end(), s) != v.end();
+}
+}  // namespace
+
+TEST_CASE("diagnose finds two hidden effects at once: b1_alpha and bias") {
+  const TruthModifier both = [](TruthCoefficient& m) {
+    hidden_effect("b1_alpha")(m);
+    hidden_effect("bias")(m);
+  };
+  for (std::uint64_t seed : {201u, 202u}) {
+    double sigma = 0.0;
+    const Experiment e = hidden_effect_experiment("tailless-model-1", "b1+bias", both, 40.0, seed, &sigma);
+    const DiagnoseResult d = diagnose_experiment(e, DiagnoseOptions{});
+    std::string order;
+    for (const auto& s : d.effects_added) order += s + " ";
+    MESSAGE("seed ", seed, ": effects ", order, "initial/sigma ", d.initial_fit_error / sigma,
+            " final/sigma ", d.final_fit_error / sigma);
+    CHECK(contains(d.effects_added, "b1_alpha"));
+    CHECK(contains(d.effects_added, "bias"));
+    CHECK(std::abs(d.final_fit_error / sigma - 1.0) < 0.15);
+  }
+}
+
+
+
+TEST_CASE("indicial diagnose: contract outputs, model.coef in the runtime, directory rules") {
+  // Data: Model I with a hidden delay, written as run CSVs + experiment.toml.
+  const SimulationCase& base = find_simulation_case("tailless-model-1");
+  SimulationCase c = base;
+  c.truth.coefficients[0].delay_s = 0.02;
+  const fs::path data = scratch() / "data";
+  write_simulation_case(c, data.string(), 40.0, 7, Overwrite::refuse);
+  const fs::path out = scratch() / "diag";
+  const Cmd d = run("diagnose " + (data / "experiment.toml").string() + " --out " + out.string());
+  INFO(d.out, d.err);
+  REQUIRE(d.exit_code == 0);
+  const nlohmann::json j = nlohmann::json::parse(slurp(out / "diagnosis.json"));
+  for (const char* k : {"initial_fit_error", "noise_estimate", "steps", "final_fit_error", "verdict"})
+    CHECK(j.contains(k));
+  CHECK(j["verdict"] == "time_delay");
+  REQUIRE(j["steps"].size() >= 1);
+  for (const char* k : {"effect", "detail", "statistic", "p_value", "fit_error_before", "fit_error_after"})
+    CHECK(j["steps"][0].contains(k));
+  CHECK(j["steps"][0]["detail"].get<std::string>().rfind("delay ", 0) == 0);
+  CHECK(j["final_fit_error"].get<double>() < j["initial_fit_error"].get<double>());
+  // The final model loads in the runtime (default capacity) and carries the delay.
+  const std::string coef = slurp(out / "model.coef");
+  auto p = std::make_unique<Predictor<double, DefaultCapacity>>();
+  CHECK(p->load(coef.data(), coef.size()) == LoadStatus::ok);
+  CHECK(coef.find("delay_s") != std::string::npos);
+  CHECK(j["runtime_check"]["fit"] == "default_capacity");
+  CHECK(j["runtime_check"]["max_abs_difference"].get<double>() < 1e-9);
+  // report.md: the step table and the plots.
+  const std::string md = slurp(out / "report.md");
+  CHECK(md.find("| step | effect | detail |") != std::string::npos);
+  CHECK(md.find("time_delay") != std::string::npos);
+  CHECK(fs::exists(out / "plots" / "plots.gp"));
+  if (md.find("plots/step1_time.png") != std::string::npos) {
+    CHECK(fs::file_size(out / "plots" / "step1_time.png") > 0);
+    CHECK(fs::file_size(out / "plots" / "step1_angle.png") > 0);
+  }
+  // No overwrite without --force; with --force it is replaced.
+  const Cmd again = run("diagnose " + (data / "experiment.toml").string() + " --out " + out.string());
+  CHECK(again.exit_code == 1);
+  CHECK(again.err.find("indicial: error:") != std::string::npos);
+  const Cmd forced = run("diagnose " + (data / "experiment.toml").string() + " --out " + out.string() +
+                         " --force --alpha 0.001");
+  CHECK(forced.exit_code == 0);
+  // Bad input: one line, exit 1, nothing written.
+  const Cmd bad = run("diagnose " + (scratch() / "missing.toml").string() + " --out " +
+                      (scratch() / "none").string());
+  CHECK(bad.exit_code == 1);
+  CHECK(!fs::exists(scratch() / "none"));
+  const Cmd help = run("diagnose --help");
+  CHECK(help.exit_code == 0);
+  CHECK(help.out.find("--alpha") != std::string::npos);
+}
