@@ -112,6 +112,12 @@ TEST_CASE("freqresp: the steady-state term (con != 0 and b1'(x0) != 0) is needed
   CHECK(std::abs(r[0].steady_state_slope - r[0].static_slope) > 1e-2);  // the term matters here
 }
 
+TEST_CASE("freqresp: a pure delay of the forcing multiplies the forcing term by exp(-i w tau)") {
+  indicial::TruthModel model = indicial::find_simulation_case("f16xl-like-Cm").truth;
+  model.coefficients[0].delay_s = 0.02;  // within the FitCapacity history at 2000 steps per cycle
+  check_model(model, 20.0 * kDeg);
+}
+
 TEST_CASE("freqresp: roll and yaw linearise in the motion angle (eqs. 17 and 20)") {
   check_model(indicial::find_simulation_case("lateral-roll-Cl").truth, 10.0 * kDeg);
   check_model(indicial::find_simulation_case("lateral-yaw-Cn").truth, -8.0 * kDeg);

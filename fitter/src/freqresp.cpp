@@ -87,14 +87,18 @@ std::vector<FrequencyResponse> linearised_response(const ModelSet<double, FitCap
     // Steady state of lag 1 (model.hpp steady_state: con / b_1, with both scaled alike).
     const double b1 = spline_value(cm.lags[0].b, x0);
     const double y1_star = (cm.con != 0.0 && b1 > 0.0) ? cm.con / b1 : 0.0;
+    // A pure delay of the forcing (x_f = x(t - tau)) multiplies the forcing term by e^{-i w tau};
+    // b_j(x) sees the undelayed angle, so the steady-state term is not delayed.
+    const double tau = delay_at_airspeed(cm.delay_s, model.airspeed_mps, airspeed_mps);
     auto h_at = [&](double w) {
+      const std::complex<double> delay_factor = std::exp(-I * w * tau);
       std::complex<double> lag_sum(0.0, 0.0);
       for (int j = 0; j < cm.n_lags; ++j) {
         const double gain = j == 0 ? 1.0 : cm.lags[j].gain;
         const double bj = spline_value(cm.lags[j].b, x0) * time_scale;
         const double dbj = spline_derivative(cm.lags[j].b, x0) * time_scale;
         const double ystar = j == 0 ? y1_star : 0.0;
-        lag_sum += (gain * a0 * I * w + dbj * ystar) / (I * w + bj);
+        lag_sum += (gain * a0 * I * w * delay_factor + dbj * ystar) / (I * w + bj);
       }
       return xm * (r.static_slope - lag_sum) + l_over_v * r.rotary * I * w;
     };

@@ -26,7 +26,8 @@
 // The b_1'(x0) y_1* term is the steady state moving with the angle: at w -> 0 it tends to
 // x_m d/dx [con / b_1(x)] = -x_m con b_1'(x0) / b_1(x0)^2, so H(0) is the slope of the model's
 // steady-state curve C_a(x) + dC_a(x) + con / b_1(x), not of C_a(x) alone. b_j and con are
-// scaled by V / V_ref like the runtime does.
+// scaled by V / V_ref like the runtime does. A pure delay tau of the forcing (delay_s, scaled by
+// V_ref / V) multiplies the c_j a(x0) i w term by e^{-i w tau}.
 //
 // Outputs per k: H, its magnitude and phase, the in-phase component Re H (the forced-
 // oscillation derivative C_a_alpha-bar, per rad) and the out-of-phase component Im H / k
