@@ -39,38 +39,3 @@ TEST_CASE("diagnose on yaw data: a hidden state-equation constant") {
   const TruthModifier bias = [](TruthCoefficient& m) { m.con = 0.02; };
   for (std::uint64_t seed : {301u, 302u}) check_single_effect("lateral-yaw-Cn", "bias", bias, seed);
 }
-
-// ------------------------------------------------------------------------------------------
-namespace {
-struct Cmd {
-  int exit_code = -1;
-  std::string out;
-  std::string err;
-};
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-const fs::path& scratch() {
-  static const fs::path dir = [] {
-    fs::path d = fs::temp_directory_path() /
-                 ("indicial-test-diagnose-" + std::to_string(::getpid()));
-    fs::remove_all(d);
-    fs::create_directories(d);
-    return d;
-  }();
-  return dir;
-}
-Cmd run(const std::string& args) {
-  const fs::path o = scratch() / "stdout.txt", e = scratch() / "stderr.txt";
-  const std::string cmd = std::string(INDICIAL_EXE) + " " + args + " > " + o.string() + " 2> " + e.string();
-  const int rc = std::system(cmd.c_str());
-  Cmd r;
-  r.exit_code = (rc != -1 && WIFEXITED(rc)) ? WEXITSTATUS(rc) : -1;
-  r.out = slurp(o);
-  r.err = slurp(e);
-  return r;
-}
-}  // namespace

@@ -50,6 +50,41 @@ TEST_CASE("diagnose finds two hidden effects at once: b1_alpha and bias") {
 
 
 
+// ------------------------------------------------------------------------------------------
+namespace {
+struct Cmd {
+  int exit_code = -1;
+  std::string out;
+  std::string err;
+};
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+const fs::path& scratch() {
+  static const fs::path dir = [] {
+    fs::path d = fs::temp_directory_path() /
+                 ("indicial-test-diagnose-" + std::to_string(::getpid()));
+    fs::remove_all(d);
+    fs::create_directories(d);
+    return d;
+  }();
+  return dir;
+}
+Cmd run(const std::string& args) {
+  const fs::path o = scratch() / "stdout.txt", e = scratch() / "stderr.txt";
+  const std::string cmd = std::string(INDICIAL_EXE) + " " + args + " > " + o.string() + " 2> " + e.string();
+  const int rc = std::system(cmd.c_str());
+  Cmd r;
+  r.exit_code = (rc != -1 && WIFEXITED(rc)) ? WEXITSTATUS(rc) : -1;
+  r.out = slurp(o);
+  r.err = slurp(e);
+  return r;
+}
+}  // namespace
+
 TEST_CASE("indicial diagnose: contract outputs, model.coef in the runtime, directory rules") {
   // Data: Model I with a hidden delay, written as run CSVs + experiment.toml.
   const SimulationCase& base = find_simulation_case("tailless-model-1");
