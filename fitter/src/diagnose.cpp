@@ -515,7 +515,6 @@ DiagnoseResult diagnose_experiment(const Experiment& e_in, const DiagnoseOptions
   d.configs.push_back(w.model);
   d.initial_fit_error = first.fit_error;
   d.noise = estimate_noise_level(first.runs);
-  const std::size_t n_samples = total_samples(w);
 
   for (int round = 1; round <= o.max_steps; ++round) {
     const FitResult& base = d.fits.back();
@@ -592,7 +591,6 @@ DiagnoseResult diagnose_experiment(const Experiment& e_in, const DiagnoseOptions
     d.configs.push_back(win.config);
     d.fits.push_back(std::move(win.fit));
   }
-  (void)n_samples;
   d.final_fit_error = d.fits.back().fit_error;
   d.final_noise = estimate_noise_level(d.fits.back().runs);
   d.verdict = d.steps.empty() ? "none" : effect_name(d.steps.front().effect);

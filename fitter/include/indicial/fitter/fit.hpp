@@ -34,7 +34,9 @@
 // Parameter names (../shared/reference/interface.md): a{i} for a(x)'s x^i term, A{j} for its
 // knot terms (j from 1, knots ascending), b1_{i} and B{j} for b1(x), con, Caq_{i} for the
 // estimated rotary polynomial and CaqK{j} for its knot terms, y0_{r} for run r's initial state
-// (r from 1, lag 1), y0_{r}_{k} for lag k >= 2, b{k}_{i} and c{k} for lag k >= 2.
+// (r from 1, lag 1), y0_{r}_{k} for lag k >= 2, b{k}_{i} and c{k} for lag k >= 2; with the
+// diagnose extensions of ModelConfig (experiment.hpp): dCa_{i} / dCaK{j} for static-correction
+// terms, Caq_{i} / CaqK{j} for rotary-correction terms, delay_s for an estimated delay.
 //
 // Warnings
 // --------
