@@ -41,6 +41,16 @@
 // clamped model angle) samples for that, in the Snapshot (so snapshot/restore replays bit for
 // bit); reset() starts it "at rest at the reset angle since forever".
 //
+// What a step costs: the spline quantities at the previous sample (model.hpp's StepEnd: the
+// antiderivatives B_j(x0) of b_j and A(x0) of a) were computed by the previous step as its new
+// end, for the same spline at the same (clamped) angle; the predictor keeps them and evaluates
+// only the new end (advance_lags_between), which gives bit for bit what advance_lags gives.
+// They are a pure function of the Snapshot (x_prev_rad) and the model, so they are kept
+// beside it, not in it, and rebuilt by reset() and restore(). A delayed coefficient
+// recomputes A at the old end every step (x(t0 - d) moves when the airspeed, hence d,
+// changes). The airspeed ratios (V / V_ref, l / V, the delay at V) are recomputed only when
+// the airspeed changes.
+//
 // Warnings
 // --------
 // 1. load() parses into a local ModelSet<double, Cap> and copies it in only when valid: the
@@ -285,6 +295,8 @@ class Predictor {
     model_ = converted;
     state_ = Snapshot{};
     state_.phase = static_cast<int>(PredictorPhase::loaded);
+    ends_ = Ends{};
+    airspeed_ = AirspeedTerms{};
     return LoadStatus::ok;
   }
 
@@ -317,6 +329,9 @@ class Predictor {
     state_.history_origin = static_cast<int>(HistoryOrigin::rest_before_oldest);
     state_.x_prev_rad = clamp.x_rad;
     state_.phase = static_cast<int>(PredictorPhase::running);
+    // At rest the forcing angle is the model angle, delay or not (delayed_angle of a one-sample
+    // history is that sample).
+    evaluate_ends();
     return clamp.clamped ? StepStatus::angle_clamped : StepStatus::ok;
   }
 
@@ -335,8 +350,10 @@ class Predictor {
 
     const ClampResult clamp = clamp_model_angle(in.motion_angle_rad);
     const Scalar x1 = clamp.x_rad;
-    const Scalar time_scale = Scalar(in.airspeed_mps / model_.airspeed_mps);
-    const Scalar l_over_v_s = Scalar(model_.reference_length_m / in.airspeed_mps);
+    // The same divisions as ever, done once per airspeed (bit-identical: same operands).
+    const AirspeedTerms& v = airspeed_terms(in.airspeed_mps);
+    const Scalar time_scale = v.time_scale;
+    const Scalar l_over_v_s = v.l_over_v_s;
     const Scalar rate = Scalar(in.rate_radps);
     const double t0_s = state_.time_s;
     const double t1_s = t0_s + dt_s;
@@ -351,6 +368,7 @@ class Predictor {
 
     // Work on copies; commit only if every number is finite (warning 4).
     Scalar y[Cap::max_coefficients][Cap::max_lags];
+    Ends new_ends;  // the spline quantities at this sample: the next step's old end
     Outputs result;
     result.count = model_.n_coefficients;
     for (int c = 0; c < model_.n_coefficients; ++c) {
@@ -358,13 +376,16 @@ class Predictor {
       for (int j = 0; j < Cap::max_lags; ++j) y[c][j] = state_.y[c][j];
       StepGeometry<Scalar> g{state_.x_prev_rad, x1, state_.x_prev_rad, x1, Scalar(dt_s),
                              time_scale};
+      // The old end as the previous step (or reset/restore) left it: B_j(x_prev) and, without
+      // a delay, A(x_prev) -- bit for bit what advance_lags would evaluate again.
+      const StepEnd<Scalar, Cap>* end0 = &ends_.end[c];
+      StepEnd<Scalar, Cap> delayed_end0;
       // Why the branch: an undelayed coefficient uses the sample angles themselves, exactly
       // as before delays existed (bit for bit); only a delayed one reads the history.
       if (cm.delay_s != Scalar(0)) {
         // Times in double (model.hpp warning 5): the delay at this airspeed, then x(t - d)
         // at both ends of the step by the shared interpolation.
-        const double d_s = delay_at_airspeed(static_cast<double>(cm.delay_s),
-                                             model_.airspeed_mps, in.airspeed_mps);
+        const double d_s = v.delay_s[c];
         // Why: t0 - d before the oldest kept sample, with older samples already dropped, is
         // an angle the runtime no longer knows; refuse rather than guess (warning 7). The
         // comparison is delayed_angle's own (age of the oldest sample < delay).
@@ -372,8 +393,15 @@ class Predictor {
           return StepStatus::delay_exceeds_history;
         g.forcing_x0_rad = Scalar(delayed_angle(view, t0_s, d_s));
         g.forcing_x1_rad = Scalar(delayed_angle(view, t1_s, d_s));
+        // Why recomputed: x(t0 - d) is the previous step's x(t1 - d) only while d (i.e. the
+        // airspeed) is unchanged; evaluating A there every step is always exact. B_j(x0) stays
+        // valid: x0 is the previous clamped model angle whatever the delay.
+        delayed_end0 = *end0;
+        delayed_end0.forcing_antiderivative = spline_antiderivative(cm.a, g.forcing_x0_rad);
+        end0 = &delayed_end0;
       }
-      advance_lags(cm, g, y[c]);
+      evaluate_step_end(cm, g.x1_rad, g.forcing_x1_rad, &new_ends.end[c]);
+      advance_lags_between(cm, g, *end0, new_ends.end[c], y[c]);
       result.value[c] = coefficient_output(cm, x1, rate, l_over_v_s, y[c]);
       result.name[c] = cm.name;
       if (!std::isfinite(result.value[c])) return StepStatus::non_finite_result;
@@ -392,6 +420,7 @@ class Predictor {
     else ++state_.history_count;
     state_.time_s = t1_s;
     state_.x_prev_rad = x1;
+    for (int c = 0; c < model_.n_coefficients; ++c) ends_.end[c] = new_ends.end[c];
     *out = result;
     return clamp.clamped ? StepStatus::angle_clamped : StepStatus::ok;
   }
@@ -429,6 +458,10 @@ class Predictor {
     // A snapshot can never bring back the empty phase over a loaded model.
     if (state_.phase != static_cast<int>(PredictorPhase::running))
       state_.phase = static_cast<int>(PredictorPhase::loaded);
+    // The cached old end is a function of the restored x_prev_rad (see the essay): rebuilt,
+    // so a restored predictor steps bit for bit like the one the snapshot was taken from.
+    else
+      evaluate_ends();
   }
 
   PredictorPhase phase() const { return static_cast<PredictorPhase>(state_.phase); }
@@ -441,6 +474,43 @@ class Predictor {
     Scalar x_rad;
     bool clamped;
   };
+
+  // The spline quantities at the previous sample, per coefficient (model.hpp's StepEnd).
+  struct Ends {
+    StepEnd<Scalar, Cap> end[Cap::max_coefficients];
+  };
+
+  // Per-airspeed constants of step(). airspeed_mps = 0 means "none cached": step() accepts
+  // only airspeeds > 0, so it never matches.
+  struct AirspeedTerms {
+    double airspeed_mps = 0.0;
+    Scalar time_scale = Scalar(0);  // V / V_ref
+    Scalar l_over_v_s = Scalar(0);  // l / V
+    double delay_s[Cap::max_coefficients] = {};  // each coefficient's delay at V
+  };
+
+  const AirspeedTerms& airspeed_terms(double airspeed_mps) {
+    // Why the exact comparison: the cached values are the same expressions of the same
+    // operand, so reusing them for an equal airspeed is bit-identical; any other airspeed
+    // recomputes.
+    if (airspeed_mps != airspeed_.airspeed_mps) {
+      airspeed_.airspeed_mps = airspeed_mps;
+      airspeed_.time_scale = Scalar(airspeed_mps / model_.airspeed_mps);
+      airspeed_.l_over_v_s = Scalar(model_.reference_length_m / airspeed_mps);
+      for (int c = 0; c < model_.n_coefficients; ++c)
+        airspeed_.delay_s[c] = delay_at_airspeed(static_cast<double>(model_.coefficients[c].delay_s),
+                                                 model_.airspeed_mps, airspeed_mps);
+    }
+    return airspeed_;
+  }
+
+  // The old end of the next step at the current x_prev_rad, the forcing angle taken equal to
+  // it (right for every undelayed coefficient; a delayed one recomputes its A each step).
+  void evaluate_ends() {
+    for (int c = 0; c < model_.n_coefficients; ++c)
+      evaluate_step_end(model_.coefficients[c], state_.x_prev_rad, state_.x_prev_rad,
+                        &ends_.end[c]);
+  }
 
   // The delay history seen newest-first by indicial::delayed_angle (model.hpp): index 0 is
   // the pending new sample, index i >= 1 the ring's (i-1)-th newest. Reads only.
@@ -539,6 +609,8 @@ class Predictor {
 
   Model model_{};
   Snapshot state_{};
+  Ends ends_{};              // derived from state_ and model_ (rebuilt by reset, restore)
+  AirspeedTerms airspeed_{};  // derived from model_ and the last airspeed
 };
 
 }  // namespace indicial
