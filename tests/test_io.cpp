@@ -421,6 +421,20 @@ TEST_CASE("each bad experiment file names the file, the line and the key") {
     m = exp_error("u5.toml", t + "[fit]\nx = 1\n");
     CHECK_HAS(m, "u5.toml:27: unknown key 'fit'");
   }
+  SUBCASE("bytes the TOML library cannot take are refused before it sees them") {
+    // A non-ASCII byte where whitespace is expected reaches __builtin_unreachable in the
+    // system toml++ (found by the fuzzer); io.cpp refuses it with the line.
+    std::string m = exp_error("n1.toml", replace(t, "axis = \"pitch\"", "axis =\xef\xbb\xb7\"pitch\""));
+    CHECK_HAS(m, "n1.toml:1: non-ASCII byte 0xEF outside a string or comment");
+    m = exp_error("n2.toml", replace(t, "[static]", std::string("[stat\0ic]", 9)));
+    CHECK_HAS(m, "n2.toml:8: NUL byte in the file");
+    // Inside a comment or a string non-ASCII text is fine: this file fails later, on the run
+    // file it names, not on its bytes.
+    m = exp_error("n3.toml", replace(replace(t, "\"run_f0.25.csv\"", "\"l\xc3\xa4uft.csv\""),
+                                     "# pitch | roll | yaw", "# Messl\xc3\xa4ufe"));
+    CHECK(m.find("non-ASCII") == std::string::npos);
+    CHECK_HAS(m, "l\xc3\xa4uft.csv");
+  }
   SUBCASE("wrong types") {
     std::string m = exp_error("w1.toml", replace(t, "reference_length_m = 0.3765", "reference_length_m = \"0.3765\""));
     CHECK_HAS(m, "w1.toml:3: wrong type: 'reference_length_m' must be a number, found a string");

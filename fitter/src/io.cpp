@@ -1,6 +1,8 @@
 // Run CSV and experiment TOML ingest and writers. See indicial/fitter/io.hpp.
 #include "indicial/fitter/io.hpp"
 
+#include <fmt/format.h>
+
 #include <Eigen/Core>
 #include <Eigen/QR>
 #include <algorithm>
@@ -541,10 +543,51 @@ struct KnotSource {
   toml::source_region where;
 };
 
+// Refuses bytes that the system toml++ (3.3.0, Debian 12) mishandles before it sees them:
+// a NUL byte anywhere, and a non-ASCII byte outside a string or comment, reach an assertion
+// and __builtin_unreachable in its whitespace classifier (upstream marzer/tomlplusplus #190,
+// #295, fixed by PR #305; found by tests/fuzz/fuzz_experiment.cpp). Non-ASCII text inside
+// quoted strings (a run file name) and comments stays allowed. Why a hand scan: no TOML
+// library on the machine is free of the bug, and the scan only needs to know where strings
+// and comments are, not the grammar.
+void refuse_bytes_toml_cannot_take(const std::string& text, const std::string& path) {
+  long line = 1;
+  enum class Where { code, comment, basic_string, literal_string } where = Where::code;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const unsigned char c = static_cast<unsigned char>(text[i]);
+    if (c == 0) throw InputError(path, line, "NUL byte in the file (is it a TOML text file?)");
+    if (c == '\n') {
+      ++line;
+      if (where == Where::comment) where = Where::code;
+      continue;
+    }
+    switch (where) {
+      case Where::code:
+        if (c == '#') where = Where::comment;
+        else if (c == '"') where = Where::basic_string;
+        else if (c == '\'') where = Where::literal_string;
+        else if (c >= 0x80) {
+          throw InputError(path, line, fmt::format("non-ASCII byte 0x{:02X} outside a string or "
+                                                   "comment (keys and values must be ASCII)", c));
+        }
+        break;
+      case Where::comment: break;
+      case Where::basic_string:
+        if (c == '\\') ++i;  // an escaped character, e.g. \" does not end the string
+        else if (c == '"') where = Where::code;
+        break;
+      case Where::literal_string:
+        if (c == '\'') where = Where::code;
+        break;
+    }
+  }
+}
+
 }  // namespace
 
 Experiment load_experiment(const std::string& toml_path) {
   const std::string text = read_text(toml_path);
+  refuse_bytes_toml_cannot_take(text, toml_path);
   toml::table root;
   try {
     root = toml::parse(text, toml_path);
