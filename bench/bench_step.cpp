@@ -7,15 +7,12 @@
 //   step/<model>/<scalar>      indicial::Predictor::step (runtime/include/indicial/runtime.hpp)
 //   model/<model>/<scalar>     advance_lags + coefficient_output straight from model.hpp, i.e.
 //                              the step without the runtime's input checks and bookkeeping
-//   cached/<model>/<scalar>    WHAT-IF, not product code: the same update with b_j(x0) and
-//                              A(x0) carried over from the previous step and one exp per lag
-//                              (see the comment at CachedStepper); it shows what the caching
-//                              the floor assumes would buy
 //   floor/<model>/<scalar>     only the work no implementation can avoid: per coefficient the
 //                              static polynomial, the rotary polynomial and the antiderivative
-//                              A(x1) at the NEW angle, and per lag b_j(x1) and one exp(). The
-//                              values at the old angle are not in the floor: they were computed
-//                              the step before and can be kept (advance_lags recomputes them)
+//                              A(x1) at the NEW angle, and per lag the antiderivative B_j(x1)
+//                              (the update averages b_j over the angle swept) and one exp().
+//                              The values at the old angle are not in the floor: they were
+//                              computed the step before (the runtime keeps them)
 //   rk4/model2/double          classic RK4 of the lag ODE (lag_derivatives) at the same dt,
 //                              angle linear between samples: what a user might write instead
 //   conv1s/model2/double       direct quadrature of the convolution integral of eq. 4b (report
@@ -133,62 +130,6 @@ class ModelStepper {
 };
 
 // ------------------------------------------------------------------------------------------
-// cached/: WHAT-IF. The same discrete update as indicial::advance_lags (model.hpp), written
-// out here only to measure what two savings would buy; it is checked against advance_lags at
-// start-up (check_cached_matches_model) and is not used anywhere but in this benchmark:
-//  * b_j(x0) and A(x0) are the previous step's b_j(x1) and A(x1): carried over, not recomputed;
-//  * exp(-z) is computed once and reused for phi1(z) = (1 - exp(-z)) / z.
-// ------------------------------------------------------------------------------------------
-template <class Scalar>
-class CachedStepper {
- public:
-  explicit CachedStepper(ModelKind kind) : set_(ib::make_model_set<Scalar>(kind)) {}
-  void reset(Scalar x_rad) {
-    for (int c = 0; c < set_.n_coefficients; ++c) {
-      const auto& m = set_.coefficients[c];
-      indicial::steady_state(m, x_rad, y_[c]);
-      a_prev_[c] = indicial::spline_antiderivative(m.a, x_rad);
-      for (int j = 0; j < m.n_lags; ++j) b_prev_[c][j] = indicial::spline_value(m.lags[j].b, x_rad);
-    }
-  }
-  Scalar step(Scalar x1_rad, Scalar q_radps, Scalar dt_s) {
-    using std::abs;
-    using std::exp;
-    const Scalar l_over_v_s = Scalar(set_.reference_length_m / set_.airspeed_mps);
-    Scalar sum = Scalar(0);
-    for (int c = 0; c < set_.n_coefficients; ++c) {
-      const auto& m = set_.coefficients[c];
-      const Scalar a1 = indicial::spline_antiderivative(m.a, x1_rad);
-      const Scalar forcing_integral = a1 - a_prev_[c];
-      a_prev_[c] = a1;
-      for (int j = 0; j < m.n_lags; ++j) {
-        const Scalar b1 = indicial::spline_value(m.lags[j].b, x1_rad);
-        const Scalar z = Scalar(0.5) * (b_prev_[c][j] + b1) * dt_s;
-        b_prev_[c][j] = b1;
-        const Scalar e = exp(-z);
-        // Same branch as indicial::phi1: Taylor series where (1 - e) / z cancels.
-        const Scalar phi = abs(z) < Scalar(1e-3)
-                               ? Scalar(1) + z * (Scalar(-0.5) + z * (Scalar(1.0 / 6.0) +
-                                                                      z * Scalar(-1.0 / 24.0)))
-                               : (Scalar(1) - e) / z;
-        const Scalar gain = (j == 0) ? Scalar(1) : m.lags[j].gain;
-        Scalar drive = -gain * forcing_integral;
-        if (j == 0) drive = drive + m.con * dt_s;
-        y_[c][j] = e * y_[c][j] + phi * drive;
-      }
-      sum += indicial::coefficient_output(m, x1_rad, q_radps, l_over_v_s, y_[c]);
-    }
-    return sum;
-  }
-
- private:
-  indicial::ModelSet<Scalar, Cap> set_;
-  Scalar y_[Cap::max_coefficients][Cap::max_lags] = {};
-  Scalar a_prev_[Cap::max_coefficients] = {};
-  Scalar b_prev_[Cap::max_coefficients][Cap::max_lags] = {};
-};
-
-// ------------------------------------------------------------------------------------------
 // floor/: the unavoidable evaluations at the new angle, and one exp per lag and coefficient.
 // ------------------------------------------------------------------------------------------
 template <class Scalar>
@@ -205,7 +146,7 @@ class FloorStepper {
       sum += indicial::spline_value(m.rotary, x1_rad) * q_radps;
       sum += indicial::spline_antiderivative(m.a, x1_rad);
       for (int j = 0; j < m.n_lags; ++j)
-        sum += exp(-indicial::spline_value(m.lags[j].b, x1_rad) * dt_s);
+        sum += exp(-indicial::spline_antiderivative(m.lags[j].b, x1_rad) * dt_s);
     }
     return sum;
   }
@@ -367,31 +308,8 @@ void register_scalar() {
     const std::string m = ib::model_kind_name(k);
     register_variant<Scalar, PredictorStepper<Scalar>>("step/" + m + "/" + s, 1000, k);
     register_variant<Scalar, ModelStepper<Scalar>>("model/" + m + "/" + s, 1000, k);
-    register_variant<Scalar, CachedStepper<Scalar>>("cached/" + m + "/" + s, 1000, k);
     register_variant<Scalar, FloorStepper<Scalar>>("floor/" + m + "/" + s, 1000, k);
   }
-}
-
-// Checks, once at start-up, that the what-if CachedStepper computes what advance_lags
-// computes (to rounding), so its timing is the timing of the same answer.
-bool check_cached_matches_model() {
-  for (ModelKind k : {ModelKind::model_i, ModelKind::model_ii, ModelKind::two_lags}) {
-    ModelStepper<double> a(k);
-    CachedStepper<double> b(k);
-    const ib::Motion<double> motion(1000.0);
-    a.reset(motion.angle_rad(0));
-    b.reset(motion.angle_rad(0));
-    for (std::size_t i = 1; i < 5000; ++i) {
-      const double ya = a.step(motion.angle_rad(i), motion.rate_radps(i), kDtS);
-      const double yb = b.step(motion.angle_rad(i), motion.rate_radps(i), kDtS);
-      if (std::abs(ya - yb) > 1e-12 * (1.0 + std::abs(ya))) {
-        std::fprintf(stderr, "cached/%s differs from model.hpp at step %zu: %.17g vs %.17g\n",
-                     ib::model_kind_name(k), i, ya, yb);
-        return false;
-      }
-    }
-  }
-  return true;
 }
 
 // Checks that Predictor::step (double) gives the same numbers as the model.hpp update, so that
@@ -453,7 +371,6 @@ int callgrind_main(const std::string& name, std::size_t steps) {
     table.push_back({"step/" + m + "/float", [=] { return callgrind_run<float, PredictorStepper<float>>(steps, k); }});
     table.push_back({"model/" + m + "/double", [=] { return callgrind_run<double, ModelStepper<double>>(steps, k); }});
     table.push_back({"floor/" + m + "/double", [=] { return callgrind_run<double, FloorStepper<double>>(steps, k); }});
-    table.push_back({"cached/" + m + "/double", [=] { return callgrind_run<double, CachedStepper<double>>(steps, k); }});
     table.push_back({"floor/" + m + "/float", [=] { return callgrind_run<float, FloorStepper<float>>(steps, k); }});
   }
   for (const auto& [n, fn] : table)
@@ -467,7 +384,6 @@ int callgrind_main(const std::string& name, std::size_t steps) {
 int main(int argc, char** argv) {
   if (argc == 4 && std::strcmp(argv[1], "--callgrind") == 0)
     return callgrind_main(argv[2], std::strtoull(argv[3], nullptr, 10));
-  if (!check_cached_matches_model()) return 1;
   if (!check_step_matches_model()) return 1;
   register_scalar<double>();
   register_scalar<float>();

@@ -93,27 +93,26 @@ w("## 1. Runtime step against its floor (bench_step)")
 w("")
 w("C_L + C_m in pitch, 1 kHz (dt = 1 ms), alpha = 35 + 35 sin(2 pi t) deg. `step` is")
 w("`Predictor::step`; `model` is `advance_lags` + `coefficient_output` from model.hpp without")
-w("the runtime's checks; `cached` is a what-if of the same update with b_j(x0), A(x0) carried")
-w("over and one exp per lag (checked equal to `model` to 1e-12 at start-up); `floor` is the")
-w("unavoidable work: static, rotary and A at the new angle, b_j at the new angle and one")
-w("exp per lag and coefficient. Each iteration's angle depends on the previous output")
+w("the runtime's checks (and without its cache of the previous sample); `floor` is the")
+w("unavoidable work: static, rotary and A at the new angle, B_j (antiderivative of b_j) at the")
+w("new angle and one exp per lag and coefficient. Each iteration's angle depends on the previous output")
 w("(latency of a dependent chain, as in a real-time loop).")
 w("")
 w("Times are the median CPU time per step of the benchmark thread (ns); `step wall` is the")
 w("median wall time of the same benchmark, inflated by time spent waiting for a CPU when the")
 w("machine is shared.")
 w("")
-w("| model | scalar | step ns | model ns | cached ns | floor ns | step/floor | model/floor | cached/floor | step wall ns | allocs/step |")
-w("|---|---|---|---|---|---|---|---|---|---|---|")
+w("| model | scalar | step ns | model ns | floor ns | step/floor | model/floor | step wall ns | allocs/step |")
+w("|---|---|---|---|---|---|---|---|---|")
 for m in ("model1", "model2", "twolag"):
     for s in ("double", "float"):
-        st, mo, ca, fl = (t(f"{k}/{m}/{s}") for k in ("step", "model", "cached", "floor"))
+        st, mo, fl = (t(f"{k}/{m}/{s}") for k in ("step", "model", "floor"))
         allocs = max((step[f"{k}/{m}/{s}"].get("allocs_per_step", 0.0)
-                      for k in ("step", "model", "cached", "floor") if f"{k}/{m}/{s}" in step),
+                      for k in ("step", "model", "floor") if f"{k}/{m}/{s}" in step),
                      default=None)
         r = lambda a: a / fl if (a and fl) else None
-        w(f"| {m} | {s} | {fmt(st)} | {fmt(mo)} | {fmt(ca)} | {fmt(fl)} | {fmt(r(st))} | "
-          f"{fmt(r(mo))} | {fmt(r(ca))} | {fmt(t_wall(f'step/{m}/{s}'))} | {fmt(allocs)} |")
+        w(f"| {m} | {s} | {fmt(st)} | {fmt(mo)} | {fmt(fl)} | {fmt(r(st))} | "
+          f"{fmt(r(mo))} | {fmt(t_wall(f'step/{m}/{s}'))} | {fmt(allocs)} |")
 w("")
 ratio_m2 = (t("step/model2/double") / t("floor/model2/double")) if t("floor/model2/double") else None
 allocs_all = [b.get("allocs_per_step", 0.0) for n, b in step.items()]

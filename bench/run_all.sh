@@ -55,7 +55,7 @@ if [[ "${SKIP_CALLGRIND:-0}" != 1 ]] && command -v valgrind >/dev/null; then
   steps=50000
   : >"$out/callgrind.txt"
   for v in step/model1/double step/model2/double step/twolag/double step/model2/float \
-           model/model2/double cached/model2/double \
+           model/model2/double \
            floor/model1/double floor/model2/double floor/twolag/double floor/model2/float; do
     f="$out/callgrind.$(echo "$v" | tr / _).out"
     valgrind --tool=callgrind --instr-atstart=no --callgrind-out-file="$f" \
