@@ -2,7 +2,6 @@
 // replacing every global operator new / delete and, on glibc, malloc / calloc / realloc /
 // free themselves (so a std::from_chars or libm call that used malloc would be seen too).
 // Uses CHECK/REQUIRE, never assert(), so it counts in Release (NDEBUG) builds as well.
-#define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
 #include <doctest/doctest.h>
 
 #include <atomic>

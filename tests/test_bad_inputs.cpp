@@ -9,7 +9,6 @@
 // child process with RLIMIT_FSIZE set to a few KB and SIGXFSZ ignored, so the kernel refuses
 // every write past the limit with EFBIG exactly as a full disk refuses with ENOSPC; the test
 // then checks that the previous results are intact byte for byte and no temporary is left.
-#define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
 #include <doctest/doctest.h>
 
 #include <fcntl.h>

@@ -2,7 +2,6 @@
 // examples by the built executable, see tests/CMakeLists.txt) compile, are constant
 // expressions, and run bit for bit like loading the same files as text. Also the command's
 // refusals.
-#define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
 #include <doctest/doctest.h>
 
 #include <cmath>

@@ -1,5 +1,4 @@
 // The coefficient file (.coef, version 1): round trip, size, checksum and every refusal.
-#define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
 #include <doctest/doctest.h>
 
 #include <cstring>

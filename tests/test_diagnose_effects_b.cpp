@@ -1,7 +1,6 @@
 // Diagnose, one hidden effect at a time (rotary_alpha and bias): data from the reference simulator
 // (SNR 40, several seeds), Model I structure with the right static and rotary terms (or the
 // lateral case's own configuration); see diagnose_test_common.hpp for the checks.
-#define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
 #include <doctest/doctest.h>
 
 #include <algorithm>
@@ -14,7 +13,7 @@ using namespace indicial::testing;
 
 namespace {
 [[maybe_unused]] void check_effect(const std::string& effect) {
-  for (std::uint64_t seed : {101u, 102u, 103u})
+  for (std::uint64_t seed : test_seeds({101u, 102u, 103u}))
     check_single_effect("tailless-model-1", effect, hidden_effect(effect), seed);
 }
 [[maybe_unused]] double estimate(const DiagnoseResult& d, const std::string& name) {
@@ -27,7 +26,7 @@ namespace {
 TEST_CASE("diagnose names a hidden C_mq(alpha) term: rotary_alpha") { check_effect("rotary_alpha"); }
 
 TEST_CASE("diagnose names a hidden state-equation constant: bias") {
-  for (std::uint64_t seed : {101u, 102u, 103u}) {
+  for (std::uint64_t seed : test_seeds({101u, 102u, 103u})) {
     const DiagnoseResult d = check_single_effect("tailless-model-1", "bias", hidden_effect("bias"), seed);
     double con = 0.0;
     for (const ParameterEstimate& p : d.fits.back().parameters)

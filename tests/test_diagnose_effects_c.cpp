@@ -1,7 +1,6 @@
 // Diagnose, one hidden effect at a time (time_delay and second_lag): data from the reference simulator
 // (SNR 40, several seeds), Model I structure with the right static and rotary terms (or the
 // lateral case's own configuration); see diagnose_test_common.hpp for the checks.
-#define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
 #include <doctest/doctest.h>
 
 #include <algorithm>
@@ -14,7 +13,7 @@ using namespace indicial::testing;
 
 namespace {
 [[maybe_unused]] void check_effect(const std::string& effect) {
-  for (std::uint64_t seed : {101u, 102u, 103u})
+  for (std::uint64_t seed : test_seeds({101u, 102u, 103u}))
     check_single_effect("tailless-model-1", effect, hidden_effect(effect), seed);
 }
 [[maybe_unused]] double estimate(const DiagnoseResult& d, const std::string& name) {
@@ -25,7 +24,7 @@ namespace {
 }  // namespace
 
 TEST_CASE("diagnose names a hidden pure delay: time_delay, and estimates it") {
-  for (std::uint64_t seed : {101u, 102u, 103u}) {
+  for (std::uint64_t seed : test_seeds({101u, 102u, 103u})) {
     const DiagnoseResult d =
         check_single_effect("tailless-model-1", "time_delay", hidden_effect("time_delay"), seed);
     CHECK(estimate(d, "delay_s") == doctest::Approx(0.02).epsilon(0.1));
@@ -33,7 +32,7 @@ TEST_CASE("diagnose names a hidden pure delay: time_delay, and estimates it") {
 }
 
 TEST_CASE("diagnose names a hidden second lag: second_lag") {
-  for (std::uint64_t seed : {101u, 102u, 103u}) {
+  for (std::uint64_t seed : test_seeds({101u, 102u, 103u})) {
     const DiagnoseResult d =
         check_single_effect("tailless-model-1", "second_lag", hidden_effect("second_lag"), seed);
     // With constant b1 the two lags may come out in either order: (b1, b2, c2) and

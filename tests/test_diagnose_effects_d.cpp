@@ -1,7 +1,6 @@
 // Diagnose, one hidden effect at a time (static_error; and the lateral axes: a delay in roll, a constant in yaw): data from the reference simulator
 // (SNR 40, several seeds), Model I structure with the right static and rotary terms (or the
 // lateral case's own configuration); see diagnose_test_common.hpp for the checks.
-#define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
 #include <doctest/doctest.h>
 
 #include <algorithm>
@@ -14,7 +13,7 @@ using namespace indicial::testing;
 
 namespace {
 [[maybe_unused]] void check_effect(const std::string& effect) {
-  for (std::uint64_t seed : {101u, 102u, 103u})
+  for (std::uint64_t seed : test_seeds({101u, 102u, 103u}))
     check_single_effect("tailless-model-1", effect, hidden_effect(effect), seed);
 }
 [[maybe_unused]] double estimate(const DiagnoseResult& d, const std::string& name) {
@@ -25,17 +24,17 @@ namespace {
 }  // namespace
 
 TEST_CASE("diagnose names a hidden static-curve error: static_error") {
-  for (std::uint64_t seed : {101u, 102u, 103u})
+  for (std::uint64_t seed : test_seeds({101u, 102u, 103u}))
     check_single_effect("tailless-model-1", "static_error", hidden_effect("static_error"), seed);
 }
 
 TEST_CASE("diagnose on roll data: a hidden delay of the forcing") {
   const TruthModifier delay = [](TruthCoefficient& m) { m.delay_s = 0.03; };
-  for (std::uint64_t seed : {301u, 302u})
+  for (std::uint64_t seed : test_seeds({301u, 302u}))
     check_single_effect("lateral-roll-Cl", "time_delay", delay, seed);
 }
 
 TEST_CASE("diagnose on yaw data: a hidden state-equation constant") {
   const TruthModifier bias = [](TruthCoefficient& m) { m.con = 0.02; };
-  for (std::uint64_t seed : {301u, 302u}) check_single_effect("lateral-yaw-Cn", "bias", bias, seed);
+  for (std::uint64_t seed : test_seeds({301u, 302u})) check_single_effect("lateral-yaw-Cn", "bias", bias, seed);
 }

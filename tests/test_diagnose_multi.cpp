@@ -1,6 +1,5 @@
 // Diagnose: two hidden effects at once (both found, in either order), and the `indicial diagnose` command end to end (contract fields of
 // diagnosis.json, model.coef loaded by the runtime, report and plots, output-directory rules).
-#define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
 #include <doctest/doctest.h>
 #include <sys/wait.h>
 
@@ -34,7 +33,7 @@ TEST_CASE("diagnose finds two hidden effects at once: b1_alpha and bias") {
     hidden_effect("b1_alpha")(m);
     hidden_effect("bias")(m);
   };
-  for (std::uint64_t seed : {201u, 202u}) {
+  for (std::uint64_t seed : test_seeds({201u, 202u})) {
     double sigma = 0.0;
     const Experiment e = hidden_effect_experiment("tailless-model-1", "b1+bias", both, 40.0, seed, &sigma);
     const DiagnoseResult d = diagnose_experiment(e, DiagnoseOptions{});

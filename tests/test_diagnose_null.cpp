@@ -2,12 +2,12 @@
 // true structure. Over 20 seeds at least 19 must end with no step and verdict "none" (the
 // Bonferroni-guarded family-wise level per round is alpha = 0.01, so ~0.2 false positives are
 // expected in 20).
-#define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
 #include <doctest/doctest.h>
 
 #include <cmath>
 #include <string>
 
+#include "diagnose_test_common.hpp"
 #include "diagnose_test_data.hpp"
 #include "indicial/fitter/diagnose.hpp"
 
@@ -17,7 +17,10 @@ using namespace indicial::testing;
 TEST_CASE("diagnose leaves a complete model alone on at least 19 of 20 seeds") {
   int clean = 0;
   double worst_log10_p = 0.0;  // the smallest best-candidate p of any seed's first round
-  for (std::uint64_t seed = 1; seed <= 20; ++seed) {
+  const std::vector<std::uint64_t> seeds =
+      test_seeds({1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20}, 3);
+  const int n_seeds = static_cast<int>(seeds.size());
+  for (std::uint64_t seed : seeds) {
     double sigma = 0.0;
     const Experiment e = hidden_effect_experiment("tailless-model-1", "none", {}, 40.0, seed, &sigma);
     const DiagnoseResult d = diagnose_experiment(e, DiagnoseOptions{});
@@ -36,6 +39,6 @@ TEST_CASE("diagnose leaves a complete model alone on at least 19 of 20 seeds") {
     }
     CHECK(std::abs(d.initial_fit_error / sigma - 1.0) < 0.15);
   }
-  MESSAGE("clean seeds: ", clean, " of 20; smallest best-candidate log10 p ", worst_log10_p);
-  CHECK(clean >= 19);
+  MESSAGE("clean seeds: ", clean, " of ", n_seeds, "; smallest best-candidate log10 p ", worst_log10_p);
+  CHECK(clean >= n_seeds - 1);  // 19 of 20 in the normal build
 }

@@ -4,7 +4,6 @@
 // seam, the autodiff Jacobian of one step, and the roll / yaw angle transforms; the delayed
 // forcing (delayed_angle): its interpolation rules, its autodiff derivative with respect to
 // the delay, and the delayed update (direct and through the runtime) against the reference.
-#define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
 #include <doctest/doctest.h>
 
 #include <Eigen/Core>

@@ -7,7 +7,6 @@
 //
 // The static curves of these cases are ASSUMED (the report gives none): see
 // fitter/src/cases_f16xl.cpp and docs/validation-prediction.md.
-#define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
 #include <doctest/doctest.h>
 
 #include <cmath>

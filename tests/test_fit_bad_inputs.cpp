@@ -1,5 +1,4 @@
 // The fitter's refusals and its reported (not thrown) failures.
-#define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
 #include <doctest/doctest.h>
 
 #include <cmath>

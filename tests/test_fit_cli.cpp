@@ -1,6 +1,5 @@
 // `indicial fit` end to end: the contract fields of fit.json, model.coef in the runtime, the
 // report and its plots, output-directory rules, and bad input.
-#define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
 #include <doctest/doctest.h>
 #include <sys/wait.h>
 

@@ -1,5 +1,4 @@
 // Stepwise regression for structure, and the equation-error options.
-#define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
 #include <doctest/doctest.h>
 
 #include <algorithm>

@@ -1,7 +1,6 @@
 // The reference report's Tables II-IV on data from the reference simulator (accurate
 // integration, white noise by SNR and seed). Seeds were fixed before the first run and not
 // changed afterwards. Bounds of the report are Table II/III/IV's numbers in parentheses.
-#define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
 #include <doctest/doctest.h>
 
 #include <cmath>

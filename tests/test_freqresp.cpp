@@ -1,7 +1,6 @@
 // The linearised frequency response (fitter/.../freqresp.hpp) against a numerical
 // small-amplitude simulation of the runtime: the first harmonic of the runtime's output,
 // fitted by least squares over whole cycles after the transient has decayed, must equal H.
-#define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
 #include <doctest/doctest.h>
 
 #include <Eigen/Dense>

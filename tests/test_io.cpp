@@ -1,5 +1,4 @@
 // Ingest: run CSVs, experiment TOML, Savitzky-Golay differentiation (fitter/io.hpp).
-#define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
 #include <doctest/doctest.h>
 
 #include <cmath>

@@ -2,7 +2,6 @@
 // alpha0 = 30 deg; lateral-yaw-Cn: psi oscillation at alpha0 = 30 deg; model angle beta from the
 // report's eqs. 17 and 20), identify C_l and C_n with the fitter, and predict a second
 // amplitude at another frequency with the runtime.
-#define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
 #include <doctest/doctest.h>
 
 #include <cmath>

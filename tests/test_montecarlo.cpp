@@ -1,5 +1,4 @@
 // Monte Carlo: do the Cramer-Rao bounds predict the scatter of the estimates? (issue 3)
-#define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
 #include <doctest/doctest.h>
 #include <sys/wait.h>
 

@@ -1,5 +1,4 @@
 // Prediction with the runtime (fitter/.../predict.hpp) and `indicial predict`.
-#define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
 #include <doctest/doctest.h>
 
 #include <cmath>

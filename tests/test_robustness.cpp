@@ -27,7 +27,6 @@
 // (see docs/bad-inputs.md for the figures). Under a sanitizer build (tools/run-sanitizers.sh,
 // ~10x slower) every count is divided by 20. INDICIAL_ROBUSTNESS_STEPS=<n> overrides the
 // double count per model (float gets n / 2.5).
-#define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
 #include <doctest/doctest.h>
 
 #include <algorithm>

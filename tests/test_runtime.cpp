@@ -1,6 +1,5 @@
 // The embedded runtime (Predictor): it adds nothing to the model equations, keeps its state
 // on bad input, clamps and flags, replays bit for bit and scales with airspeed.
-#define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
 #include <doctest/doctest.h>
 
 #include <cmath>

@@ -1,5 +1,4 @@
 // The reference simulator (fitter/simulate.hpp) and `indicial simulate`.
-#define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
 #include <doctest/doctest.h>
 
 #include <sys/wait.h>

@@ -1,7 +1,6 @@
 // Splines and the static curve of shared/include/indicial/model.hpp against hand-computed
 // numbers, and explicit instantiation of the model templates for double, float and
 // Eigen::AutoDiffScalar.
-#define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
 #include <doctest/doctest.h>
 
 #include <Eigen/Core>

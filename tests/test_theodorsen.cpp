@@ -15,7 +15,6 @@
 //   C_J(k) = 1 - 0.165 ik / (ik + 0.0455) - 0.335 ik / (ik + 0.3)   (Jones),
 // to be compared with Theodorsen's C(k) = H1(k) / (H1(k) + i H0(k)), Hankel functions of the
 // second kind (boost::math::cyl_hankel_2).
-#define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
 #include <doctest/doctest.h>
 
 #include <boost/math/special_functions/hankel.hpp>
