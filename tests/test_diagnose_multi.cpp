@@ -1,6 +1,7 @@
 // Diagnose: two hidden effects at once (both found, in either order), and the `indicial diagnose` command end to end (contract fields of
 // diagnosis.json, model.coef loaded by the runtime, report and plots, output-directory rules).
 #include <doctest/doctest.h>
+#include <unistd.h>
 #include <sys/wait.h>
 
 #include <algorithm>

@@ -1,6 +1,7 @@
 // `indicial fit` end to end: the contract fields of fit.json, model.coef in the runtime, the
 // report and its plots, output-directory rules, and bad input.
 #include <doctest/doctest.h>
+#include <unistd.h>
 #include <sys/wait.h>
 
 #include <cmath>

@@ -2,6 +2,7 @@
 // small-amplitude simulation of the runtime: the first harmonic of the runtime's output,
 // fitted by least squares over whole cycles after the transient has decayed, must equal H.
 #include <doctest/doctest.h>
+#include <unistd.h>
 
 #include <Eigen/Dense>
 #include <cmath>

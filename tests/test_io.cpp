@@ -1,5 +1,6 @@
 // Ingest: run CSVs, experiment TOML, Savitzky-Golay differentiation (fitter/io.hpp).
 #include <doctest/doctest.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <cstdio>

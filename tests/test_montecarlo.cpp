@@ -1,5 +1,6 @@
 // Monte Carlo: do the Cramer-Rao bounds predict the scatter of the estimates? (issue 3)
 #include <doctest/doctest.h>
+#include <unistd.h>
 #include <sys/wait.h>
 
 #include <cmath>

@@ -1,5 +1,6 @@
 // The reference simulator (fitter/simulate.hpp) and `indicial simulate`.
 #include <doctest/doctest.h>
+#include <unistd.h>
 
 #include <sys/wait.h>
 
