@@ -1,8 +1,6 @@
 // Run CSV and experiment TOML ingest and writers. See indicial/fitter/io.hpp.
 #include "indicial/fitter/io.hpp"
 
-#include <fmt/format.h>
-
 #include <Eigen/Core>
 #include <Eigen/QR>
 #include <algorithm>
@@ -567,8 +565,10 @@ void refuse_bytes_toml_cannot_take(const std::string& text, const std::string& p
         else if (c == '"') where = Where::basic_string;
         else if (c == '\'') where = Where::literal_string;
         else if (c >= 0x80) {
-          throw InputError(path, line, fmt::format("non-ASCII byte 0x{:02X} outside a string or "
-                                                   "comment (keys and values must be ASCII)", c));
+          char hex[8];
+          std::snprintf(hex, sizeof hex, "0x%02X", static_cast<unsigned>(c));
+          throw InputError(path, line, std::string("non-ASCII byte ") + hex +
+                                           " outside a string or comment (keys and values must be ASCII)");
         }
         break;
       case Where::comment: break;
