@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "indicial/fitter/experiment.hpp"
+#include "indicial/fitter/montecarlo.hpp"
 #include "indicial/fitter/simulate.hpp"
 
 namespace indicial::testing {
@@ -50,26 +51,9 @@ inline Experiment hidden_effect_experiment(const std::string& case_name, const s
   std::vector<SimulatedRun> runs = hidden_reference_runs(case_name, key, modify);
   const std::vector<double> sigma = add_measurement_noise(runs, snr, seed);
   if (noise_sigma) *noise_sigma = sigma.empty() ? 0.0 : sigma[0];
-  Experiment e = c.experiment;
+  // The same Run-building as the Monte Carlo command (montecarlo.hpp), only renamed.
+  Experiment e = experiment_from_simulation(c, runs);
   e.path = case_name + "-" + key + ".toml";
-  e.runs.clear();
-  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
-  for (std::size_t i = 0; i < runs.size(); ++i) {
-    Run r;
-    r.path = c.run_files[i];
-    r.time_s = runs[i].time_s;
-    r.motion_angle_rad = runs[i].motion_angle_rad;
-    r.rate_radps = runs[i].rate_radps;
-    r.rate_from_file = true;
-    r.coefficient = runs[i].coefficient_measured[0];
-    for (double x : runs[i].x_rad) {
-      lo = std::min(lo, x);
-      hi = std::max(hi, x);
-    }
-    e.runs.push_back(std::move(r));
-  }
-  e.data_x_min_rad = lo;
-  e.data_x_max_rad = hi;
   return e;
 }
 
