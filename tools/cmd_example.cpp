@@ -256,7 +256,7 @@ void run_example(const ExampleOptions& o) {
          est, truth1);
   }
   md += "```\n";
-  write_text(out.path("example.md"), md);
+  out.write("example.md", md);
   out.commit();
   std::printf("example: wrote %s (data sets, fits with report.md and plots, example.md)\n", o.out.c_str());
   if (!runtime_ok) {

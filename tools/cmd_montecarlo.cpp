@@ -57,8 +57,8 @@ void run_montecarlo(const MonteCarloCli& o) {
 
   OutputDir out(o.out, overwrite);
   const std::string md = monte_carlo_markdown(res);
-  write_text(out.path("montecarlo.json"), monte_carlo_json(res).dump(2) + "\n");
-  write_text(out.path("montecarlo.md"), md);
+  out.write("montecarlo.json", monte_carlo_json(res).dump(2) + "\n");
+  out.write("montecarlo.md", md);
   out.commit();
 
   std::printf("montecarlo: %s, SNR %g, seeds %llu..%llu, noise sigma %.6g, %d fitted, %zu failed, %.1f s\n",

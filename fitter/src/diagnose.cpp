@@ -12,7 +12,6 @@
 #include <fmt/format.h>
 #include <limits>
 #include <map>
-#include <sys/wait.h>
 
 #include "fit_internal.hpp"
 #include "indicial/fitter/error.hpp"
@@ -629,39 +628,22 @@ std::string pval(double p, double log10p) {
   return fmt::format("1e{:.0f}", std::floor(log10p));
 }
 
-std::string sh_quote(const std::string& s) {
-  std::string r = "'";
-  for (char c : s) {
-    if (c == '\'') r += "'\\''";
-    else r += c;
-  }
-  return r + "'";
-}
-
-struct Plots {
-  PlotStatus status = PlotStatus::not_requested;
-  std::string message;
-  std::vector<std::string> images;
-};
-
 // Residuals against time (one panel per run) and against the model angle, before and after
-// each step (or of the configured model when there is no step). Own small gnuplot driver
-// (report.cpp's is private to the fit report); same conventions: plots/plots.gp and its data
-// files stay beside the images.
-Plots make_plots(const DiagnoseResult& d, const fs::path& plots_dir, const ReportOptions& ro) {
-  Plots ps;
+// each step (or of the configured model when there is no step). Same conventions as the fit
+// report (run_gnuplot_script): plots/plots.gp and its data files stay beside the images.
+PlotSet make_plots(const DiagnoseResult& d, const OutputDir& out, const ReportOptions& ro) {
   if (ro.plots == PlotRequest::none) {
+    PlotSet ps;
     ps.message = "plots not requested";
     return ps;
   }
-  fs::create_directories(plots_dir);
   for (std::size_t f = 0; f < d.fits.size(); ++f) {
     for (std::size_t r = 0; r < d.fits[f].runs.size(); ++r) {
       const RunSeries& s = d.fits[f].runs[r];
       std::string t = "# time_s x_deg residual\n";
       for (std::size_t i = 0; i < s.residual.size(); ++i)
         t += fmt::format("{:.6g} {:.6g} {:.6g}\n", s.time_s[i], s.x_rad[i] * kRadToDeg, s.residual[i]);
-      write_text(plots_dir / fmt::format("fit{}_run{}.dat", f, r + 1), t);
+      out.write(fmt::format("plots/fit{}_run{}.dat", f, r + 1), t);
     }
   }
   const std::size_t n_runs = d.fits.front().runs.size();
@@ -712,38 +694,7 @@ Plots make_plots(const DiagnoseResult& d, const fs::path& plots_dir, const Repor
                  fmt::format("step {}: {} ({})", k, effect_name(d.steps[k - 1].effect),
                              d.steps[k - 1].detail));
   }
-  write_text(plots_dir / "plots.gp", gp);
-  const std::string cmdline = "cd " + sh_quote(plots_dir.string()) + " && " + sh_quote(ro.gnuplot) +
-                              " plots.gp > gnuplot.log 2>&1";
-  const int rc = std::system(cmdline.c_str());
-  const int exit_code = (rc != -1 && WIFEXITED(rc)) ? WEXITSTATUS(rc) : -1;
-  std::error_code ec;
-  if (exit_code == 127 || exit_code == 126) {
-    // Why 126/127: the shell's codes for "not executable" and "command not found".
-    ps.status = PlotStatus::gnuplot_not_found;
-    ps.message = "gnuplot (" + ro.gnuplot + ") could not be run; no plots were made "
-                 "(install gnuplot, then run `gnuplot plots.gp` in plots/)";
-    fs::remove(plots_dir / "gnuplot.log", ec);
-    return ps;
-  }
-  std::size_t missing = 0;
-  for (const std::string& png : expected) {
-    if (fs::exists(plots_dir / png, ec) && fs::file_size(plots_dir / png, ec) > 0)
-      ps.images.push_back("plots/" + png);
-    else
-      ++missing;
-  }
-  if (exit_code != 0 || missing > 0) {
-    ps.status = PlotStatus::gnuplot_failed;
-    ps.message = fmt::format("gnuplot exited with status {} and {} of {} images are missing; see "
-                             "plots/gnuplot.log", exit_code, missing, expected.size());
-    return ps;
-  }
-  if (fs::exists(plots_dir / "gnuplot.log", ec) && fs::file_size(plots_dir / "gnuplot.log", ec) == 0)
-    fs::remove(plots_dir / "gnuplot.log", ec);
-  ps.status = PlotStatus::written;
-  ps.message = fmt::format("{} plots written by gnuplot", ps.images.size());
-  return ps;
+  return run_gnuplot_script(out, gp, expected, ro);
 }
 
 std::string rms_list(const std::vector<double>& v) {
@@ -753,7 +704,7 @@ std::string rms_list(const std::vector<double>& v) {
 }
 
 std::string report_markdown(const DiagnoseResult& d, const Experiment& e, const DiagnoseOptions& o,
-                            const RuntimeCheck& rc, const Plots& ps, const ReportOptions& ro) {
+                            const RuntimeCheck& rc, const PlotSet& ps, const ReportOptions& ro) {
   std::string md;
   md += "# indicial diagnose\n\n";
   if (!ro.command_line.empty()) md += "`" + ro.command_line + "`\n\n";
@@ -921,14 +872,14 @@ DiagnoseOutputs write_diagnose_outputs(const DiagnoseResult& d, const Experiment
   w.model_coef = model_coef_text(final_fit, "model.coef");
   w.runtime = replay_in_runtime(final_fit, d.experiment, w.model_coef);
   w.diagnosis_json = diagnosis_json(d, e, o, &w.runtime).dump(2) + "\n";
-  const Plots ps = make_plots(d, out.path("plots"), ro);
+  const PlotSet ps = make_plots(d, out, ro);
   w.plots = ps.status;
   w.plot_message = ps.message;
   w.images = ps.images;
   w.report_md = report_markdown(d, e, o, w.runtime, ps, ro);
-  write_text(out.path("diagnosis.json"), w.diagnosis_json);
-  write_text(out.path("model.coef"), w.model_coef);
-  write_text(out.path("report.md"), w.report_md);
+  out.write("diagnosis.json", w.diagnosis_json);
+  out.write("model.coef", w.model_coef);
+  out.write("report.md", w.report_md);
   out.commit();
   return w;
 }

@@ -109,6 +109,13 @@ struct Forcing {
     if (!delay) return S(r.x[k]);
     return delayed_angle(h, r.t[k], *delay);
   }
+  // The spline ends at sample k. Why the branch: without a delay both angles are data, passed
+  // as plain doubles so that an autodiff S does no derivative work on them (same values, see
+  // indicial::spline_antiderivative).
+  void ends_at(const CoefficientModel<S, Cap>& m, std::size_t k, StepEnd<S, Cap>* end) const {
+    if (!delay) evaluate_step_end(m, r.x[k], r.x[k], end);
+    else evaluate_step_end(m, r.x[k], at(k), end);
+  }
 };
 
 // Whether the run's last sample repeats the first (a closed cycle) -- then the cycle closes at
@@ -130,13 +137,19 @@ bool periodic_state(const CoefficientModel<S, Cap>& m, const PreparedRun& r, Del
   const std::size_t n = r.x.size();
   const bool closed = closes_on_last_sample(r);
   const std::size_t steps = closed ? n - 1 : n;
+  // The spline ends of a step are those of the next step's start: evaluated once per sample
+  // and shared by both propagations (what advance_lags would compute, bit for bit).
+  StepEnd<S, Cap> end0, end1;
+  f.ends_at(m, 0, &end0);
   for (std::size_t k = 0; k < steps; ++k) {
     const std::size_t k1 = (k + 1 == n) ? 0 : k + 1;
     // With a delay the cycle's start uses the first sample's angle before it (delayed_angle's
     // rule), not the previous cycle's end: a small approximation for periodic runs.
     const StepGeometry<S> g{S(r.x[k]), S(r.x[k1]), f.at(k), f.at(k1), S(r.dt_s), S(1)};
-    advance_lags(m, g, ya);
-    advance_lags(m, g, yb);
+    f.ends_at(m, k1, &end1);
+    advance_lags_between(m, g, end0, end1, ya);
+    advance_lags_between(m, g, end0, end1, yb);
+    end0 = end1;
   }
   for (int j = 0; j < m.n_lags; ++j) {
     const S phi = yb[j] - ya[j];
@@ -160,10 +173,17 @@ void propagate(const CoefficientModel<S, Cap>& m, const PreparedRun& r, DelayTer
     return s;
   };
   emit(std::size_t{0}, sum());
+  // As the runtime does: each sample's spline ends are evaluated once and serve as the end of
+  // one step and the start of the next (bit-identical to advance_lags, half the spline work,
+  // which dominates the sensitivities' cost).
+  StepEnd<S, Cap> end0, end1;
+  f.ends_at(m, 0, &end0);
   for (std::size_t k = 0; k + 1 < r.x.size(); ++k) {
     const S xf1 = f.at(k + 1);
     const StepGeometry<S> g{S(r.x[k]), S(r.x[k + 1]), xf0, xf1, S(r.dt_s), S(1)};
-    advance_lags(m, g, y);
+    f.ends_at(m, k + 1, &end1);
+    advance_lags_between(m, g, end0, end1, y);
+    end0 = end1;
     xf0 = xf1;
     emit(k + 1, sum());
   }

@@ -19,6 +19,24 @@ std::string unique_suffix() {
   return std::to_string(::getpid()) + "-" + std::to_string(++counter);
 }
 
+// Writes text to `actual`; a failure is reported against `reported` (what the user asked for)
+// with `consequence` appended, e.g. "; out/ left as it was".
+void write_text_as(const fs::path& actual, const std::string& text, const fs::path& reported,
+                   const std::string& consequence) {
+  std::ofstream out(actual, std::ios::binary | std::ios::trunc);
+  if (!out)
+    throw InputError(reported.string(), 0,
+                     std::string("cannot open for writing: ") + std::strerror(errno) + consequence);
+  out.write(text.data(), static_cast<std::streamsize>(text.size()));
+  out.flush();
+  if (!out)
+    throw InputError(reported.string(), 0, std::string("write failed: ") + std::strerror(errno) + consequence);
+  out.close();
+  if (!out)
+    throw InputError(reported.string(), 0,
+                     std::string("write failed on close: ") + std::strerror(errno) + consequence);
+}
+
 bool is_nonempty_dir(const fs::path& p) {
   std::error_code ec;
   if (!fs::exists(p, ec)) return false;
@@ -56,6 +74,15 @@ OutputDir::~OutputDir() {
 
 fs::path OutputDir::path(const std::string& name) const { return staging_ / name; }
 
+void OutputDir::write(const std::string& relative_name, const std::string& text) const {
+  const fs::path actual = staging_ / relative_name;
+  std::error_code ec;
+  if (actual.has_parent_path()) fs::create_directories(actual.parent_path(), ec);
+  write_text_as(actual, text, final_ / relative_name,
+                fs::exists(final_, ec) ? "; " + final_.string() + " left as it was"
+                                       : "; " + final_.string() + " was not created");
+}
+
 void OutputDir::commit() {
   std::error_code ec;
   fs::path old;
@@ -80,15 +107,7 @@ void OutputDir::commit() {
   if (!old.empty()) fs::remove_all(old, ec);
 }
 
-void write_text(const fs::path& path, const std::string& text) {
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  if (!out) throw InputError(path.string(), 0, std::string("cannot open for writing: ") + std::strerror(errno));
-  out.write(text.data(), static_cast<std::streamsize>(text.size()));
-  out.flush();
-  if (!out) throw InputError(path.string(), 0, std::string("write failed: ") + std::strerror(errno));
-  out.close();
-  if (!out) throw InputError(path.string(), 0, std::string("write failed on close: ") + std::strerror(errno));
-}
+void write_text(const fs::path& path, const std::string& text) { write_text_as(path, text, path, ""); }
 
 void write_file_atomically(const fs::path& path, const std::string& text, Overwrite overwrite) {
   std::error_code ec;
@@ -99,7 +118,10 @@ void write_file_atomically(const fs::path& path, const std::string& text, Overwr
   fs::path tmp = path;
   tmp += ".tmp-" + unique_suffix();
   try {
-    write_text(tmp, text);
+    // Reported against `path`: the temporary is removed below, and `path` is what was asked for.
+    write_text_as(tmp, text, path,
+                  fs::exists(path, ec) ? "; " + path.string() + " left as it was"
+                                       : "; " + path.string() + " was not created");
   } catch (...) {
     fs::remove(tmp, ec);
     throw;

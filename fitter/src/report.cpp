@@ -365,20 +365,13 @@ bool function_estimated(const FitResult& r, const char* power_prefix, const char
   return false;
 }
 
-struct PlotSet {
-  std::vector<std::string> images;  // relative to the output dir
-  PlotStatus status = PlotStatus::not_requested;
-  std::string message;
-};
-
-PlotSet make_plots(const FitResult& r, const Experiment& e, const fs::path& plots_dir,
+PlotSet make_plots(const FitResult& r, const Experiment& e, const OutputDir& out,
                    const ReportOptions& ro) {
-  PlotSet ps;
   if (ro.plots == PlotRequest::none) {
+    PlotSet ps;
     ps.message = "plots not requested";
     return ps;
   }
-  fs::create_directories(plots_dir);
   std::string gp;
   gp += "# gnuplot script written by indicial fit; run `gnuplot plots.gp` in this directory.\n";
   gp += "set terminal pngcairo size 960,540 enhanced font ',10'\n";
@@ -393,7 +386,7 @@ PlotSet make_plots(const FitResult& r, const Experiment& e, const fs::path& plot
       text += fmt::format("{} {} {} {} {} {}\n", s.time_s[k], s.measured[k], s.model[k],
                           s.quasi_steady[k], s.residual[k], s.x_rad[k] * kDegPerRad);
     }
-    write_text(plots_dir / dat, text);
+    out.write("plots/" + dat, text);
     const std::string fit_png = fmt::format("run{}_fit.png", ri + 1);
     const std::string res_png = fmt::format("run{}_residual.png", ri + 1);
     gp += fmt::format("set output {}\n", gp_quote(fit_png));
@@ -432,7 +425,7 @@ PlotSet make_plots(const FitResult& r, const Experiment& e, const fs::path& plot
     }
     ftext += "\n";
   }
-  write_text(plots_dir / "functions.dat", ftext);
+  out.write("plots/functions.dat", ftext);
   const std::string xname = e.axis == Axis::pitch ? "alpha" : "beta";
   gp += "unset title\n";
   gp += fmt::format("set xlabel {}\n", gp_quote(xname + ", deg"));
@@ -466,39 +459,7 @@ PlotSet make_plots(const FitResult& r, const Experiment& e, const fs::path& plot
     gp += cmd;
     expected.push_back(f.png);
   }
-  write_text(plots_dir / "plots.gp", gp);
-
-  const std::string cmdline = "cd " + sh_quote(plots_dir.string()) + " && " + sh_quote(ro.gnuplot) +
-                              " plots.gp > gnuplot.log 2>&1";
-  const int rc = std::system(cmdline.c_str());
-  const int exit_code = (rc != -1 && WIFEXITED(rc)) ? WEXITSTATUS(rc) : -1;
-  std::error_code ec;
-  if (exit_code == 127 || exit_code == 126) {
-    // Why 126/127: the shell's codes for "not executable" and "command not found".
-    ps.status = PlotStatus::gnuplot_not_found;
-    ps.message = "gnuplot (" + ro.gnuplot + ") could not be run; no plots were made "
-                 "(install gnuplot, then run `gnuplot plots.gp` in " "plots/)";
-    fs::remove(plots_dir / "gnuplot.log", ec);
-    return ps;
-  }
-  std::vector<std::string> missing;
-  for (const std::string& png : expected) {
-    if (fs::exists(plots_dir / png, ec) && fs::file_size(plots_dir / png, ec) > 0)
-      ps.images.push_back("plots/" + png);
-    else
-      missing.push_back(png);
-  }
-  if (exit_code != 0 || !missing.empty()) {
-    ps.status = PlotStatus::gnuplot_failed;
-    ps.message = fmt::format("gnuplot exited with status {} and {} of {} images are missing; see plots/gnuplot.log",
-                             exit_code, missing.size(), expected.size());
-    return ps;
-  }
-  if (fs::exists(plots_dir / "gnuplot.log", ec) && fs::file_size(plots_dir / "gnuplot.log", ec) == 0)
-    fs::remove(plots_dir / "gnuplot.log", ec);
-  ps.status = PlotStatus::written;
-  ps.message = fmt::format("{} plots written by gnuplot", ps.images.size());
-  return ps;
+  return run_gnuplot_script(out, gp, expected, ro);
 }
 
 std::string param_table(const std::vector<ParameterEstimate>& ps) {
@@ -657,6 +618,44 @@ std::string report_markdown(const FitResult& r, const Experiment& e, const FitOp
 
 }  // namespace
 
+PlotSet run_gnuplot_script(const OutputDir& out, const std::string& script,
+                           const std::vector<std::string>& expected_pngs, const ReportOptions& ro) {
+  PlotSet ps;
+  out.write("plots/plots.gp", script);
+  const fs::path plots_dir = out.path("plots");
+  const std::string cmdline = "cd " + sh_quote(plots_dir.string()) + " && " + sh_quote(ro.gnuplot) +
+                              " plots.gp > gnuplot.log 2>&1";
+  const int rc = std::system(cmdline.c_str());
+  const int exit_code = (rc != -1 && WIFEXITED(rc)) ? WEXITSTATUS(rc) : -1;
+  std::error_code ec;
+  if (exit_code == 127 || exit_code == 126) {
+    // Why 126/127: the shell's codes for "not executable" and "command not found".
+    ps.status = PlotStatus::gnuplot_not_found;
+    ps.message = "gnuplot (" + ro.gnuplot + ") could not be run; no plots were made "
+                 "(install gnuplot, then run `gnuplot plots.gp` in plots/)";
+    fs::remove(plots_dir / "gnuplot.log", ec);
+    return ps;
+  }
+  std::vector<std::string> missing;
+  for (const std::string& png : expected_pngs) {
+    if (fs::exists(plots_dir / png, ec) && fs::file_size(plots_dir / png, ec) > 0)
+      ps.images.push_back("plots/" + png);
+    else
+      missing.push_back(png);
+  }
+  if (exit_code != 0 || !missing.empty()) {
+    ps.status = PlotStatus::gnuplot_failed;
+    ps.message = fmt::format("gnuplot exited with status {} and {} of {} images are missing; see plots/gnuplot.log",
+                             exit_code, missing.size(), expected_pngs.size());
+    return ps;
+  }
+  if (fs::exists(plots_dir / "gnuplot.log", ec) && fs::file_size(plots_dir / "gnuplot.log", ec) == 0)
+    fs::remove(plots_dir / "gnuplot.log", ec);
+  ps.status = PlotStatus::written;
+  ps.message = fmt::format("{} plots written by gnuplot", ps.images.size());
+  return ps;
+}
+
 FitOutputs write_fit_outputs(const FitResult& r, const Experiment& e, const FitOptions& o,
                              const fs::path& dir, Overwrite overwrite, const ReportOptions& ro) {
   FitOutputs w;
@@ -665,7 +664,7 @@ FitOutputs write_fit_outputs(const FitResult& r, const Experiment& e, const FitO
   w.model_coef = model_coef_text(r, e.path);
   w.runtime = replay_in_runtime(r, e, w.model_coef);
   OutputDir out(dir, overwrite);
-  const PlotSet ps = make_plots(r, e, out.path("plots"), ro);
+  const PlotSet ps = make_plots(r, e, out, ro);
   w.plots = ps.status;
   w.plot_message = ps.message;
   w.images = ps.images;
@@ -674,9 +673,9 @@ FitOutputs write_fit_outputs(const FitResult& r, const Experiment& e, const FitO
   j["plots"] = {{"status", plot_status_name(ps.status)}, {"message", ps.message}, {"images", ps.images}};
   w.fit_json = j.dump(2) + "\n";
   w.report_md = report_markdown(r, e, o, w.runtime, ps, ro);
-  write_text(out.path("fit.json"), w.fit_json);
-  write_text(out.path("model.coef"), w.model_coef);
-  write_text(out.path("report.md"), w.report_md);
+  out.write("fit.json", w.fit_json);
+  out.write("model.coef", w.model_coef);
+  out.write("report.md", w.report_md);
   out.commit();
   return w;
 }

@@ -525,10 +525,10 @@ std::vector<double> write_simulation_case(const SimulationCase& c, const std::st
                        std::to_string(seed) + ", sigma = RMS(y) / SNR)");
   }
   for (std::size_t r = 0; r < runs.size(); ++r) {
-    write_text(out.path(c.run_files[r]), simulated_run_csv(c.truth, runs[r], comments));
+    out.write(c.run_files[r], simulated_run_csv(c.truth, runs[r], comments));
   }
-  write_text(out.path("experiment.toml"), write_experiment_toml(c.experiment, comments));
-  write_text(out.path("truth.coef"), truth_coef_text(c.truth));
+  out.write("experiment.toml", write_experiment_toml(c.experiment, comments));
+  out.write("truth.coef", truth_coef_text(c.truth));
   out.commit();
   return sigma;
 }

@@ -153,15 +153,21 @@ inline Scalar spline_derivative(const Spline<Scalar, P, K>& s, const Scalar& x) 
 // Antiderivative S(x) = integral_0^x s(xi) dxi for the polynomial part, and
 // (x - k)_+^(p+1) / (p+1) for each knot term (zero below the knot). The difference
 // S(x1) - S(x0) is the exact integral of s over [x0, x1] for any x0, x1.
-template <class Scalar, int P, int K>
-inline Scalar spline_antiderivative(const Spline<Scalar, P, K>& s, const Scalar& x) {
+//
+// The angle type X is Scalar (the runtime, and the fitter when the angle depends on the
+// parameters, e.g. a delayed forcing angle) or double while Scalar is an autodiff type: the
+// fitter's data angle carries no derivative, and a plain double skips the derivative work of
+// its powers, which dominates the sensitivities' cost. The expressions are the same for both,
+// so with X = Scalar = double the result is bit-identical to the runtime's.
+template <class Scalar, int P, int K, class X>
+inline Scalar spline_antiderivative(const Spline<Scalar, P, K>& s, const X& x) {
   Scalar r = Scalar(0);
   for (int i = s.n_powers - 1; i >= 0; --i) r = r * x + s.power_coef[i] / Scalar(i + 1);
   r = r * x;
   for (int j = 0; j < s.n_knots; ++j) {
     const int p = s.knot_power[j];
-    const Scalar u = x - Scalar(s.knot_rad[j]);
-    if (u > Scalar(0)) r = r + s.knot_coef[j] * detail::int_power(u, p + 1) / Scalar(p + 1);
+    const X u = x - X(s.knot_rad[j]);
+    if (u > X(0)) r = r + s.knot_coef[j] * detail::int_power(u, p + 1) / Scalar(p + 1);
   }
   return r;
 }
@@ -462,9 +468,11 @@ struct StepEnd {
   Scalar b_antiderivative[Cap::max_lags] = {};
 };
 
-template <class Scalar, class Cap>
-inline void evaluate_step_end(const CoefficientModel<Scalar, Cap>& m, const Scalar& x_rad,
-                              const Scalar& forcing_x_rad, StepEnd<Scalar, Cap>* end) {
+// X and XF (the angle and the forcing angle) are Scalar or, in the fitter, double where the
+// angle is data (see spline_antiderivative).
+template <class Scalar, class Cap, class X, class XF>
+inline void evaluate_step_end(const CoefficientModel<Scalar, Cap>& m, const X& x_rad,
+                              const XF& forcing_x_rad, StepEnd<Scalar, Cap>* end) {
   end->forcing_antiderivative = spline_antiderivative(m.a, forcing_x_rad);
   for (int j = 0; j < m.n_lags; ++j) {
     end->b_antiderivative[j] = spline_antiderivative(m.lags[j].b, x_rad);

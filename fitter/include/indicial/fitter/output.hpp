@@ -3,7 +3,7 @@
 // Every command that writes results goes through these two helpers:
 //
 //   OutputDir out(dir, Overwrite::refuse);    // throws InputError if dir exists and is not empty
-//   write_text(out.path("fit.json"), json);   // written into a hidden staging directory
+//   out.write("fit.json", json);              // written into a hidden staging directory
 //   out.commit();                             // renamed into place in one step
 //
 //   write_file_atomically(path, text, Overwrite::refuse);   // single files: temp + rename
@@ -13,6 +13,8 @@
 //    the destructor and the previous contents of dir are untouched.
 // 2. With Overwrite::replace an existing dir is moved aside, the new one renamed in, and the
 //    old one deleted; a failure before the second rename puts the old one back.
+// 3. Error messages name the output the user asked for (DIR/fit.json, out.csv), never the
+//    staging or temporary name, which is gone by the time the message is read.
 #pragma once
 
 #include <filesystem>
@@ -31,6 +33,10 @@ class OutputDir {
 
   // Where to write `name` now (inside the staging directory).
   std::filesystem::path path(const std::string& name) const;
+  // Writes text to path(relative_name), creating its parent directories (e.g. "plots/a.dat").
+  // A failure throws InputError naming final_dir()/relative_name and saying that final_dir()
+  // was left as it was.
+  void write(const std::string& relative_name, const std::string& text) const;
   const std::filesystem::path& staging_dir() const { return staging_; }
   const std::filesystem::path& final_dir() const { return final_; }
   void commit();
@@ -43,6 +49,7 @@ class OutputDir {
 };
 
 // Writes text to path (throws InputError naming the path on any failure, e.g. a full disk).
+// Non-atomic: for outputs use OutputDir::write or write_file_atomically.
 void write_text(const std::filesystem::path& path, const std::string& text);
 
 // Writes text to path.tmp-<pid> and renames it to path; refuses an existing path unless

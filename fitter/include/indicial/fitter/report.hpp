@@ -99,6 +99,20 @@ struct ReportOptions {
                                     // relative to the experiment file's directory
 };
 
+// What one gnuplot run made.
+struct PlotSet {
+  std::vector<std::string> images;  // made and not empty, relative to the output directory
+  PlotStatus status = PlotStatus::not_requested;
+  std::string message;              // one line: what happened with gnuplot
+};
+
+// Writes `script` as DIR/plots/plots.gp (staged in `out`; its data files must already be
+// there), runs `gnuplot plots.gp` in that directory and checks that every image named in
+// `expected_pngs` exists and is not empty. gnuplot's output goes to plots/gnuplot.log, which
+// is kept only when something failed. Shared by the fit and diagnose reports.
+PlotSet run_gnuplot_script(const OutputDir& out, const std::string& script,
+                           const std::vector<std::string>& expected_pngs, const ReportOptions& ro);
+
 // What write_fit_outputs wrote (the texts are also returned, for tests and the example).
 struct FitOutputs {
   std::filesystem::path dir;
