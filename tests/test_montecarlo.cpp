@@ -16,6 +16,20 @@
 namespace fs = std::filesystem;
 
 namespace {
+
+// Under ASan + UBSan (tools/run-sanitizers.sh defines INDICIAL_SANITIZED_BUILD) every fit is
+// 10-20x slower, and that run checks memory safety and undefined behaviour, not statistics:
+// the Monte Carlo loops run 20 seeds there and skip the ratio and bias checks, which 20 seeds
+// cannot decide. The normal build (tools/run-tests.sh) runs all 200 and checks them.
+enum class Statistics { checked, skipped };
+#ifdef INDICIAL_SANITIZED_BUILD
+constexpr int kSeeds = 20;
+constexpr Statistics kStatistics = Statistics::skipped;
+#else
+constexpr int kSeeds = 200;
+constexpr Statistics kStatistics = Statistics::checked;
+#endif
+
 std::string slurp(const fs::path& p) {
   std::ifstream in(p, std::ios::binary);
   std::ostringstream ss;
@@ -30,49 +44,51 @@ std::string slurp(const fs::path& p) {
 TEST_CASE("Monte Carlo, Model I, SNR 40, 200 seeds: empirical std / mean CR bound in [0.8, 1.25]") {
   indicial::MonteCarloOptions o;
   o.case_name = "tailless-model-1";
-  o.seeds = 200;
+  o.seeds = kSeeds;
   o.first_seed = 1001;
   o.snr = 40.0;
   o.threads = 2;
   const indicial::MonteCarloResult r = indicial::run_monte_carlo(o);
   MESSAGE(indicial::monte_carlo_markdown(r));
-  CHECK(r.fitted == 200);
+  CHECK(r.fitted == kSeeds);
   CHECK(r.failed_seeds.empty());
   REQUIRE(r.parameters.size() >= 9);  // a0 a1 a2 A1 A2 b1_0 y0_1..3
   for (const auto& p : r.parameters) {
     CAPTURE(p.name);
     CAPTURE(p.std_dev);
     CAPTURE(p.mean_cr_bound);
-    CHECK(p.count == 200);
+    CHECK(p.count == kSeeds);
+    if (kStatistics == Statistics::skipped) continue;
     CHECK(p.ratio >= 0.8);
     CHECK(p.ratio <= 1.25);
     // The estimator is (nearly) unbiased: the mean lies within a few of its standard errors of
     // the truth, or within a small fraction of one CR bound (the second-order discrete update's
     // bias, fit.hpp warning 4).
     REQUIRE(std::isfinite(p.truth));
-    CHECK(std::fabs(p.mean - p.truth) < std::max(4.0 * p.std_dev / std::sqrt(200.0), 0.5 * p.mean_cr_bound));
+    CHECK(std::fabs(p.mean - p.truth) < std::max(4.0 * p.std_dev / std::sqrt(double(kSeeds)), 0.5 * p.mean_cr_bound));
   }
   // s(v) estimates the noise standard deviation.
-  CHECK(r.mean_fit_error == doctest::Approx(r.noise_sigma).epsilon(0.05));
+  if (kStatistics == Statistics::checked) CHECK(r.mean_fit_error == doctest::Approx(r.noise_sigma).epsilon(0.05));
 }
 
 // The same check on Model II (b1(alpha) a spline with four knots: 13 parameters).
 TEST_CASE("Monte Carlo, Model II, SNR 40, 200 seeds: empirical std / mean CR bound in [0.8, 1.25]") {
   indicial::MonteCarloOptions o;
   o.case_name = "tailless-model-2";
-  o.seeds = 200;
+  o.seeds = kSeeds;
   o.first_seed = 2001;
   o.snr = 40.0;
   o.threads = 2;
   const indicial::MonteCarloResult r = indicial::run_monte_carlo(o);
   MESSAGE(indicial::monte_carlo_markdown(r));
-  CHECK(r.fitted == 200);
+  CHECK(r.fitted == kSeeds);
   REQUIRE(r.parameters.size() >= 13);
   for (const auto& p : r.parameters) {
     CAPTURE(p.name);
     CAPTURE(p.std_dev);
     CAPTURE(p.mean_cr_bound);
-    CHECK(p.count == 200);
+    CHECK(p.count == kSeeds);
+    if (kStatistics == Statistics::skipped) continue;
     CHECK(p.ratio >= 0.8);
     CHECK(p.ratio <= 1.25);
   }
