@@ -128,6 +128,26 @@ TEST_CASE("indicial diagnose: contract outputs, model.coef in the runtime, direc
     CHECK(fs::file_size(out / "plots" / "step1_time.png") > 0);
     CHECK(fs::file_size(out / "plots" / "step1_angle.png") > 0);
   }
+  // DIR/experiment.toml: the diagnosed model as an experiment file (extension keys); `indicial
+  // fit` on it refits the same model: the same parameters, the same estimates to well inside
+  // their bounds (the optimizer's tolerance).
+  const std::string next = slurp(out / "experiment.toml");
+  CHECK(next.find("delay = \"estimated\"") != std::string::npos);
+  const fs::path refit = scratch() / "refit";
+  const Cmd f = run("fit " + (out / "experiment.toml").string() + " --out " + refit.string() + " --no-plots");
+  INFO(f.out, f.err);
+  REQUIRE(f.exit_code == 0);
+  const nlohmann::json fj = nlohmann::json::parse(slurp(refit / "fit.json"));
+  REQUIRE(fj["parameters"].size() == j["final_parameters"].size());
+  for (const auto& est : j["final_parameters"]) {
+    const std::string name = est["name"].get<std::string>();
+    const auto q = std::find_if(fj["parameters"].begin(), fj["parameters"].end(),
+                                [&](const nlohmann::json& x) { return x["name"] == name; });
+    REQUIRE_MESSAGE(q != fj["parameters"].end(), "fit.json lacks " << name);
+    const double diff = std::abs((*q)["value"].get<double>() - est["value"].get<double>());
+    INFO(name << ": diagnose " << est["value"] << ", refit " << (*q)["value"] << ", bound " << est["cr_bound"]);
+    CHECK(diff < 0.05 * est["cr_bound"].get<double>());
+  }
   // No overwrite without --force; with --force it is replaced.
   const Cmd again = run("diagnose " + (data / "experiment.toml").string() + " --out " + out.string());
   CHECK(again.exit_code == 1);

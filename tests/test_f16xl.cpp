@@ -24,16 +24,7 @@ constexpr double kPi = 3.14159265358979323846;
 constexpr double kDeg = kPi / 180.0;
 constexpr double kSnr = 20.0;  // fitting data; the held-out data get the same noise sigma
 
-// The part of the truth's rotary term the experiment's [rotary] polynomial cannot hold (C_Lq's
-// knot terms at 20 deg): zero for C_m. Known a priori, like the rest of C_aq.
-double rotary_knot_part(const indicial::TruthModel& t, double x) {
-  indicial::Spline<double, indicial::FitCapacity::max_powers, indicial::FitCapacity::max_knots> k =
-      t.coefficients[0].rotary;
-  k.n_powers = 0;
-  return indicial::spline_value(k, x);
-}
-
-indicial::Run to_run(const indicial::TruthModel& t, const indicial::SimulatedRun& s,
+indicial::Run to_run(const indicial::SimulatedRun& s,
                      const std::string& name) {
   indicial::Run r;
   r.path = name;
@@ -42,10 +33,6 @@ indicial::Run to_run(const indicial::TruthModel& t, const indicial::SimulatedRun
   r.rate_radps = s.rate_radps;
   r.rate_from_file = true;
   r.coefficient = s.coefficient_measured[0];
-  // Move the known knot part of C_Lq to the left-hand side (see rotary_knot_part).
-  const double lv = t.reference_length_m / t.airspeed_mps;
-  for (std::size_t i = 0; i < r.coefficient.size(); ++i)
-    r.coefficient[i] -= lv * rotary_knot_part(t, s.x_rad[i]) * s.rate_radps[i];
   return r;
 }
 
@@ -91,7 +78,7 @@ void study(const char* case_name, std::uint64_t seed) {
   e.path = std::string(case_name) + " (simulated)";
   double xmin = 1e300, xmax = -1e300;
   for (std::size_t r = 0; r < sims.size(); ++r) {
-    e.runs[r] = to_run(truth, sims[r], c.run_files[r]);
+    e.runs[r] = to_run(sims[r], c.run_files[r]);
     for (double x : sims[r].x_rad) {
       xmin = std::min(xmin, x);
       xmax = std::max(xmax, x);
@@ -107,18 +94,12 @@ void study(const char* case_name, std::uint64_t seed) {
   // The fit reproduces its own data to the noise level.
   CHECK(fit.fit_error < 1.3 * sigma[0]);
 
-  // The predicting model: the fitted one, with C_Lq's knot terms restored.
+  // The predicting model: the fitted one (its C_aq is the experiment's, C_Lq's a priori knot
+  // terms included), over the truth's envelope.
   indicial::ModelSet<double, indicial::FitCapacity> model = fit.model;
   model.x_min_rad = truth.x_min_rad;
   model.x_max_rad = truth.x_max_rad;
-  auto& rot = model.coefficients[0].rotary;
-  const auto& trot = truth.coefficients[0].rotary;
-  for (int j = 0; j < trot.n_knots; ++j) {
-    rot.knot_rad[rot.n_knots] = trot.knot_rad[j];
-    rot.knot_power[rot.n_knots] = trot.knot_power[j];
-    rot.knot_coef[rot.n_knots] = trot.knot_coef[j];
-    ++rot.n_knots;
-  }
+  REQUIRE(model.coefficients[0].rotary.n_knots == truth.coefficients[0].rotary.n_knots);
 
   std::mt19937_64 rng(seed + 1000);
   std::normal_distribution<double> noise(0.0, sigma[0]);

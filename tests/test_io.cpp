@@ -12,6 +12,7 @@
 #include <string>
 
 #include "indicial/fitter/error.hpp"
+#include "indicial/fitter/fit.hpp"
 #include "indicial/fitter/io.hpp"
 #include "indicial/fitter/simulate.hpp"
 
@@ -369,6 +370,105 @@ TEST_CASE("the simulator's experiment file round-trips through the reader") {
   const indicial::Experiment e2 = indicial::load_experiment(p);
   CHECK(e2.runs.size() == 3);
   CHECK(e2.model.a.knots_rad == e.model.a.knots_rad);
+}
+
+TEST_CASE("model extension keys (what diagnose adds): read, written back, and refused when wrong") {
+  const std::string t = kInterfaceExample;
+  const std::string ext = replace(t, "bias = false",
+                                  "bias = false\n"
+                                  "static_correction_powers = [1, 2]\n"
+                                  "static_correction_knots_deg = [30.0]\n"
+                                  "rotary_correction_degree = 1\n"
+                                  "rotary_correction_knots_deg = [20.0]\n"
+                                  "delay = \"estimated\"\n"
+                                  "delay_start_s = 0.015\n"
+                                  "lags = 2\n"
+                                  "further_lag_start = \"at_rest\"");
+  const indicial::Experiment e = indicial::load_experiment(write_exp("mext.toml", ext));
+  const double deg = 3.14159265358979323846 / 180.0;
+  CHECK(e.model.static_correction.powers == std::vector<int>{1, 2});
+  REQUIRE(e.model.static_correction.knots_rad.size() == 1);
+  CHECK(e.model.static_correction.knots_rad[0] == doctest::Approx(30.0 * deg));
+  CHECK(e.model.static_correction.knot_power == 2);
+  CHECK(e.model.rotary_correction.powers == std::vector<int>{0, 1});
+  REQUIRE(e.model.rotary_correction.knots_rad.size() == 1);
+  CHECK(e.model.rotary_correction.knot_power == 1);
+  CHECK(e.model.delay == indicial::DelayEstimation::estimated);
+  CHECK(e.model.delay_start_s == 0.015);
+  CHECK(e.model.lags == 2);
+  CHECK(e.model.further_lag_start == indicial::LagStart::at_rest);
+  // Written and read again: the same configuration.
+  const indicial::Experiment e2 =
+      indicial::load_experiment(write_exp("mext2.toml", indicial::write_experiment_toml(e, {})));
+  CHECK(e2.model.static_correction.powers == e.model.static_correction.powers);
+  CHECK(e2.model.static_correction.knots_rad[0] == doctest::Approx(e.model.static_correction.knots_rad[0]).epsilon(1e-14));
+  CHECK(e2.model.rotary_correction.powers == e.model.rotary_correction.powers);
+  CHECK(e2.model.rotary_correction.knots_rad.size() == 1);
+  CHECK(e2.model.delay == e.model.delay);
+  CHECK(e2.model.delay_start_s == e.model.delay_start_s);
+  CHECK(e2.model.further_lag_start == e.model.further_lag_start);
+  // A file without them writes none of them (the interface's example stays as it was).
+  const std::string plain = indicial::write_experiment_toml(
+      indicial::load_experiment(write_exp("plain.toml", t)), {});
+  for (const char* key : {"static_correction", "rotary_correction", "delay", "further_lag_start"})
+    CHECK(plain.find(key) == std::string::npos);
+
+  std::string m = exp_error("x1.toml", replace(t, "bias = false", "bias = false\ndelay = \"yes\""));
+  CHECK_HAS(m, "x1.toml:26: 'model.delay' must be \"none\" or \"estimated\", found \"yes\"");
+  m = exp_error("x2.toml", replace(t, "bias = false", "bias = false\ndelay_start_s = 0.01"));
+  CHECK_HAS(m, "x2.toml:26: 'model.delay_start_s' is used only with model.delay = \"estimated\"");
+  m = exp_error("x3.toml", replace(t, "bias = false", "bias = false\ndelay = \"estimated\"\ndelay_start_s = -1"));
+  CHECK_HAS(m, "x3.toml:27: 'model.delay_start_s' must be in [0, 1] s");
+  m = exp_error("x4.toml", replace(t, "bias = false", "bias = false\nfurther_lag_start = \"rest\""));
+  CHECK_HAS(m, "x4.toml:26: 'model.further_lag_start' must be \"estimated\" or \"at_rest\", found \"rest\"");
+  m = exp_error("x5.toml", replace(replace(t, "estimate = false", "estimate = true"), "bias = false",
+                                   "bias = false\nrotary_correction_degree = 1"));
+  CHECK_HAS(m, "'model.rotary_correction_*' corrects the a priori C_aq(x); it cannot be combined with rotary.estimate = true");
+  m = exp_error("x6.toml", replace(t, "bias = false", "bias = false\nstatic_correction_knots_deg = [80.0]"));
+  CHECK_HAS(m, "x6.toml:26: 'model.static_correction_knots_deg': knot 80 deg is outside the data's alpha range");
+  m = exp_error("x7.toml", replace(t, "bias = false", "bias = false\nstatic_correction_degre = 2"));
+  CHECK_HAS(m, "x7.toml:26: unknown key 'model.static_correction_degre'");
+}
+
+TEST_CASE("[rotary] a priori knot terms: read, used by the model, written back, refused when wrong") {
+  const std::string t = kInterfaceExample;
+  const std::string with = replace(t, "polynomial = [-2.0, 0.0, 0.8]",
+                                   "polynomial = [-2.0, 0.0, 0.8]\n"
+                                   "prior_knots_deg = [20.0, 20.0]\n"
+                                   "prior_knot_powers = [1, 2]\n"
+                                   "prior_knot_coefficients = [3.3, -3.4]");
+  const indicial::Experiment e = indicial::load_experiment(write_exp("prior.toml", with));
+  const double deg = 3.14159265358979323846 / 180.0;
+  REQUIRE(e.rotary.prior_knots_rad.size() == 2);
+  CHECK(e.rotary.prior_knots_rad[1] == doctest::Approx(20.0 * deg));
+  CHECK(e.rotary.prior_knot_powers == std::vector<int>{1, 2});
+  CHECK(e.rotary.prior_knot_coefficients == std::vector<double>{3.3, -3.4});
+  // The fitter's a priori C_aq(x) carries them: at 30 deg, -2 + 0.8 x^2 + 3.3 u - 3.4 u^2.
+  const auto base = indicial::base_model_set(e);
+  const double x = 30.0 * deg, u = 10.0 * deg;
+  CHECK(indicial::spline_value(base.coefficients[0].rotary, x) ==
+        doctest::Approx(-2.0 + 0.8 * x * x + 3.3 * u - 3.4 * u * u).epsilon(1e-14));
+  // Written back, read again: the same terms (powers written because one is not 1).
+  const std::string text = indicial::write_experiment_toml(e, {});
+  CHECK(text.find("prior_knot_powers = [1, 2]") != std::string::npos);
+  const indicial::Experiment e2 = indicial::load_experiment(write_exp("prior2.toml", text));
+  CHECK(e2.rotary.prior_knot_powers == e.rotary.prior_knot_powers);
+  CHECK(e2.rotary.prior_knot_coefficients == e.rotary.prior_knot_coefficients);
+  CHECK(e2.rotary.prior_knots_rad[0] == doctest::Approx(e.rotary.prior_knots_rad[0]).epsilon(1e-14));
+  // Powers default to 1.
+  const indicial::Experiment e3 = indicial::load_experiment(write_exp("prior3.toml", replace(
+      t, "polynomial = [-2.0, 0.0, 0.8]", "polynomial = [-2.0]\nprior_knots_deg = [20.0]\nprior_knot_coefficients = [1.0]")));
+  CHECK(e3.rotary.prior_knot_powers == std::vector<int>{1});
+
+  const std::string poly = "polynomial = [-2.0, 0.0, 0.8]";
+  std::string m = exp_error("p1.toml", replace(t, poly, poly + "\nprior_knots_deg = [20.0]"));
+  CHECK_HAS(m, "p1.toml:14: give both 'rotary.prior_knots_deg' and 'rotary.prior_knot_coefficients'");
+  m = exp_error("p2.toml", replace(t, poly, poly + "\nprior_knots_deg = [20.0]\nprior_knot_coefficients = [1.0, 2.0]"));
+  CHECK_HAS(m, "p2.toml:15: 'rotary.prior_knot_coefficients' has 2 entries for 1 terms in 'rotary.prior_knots_deg'");
+  m = exp_error("p3.toml", replace(t, poly, poly + "\nprior_knots_deg = [20.0]\nprior_knot_powers = [9]\nprior_knot_coefficients = [1.0]"));
+  CHECK_HAS(m, "p3.toml:15: 'rotary.prior_knot_powers': power 9 is outside 0..8");
+  m = exp_error("p4.toml", replace(t, poly, poly + "\nprior_knot_powers = [1]"));
+  CHECK_HAS(m, "p4.toml:14: 'rotary.prior_knot_powers' needs 'rotary.prior_knots_deg'");
 }
 
 TEST_CASE("experiment extensions: run tables, powers, rotary pool, static table") {

@@ -85,7 +85,7 @@ SimulationCase f16xl_case(F16xlCoefficient which) {
   c.name = lift ? "f16xl-like-CL" : "f16xl-like-Cm";
   c.description = lift ? "report Tables V-VI, C_L (b_0 raised to 13.5 for a decaying lag); STATIC CURVE "
                          "ASSUMED, not measured (the report gives none); the a priori C_Lq's knot terms "
-                         "are in truth.coef only (experiment rotary takes a polynomial)"
+                         "are [rotary] prior_knots_deg in experiment.toml"
                        : "report Tables V-VI, C_m; STATIC CURVE ASSUMED, not measured (the report gives "
                          "none)";
   TruthModel& t = c.truth;
@@ -140,10 +140,13 @@ SimulationCase f16xl_case(F16xlCoefficient which) {
   e.airspeed_mps = t.airspeed_mps;
   e.static_curve.kind = StaticKind::polynomial;
   e.static_curve.polynomial = static_poly;
-  // NOTE (C_L): the experiment file's [rotary] takes a polynomial only, so the a priori C_Lq's
-  // knot terms at 20 deg cannot be written here; the file carries -0.424 alone. The truth
-  // (truth.coef) has the full C_Lq. See docs/validation-prediction.md.
+  // The a priori C_aq is the truth's, knot terms included (C_Lq's break at 20 deg).
   e.rotary.polynomial = rotary_poly;
+  for (int j = 0; j < t.coefficients[0].rotary.n_knots; ++j) {
+    e.rotary.prior_knots_rad.push_back(t.coefficients[0].rotary.knot_rad[j]);
+    e.rotary.prior_knot_powers.push_back(t.coefficients[0].rotary.knot_power[j]);
+    e.rotary.prior_knot_coefficients.push_back(t.coefficients[0].rotary.knot_coef[j]);
+  }
   e.rotary.estimate = false;
   e.model.structure = StructureMode::fixed;
   e.model.bias = true;

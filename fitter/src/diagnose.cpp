@@ -15,6 +15,7 @@
 
 #include "fit_internal.hpp"
 #include "indicial/fitter/error.hpp"
+#include "indicial/fitter/io.hpp"
 
 namespace indicial {
 
@@ -862,6 +863,29 @@ nlohmann::json diagnosis_json(const DiagnoseResult& d, const Experiment& e, cons
   return j;
 }
 
+std::string diagnosed_experiment_toml(const DiagnoseResult& d) {
+  Experiment next = d.experiment;
+  next.model = d.configs.back();
+  // Absolute paths: the file is read from DIR, not from where the original experiment was.
+  std::error_code ec;
+  for (Run& r : next.runs) r.path = fs::absolute(r.path, ec).string();
+  if (next.static_curve.kind == StaticKind::table)
+    next.static_curve.table_path = fs::absolute(next.static_curve.table_path, ec).string();
+  // Why the start value: a delay is a non-convex parameter (diagnose fits it from two starts);
+  // the refit starts from the diagnosed estimate instead of 0.
+  if (next.model.delay == DelayEstimation::estimated) {
+    for (const ParameterEstimate& p : d.fits.back().parameters)
+      if (p.name == "delay_s" && std::isfinite(p.value)) next.model.delay_start_s = std::clamp(p.value, 0.0, 1.0);
+  }
+  std::string added;
+  for (const std::string& x : d.effects_added) added += (added.empty() ? "" : ", ") + x;
+  const std::vector<std::string> comments = {
+      "written by indicial diagnose: the experiment with the diagnosed model structure",
+      "(effects added: " + (added.empty() ? std::string("none") : added) +
+          "); refit it with: indicial fit experiment.toml --out DIR"};
+  return write_experiment_toml(next, comments);
+}
+
 DiagnoseOutputs write_diagnose_outputs(const DiagnoseResult& d, const Experiment& e,
                                        const DiagnoseOptions& o, const fs::path& dir,
                                        Overwrite overwrite, const ReportOptions& ro) {
@@ -877,7 +901,9 @@ DiagnoseOutputs write_diagnose_outputs(const DiagnoseResult& d, const Experiment
   w.plot_message = ps.message;
   w.images = ps.images;
   w.report_md = report_markdown(d, e, o, w.runtime, ps, ro);
+  w.experiment_toml = diagnosed_experiment_toml(d);
   out.write("diagnosis.json", w.diagnosis_json);
+  out.write("experiment.toml", w.experiment_toml);
   out.write("model.coef", w.model_coef);
   out.write("report.md", w.report_md);
   out.commit();

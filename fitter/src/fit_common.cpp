@@ -383,6 +383,18 @@ ModelSet<double, FitCapacity> base_model_set(const Experiment& e) {
   cm.rotary.n_powers = static_cast<int>(e.rotary.polynomial.size());
   for (int i = 0; i < cm.rotary.n_powers; ++i)
     cm.rotary.power_coef[i] = e.rotary.polynomial[static_cast<std::size_t>(i)];
+  const std::size_t n_prior = e.rotary.prior_knots_rad.size();
+  if (n_prior > static_cast<std::size_t>(Cap::max_knots) ||
+      e.rotary.prior_knot_coefficients.size() != n_prior ||
+      (!e.rotary.prior_knot_powers.empty() && e.rotary.prior_knot_powers.size() != n_prior))
+    throw InputError(e.path, 0, "rotary prior knots: too many, or not one power and coefficient per knot");
+  cm.rotary.n_knots = static_cast<int>(n_prior);
+  for (std::size_t j = 0; j < n_prior; ++j) {
+    cm.rotary.knot_rad[j] = e.rotary.prior_knots_rad[j];
+    // Default (x - k)_+, as C_aq's estimated knot terms (eq. 28).
+    cm.rotary.knot_power[j] = e.rotary.prior_knot_powers.empty() ? 1 : e.rotary.prior_knot_powers[j];
+    cm.rotary.knot_coef[j] = e.rotary.prior_knot_coefficients[j];
+  }
   // Envelope: the model-angle range of the data.
   double lo = std::numeric_limits<double>::infinity(), hi = -lo;
   for (const Run& r : e.runs)

@@ -16,6 +16,7 @@
 #include <stdexcept>
 #include <toml++/toml.h>
 
+#include "indicial/coef_file.hpp"
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/output.hpp"
 
@@ -700,7 +701,45 @@ Experiment load_experiment(const std::string& toml_path) {
   std::vector<KnotSource> knot_sources;
   if (const toml::node* rot_node = root.get("rotary")) {
     const toml::table& rt = r.table(*rot_node, "rotary");
-    r.check_keys(rt, {"polynomial", "estimate", "degree", "knots_deg"}, "rotary.");
+    r.check_keys(rt, {"polynomial", "estimate", "degree", "knots_deg", "prior_knots_deg",
+                      "prior_knot_powers", "prior_knot_coefficients"},
+                 "rotary.");
+    {
+      const toml::node* k = rt.get("prior_knots_deg");
+      const toml::node* c = rt.get("prior_knot_coefficients");
+      if ((k == nullptr) != (c == nullptr))
+        r.fail(k ? *k : *c, "give both 'rotary.prior_knots_deg' and 'rotary.prior_knot_coefficients'");
+      const toml::node* pw = rt.get("prior_knot_powers");
+      if (pw && !k) r.fail(*pw, "'rotary.prior_knot_powers' needs 'rotary.prior_knots_deg'");
+      if (k && c) {
+        // Not knots_deg(): a priori terms may repeat a knot with another power, and need not
+        // lie inside the data's range (they are known, not identified).
+        e.rotary.prior_knots_rad = r.numbers(*k, "rotary.prior_knots_deg");
+        for (double& v : e.rotary.prior_knots_rad) v *= kDegToRad;
+        e.rotary.prior_knot_coefficients = r.numbers(*c, "rotary.prior_knot_coefficients");
+        const std::size_t n = e.rotary.prior_knots_rad.size();
+        if (n > static_cast<std::size_t>(FitCapacity::max_knots))
+          r.fail(*k, "'rotary.prior_knots_deg' has more than " + std::to_string(FitCapacity::max_knots) + " terms");
+        e.rotary.prior_knot_powers.assign(n, 1);
+        if (pw) {
+          e.rotary.prior_knot_powers.clear();
+          for (const auto& entry : r.array(*pw, "rotary.prior_knot_powers")) {
+            const long p = r.integer(entry, "rotary.prior_knot_powers entry");
+            if (p < 0 || p > max_knot_power)
+              r.fail(entry, "'rotary.prior_knot_powers': power " + std::to_string(p) + " is outside 0.." +
+                                std::to_string(max_knot_power));
+            e.rotary.prior_knot_powers.push_back(static_cast<int>(p));
+          }
+          if (e.rotary.prior_knot_powers.size() != n)
+            r.fail(*pw, "'rotary.prior_knot_powers' has " + std::to_string(e.rotary.prior_knot_powers.size()) +
+                            " entries for " + std::to_string(n) + " terms in 'rotary.prior_knots_deg'");
+        }
+        if (e.rotary.prior_knot_coefficients.size() != n)
+          r.fail(*c, "'rotary.prior_knot_coefficients' has " +
+                         std::to_string(e.rotary.prior_knot_coefficients.size()) + " entries for " +
+                         std::to_string(n) + " terms in 'rotary.prior_knots_deg'");
+      }
+    }
     if (const toml::node* n = rt.get("polynomial")) {
       e.rotary.polynomial = r.numbers(*n, "rotary.polynomial");
       if (e.rotary.polynomial.size() > static_cast<std::size_t>(FitCapacity::max_powers)) {
@@ -735,7 +774,12 @@ Experiment load_experiment(const std::string& toml_path) {
   if (const toml::node* model_node = root.get("model")) {
     const toml::table& mt = r.table(*model_node, "model");
     r.check_keys(mt, {"a_degree", "a_powers", "a_knots_deg", "b1_degree", "b1_powers",
-                      "b1_knots_deg", "bias", "structure", "lags"},
+                      "b1_knots_deg", "bias", "structure", "lags",
+                      // extensions (docs/formats.md): what `indicial diagnose` adds to a model
+                      "static_correction_degree", "static_correction_powers",
+                      "static_correction_knots_deg", "rotary_correction_degree",
+                      "rotary_correction_powers", "rotary_correction_knots_deg", "delay",
+                      "delay_start_s", "further_lag_start"},
                  "model.");
     auto spline_terms = [&](const std::string& name, SplineConfig& cfg) {
       const toml::node* deg = mt.get(name + "_degree");
@@ -750,6 +794,35 @@ Experiment load_experiment(const std::string& toml_path) {
     };
     spline_terms("a", e.model.a);
     spline_terms("b1", e.model.b1);
+    spline_terms("static_correction", e.model.static_correction);
+    spline_terms("rotary_correction", e.model.rotary_correction);
+    const bool rotary_correction = !e.model.rotary_correction.powers.empty() ||
+                                   !e.model.rotary_correction.knots_rad.empty();
+    if (rotary_correction && e.rotary.estimate) {
+      // Why refused: with rotary.estimate the two-stage loop re-estimates the whole C_aq(x);
+      // a correction of the a priori C_aq on top of it would be the same terms twice.
+      r.fail(*model_node, "'model.rotary_correction_*' corrects the a priori C_aq(x); it cannot "
+                          "be combined with rotary.estimate = true");
+    }
+    if (const toml::node* n = mt.get("delay")) {
+      const std::string s = r.string(*n, "model.delay");
+      if (s == "none") e.model.delay = DelayEstimation::none;
+      else if (s == "estimated") e.model.delay = DelayEstimation::estimated;
+      else r.fail(*n, "'model.delay' must be \"none\" or \"estimated\", found \"" + s + "\"");
+    }
+    if (const toml::node* n = mt.get("delay_start_s")) {
+      const double d = r.number(*n, "model.delay_start_s");
+      if (!(d >= 0.0 && d <= 1.0)) r.fail(*n, "'model.delay_start_s' must be in [0, 1] s");
+      if (e.model.delay != DelayEstimation::estimated)
+        r.fail(*n, "'model.delay_start_s' is used only with model.delay = \"estimated\"");
+      e.model.delay_start_s = d;
+    }
+    if (const toml::node* n = mt.get("further_lag_start")) {
+      const std::string s = r.string(*n, "model.further_lag_start");
+      if (s == "estimated") e.model.further_lag_start = LagStart::estimated;
+      else if (s == "at_rest") e.model.further_lag_start = LagStart::at_rest;
+      else r.fail(*n, "'model.further_lag_start' must be \"estimated\" or \"at_rest\", found \"" + s + "\"");
+    }
     if (const toml::node* n = mt.get("bias")) e.model.bias = r.boolean(*n, "model.bias");
     if (const toml::node* n = mt.get("structure")) {
       const std::string s = r.string(*n, "model.structure");
@@ -889,6 +962,18 @@ std::string write_experiment_toml(const Experiment& e, const std::vector<std::st
     out += "table = " + toml_string(e.static_curve.table_path) + "\n";
   }
   out += "\n[rotary]\npolynomial = " + number_list(e.rotary.polynomial, 1.0) + "\n";
+  if (!e.rotary.prior_knots_rad.empty()) {
+    out += "prior_knots_deg = " + number_list(e.rotary.prior_knots_rad, kRadToDeg) + "\n";
+    bool all_linear = true;
+    for (int p : e.rotary.prior_knot_powers) all_linear = all_linear && p == 1;
+    if (!all_linear) {
+      out += "prior_knot_powers = [";
+      for (std::size_t i = 0; i < e.rotary.prior_knot_powers.size(); ++i)
+        out += (i ? ", " : "") + std::to_string(e.rotary.prior_knot_powers[i]);
+      out += "]\n";
+    }
+    out += "prior_knot_coefficients = " + number_list(e.rotary.prior_knot_coefficients, 1.0) + "\n";
+  }
   out += std::string("estimate = ") + (e.rotary.estimate ? "true" : "false") + "\n";
   if (e.rotary.estimate) {
     const auto& p = e.rotary.candidates.powers;
@@ -904,6 +989,18 @@ std::string write_experiment_toml(const Experiment& e, const std::vector<std::st
   out += std::string("structure = \"") +
          (e.model.structure == StructureMode::fixed ? "fixed" : "stepwise") + "\"\n";
   if (e.model.lags != 1) out += "lags = " + std::to_string(e.model.lags) + "\n";
+  // The extensions, only when used (a file without them reads back the same defaults).
+  for (const auto& [name, cfg] : {std::pair<const char*, const SplineConfig*>{"static_correction", &e.model.static_correction},
+                                  std::pair<const char*, const SplineConfig*>{"rotary_correction", &e.model.rotary_correction}}) {
+    if (!cfg->powers.empty()) out += power_terms(name, cfg->powers);
+    if (!cfg->knots_rad.empty())
+      out += std::string(name) + "_knots_deg = " + number_list(cfg->knots_rad, kRadToDeg) + "\n";
+  }
+  if (e.model.delay == DelayEstimation::estimated) {
+    out += "delay = \"estimated\"\n";
+    if (e.model.delay_start_s != 0.0) out += "delay_start_s = " + format_double(e.model.delay_start_s) + "\n";
+  }
+  if (e.model.further_lag_start == LagStart::at_rest) out += "further_lag_start = \"at_rest\"\n";
   return out;
 }
 

@@ -181,6 +181,7 @@ nlohmann::json diagnosis_json(const DiagnoseResult& d, const Experiment& e,
 struct DiagnoseOutputs {
   std::filesystem::path dir;
   std::string diagnosis_json;
+  std::string experiment_toml;         // the diagnosed experiment (diagnosed_experiment_toml)
   std::string model_coef;
   std::string report_md;
   PlotStatus plots = PlotStatus::not_requested;
@@ -189,8 +190,16 @@ struct DiagnoseOutputs {
   RuntimeCheck runtime;
 };
 
+// The experiment file of the diagnosed model: the working experiment (warning 4) with the
+// final model configuration (extension keys of docs/formats.md: static_correction_*,
+// rotary_correction_*, delay, further_lag_start), its runs and static table by absolute path,
+// and the delay's start value at the diagnosed estimate. `indicial fit` on it refits the
+// diagnosed model.
+std::string diagnosed_experiment_toml(const DiagnoseResult& d);
+
 // Writes DIR/diagnosis.json, DIR/model.coef (the final model, by the runtime's writer, replayed
-// by the runtime), DIR/report.md and DIR/plots/ through OutputDir (whole or nothing; a
+// by the runtime), DIR/experiment.toml (diagnosed_experiment_toml), DIR/report.md and DIR/plots/
+// through OutputDir (whole or nothing; a
 // non-empty DIR only with Overwrite::replace). gnuplot problems are reported, not thrown.
 DiagnoseOutputs write_diagnose_outputs(const DiagnoseResult& d, const Experiment& e,
                                        const DiagnoseOptions& o, const std::filesystem::path& dir,

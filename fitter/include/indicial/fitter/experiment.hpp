@@ -47,6 +47,12 @@ struct StaticConfig {
 
 struct RotaryConfig {
   std::vector<double> polynomial;    // a priori C_aq(x) coefficients of x^0, x^1, ...
+  // A priori plus-function terms c_j (x - k_j)_+^p_j of C_aq(x) (extension: [rotary]
+  // prior_knots_deg, prior_knot_powers (default 1 each), prior_knot_coefficients), e.g. a
+  // break in C_Lq(alpha). One entry per term; a knot may repeat with another power.
+  std::vector<double> prior_knots_rad;
+  std::vector<int> prior_knot_powers;
+  std::vector<double> prior_knot_coefficients;
   bool estimate = false;             // two-stage re-estimation (eqs. 25-26)
   SplineConfig candidates;           // with estimate: powers 0..degree and knots (power 1)
 };
@@ -66,7 +72,7 @@ struct ModelConfig {
   bool bias = false;
   StructureMode structure = StructureMode::fixed;
   int lags = 1;                      // extension: number of lag states (>= 1)
-  // Extensions used by `indicial diagnose` (library only: no TOML keys yet). All are estimated
+  // Extensions used by `indicial diagnose` ([model] keys: docs/formats.md). All are estimated
   // in the maximum-likelihood output-error step only (the equation error does not see them);
   // they start at 0 (delay: delay_start_s) unless FitOptions::start_values names them.
   //  * static_correction: dC_a(x) terms (ML names dCa_{i}, dCaK{j}), an angle-only

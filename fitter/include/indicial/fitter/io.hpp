@@ -28,7 +28,11 @@
 // Experiment TOML: exactly the keys of interface.md plus these extensions:
 //   runs = ["a.csv", {file = "b.csv", periodic = true}]   entries are strings or tables
 //   [model] a_powers = [1, 2] / b1_powers = [0] (instead of *_degree), lags = 1
+//   [model] static_correction_degree|_powers|_knots_deg, rotary_correction_degree|_powers|
+//           _knots_deg, delay = "none"|"estimated", delay_start_s, further_lag_start =
+//           "estimated"|"at_rest"                          what diagnose adds (ModelConfig)
 //   [rotary] degree = 2, knots_deg = [...]               the candidate pool for estimate = true
+//   [rotary] prior_knots_deg, prior_knot_powers, prior_knot_coefficients   a priori knot terms
 //   [static] table = "static.csv"                          alpha_deg|alpha_rad (pitch) or
 //            beta_deg|beta_rad (roll, yaw) plus the coefficient column, strictly increasing
 //   alpha0_rad instead of alpha0_deg.
