@@ -9,11 +9,13 @@
 #include <cstdio>
 #include <cmath>
 #include <filesystem>
+#include <initializer_list>
 #include <fstream>
 #include <map>
 #include <set>
 #include <sstream>
 #include <stdexcept>
+#include <utility>
 #include <toml++/toml.h>
 
 #include "indicial/coef_file.hpp"
@@ -477,6 +479,19 @@ class TomlReader {
     if (!n.is_boolean()) fail(n, "wrong type: '" + key + "' must be true or false, found " + type_name(n));
     return *n.value<bool>();
   }
+  // A string naming one of `choices`; returns its enum value, refuses anything else with the
+  // list: 'model.delay' must be "none" or "estimated", found "yes".
+  template <class E>
+  E choice(const toml::node& n, const std::string& key,
+           std::initializer_list<std::pair<const char*, E>> choices) const {
+    const std::string s = string(n, key);
+    std::string list;
+    for (const auto& [name, value] : choices) {
+      if (s == name) return value;
+      list += (list.empty() ? "\"" : " or \"") + std::string(name) + "\"";
+    }
+    fail(n, "'" + key + "' must be " + list + ", found \"" + s + "\"");
+  }
   std::string string(const toml::node& n, const std::string& key) const {
     if (!n.is_string()) fail(n, "wrong type: '" + key + "' must be a string, found " + type_name(n));
     return *n.value<std::string>();
@@ -805,10 +820,8 @@ Experiment load_experiment(const std::string& toml_path) {
                           "be combined with rotary.estimate = true");
     }
     if (const toml::node* n = mt.get("delay")) {
-      const std::string s = r.string(*n, "model.delay");
-      if (s == "none") e.model.delay = DelayEstimation::none;
-      else if (s == "estimated") e.model.delay = DelayEstimation::estimated;
-      else r.fail(*n, "'model.delay' must be \"none\" or \"estimated\", found \"" + s + "\"");
+      e.model.delay = r.choice<DelayEstimation>(
+          *n, "model.delay", {{"none", DelayEstimation::none}, {"estimated", DelayEstimation::estimated}});
     }
     if (const toml::node* n = mt.get("delay_start_s")) {
       const double d = r.number(*n, "model.delay_start_s");
@@ -818,17 +831,13 @@ Experiment load_experiment(const std::string& toml_path) {
       e.model.delay_start_s = d;
     }
     if (const toml::node* n = mt.get("further_lag_start")) {
-      const std::string s = r.string(*n, "model.further_lag_start");
-      if (s == "estimated") e.model.further_lag_start = LagStart::estimated;
-      else if (s == "at_rest") e.model.further_lag_start = LagStart::at_rest;
-      else r.fail(*n, "'model.further_lag_start' must be \"estimated\" or \"at_rest\", found \"" + s + "\"");
+      e.model.further_lag_start = r.choice<LagStart>(
+          *n, "model.further_lag_start", {{"estimated", LagStart::estimated}, {"at_rest", LagStart::at_rest}});
     }
     if (const toml::node* n = mt.get("bias")) e.model.bias = r.boolean(*n, "model.bias");
     if (const toml::node* n = mt.get("structure")) {
-      const std::string s = r.string(*n, "model.structure");
-      if (s == "fixed") e.model.structure = StructureMode::fixed;
-      else if (s == "stepwise") e.model.structure = StructureMode::stepwise;
-      else r.fail(*n, "'model.structure' must be \"fixed\" or \"stepwise\", found \"" + s + "\"");
+      e.model.structure = r.choice<StructureMode>(
+          *n, "model.structure", {{"fixed", StructureMode::fixed}, {"stepwise", StructureMode::stepwise}});
     }
     if (const toml::node* n = mt.get("lags")) {
       const long lags = r.integer(*n, "model.lags");
