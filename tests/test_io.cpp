@@ -9,7 +9,9 @@
 #include <fstream>
 #include <functional>
 #include <sstream>
+#include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/fit.hpp"
@@ -428,6 +430,32 @@ TEST_CASE("model extension keys (what diagnose adds): read, written back, and re
   CHECK_HAS(m, "x6.toml:26: 'model.static_correction_knots_deg': knot 80 deg is outside the data's alpha range");
   m = exp_error("x7.toml", replace(t, "bias = false", "bias = false\nstatic_correction_degre = 2"));
   CHECK_HAS(m, "x7.toml:26: unknown key 'model.static_correction_degre'");
+}
+
+TEST_CASE("smooth_derivative_nonuniform: the uniform filter on a uniform grid, exact for cubics on any grid") {
+  std::vector<double> t, v;
+  for (int i = 0; i < 60; ++i) {
+    t.push_back(0.01 * i);
+    v.push_back(std::sin(3.0 * t.back()) + 0.1 * std::cos(17.0 * t.back()));
+  }
+  const std::vector<double> u = indicial::smooth_derivative(v, 0.01, 5, 3);
+  const std::vector<double> n = indicial::smooth_derivative_nonuniform(t, v, 5, 3);
+  for (std::size_t i = 0; i < t.size(); ++i) CHECK(n[i] == doctest::Approx(u[i]).epsilon(1e-9));
+  // An irregular grid (steps 0.005..0.03 s) and a cubic: the local cubic fit is exact.
+  std::vector<double> ti, ci;
+  double time = 0.0;
+  for (int i = 0; i < 40; ++i) {
+    ti.push_back(time);
+    ci.push_back(1.0 - 2.0 * time + 3.0 * time * time - 4.0 * time * time * time);
+    time += 0.005 + 0.025 * std::abs(std::sin(1.7 * i));
+  }
+  const std::vector<double> d = indicial::smooth_derivative_nonuniform(ti, ci, 5, 3);
+  for (std::size_t i = 0; i < ti.size(); ++i)
+    CHECK(d[i] == doctest::Approx(-2.0 + 6.0 * ti[i] - 12.0 * ti[i] * ti[i]).epsilon(1e-9));
+  CHECK_THROWS_AS(indicial::smooth_derivative_nonuniform({0.0, 1.0}, {0.0, 1.0}, 5, 3), std::invalid_argument);
+  std::vector<double> back = ti;
+  back[7] = back[6];
+  CHECK_THROWS_AS(indicial::smooth_derivative_nonuniform(back, ci, 5, 3), std::invalid_argument);
 }
 
 TEST_CASE("[rotary] a priori knot terms: read, used by the model, written back, refused when wrong") {

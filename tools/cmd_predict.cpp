@@ -1,7 +1,7 @@
 // `indicial predict`: run a model on the motion of a run CSV with the embedded runtime.
 //
 //   indicial predict MODEL.coef DATA.csv --out FILE.csv [--plot FILE.png] [--metrics FILE.json]
-//                    [--airspeed-mps V] [--force]
+//                    [--airspeed-mps V] [--time-grid uniform|nonuniform] [--force]
 //
 // Writes time_s, the angle column as given, <c>_pred, <c>_quasi_steady and the measured <c>
 // where DATA.csv has it; where measured, prints the metrics (RMS, max, Theil's inequality
@@ -9,6 +9,7 @@
 // comment lines and to FILE.metrics.json (or --metrics). See fitter/.../predict.hpp.
 #include <cstdio>
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <string>
 
@@ -27,6 +28,7 @@ struct PredictOptions {
   std::string plot;
   std::string metrics;
   double airspeed_mps = 0.0;  // 0: the model's reference airspeed
+  indicial::TimeGrid grid = indicial::TimeGrid::uniform;
   bool force = false;
 };
 
@@ -48,7 +50,7 @@ void run_predict(const PredictOptions& o) {
   std::vector<Run> runs;
   for (int c = 0; c < model->n_coefficients; ++c)
     runs.push_back(read_run_csv(o.data_path, model->axis, model->coefficients[c].name,
-                                CoefficientPresence::optional));
+                                CoefficientPresence::optional, o.grid));
   const Run& run = runs.front();
   const std::string angle_column = motion_column_name(o.data_path, model->axis);
 
@@ -105,6 +107,13 @@ const indicial::tools::RegisterCommand register_predict([](CLI::App& app) {
   sub->add_option("--metrics", opt->metrics, "metrics JSON (default: OUT with .metrics.json)");
   sub->add_option("--airspeed-mps", opt->airspeed_mps,
                   "tunnel airspeed of the run (default: the model's reference airspeed)");
+  sub->add_option("--time-grid", opt->grid,
+                  "uniform (default: the step is checked to 1e-6 relative) or nonuniform (a log with "
+                  "timestamp jitter or dropped samples: the runtime steps with each sample's own dt; "
+                  "an absent rate column is a local least-squares derivative in time)")
+      ->transform(CLI::CheckedTransformer(
+          std::map<std::string, indicial::TimeGrid>{{"uniform", indicial::TimeGrid::uniform},
+                                                    {"nonuniform", indicial::TimeGrid::nonuniform}}));
   sub->add_flag("--force", opt->force, "replace existing outputs");
   sub->callback([opt]() { run_predict(*opt); });
 });

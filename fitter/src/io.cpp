@@ -264,7 +264,7 @@ std::vector<double> numeric_column(const std::string& path, const CsvTable& t, i
 // Run CSV
 // ==========================================================================================
 Run read_run_csv(const std::string& path, Axis axis, const std::string& coefficient,
-                 CoefficientPresence presence) {
+                 CoefficientPresence presence, TimeGrid grid) {
   const CsvTable t = read_csv_table(path);
   // Validate every unit-bearing column name first, so a bad name is reported even if it is
   // not one this axis needs.
@@ -312,7 +312,7 @@ Run read_run_csv(const std::string& path, Axis axis, const std::string& coeffici
   // Why the median: one bad step must be reported at its own line, not shift a mean step so
   // that every line looks wrong.
   const double dt = median_of(steps);
-  for (std::size_t i = 1; i < n; ++i) {
+  for (std::size_t i = 1; i < n && grid == TimeGrid::uniform; ++i) {
     if (std::abs(steps[i - 1] - dt) > kStepTolerance * dt) {
       throw InputError(path, t.row_line[i],
                        "non-uniform time step: " + format_double(steps[i - 1]) + " s after " +
@@ -324,6 +324,10 @@ Run read_run_csv(const std::string& path, Axis axis, const std::string& coeffici
   if (rate_col >= 0) {
     run.rate_radps = numeric_column(path, t, rate_col, rate_factor);
     run.rate_from_file = true;
+  } else if (grid == TimeGrid::nonuniform) {
+    run.rate_radps = smooth_derivative_nonuniform(run.time_s, run.motion_angle_rad,
+                                                  default_sg_half_window, default_sg_degree);
+    run.rate_from_file = false;
   } else {
     run.rate_radps = smooth_derivative(run.motion_angle_rad, dt, default_sg_half_window,
                                        default_sg_degree);
@@ -378,6 +382,46 @@ std::vector<double> smooth_derivative(const std::vector<double>& values, double 
     double s = 0.0;
     for (int k = 0; k < width; ++k) s += weights(e, k) * values[lo + static_cast<std::size_t>(k)];
     d[i] = s;
+  }
+  return d;
+}
+
+std::vector<double> smooth_derivative_nonuniform(const std::vector<double>& time_s,
+                                                 const std::vector<double>& values,
+                                                 int half_window, int poly_degree) {
+  if (half_window < 1) throw std::invalid_argument("smooth_derivative_nonuniform: half_window must be >= 1");
+  const int width = 2 * half_window + 1;
+  if (poly_degree < 1 || poly_degree >= width)
+    throw std::invalid_argument("smooth_derivative_nonuniform: need 1 <= poly_degree <= 2 * half_window");
+  const std::size_t n = values.size();
+  if (time_s.size() != n) throw std::invalid_argument("smooth_derivative_nonuniform: lengths differ");
+  if (n < static_cast<std::size_t>(width))
+    throw std::invalid_argument("smooth_derivative_nonuniform: fewer values than one window");
+  for (std::size_t i = 1; i < n; ++i)
+    if (!(time_s[i] > time_s[i - 1]))
+      throw std::invalid_argument("smooth_derivative_nonuniform: time is not strictly increasing");
+  const std::size_t hw = static_cast<std::size_t>(half_window);
+  std::vector<double> d(n);
+  Eigen::MatrixXd V(width, poly_degree + 1);
+  Eigen::VectorXd v(width);
+  for (std::size_t i = 0; i < n; ++i) {
+    std::size_t lo = i >= hw ? i - hw : 0;
+    if (lo + static_cast<std::size_t>(width) > n) lo = n - static_cast<std::size_t>(width);
+    // Why the scaling: the local abscissa u = (t - t_i) / h with h the window's half span keeps
+    // the Vandermonde matrix as well conditioned as the uniform case's; d/dt = (1 / h) d/du.
+    const double h = 0.5 * (time_s[lo + static_cast<std::size_t>(width) - 1] - time_s[lo]);
+    for (int k = 0; k < width; ++k) {
+      const std::size_t s = lo + static_cast<std::size_t>(k);
+      const double u = (time_s[s] - time_s[i]) / h;
+      double pw = 1.0;
+      for (int p = 0; p <= poly_degree; ++p) {
+        V(k, p) = pw;
+        pw *= u;
+      }
+      v(k) = values[s];
+    }
+    const Eigen::VectorXd c = V.colPivHouseholderQr().solve(v);
+    d[i] = c(1) / h;
   }
   return d;
 }

@@ -68,11 +68,19 @@ inline constexpr int min_run_samples = 11;
 inline constexpr int default_sg_half_window = 5;
 inline constexpr int default_sg_degree = 3;
 
+// The time grid a run is declared to have (interface.md: "uniform step within 1e-6 relative
+// unless a run is declared otherwise"). The fitter needs a uniform grid (its smoothed y_E'
+// and the runs' dt); predict takes either, since the runtime steps with each sample's own dt
+// (a HIL or flight log with timestamp jitter, or a log with dropped samples).
+enum class TimeGrid { uniform, nonuniform };
+
 // Reads one run. `coefficient` is the column to load (e.g. "Cm"); with
 // CoefficientPresence::optional an absent coefficient column leaves Run::coefficient empty.
-// Angles are converted to rad, rates to rad/s. Run::path is `path` as given.
+// Angles are converted to rad, rates to rad/s. Run::path is `path` as given. With
+// TimeGrid::nonuniform the step is not checked (time must still strictly increase), Run::dt_s()
+// means nothing, and an absent rate column is derived by smooth_derivative_nonuniform.
 Run read_run_csv(const std::string& path, Axis axis, const std::string& coefficient,
-                 CoefficientPresence presence);
+                 CoefficientPresence presence, TimeGrid grid = TimeGrid::uniform);
 
 // Savitzky-Golay first derivative of uniformly sampled values: at every sample, a polynomial of
 // degree poly_degree is fitted by least squares to the 2 * half_window + 1 samples of a window
@@ -83,6 +91,15 @@ Run read_run_csv(const std::string& path, Axis axis, const std::string& coeffici
 // 1 <= poly_degree <= 2 * half_window, dt_s > 0 (std::invalid_argument otherwise).
 std::vector<double> smooth_derivative(const std::vector<double>& values, double dt_s,
                                       int half_window, int poly_degree);
+
+// The same local least-squares polynomial on a non-uniform grid: at every sample the window of
+// 2 * half_window + 1 samples (clamped at the ends, as above) is fitted in time and the
+// polynomial differentiated at that sample's time. On a uniform grid it equals
+// smooth_derivative to rounding. Requires strictly increasing time_s of the same length as
+// values, and the size and degree limits above (std::invalid_argument otherwise).
+std::vector<double> smooth_derivative_nonuniform(const std::vector<double>& time_s,
+                                                 const std::vector<double>& values,
+                                                 int half_window, int poly_degree);
 
 // Reads the experiment file and every run it names; validates everything (see the warnings).
 Experiment load_experiment(const std::string& toml_path);

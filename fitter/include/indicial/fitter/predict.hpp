@@ -36,8 +36,9 @@
 //    clamped samples is an extrapolation the model was never fitted for.
 // 3. Bad model files throw InputError naming the file and line (parse or runtime validation,
 //    e.g. b_j(x) <= 0 in the envelope). A runtime step refusal (non-finite result) throws too.
-// 4. The time step must be uniform (read_run_csv checks it) and at most the runtime's
-//    Predictor::max_dt_s.
+// 4. predict_motion steps with each sample's own dt, so any strictly increasing grid works
+//    (read_run_csv checks the step unless given TimeGrid::nonuniform); every step must be at
+//    most the runtime's Predictor::max_dt_s.
 #pragma once
 
 #include <cstddef>
