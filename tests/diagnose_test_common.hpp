@@ -9,23 +9,11 @@
 #include <vector>
 
 #include "diagnose_test_data.hpp"
+#include "fit_test_data.hpp"
 #include "indicial/fitter/diagnose.hpp"
 
 namespace indicial::testing {
 
-// The seeds a statistical loop runs. Under ASan/UBSan (tools/run-sanitizers.sh defines
-// INDICIAL_SANITIZED_BUILD) every fit is 10-20x slower; that run checks memory safety and
-// undefined behaviour, not statistics, so it runs the first `sanitized_count` seeds only. The
-// normal build (tools/run-tests.sh, the acceptance run) runs them all.
-inline std::vector<std::uint64_t> test_seeds(std::vector<std::uint64_t> seeds,
-                                             std::size_t sanitized_count = 1) {
-#ifdef INDICIAL_SANITIZED_BUILD
-  if (seeds.size() > sanitized_count) seeds.resize(sanitized_count);
-#else
-  (void)sanitized_count;
-#endif
-  return seeds;
-}
 
 // Data with the hidden `effect` of hidden_effect() on `case_name`, SNR 40, `seed`; runs
 // diagnose and checks: the configured model's fit error is at least twice the noise (the

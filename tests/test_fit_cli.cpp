@@ -244,6 +244,21 @@ TEST_CASE("stepwise structure: the report and fit.json carry every step of the l
   CHECK(md.find("### Stepwise regression") != std::string::npos);
   CHECK(md.find("| step | term | action | partial F | R^2 | PSE |") != std::string::npos);
   CHECK(md.find("Selected at the minimum PSE") != std::string::npos);
+  CHECK_FALSE(j.contains("output_error_stepwise"));
+  CHECK(j["options"]["stepwise_refinement"] == "none");
+  // --stepwise-refinement output_error: fit.json carries the refinement and its selection.
+  const Run refined = run_cli("fit '" + (d / "experiment.toml").string() + "' --out '" +
+                              (d / "fit-oe").string() + "' --no-plots --stepwise-refinement output_error");
+  REQUIRE_MESSAGE(refined.exit_code == 0, refined.err);
+  const nlohmann::json jr = nlohmann::json::parse(slurp(d / "fit-oe" / "fit.json"));
+  CHECK(jr["options"]["stepwise_refinement"] == "output_error");
+  REQUIRE(jr.contains("output_error_stepwise"));
+  CHECK(jr["output_error_stepwise"]["steps"].is_array());
+  CHECK(jr["output_error_stepwise"]["selected"].size() >= 2);
+  const Run bad = run_cli("fit '" + (d / "experiment.toml").string() + "' --out '" +
+                          (d / "fit-bad").string() + "' --stepwise-refinement sometimes");
+  CHECK(bad.exit_code != 0);
+  CHECK_FALSE(fs::exists(d / "fit-bad"));
 }
 
 TEST_CASE("rotary.estimate = true: fit.json has the two_stage log and report.md the loop's table") {

@@ -13,6 +13,7 @@
 //   5  the information matrix is rank deficient: outputs written, the parameters that cannot
 //      be identified are named (bounds null in fit.json)
 #include <cstdio>
+#include <map>
 #include <memory>
 #include <string>
 
@@ -115,6 +116,12 @@ const indicial::tools::RegisterCommand register_fit([](CLI::App& app) {
   sub->add_flag("--force", opt->force, "replace the contents of a non-empty output directory");
   sub->add_option("--f-to-enter", opt->fit.f_to_enter, "stepwise: partial F to enter (default 4)");
   sub->add_option("--f-to-remove", opt->fit.f_to_remove, "stepwise: partial F to remove (default 4)");
+  sub->add_option("--stepwise-refinement", opt->fit.stepwise_refinement,
+                  "stepwise: none (default: the regression's selection, as the report) or output_error "
+                  "(then terms enter and leave by the output-error fit; for large candidate pools)")
+      ->transform(CLI::CheckedTransformer(std::map<std::string, indicial::StepwiseRefinement>{
+          {"none", indicial::StepwiseRefinement::none},
+          {"output_error", indicial::StepwiseRefinement::output_error}}));
   sub->add_option("--max-iterations", opt->fit.max_iterations, "output-error iteration limit (default 50)");
   sub->add_option("--state-derivative", opt->state_derivative,
                   "equation error's y_E': smoothed (Savitzky-Golay, default) or modulating (ref. 12)");

@@ -189,6 +189,14 @@ MLResult fit_output_error(const UnsteadyStructure& s, const std::vector<Prepared
                           const Eigen::VectorXd& theta0, const FitOptions& o,
                           const std::string& context_file);
 
+// Stepwise refinement of a structure on the output-error fit (fit_stepwise_output_error.cpp):
+// from `ml` (a fit of a sub-structure of `pool`), a(x), b1(x) and con terms of the pool enter
+// by the ML partial F and leave by the Wald F; returns the final fit and logs every step.
+MLResult refine_structure_output_error(const UnsteadyStructure& pool,
+                                       const std::vector<PreparedRun>& runs, MLResult ml,
+                                       const FitOptions& o, const std::string& file,
+                                       OutputErrorStepwiseResult* log);
+
 // Writes the unsteady part of theta (structural part) into a double model.
 void set_unsteady(const UnsteadyStructure& s, const double* theta, CoefficientModel<double, Cap>& m);
 

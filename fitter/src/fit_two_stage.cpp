@@ -170,6 +170,11 @@ FitResult fit_experiment(const Experiment& e, const FitOptions& o) {
     }
   }
   MLResult ml = fit_output_error(s, runs, theta0, o, e.path);
+  if (e.model.structure == StructureMode::stepwise &&
+      o.stepwise_refinement == StepwiseRefinement::output_error && std::isfinite(ml.summary.cost)) {
+    ml = refine_structure_output_error(pool, runs, std::move(ml), o, e.path, &res.output_error_stepwise);
+    s = ml.structure;
+  }
   SplineD rotary = model.coefficients[0].rotary;
   std::vector<ParameterEstimate> rotary_params;
 

@@ -299,8 +299,20 @@ nlohmann::json fit_json(const FitResult& r, const Experiment& e, const FitOption
                      {"axis", axis_name(e.axis)},
                      {"coefficient", e.coefficient},
                      {"structure", e.model.structure == StructureMode::stepwise ? "stepwise" : "fixed"}};
+  if (!r.output_error_stepwise.selected.empty()) {
+    nlohmann::json steps = nlohmann::json::array();
+    for (const OutputErrorStepwiseStep& st : r.output_error_stepwise.steps)
+      steps.push_back({{"action", st.action == OutputErrorStepwiseStep::Action::entered ? "entered" : "removed"},
+                       {"term", st.term},
+                       {"f", finite_or_null(st.f)},
+                       {"sse_before", finite_or_null(st.sse_before)},
+                       {"sse_after", finite_or_null(st.sse_after)}});
+    j["output_error_stepwise"] = {{"steps", steps}, {"selected", r.output_error_stepwise.selected}};
+  }
   j["options"] = {{"f_to_enter", o.f_to_enter},
                   {"f_to_remove", o.f_to_remove},
+                  {"stepwise_refinement",
+                   o.stepwise_refinement == StepwiseRefinement::output_error ? "output_error" : "none"},
                   {"max_iterations", o.max_iterations},
                   {"cost_tolerance", o.cost_tolerance},
                   {"step_tolerance", o.step_tolerance},

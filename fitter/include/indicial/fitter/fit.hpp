@@ -19,6 +19,10 @@
 //      with indicial::advance_lags -- the runtime's own update -- and the Gauss-Newton /
 //      Levenberg-Marquardt iteration uses exact sensitivities from Eigen's forward AutoDiff
 //      through that same template. Cramer-Rao bounds, white and colored-residual corrected.
+//      With FitOptions::stepwise_refinement = output_error a stepwise structure is then refined
+//      on the ML fit: pool terms enter by the output error's partial F and leave by Wald F
+//      (fit_stepwise_output_error.cpp; docs/validation.md measures why: the regression's
+//      collinear a(x) columns).
 //   4. When rotary.estimate = true, the two-stage loop (eqs. 25-26): stepwise regression of
 //      z = C - C_a(x) - y_model on the C_aq(x) candidates, y_E recomputed with the new C_aq, ML
 //      re-run from the previous estimates; repeated until the ML cost stops improving.
@@ -94,6 +98,28 @@ enum class ColoredLagRule {
   fixed       // exactly max_correlation_lag lags
 };
 
+// How a stepwise structure (model.structure = "stepwise") is finished.
+enum class StepwiseRefinement {
+  none,          // the equation-error regression's selection (the report's procedure)
+  output_error   // then entry / removal by the output-error fit (fit_stepwise_output_error.cpp):
+                 // partial F of the ML fit to enter, Wald F to leave, same F_in / F_out
+};
+
+// One step of the output-error refinement.
+struct OutputErrorStepwiseStep {
+  enum class Action { entered, removed };
+  Action action = Action::entered;
+  std::string term;
+  double f = 0.0;           // partial F of the ML fit (entered) or Wald F (removed)
+  double sse_before = 0.0;  // sum of squared output errors before and after the step
+  double sse_after = 0.0;
+};
+struct OutputErrorStepwiseResult {
+  std::vector<OutputErrorStepwiseStep> steps;  // empty: the regression's selection was kept
+  std::vector<std::string> selected;           // the final a(x), b1(x), con terms, named as in
+                                               // the pool (EquationErrorResult::stepwise)
+};
+
 struct FitOptions {
   // Singular values below sv_cutoff * (largest singular value) are treated as zero, in the
   // equation-error solve and in the information matrix (rank decision). Columns (regressors,
@@ -102,6 +128,7 @@ struct FitOptions {
   // Stepwise regression thresholds (Klein & Morelli use F_in = F_out = 4 as defaults).
   double f_to_enter = 4.0;
   double f_to_remove = 4.0;
+  StepwiseRefinement stepwise_refinement = StepwiseRefinement::none;
   // Output error: Gauss-Newton / Levenberg-Marquardt iterations (accepted or rejected steps).
   int max_iterations = 50;
   // Convergence: relative cost change below cost_tolerance AND every parameter change below
@@ -255,6 +282,7 @@ struct FitResult {
   EquationErrorResult equation_error;          // the start values (first stage)
   OutputErrorSummary output_error;             // the final ML run
   std::vector<TwoStageIteration> two_stage;    // empty unless rotary.estimate
+  OutputErrorStepwiseResult output_error_stepwise;  // with StepwiseRefinement::output_error
   double fit_error = 0.0;                      // s(v) of the final model
   double elapsed_s = 0.0;                      // wall time of fit_experiment
 };
