@@ -13,7 +13,9 @@
 //   * removal: the term of the model with the smallest Wald F = (estimate / CR bound)^2
 //     leaves if F < f_to_remove (an unidentifiable term leaves first), and the model is
 //     refitted;
-// until neither happens (each term may enter and leave at most twice, so it ends).
+// until neither happens (each term moves -- enters or leaves -- at most four times, so it
+// ends). A trial fit the fitter refuses (InputError, e.g. more parameters than samples) is
+// skipped, not fatal: the refinement only ever moves between fits that succeeded.
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -23,6 +25,7 @@
 #include <vector>
 
 #include "fit_internal.hpp"
+#include "indicial/fitter/error.hpp"
 
 namespace indicial::fit_detail {
 namespace {
@@ -128,7 +131,12 @@ MLResult refine_structure_output_error(const UnsteadyStructure& pool,
       if (std::find(current.begin(), current.end(), c) != current.end() || moves[c] >= 4) continue;
       std::vector<std::string> names = current;
       names.push_back(c);
-      MLResult trial = fit_names(pool, names, runs, ml, o, file);
+      MLResult trial;
+      try {
+        trial = fit_names(pool, names, runs, ml, o, file);
+      } catch (const InputError&) {
+        continue;
+      }
       const double p1 = static_cast<double>(trial.theta.size());
       if (!std::isfinite(trial.summary.cost) || !(n > p1)) continue;
       const double f = (sse(ml) - sse(trial)) / (sse(trial) / (n - p1));
@@ -173,8 +181,14 @@ MLResult refine_structure_output_error(const UnsteadyStructure& pool,
     if (!worst_name.empty() && worst_f < o.f_to_remove) {
       std::vector<std::string> rest = current;
       rest.erase(std::find(rest.begin(), rest.end(), worst_name));
-      MLResult refit = fit_names(pool, rest, runs, ml, o, file);
-      if (std::isfinite(refit.summary.cost)) {
+      MLResult refit;
+      bool fitted = true;
+      try {
+        refit = fit_names(pool, rest, runs, ml, o, file);
+      } catch (const InputError&) {
+        fitted = false;
+      }
+      if (fitted && std::isfinite(refit.summary.cost)) {
         log->steps.push_back({OutputErrorStepwiseStep::Action::removed, worst_name, worst_f, sse(ml), sse(refit)});
         ++moves[worst_name];
         ml = std::move(refit);
