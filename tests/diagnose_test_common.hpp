@@ -50,4 +50,17 @@ inline DiagnoseResult check_single_effect(const std::string& case_name, const st
   return d;
 }
 
+// check_single_effect on Model I (tailless-model-1) for seeds 101-103 (1 under the sanitizers).
+inline void check_effect_on_model_1(const std::string& effect) {
+  for (std::uint64_t seed : test_seeds({101u, 102u, 103u}))
+    check_single_effect("tailless-model-1", effect, hidden_effect(effect), seed);
+}
+
+// The final model's estimate of parameter `name` (NaN when the model has none).
+inline double final_estimate(const DiagnoseResult& d, const std::string& name) {
+  for (const ParameterEstimate& p : d.fits.back().parameters)
+    if (p.name == name) return p.value;
+  return std::nan("");
+}
+
 }  // namespace indicial::testing

@@ -11,18 +11,6 @@
 using namespace indicial;
 using namespace indicial::testing;
 
-namespace {
-[[maybe_unused]] void check_effect(const std::string& effect) {
-  for (std::uint64_t seed : test_seeds({101u, 102u, 103u}))
-    check_single_effect("tailless-model-1", effect, hidden_effect(effect), seed);
-}
-[[maybe_unused]] double estimate(const DiagnoseResult& d, const std::string& name) {
-  for (const ParameterEstimate& p : d.fits.back().parameters)
-    if (p.name == name) return p.value;
-  return std::nan("");
-}
-}  // namespace
-
 TEST_CASE("diagnose names a hidden static-curve error: static_error") {
   for (std::uint64_t seed : test_seeds({101u, 102u, 103u}))
     check_single_effect("tailless-model-1", "static_error", hidden_effect("static_error"), seed);

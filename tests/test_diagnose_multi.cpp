@@ -14,6 +14,7 @@
 #include <sstream>
 #include <string>
 
+#include "cli_test_support.hpp"
 #include "diagnose_test_common.hpp"
 #include "indicial/fitter/io.hpp"
 #include "indicial/fitter/simulate.hpp"
@@ -48,21 +49,9 @@ TEST_CASE("diagnose finds two hidden effects at once: b1_alpha and bias") {
   }
 }
 
-
-
 // ------------------------------------------------------------------------------------------
 namespace {
-struct Cmd {
-  int exit_code = -1;
-  std::string out;
-  std::string err;
-};
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
+using Cmd = CliRun;
 // A fresh directory under /tmp for this process, removed at exit.
 struct ScratchDir {
   fs::path path;
@@ -80,16 +69,7 @@ const fs::path& scratch() {
   static const ScratchDir dir;
   return dir.path;
 }
-Cmd run(const std::string& args) {
-  const fs::path o = scratch() / "stdout.txt", e = scratch() / "stderr.txt";
-  const std::string cmd = std::string(INDICIAL_EXE) + " " + args + " > " + o.string() + " 2> " + e.string();
-  const int rc = std::system(cmd.c_str());
-  Cmd r;
-  r.exit_code = (rc != -1 && WIFEXITED(rc)) ? WEXITSTATUS(rc) : -1;
-  r.out = slurp(o);
-  r.err = slurp(e);
-  return r;
-}
+Cmd run(const std::string& args) { return run_indicial(args, scratch()); }
 }  // namespace
 
 TEST_CASE("indicial diagnose: contract outputs, model.coef in the runtime, directory rules") {

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "indicial/fitter/fit.hpp"
+#include "indicial/fitter/montecarlo.hpp"
 #include "indicial/fitter/predict.hpp"
 #include "indicial/fitter/simulate.hpp"
 
@@ -23,18 +24,6 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kDeg = kPi / 180.0;
 constexpr double kSnr = 20.0;  // fitting data; the held-out data get the same noise sigma
-
-indicial::Run to_run(const indicial::SimulatedRun& s,
-                     const std::string& name) {
-  indicial::Run r;
-  r.path = name;
-  r.time_s = s.time_s;
-  r.motion_angle_rad = s.motion_angle_rad;
-  r.rate_radps = s.rate_radps;
-  r.rate_from_file = true;
-  r.coefficient = s.coefficient_measured[0];
-  return r;
-}
 
 struct HeldOut {
   std::string name;
@@ -74,18 +63,7 @@ void study(const char* case_name, std::uint64_t seed) {
   for (const auto& m : c.motions) sims.push_back(indicial::simulate_reference(truth, m));
   const std::vector<double> sigma = indicial::add_measurement_noise(sims, kSnr, seed);
 
-  indicial::Experiment e = c.experiment;
-  e.path = std::string(case_name) + " (simulated)";
-  double xmin = 1e300, xmax = -1e300;
-  for (std::size_t r = 0; r < sims.size(); ++r) {
-    e.runs[r] = to_run(sims[r], c.run_files[r]);
-    for (double x : sims[r].x_rad) {
-      xmin = std::min(xmin, x);
-      xmax = std::max(xmax, x);
-    }
-  }
-  e.data_x_min_rad = xmin;
-  e.data_x_max_rad = xmax;
+  const indicial::Experiment e = indicial::experiment_from_simulation(c, sims);
   const indicial::FitResult fit = indicial::fit_experiment(e, indicial::FitOptions{});
   MESSAGE(std::string(case_name) << ": ML " << std::string(indicial::termination_name(fit.output_error.termination))
                     << ", s(v) = " << fit.fit_error << " (noise sigma " << sigma[0] << ")");

@@ -14,6 +14,7 @@
 #include <sstream>
 #include <string>
 
+#include "cli_test_support.hpp"
 #include "indicial/fitter/fit.hpp"
 #include "indicial/fitter/io.hpp"
 #include "indicial/runtime.hpp"
@@ -22,18 +23,8 @@ namespace fs = std::filesystem;
 
 namespace {
 
-struct Run {
-  int exit_code = -1;
-  std::string out;
-  std::string err;
-};
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
+using Run = indicial::testing::CliRun;
+using indicial::testing::slurp;
 
 fs::path& scratch_holder() {
   static fs::path dir;
@@ -59,18 +50,7 @@ const fs::path& scratch() {
   return dir;
 }
 
-Run run_cli(const std::string& args) {
-  static int counter = 0;
-  const fs::path o = scratch() / ("stdout-" + std::to_string(++counter));
-  const fs::path e = scratch() / ("stderr-" + std::to_string(counter));
-  const std::string cmd = std::string("'") + INDICIAL_EXE + "' " + args + " > '" + o.string() + "' 2> '" + e.string() + "'";
-  const int rc = std::system(cmd.c_str());
-  Run r;
-  r.exit_code = (rc != -1 && WIFEXITED(rc)) ? WEXITSTATUS(rc) : -1;
-  r.out = slurp(o);
-  r.err = slurp(e);
-  return r;
-}
+Run run_cli(const std::string& args) { return indicial::testing::run_indicial(args, scratch()); }
 
 std::size_t count_lines(const std::string& s) {
   std::size_t n = 0;

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "indicial/fitter/fit.hpp"
+#include "indicial/fitter/montecarlo.hpp"
 #include "indicial/fitter/predict.hpp"
 #include "indicial/fitter/simulate.hpp"
 
@@ -33,25 +34,7 @@ void end_to_end(const std::string& case_name, double second_amplitude_deg) {
     CHECK(sims[0].x_rad[i] == doctest::Approx(beta).epsilon(1e-14));
   }
 
-  indicial::Experiment e = c.experiment;
-  e.path = case_name + " (simulated)";
-  double xmin = 1e300, xmax = -1e300;
-  for (std::size_t r = 0; r < sims.size(); ++r) {
-    indicial::Run run;
-    run.path = c.run_files[r];
-    run.time_s = sims[r].time_s;
-    run.motion_angle_rad = sims[r].motion_angle_rad;
-    run.rate_radps = sims[r].rate_radps;
-    run.rate_from_file = true;
-    run.coefficient = sims[r].coefficient_measured[0];
-    e.runs[r] = run;
-    for (double x : sims[r].x_rad) {
-      xmin = std::min(xmin, x);
-      xmax = std::max(xmax, x);
-    }
-  }
-  e.data_x_min_rad = xmin;
-  e.data_x_max_rad = xmax;
+  const indicial::Experiment e = indicial::experiment_from_simulation(c, sims);
   const indicial::FitResult fit = indicial::fit_experiment(e, indicial::FitOptions{});
   MESSAGE(case_name << ": ML " << std::string(indicial::termination_name(fit.output_error.termination))
                     << ", s(v) = " << fit.fit_error << " (noise sigma " << sigma[0] << ")");
