@@ -10,6 +10,7 @@
 // Shared by the subcommands:
 //   invocation()         the whole command line as typed (shell-quoted), for provenance
 //   print_warnings(v)    each entry on stderr as "indicial: warning: ..."
+//   experiment_warnings  an Experiment's input warnings (Experiment::warnings)
 //   StageClock           progress lines on stderr for stages longer than ~2 s
 //   formats_pointer      the sentence every --help text ends with
 //
@@ -29,6 +30,8 @@
 #include <mutex>
 #include <string>
 #include <thread>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
 namespace indicial::tools {
@@ -61,6 +64,20 @@ inline void print_warnings(const std::vector<std::string>& warnings) {
   std::fflush(stderr);
 }
 
+// The input warnings of a loaded experiment (Experiment::warnings: one-line strings about
+// plausible mistakes, filled by load_experiment). Why a trait: the field is added by the
+// issue-14 input work; until it is there this returns nothing, afterwards it returns the
+// field, with no edit here.
+template <class E, class = void>
+struct HasWarnings : std::false_type {};
+template <class E>
+struct HasWarnings<E, std::void_t<decltype(std::declval<const E&>().warnings)>> : std::true_type {};
+template <class E>
+std::vector<std::string> experiment_warnings(const E& e) {
+  if constexpr (HasWarnings<E>::value) return std::vector<std::string>(e.warnings.begin(), e.warnings.end());
+  else return {};
+}
+
 // Whether progress lines are printed.
 enum class Verbosity { progress, quiet };
 
@@ -79,7 +96,7 @@ class StageClock {
 
   // Runs fn as the stage `name`; exceptions pass through (the watchdog is stopped first).
   template <class Fn>
-  void stage(const std::string& name, Fn&& fn) {
+  void stage(const std::string& name, Fn&& fn) const {
     if (verbosity_ == Verbosity::quiet) {
       fn();
       return;

@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "indicial/fitter/diagnose.hpp"
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/io.hpp"
 #include "indicial/runtime.hpp"
@@ -189,6 +190,25 @@ std::string estimates_text_table(const std::vector<ParameterEstimate>& parameter
 // ------------------------------------------------------------------------------------------
 // fit.json
 // ------------------------------------------------------------------------------------------
+nlohmann::json with_provenance_and_warnings(nlohmann::json j, const ReportOptions& ro) {
+  if (!ro.provenance.version.empty()) j["provenance"] = provenance_json(ro.provenance);
+  j["warnings"] = ro.warnings;
+  return j;
+}
+
+std::vector<std::string> fit_warnings(const FitResult& r, const Experiment& e) {
+  std::vector<std::string> w;
+  const NoiseEstimate noise = estimate_noise_level(r.runs);
+  if (std::isfinite(r.fit_error) && noise.sigma > 0.0 && r.fit_error > kFitErrorNoiseRatio * noise.sigma) {
+    w.push_back(fmt::format(
+        "{}: the fit error s(v) = {:.4g} is {:.1f} times the noise level estimated from the data "
+        "({:.4g}, from the residuals' second differences; more than {:g} times means the model misses an "
+        "effect or the input is wrong: check the angle units and columns, or run `indicial diagnose`)",
+        e.path, r.fit_error, r.fit_error / noise.sigma, noise.sigma, kFitErrorNoiseRatio));
+  }
+  return w;
+}
+
 namespace {
 
 nlohmann::json parameter_json(const ParameterEstimate& p) {
@@ -673,14 +693,14 @@ FitOutputs write_fit_outputs(const FitResult& r, const Experiment& e, const FitO
   FitOutputs w;
   w.dir = dir;
   // Everything that can fail on the model comes before the output directory is touched.
-  w.model_coef = model_coef_text(r, e.path);
+  w.model_coef = with_provenance_header(model_coef_text(r, e.path), ro.provenance);
   w.runtime = replay_in_runtime(r, e, w.model_coef);
   OutputDir out(dir, overwrite);
   const PlotSet ps = make_plots(r, e, out, ro);
   w.plots = ps.status;
   w.plot_message = ps.message;
   w.images = ps.images;
-  nlohmann::json j = fit_json(r, e, o, &w.runtime);
+  nlohmann::json j = with_provenance_and_warnings(fit_json(r, e, o, &w.runtime), ro);
   if (!ro.experiment_display.empty()) j["experiment"]["path"] = ro.experiment_display;
   j["plots"] = {{"status", plot_status_name(ps.status)}, {"message", ps.message}, {"images", ps.images}};
   w.fit_json = j.dump(2) + "\n";
