@@ -17,6 +17,7 @@
 #include "cli_test_support.hpp"
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/provenance.hpp"
+#include "indicial/fitter/report.hpp"
 #include "indicial/runtime.hpp"
 
 namespace fs = std::filesystem;
@@ -238,4 +239,72 @@ TEST_CASE("predict on a directory says so") {
   const CliRun m = run_cli("predict '" + dir.string() + "' '" + model.string() + "' --out '" +
                            (scratch() / "p.csv").string() + "'");
   check_usage_error(m, {"is a directory, expected a coefficient file"});
+}
+
+TEST_CASE("plot data are thinned to at most kMaxPlotPoints points per curve") {
+  using indicial::thinned_indices;
+  CHECK(thinned_indices(0).empty());
+  CHECK(thinned_indices(3) == std::vector<std::size_t>{0, 1, 2});
+  CHECK(thinned_indices(indicial::kMaxPlotPoints).size() == indicial::kMaxPlotPoints);  // untouched
+  for (std::size_t n : {std::size_t{5001}, std::size_t{80004}, std::size_t{160000}, std::size_t{1234567}}) {
+    CAPTURE(n);
+    const std::vector<std::size_t> idx = thinned_indices(n);
+    CHECK(idx.size() <= indicial::kMaxPlotPoints);
+    CHECK(idx.size() >= indicial::kMaxPlotPoints / 2);  // thinned, not decimated away
+    CHECK(idx.front() == 0);
+    CHECK(idx.back() == n - 1);
+    bool uniform = true;  // one stride up to the last kept sample
+    for (std::size_t i = 1; i + 1 < idx.size(); ++i) uniform = uniform && idx[i] - idx[i - 1] == idx[1] - idx[0];
+    CHECK(uniform);
+  }
+}
+
+namespace {
+
+// What `fn` writes to stderr (fd 2), captured through a temporary file.
+template <class Fn>
+std::string captured_stderr(Fn&& fn) {
+  const fs::path f = scratch() / ("stderr-capture-" + std::to_string(::getpid()));
+  std::fflush(stderr);
+  const int saved = ::dup(2);
+  FILE* sink = std::fopen(f.c_str(), "w");
+  REQUIRE(sink != nullptr);
+  ::dup2(::fileno(sink), 2);
+  fn();
+  std::fflush(stderr);
+  ::dup2(saved, 2);
+  ::close(saved);
+  std::fclose(sink);
+  return slurp(f);
+}
+
+}  // namespace
+
+TEST_CASE("progress: a line per stage once the command runs past the threshold, none with --quiet") {
+  using indicial::tools::StageClock;
+  using indicial::tools::Verbosity;
+  using namespace std::chrono_literals;
+  const auto nap = [] { std::this_thread::sleep_for(250ms); };
+  // A short command prints nothing.
+  CHECK(captured_stderr([] {
+          const StageClock quick("fit", Verbosity::progress, 2000ms);
+          quick.stage("equation error", [] {});
+        }).empty());
+  // A stage running past the threshold is announced while it runs and when it ends; a later
+  // short stage of the same (now long) command gets its done line too.
+  const std::string err = captured_stderr([&] {
+    const StageClock clock("fit", Verbosity::progress, 100ms);
+    clock.stage("output error", nap);
+    clock.stage("report", [] {});
+  });
+  CHECK(err.find("fit: output error ...\n") != std::string::npos);
+  CHECK(err.find("fit: output error done (0.") != std::string::npos);
+  CHECK(err.find("fit: report done (0.0 s)\n") != std::string::npos);
+  CHECK(captured_stderr([&] {
+          const StageClock quiet("fit", Verbosity::quiet, 100ms);
+          quiet.stage("output error", nap);
+        }).empty());
+  // An exception passes through and stops the watchdog.
+  const StageClock failing("fit", Verbosity::quiet, 100ms);
+  CHECK_THROWS_AS(failing.stage("load", [] { throw std::runtime_error("bad"); }), std::runtime_error);
 }

@@ -18,7 +18,8 @@
 //   report.md   estimates with white and colored bounds, equation-error start values, the
 //               stepwise log, the output-error log and termination, the two-stage log, and
 //               plots made by gnuplot (pngcairo): measured vs model per run with the
-//               quasi-steady curve, residuals per run, a(x) and b1(x) with +/- 2 sigma bands,
+//               quasi-steady curve, residuals per run (at most kMaxPlotPoints points per
+//               curve: longer runs are thinned, and report.md says so), a(x) and b1(x) with +/- 2 sigma bands,
 //               C_aq(x) (with its band when estimated). Images live in DIR/plots/ and are
 //               referenced by relative paths; the gnuplot script and data files stay beside
 //               them so a plot can be restyled and regenerated (`cd DIR/plots && gnuplot plots.gp`).
@@ -166,6 +167,14 @@ std::string estimates_text_table(const std::vector<ParameterEstimate>& parameter
 
 // Root-mean-square of a run's residuals (measured - model); NaN for an empty run.
 double run_fit_error(const RunSeries& s);
+
+// Plot data thinning: a curve never gets more than kMaxPlotPoints points (a 160,000-sample
+// run would otherwise make megabytes of data and gnuplot would spend seconds drawing points a
+// 960-pixel image cannot show). thinned_indices(n) returns every k-th index from 0, k =
+// ceil(n / max_points), plus n - 1: all of them when n <= max_points. Shared by the fit and
+// diagnose plots.
+inline constexpr std::size_t kMaxPlotPoints = 5000;
+std::vector<std::size_t> thinned_indices(std::size_t n, std::size_t max_points = kMaxPlotPoints);
 
 // The number as JSON: null when it is not finite (JSON has no NaN or Inf).
 nlohmann::json finite_or_null(double v);
