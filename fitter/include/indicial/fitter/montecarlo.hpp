@@ -59,6 +59,7 @@ struct MonteCarloOptions {
   int seeds = 200;
   std::uint64_t first_seed = 1;  // seeds first_seed .. first_seed + seeds - 1
   double snr = 40.0;
+  NoiseModel noise;  // white (the report's), AR(1) or turbulence; sigma is its marginal std
   int threads = 2;
   FitOptions fit;
 };
