@@ -14,6 +14,7 @@
 #include "indicial/fitter/diagnose.hpp"
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/io.hpp"
+#include "indicial/fitter/runtime_limits.hpp"
 
 namespace {
 
@@ -34,9 +35,14 @@ void run_diagnose(const DiagnoseCliOptions& o, const std::string& command_line) 
   if (o.diag.max_steps < 0) throw InputError("--max-steps", 0, "must be >= 0");
   if (!(o.diag.knot_spacing_deg > 0.0)) throw InputError("--knot-spacing-deg", 0, "must be > 0");
   const Experiment e = load_experiment(o.experiment);
+  for (const std::string& w : runtime_limit_warnings(e)) std::fprintf(stderr, "indicial: warning: %s\n", w.c_str());
   const Overwrite overwrite = o.force ? Overwrite::replace : Overwrite::refuse;
   { OutputDir probe(o.out, overwrite); }  // refuse a non-empty DIR before the long part
   const DiagnoseResult d = diagnose_experiment(e, o.diag);
+  // Never write (or exit 0 with) a model the runtime refuses: one line, nothing written.
+  const RuntimeAcceptance accepted = require_runtime_accepts(d.fits.back().model, o.out + "/model.coef");
+  if (accepted.capacity == RuntimeCapacity::fit_capacity_only)
+    std::fprintf(stderr, "indicial: warning: %s/model.coef: %s\n", o.out.c_str(), accepted.reason.c_str());
   ReportOptions ro;
   ro.plots = o.no_plots ? PlotRequest::none : PlotRequest::gnuplot;
   ro.gnuplot = o.gnuplot;
@@ -67,7 +73,8 @@ const indicial::tools::RegisterCommand register_diagnose([](CLI::App& app) {
       "(b1_alpha, a_alpha, rotary_alpha, bias, time_delay, second_lag, static_error) by a\n"
       "likelihood-ratio test with a Bonferroni guard and BIC, add the most significant, repeat.\n"
       "Writes DIR/diagnosis.json, DIR/model.coef (final model), DIR/report.md and DIR/plots/.\n"
-      "Exit status: 0 done (any verdict, 'none' included); 1 bad input (nothing written).");
+      "Exit status: 0 done (any verdict, 'none' included); 1 bad input, or a final model the\n"
+      "runtime refuses (one line, nothing written).");
   sub->add_option("experiment", opt->experiment, "experiment file (TOML)")->required();
   sub->add_option("--out", opt->out, "output directory (refused if not empty, unless --force)")->required();
   sub->add_flag("--force", opt->force, "replace the contents of a non-empty output directory");

@@ -7,7 +7,9 @@
 // Exit status (also in --help and the README):
 //   0  converged (or the iteration limit was reached: a "warning:" line says so; the best
 //      estimate is written)
-//   1  bad input: one line "indicial: error: FILE:LINE: problem"; nothing written
+//   1  bad input: one line "indicial: error: FILE:LINE: problem"; nothing written. Also when
+//      the fitted model is one the runtime refuses ("DIR/model.coef: not written: the runtime
+//      refuses the model: <reason>"): nothing written
 //   4  the output-error iteration diverged: the best estimate found IS written, and a
 //      "warning:" line says so
 //   5  the information matrix is rank deficient: outputs written, the parameters that cannot
@@ -22,6 +24,7 @@
 #include "indicial/fitter/fit.hpp"
 #include "indicial/fitter/io.hpp"
 #include "indicial/fitter/report.hpp"
+#include "indicial/fitter/runtime_limits.hpp"
 
 namespace {
 
@@ -52,10 +55,15 @@ void run_fit(const FitCliOptions& o, const std::string& command_line) {
   if (fo.max_iterations < 1) throw InputError("--max-iterations", 0, "must be at least 1");
 
   const Experiment e = load_experiment(o.experiment);
+  for (const std::string& w : runtime_limit_warnings(e)) std::fprintf(stderr, "indicial: warning: %s\n", w.c_str());
   // Refuse a non-empty DIR before the (possibly long) fit, not after it.
   const Overwrite overwrite = o.force ? Overwrite::replace : Overwrite::refuse;
   { OutputDir probe(o.out, overwrite); }
   const FitResult r = fit_experiment(e, fo);
+  // Never write (or exit 0 with) a model the runtime refuses: one line, nothing written.
+  const RuntimeAcceptance accepted = require_runtime_accepts(r.model, o.out + "/model.coef");
+  if (accepted.capacity == RuntimeCapacity::fit_capacity_only)
+    std::fprintf(stderr, "indicial: warning: %s/model.coef: %s\n", o.out.c_str(), accepted.reason.c_str());
   ReportOptions ro;
   ro.plots = o.no_plots ? PlotRequest::none : PlotRequest::gnuplot;
   ro.gnuplot = o.gnuplot;
@@ -108,7 +116,8 @@ const indicial::tools::RegisterCommand register_fit([](CLI::App& app) {
       "Identify the model of an experiment (equation error, stepwise, ML output error, two-stage)\n"
       "and write DIR/fit.json, DIR/model.coef, DIR/report.md and DIR/plots/.\n"
       "Exit status: 0 converged, or iteration limit reached (a warning line; outputs written);\n"
-      "  1 bad input (one-line message, nothing written); 4 output error diverged (best estimate\n"
+      "  1 bad input, or a fitted model the runtime refuses (one-line message, nothing written);\n"
+      "  4 output error diverged (best estimate\n"
       "  written, warning line); 5 rank-deficient information matrix (outputs written, the\n"
       "  unidentifiable parameters named).");
   sub->add_option("experiment", opt->experiment, "experiment file (TOML)")->required();
