@@ -40,7 +40,7 @@ void run_diagnose(const DiagnoseCliOptions& o, const std::string& command_line) 
   { OutputDir probe(o.out, overwrite); }  // refuse a non-empty DIR before the long part
   const DiagnoseResult d = diagnose_experiment(e, o.diag);
   // Never write (or exit 0 with) a model the runtime refuses: one line, nothing written.
-  const RuntimeAcceptance accepted = require_runtime_accepts(d.fits.back().model, o.out + "/model.coef");
+  const RuntimeAcceptance accepted = require_runtime_accepts(d.fits.back().model, o.out + "/model.coef", ModelFile::to_write);
   if (accepted.capacity == RuntimeCapacity::fit_capacity_only)
     std::fprintf(stderr, "indicial: warning: %s/model.coef: %s\n", o.out.c_str(), accepted.reason.c_str());
   ReportOptions ro;

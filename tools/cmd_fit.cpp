@@ -61,7 +61,7 @@ void run_fit(const FitCliOptions& o, const std::string& command_line) {
   { OutputDir probe(o.out, overwrite); }
   const FitResult r = fit_experiment(e, fo);
   // Never write (or exit 0 with) a model the runtime refuses: one line, nothing written.
-  const RuntimeAcceptance accepted = require_runtime_accepts(r.model, o.out + "/model.coef");
+  const RuntimeAcceptance accepted = require_runtime_accepts(r.model, o.out + "/model.coef", ModelFile::to_write);
   if (accepted.capacity == RuntimeCapacity::fit_capacity_only)
     std::fprintf(stderr, "indicial: warning: %s/model.coef: %s\n", o.out.c_str(), accepted.reason.c_str());
   ReportOptions ro;

@@ -56,7 +56,7 @@ void run_predict(const PredictOptions& o) {
   const Run& run = runs.front();
   const std::string angle_column = motion_column_name(o.data_path, model->axis);
 
-  require_runtime_accepts(*model, o.model_path);  // a refused model names the file
+  require_runtime_accepts(*model, o.model_path, ModelFile::read);  // a refused model names the file
   Prediction p = o.periodic ? predict_periodic(*model, run.time_s, run.motion_angle_rad, run.rate_radps, airspeed,
                                                o.model_path)
                             : predict_motion(*model, run.time_s, run.motion_angle_rad, run.rate_radps, airspeed,

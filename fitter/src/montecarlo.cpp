@@ -12,6 +12,7 @@
 
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/report.hpp"
+#include "indicial/fitter/runtime_limits.hpp"
 
 namespace indicial {
 
@@ -133,6 +134,8 @@ MonteCarloResult run_monte_carlo(const MonteCarloOptions& o, const MonteCarloPro
         add_measurement_noise(runs, o.snr, o.first_seed + k, o.noise);
         const Experiment e = experiment_from_simulation(c, runs);
         const FitResult fr = fit_experiment(e, o.fit);
+        // A model the runtime refuses is a failed fit: counted and named, never averaged in.
+        require_runtime_accepts(fr.model, fmt::format("seed {}", o.first_seed + k), ModelFile::to_write);
         out.ok = true;
         out.termination = fr.output_error.termination;
         out.fit_error = fr.fit_error;

@@ -53,11 +53,12 @@ RuntimeAcceptance runtime_acceptance(const ModelSet<double, FitCapacity>& model)
 }
 
 RuntimeAcceptance require_runtime_accepts(const ModelSet<double, FitCapacity>& model,
-                                          const std::string& file_label) {
+                                          const std::string& file_label, ModelFile role) {
   RuntimeAcceptance a = runtime_acceptance(model);
   if (a.capacity == RuntimeCapacity::refused)
-    throw InputError(file_label, 0, "not written: the runtime refuses the model: " + a.reason + " (" +
-                                        to_string(a.status) + ")");
+    throw InputError(file_label, 0,
+                     std::string(role == ModelFile::to_write ? "not written: " : "") +
+                         "the runtime refuses the model: " + a.reason + " (" + to_string(a.status) + ")");
   return a;
 }
 

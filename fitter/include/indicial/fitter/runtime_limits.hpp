@@ -13,7 +13,7 @@
 //   for (const std::string& w : indicial::runtime_limit_warnings(experiment))
 //     std::fprintf(stderr, "indicial: warning: %s\n", w.c_str());
 //   const FitResult r = fit_experiment(experiment, options);
-//   indicial::require_runtime_accepts(r.model, out_dir + "/model.coef");   // throws, nothing written
+//   indicial::require_runtime_accepts(r.model, out_dir + "/model.coef", indicial::ModelFile::to_write);
 //
 // Warnings
 // --------
@@ -21,8 +21,8 @@
 //    RuntimeAcceptance::capacity says whether the default Predictor<> (DefaultCapacity) also
 //    loads it. A model only the larger capacity holds is written (with a warning line).
 // 2. require_runtime_accepts throws InputError("<file>", 0, "not written: the runtime refuses
-//    the model: <reason> (<status>)"): the file named is the one that would have been written
-//    (or, for predict, the one read), never "model".
+//    the model: <reason> (<status>)") for a file about to be written, and "<file>: the runtime
+//    refuses the model: ..." for one read (predict): the file is named, never "model".
 #pragma once
 
 #include <string>
@@ -46,10 +46,13 @@ struct RuntimeAcceptance {
 // both capacities).
 RuntimeAcceptance runtime_acceptance(const ModelSet<double, FitCapacity>& model);
 
+// Whether the model's file is about to be written (fit, diagnose) or was read (predict).
+enum class ModelFile { to_write, read };
+
 // Throws InputError(file_label, 0, ...) when the runtime refuses the model (warning 2).
 // Returns the acceptance otherwise (check capacity for the warning of warning 1).
 RuntimeAcceptance require_runtime_accepts(const ModelSet<double, FitCapacity>& model,
-                                          const std::string& file_label);
+                                          const std::string& file_label, ModelFile role);
 
 // Input-time checks of an experiment against the default runtime's capacities (static table
 // rows, spline terms of a fixed structure, candidate pools of a stepwise one): one line per
