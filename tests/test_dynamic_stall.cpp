@@ -11,6 +11,7 @@
 #include "cli_test_support.hpp"
 #include "indicial/fitter/dynamic_stall.hpp"
 #include "indicial/fitter/io.hpp"
+#include "indicial/fitter/validation_realistic.hpp"
 
 namespace ds = indicial::dynamic_stall;
 
@@ -131,4 +132,16 @@ TEST_CASE("dynamic stall: simulate --case dynamic-stall writes the agreed phase-
   indicial::read_static_table((dir / "out" / "static.csv").string(), indicial::Axis::pitch, "Cm", s);
   CHECK(s.table_x_rad.size() == 49);
   fs::remove_all(dir);
+}
+
+TEST_CASE("dynamic stall: fitted on 3 cycles, the model beats half the quasi-steady error on >= 9 of 11") {
+  // The acceptance study of docs/validation-realistic.md (seed 1, SNR 20, AR(1) phi 0.8).
+  const indicial::RealisticValidation v = indicial::run_realistic_validation({});
+  REQUIRE(v.coefficients.size() == 2);
+  for (const indicial::CoefficientValidation& cv : v.coefficients) {
+    CAPTURE(cv.coefficient);
+    REQUIRE(cv.status == indicial::RealisticFit::fitted);
+    CHECK(cv.cycles.size() == 11);
+    CHECK(cv.cycles_at_most_half() >= 9);
+  }
 }
