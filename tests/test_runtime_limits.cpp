@@ -94,6 +94,28 @@ TEST_CASE("runtime limits: a model with b1(x) <= 0 in the envelope is refused, n
   CHECK(indicial::runtime_acceptance(good).capacity == indicial::RuntimeCapacity::default_capacity);
 }
 
+TEST_CASE("runtime limits: the feasibility predicate is the runtime's b_j(x) > 0 check") {
+  const indicial::TruthModel bad = unstable_model();
+  const auto& cb = bad.coefficients[0];
+  // b1 = 2.5 - 4 x on [0, 70 deg]: the minimum at the upper end.
+  CHECK(indicial::min_lag_decay(cb, 0, bad.x_min_rad, bad.x_max_rad) ==
+        doctest::Approx(2.5 - 4.0 * bad.x_max_rad));
+  CHECK_FALSE(indicial::lag_decay_positive(cb, bad.x_min_rad, bad.x_max_rad));
+  // ...and feasible on a smaller envelope, where the runtime accepts it too.
+  indicial::TruthModel shrunk = bad;
+  shrunk.x_max_rad = 0.6;
+  CHECK(indicial::lag_decay_positive(shrunk.coefficients[0], 0.0, 0.6));
+  CHECK(indicial::runtime_acceptance(shrunk).capacity != indicial::RuntimeCapacity::refused);
+  // Model II: b1 = 2.5 - 5.73 (x - 0.349)_+ + 5.73 (x - 0.5236)_+ + ...: minimum 2.5 - 5.73 * 0.1746.
+  const indicial::TruthModel m2 = indicial::find_simulation_case("tailless-model-2").truth;
+  CHECK(indicial::min_lag_decay(m2.coefficients[0], 0, m2.x_min_rad, m2.x_max_rad) ==
+        doctest::Approx(2.5 - 5.73 * (0.5236 - 0.349)).epsilon(1e-9));
+  // A NaN coefficient is infeasible.
+  indicial::TruthModel nan_model = m2;
+  nan_model.coefficients[0].lags[0].b.power_coef[0] = std::nan("");
+  CHECK_FALSE(indicial::lag_decay_positive(nan_model.coefficients[0], 0.0, 1.0));
+}
+
 TEST_CASE("runtime limits: a 70-row static table fits only the fitter's capacity, and is flagged at input") {
   indicial::TruthModel m = indicial::find_simulation_case("tailless-model-1").truth;
   auto& s = m.coefficients[0].static_curve;

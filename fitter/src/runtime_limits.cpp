@@ -3,6 +3,7 @@
 #include "indicial/fitter/runtime_limits.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <fmt/format.h>
 #include <memory>
 
@@ -60,6 +61,30 @@ RuntimeAcceptance require_runtime_accepts(const ModelSet<double, FitCapacity>& m
                      std::string(role == ModelFile::to_write ? "not written: " : "") +
                          "the runtime refuses the model: " + a.reason + " (" + to_string(a.status) + ")");
   return a;
+}
+
+double min_lag_decay(const CoefficientModel<double, FitCapacity>& m, int lag, double x_min_rad,
+                     double x_max_rad) {
+  const auto& b = m.lags[lag].b;
+  double lowest = HUGE_VAL;
+  // Why the negated test: a NaN value must read as infeasible, not vanish in a min().
+  auto take = [&](double x) {
+    const double v = spline_value(b, x);
+    lowest = !(v >= lowest) ? (std::isnan(v) ? -HUGE_VAL : v) : lowest;
+  };
+  for (int i = 0; i <= validation_samples; ++i)
+    take(x_min_rad + (x_max_rad - x_min_rad) * (static_cast<double>(i) / validation_samples));
+  for (int k = 0; k < b.n_knots; ++k) {
+    for (double x : {std::nextafter(b.knot_rad[k], -HUGE_VAL), std::nextafter(b.knot_rad[k], HUGE_VAL)})
+      if (x >= x_min_rad && x <= x_max_rad) take(x);
+  }
+  return lowest;
+}
+
+bool lag_decay_positive(const CoefficientModel<double, FitCapacity>& m, double x_min_rad, double x_max_rad) {
+  for (int j = 0; j < m.n_lags; ++j)
+    if (!(min_lag_decay(m, j, x_min_rad, x_max_rad) > 0.0)) return false;
+  return true;
 }
 
 std::vector<std::string> runtime_limit_warnings(const Experiment& e) {

@@ -54,6 +54,19 @@ enum class ModelFile { to_write, read };
 RuntimeAcceptance require_runtime_accepts(const ModelSet<double, FitCapacity>& model,
                                           const std::string& file_label, ModelFile role);
 
+// The smallest b_j(x) of lag j over [x_min_rad, x_max_rad] on the runtime's own validation
+// grid (runtime.hpp: validation_samples + 1 evenly spaced angles, the envelope ends, and just
+// either side of each knot inside the envelope). A model whose every lag has a positive
+// minimum here passes validate_for_runtime's b_j(x) > 0 check: it is the same set of points.
+// For the default b(x) (knot power 1, degree <= 1, piecewise linear) the minimum over the
+// continuum is at an end or a knot, so it is exact there too.
+double min_lag_decay(const CoefficientModel<double, FitCapacity>& m, int lag, double x_min_rad,
+                     double x_max_rad);
+
+// Whether every lag of m decays everywhere on that grid (min_lag_decay > 0 for every lag):
+// the feasibility predicate of the constrained output-error fit.
+bool lag_decay_positive(const CoefficientModel<double, FitCapacity>& m, double x_min_rad, double x_max_rad);
+
 // Input-time checks of an experiment against the default runtime's capacities (static table
 // rows, spline terms of a fixed structure, candidate pools of a stepwise one): one line per
 // problem naming the file and the limit. Empty when everything fits Predictor<>.
