@@ -14,6 +14,7 @@
 #include "indicial/fitter/diagnose.hpp"
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/io.hpp"
+#include "indicial/fitter/runtime_limits.hpp"
 
 namespace {
 
@@ -39,12 +40,20 @@ void run_diagnose(const DiagnoseCliOptions& o) {
   clock.stage("reading the experiment and its runs", [&] { e = load_experiment(o.experiment); });
   ReportOptions ro;
   ro.warnings = tools::experiment_warnings(e);
+  for (const std::string& w : runtime_limit_warnings(e)) ro.warnings.push_back(w);
   tools::print_warnings(ro.warnings);
   const Overwrite overwrite = o.force ? Overwrite::replace : Overwrite::refuse;
   { OutputDir probe(o.out, overwrite); }  // refuse a non-empty DIR before the long part
   DiagnoseResult d;
   clock.stage("diagnosing (fits of every candidate effect, round by round)",
               [&] { d = diagnose_experiment(e, o.diag); });
+  // Never write (or exit 0 with) a model the runtime refuses: one line, nothing written.
+  const RuntimeAcceptance accepted = require_runtime_accepts(d.fits.back().model, o.out + "/model.coef", ModelFile::to_write);
+  if (accepted.capacity == RuntimeCapacity::fit_capacity_only) {
+    const std::string w = o.out + "/model.coef: " + accepted.reason;
+    tools::print_warnings({w});
+    ro.warnings.push_back(w);
+  }
   ro.plots = o.no_plots ? PlotRequest::none : PlotRequest::gnuplot;
   ro.gnuplot = o.gnuplot;
   ro.command_line = tools::invocation();
@@ -77,7 +86,8 @@ const indicial::tools::RegisterCommand register_diagnose([](CLI::App& app) {
       "(b1_alpha, a_alpha, rotary_alpha, bias, time_delay, second_lag, static_error) by a\n"
       "likelihood-ratio test with a Bonferroni guard and BIC, add the most significant, repeat.\n"
       "Writes DIR/diagnosis.json, DIR/model.coef (final model), DIR/report.md and DIR/plots/.\n"
-      "Exit status: 0 done (any verdict, 'none' included); 1 bad input (nothing written).");
+      "Exit status: 0 done (any verdict, 'none' included); 1 bad input, or a final model the\n"
+      "runtime refuses (one line, nothing written).");
   sub->add_option("experiment", opt->experiment, "experiment file (TOML)")->required();
   sub->add_option("--out", opt->out, "output directory (refused if not empty, unless --force)")->required();
   sub->add_flag("--force", opt->force, "replace the contents of a non-empty output directory");
