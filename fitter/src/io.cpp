@@ -1010,11 +1010,11 @@ std::string write_experiment_toml(const Experiment& e, const std::vector<std::st
   }
   out += "]\n\n[static]\n";
   if (e.static_curve.kind == StaticKind::polynomial) {
-    out += "polynomial = " + number_list(e.static_curve.polynomial, 1.0) + "\n";
+    out += "polynomial = " + number_list(e.static_curve.polynomial, 1.0) + "  # x^0, x^1, ... with x in rad\n";
   } else {
     out += "table = " + toml_string(e.static_curve.table_path) + "\n";
   }
-  out += "\n[rotary]\npolynomial = " + number_list(e.rotary.polynomial, 1.0) + "\n";
+  out += "\n[rotary]\npolynomial = " + number_list(e.rotary.polynomial, 1.0) + "  # x^0, x^1, ... with x in rad\n";
   if (!e.rotary.prior_knots_rad.empty()) {
     out += "prior_knots_deg = " + number_list(e.rotary.prior_knots_rad, kRadToDeg) + "\n";
     bool all_linear = true;
