@@ -551,7 +551,7 @@ TEST_CASE("each bad experiment file names the file, the line and the key") {
   }
   SUBCASE("bytes the TOML library cannot take are refused before it sees them") {
     // A non-ASCII byte where whitespace is expected reaches __builtin_unreachable in the
-    // system toml++ (found by the fuzzer); io.cpp refuses it with the line.
+    // system toml++ (found by the fuzzer); experiment_toml.cpp refuses it with the line.
     std::string m = exp_error("n1.toml", replace(t, "axis = \"pitch\"", "axis =\xef\xbb\xb7\"pitch\""));
     CHECK_HAS(m, "n1.toml:1: non-ASCII byte 0xEF outside a string or comment");
     m = exp_error("n2.toml", replace(t, "[static]", std::string("[stat\0ic]", 9)));

@@ -14,6 +14,12 @@
 
 namespace indicial {
 
+// The time grid a run is declared to have (interface.md: "uniform step within 1e-6 relative
+// unless a run is declared otherwise"). The fitter needs a uniform grid (its smoothed y_E'
+// and the runs' dt); predict takes either, since the runtime steps with each sample's own dt
+// (a HIL or flight log with timestamp jitter, or a log with dropped samples).
+enum class TimeGrid { uniform, nonuniform };
+
 // One run: uniform time grid, the motion angle (alpha, phi or psi), its body rate, and the
 // measured coefficient. All angles in rad, rates in rad/s.
 struct Run {
