@@ -52,6 +52,9 @@ void run_fit(const FitCliOptions& o, const std::string& command_line) {
   if (fo.max_iterations < 1) throw InputError("--max-iterations", 0, "must be at least 1");
 
   const Experiment e = load_experiment(o.experiment);
+  // The CLI engineer's shared printer replaces this (issue 14 item 3); fit.json gets the warnings there.
+  for (const std::string& n : e.notes) std::fprintf(stderr, "indicial: note: %s\n", n.c_str());
+  for (const std::string& w : e.warnings) std::fprintf(stderr, "indicial: warning: %s\n", w.c_str());
   // Refuse a non-empty DIR before the (possibly long) fit, not after it.
   const Overwrite overwrite = o.force ? Overwrite::replace : Overwrite::refuse;
   { OutputDir probe(o.out, overwrite); }

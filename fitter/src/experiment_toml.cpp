@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -48,7 +49,21 @@ struct KnotSource {
 // One entry of `runs`, before its file is read.
 struct RunEntry {
   std::string file;
-  bool periodic = false;
+  long line = 0;
+  std::optional<bool> periodic;      // as stated
+  RunCsvOptions csv;                 // grid and frequency (from frequency_hz or reduced_frequency)
+  bool frequency_given = false;
+  double airspeed_mps = 0.0;         // the run's V (default: the experiment's)
+};
+
+// A use of a runtime capacity found while reading, checked once the structure is known.
+struct CapacityUse {
+  std::string key;           // "model.a_knots_deg"
+  std::string what;          // "knots", "powers (x^0..x^n)", "rows", "lags"
+  int needed;
+  int limit;                 // indicial::DefaultCapacity's
+  toml::source_region where;
+  enum class Pool { none, model_stepwise, rotary_estimate } pool = Pool::none;  // a candidate pool
 };
 
 // What the section readers share: the reader, the file's directory, and the places to check
@@ -58,6 +73,8 @@ struct LoadContext {
   fs::path base_dir;
   std::vector<KnotSource> knot_sources;
   toml::source_region static_where;
+  ColumnMap columns;
+  std::vector<CapacityUse> capacity;
 
   std::string resolve(const std::string& file) const {
     const fs::path p(file);
@@ -159,8 +176,43 @@ void read_top_level(LoadContext& c, const toml::table& root, Experiment& e) {
   }
 }
 
-// The `runs` array: strings or {file = ..., periodic = ...} tables.
-std::vector<RunEntry> read_run_entries(LoadContext& c, const toml::table& root) {
+// One table entry of `runs`: {file = ..., periodic, frequency_hz | reduced_frequency,
+// airspeed_mps, time_grid}.
+RunEntry read_run_table(const LoadContext& c, const toml::node& entry, const Experiment& e) {
+  const TomlReader& r = c.r;
+  const toml::table& t = *entry.as_table();
+  r.check_keys(t, {"file", "periodic", "frequency_hz", "reduced_frequency", "airspeed_mps", "time_grid"}, "runs.");
+  RunEntry re;
+  re.line = static_cast<long>(entry.source().begin.line);
+  const toml::node* f = t.get("file");
+  if (!f) r.fail(entry, "a run table needs 'file'");
+  re.file = r.string(*f, "runs.file");
+  if (const toml::node* n = t.get("periodic")) re.periodic = r.boolean(*n, "runs.periodic");
+  re.airspeed_mps = e.airspeed_mps;
+  if (const toml::node* n = t.get("airspeed_mps")) {
+    re.airspeed_mps = r.number(*n, "runs.airspeed_mps");
+    if (!(re.airspeed_mps > 0.0)) r.fail(*n, "'runs.airspeed_mps' must be > 0");
+  }
+  const toml::node* fh = t.get("frequency_hz");
+  const toml::node* k = t.get("reduced_frequency");
+  if (fh && k) r.fail(*k, "give 'runs.frequency_hz' or 'runs.reduced_frequency', not both");
+  if (fh) {
+    re.csv.frequency_hz = r.number(*fh, "runs.frequency_hz");
+    if (!(re.csv.frequency_hz > 0.0)) r.fail(*fh, "'runs.frequency_hz' must be > 0");
+  }
+  if (k) {
+    // k = 2 pi f l / V, with V the run's airspeed.
+    const double kv = r.number(*k, "runs.reduced_frequency");
+    if (!(kv > 0.0)) r.fail(*k, "'runs.reduced_frequency' must be > 0");
+    re.csv.frequency_hz = kv * re.airspeed_mps / (2.0 * 3.14159265358979323846 * e.reference_length_m);
+  }
+  re.frequency_given = fh || k;
+  if (const toml::node* n = t.get("time_grid")) re.csv.grid = r.choice<TimeGrid>(*n, "runs.time_grid");
+  return re;
+}
+
+// The `runs` array: strings or tables.
+std::vector<RunEntry> read_run_entries(LoadContext& c, const toml::table& root, const Experiment& e) {
   const TomlReader& r = c.r;
   const toml::node& runs_node = c.require(root, "runs", "");
   const toml::array& runs = r.array(runs_node, "runs");
@@ -168,20 +220,32 @@ std::vector<RunEntry> read_run_entries(LoadContext& c, const toml::table& root) 
   std::vector<RunEntry> entries;
   for (const auto& entry : runs) {
     if (entry.is_string()) {
-      entries.push_back({*entry.value<std::string>(), false});
+      RunEntry re;
+      re.file = *entry.value<std::string>();
+      re.line = static_cast<long>(entry.source().begin.line);
+      re.airspeed_mps = e.airspeed_mps;
+      entries.push_back(re);
     } else if (entry.is_table()) {
-      const toml::table& t = *entry.as_table();
-      r.check_keys(t, {"file", "periodic"}, "runs.");
-      const toml::node* f = t.get("file");
-      if (!f) r.fail(entry, "a run table needs 'file'");
-      const toml::node* per = t.get("periodic");
-      entries.push_back({r.string(*f, "runs.file"), per ? r.boolean(*per, "runs.periodic") : false});
+      entries.push_back(read_run_table(c, entry, e));
     } else {
       r.fail(entry, "wrong type: 'runs' entries must be strings or {file = ..., periodic = ...} "
                     "tables, found " + TomlReader::type_name(entry));
     }
+    entries.back().csv.columns = c.columns;
   }
   return entries;
+}
+
+// [columns]: our column name = the file's name.
+void read_columns_section(LoadContext& c, const toml::node* node) {
+  if (!node) return;
+  const TomlReader& r = c.r;
+  for (auto&& [key, value] : r.table(*node, "columns")) {
+    const std::string ours(key.str());
+    const std::string theirs = r.string(value, "columns." + ours);
+    if (theirs.empty()) r.fail(value, "'columns." + ours + "' is empty: name the file's column");
+    c.columns[ours] = theirs;
+  }
 }
 
 // [static]: polynomial or table.
@@ -198,6 +262,8 @@ void read_static_section(LoadContext& c, const toml::table& root, Experiment& e)
   if (poly) {
     e.static_curve.kind = StaticKind::polynomial;
     e.static_curve.polynomial = r.numbers(*poly, "static.polynomial");
+    c.capacity.push_back({"static.polynomial", "coefficients", static_cast<int>(e.static_curve.polynomial.size()),
+                          DefaultCapacity::max_powers, poly->source()});
     if (e.static_curve.polynomial.size() > static_cast<std::size_t>(FitCapacity::max_powers)) {
       r.fail(*poly, "'static.polynomial' has more than " +
                         std::to_string(FitCapacity::max_powers) + " coefficients");
@@ -205,12 +271,15 @@ void read_static_section(LoadContext& c, const toml::table& root, Experiment& e)
   } else {
     c.static_where = table->source();
     const std::string tp = c.resolve(r.string(*table, "static.table"));
-    read_static_table(tp, e.axis, e.coefficient, e.static_curve);
+    read_static_table(tp, e.axis, e.coefficient, e.static_curve, c.columns);
+    c.capacity.push_back({"static.table", "rows ('" + tp + "')", static_cast<int>(e.static_curve.table_x_rad.size()),
+                          DefaultCapacity::max_table_points, table->source()});
   }
 }
 
 // [rotary] prior_knots_deg, prior_knot_powers, prior_knot_coefficients.
-void read_prior_knots(const TomlReader& r, const toml::table& rt, RotaryConfig& rotary) {
+void read_prior_knots(const TomlReader& r, const toml::table& rt, RotaryConfig& rotary,
+                      std::vector<CapacityUse>& c_capacity) {
   const toml::node* k = rt.get("prior_knots_deg");
   const toml::node* c = rt.get("prior_knot_coefficients");
   if ((k == nullptr) != (c == nullptr))
@@ -221,6 +290,8 @@ void read_prior_knots(const TomlReader& r, const toml::table& rt, RotaryConfig& 
   // Not knots_deg(): a priori terms may repeat a knot with another power, and need not lie
   // inside the data's range (they are known, not identified).
   rotary.prior_knots_rad = r.numbers(*k, "rotary.prior_knots_deg");
+  c_capacity.push_back({"rotary.prior_knots_deg", "knot terms", static_cast<int>(rotary.prior_knots_rad.size()),
+                        DefaultCapacity::max_knots, k->source()});
   for (double& v : rotary.prior_knots_rad) v *= kDegToRad;
   rotary.prior_knot_coefficients = r.numbers(*c, "rotary.prior_knot_coefficients");
   const std::size_t n = rotary.prior_knots_rad.size();
@@ -258,9 +329,11 @@ void read_rotary_section(LoadContext& c, const toml::node* rot_node, RotaryConfi
   r.check_keys(rt, {"polynomial", "estimate", "degree", "knots_deg", "prior_knots_deg",
                     "prior_knot_powers", "prior_knot_coefficients"},
                "rotary.");
-  read_prior_knots(r, rt, rotary);
+  read_prior_knots(r, rt, rotary, c.capacity);
   if (const toml::node* n = rt.get("polynomial")) {
     rotary.polynomial = r.numbers(*n, "rotary.polynomial");
+    c.capacity.push_back({"rotary.polynomial", "coefficients", static_cast<int>(rotary.polynomial.size()),
+                          DefaultCapacity::max_powers, n->source()});
     if (rotary.polynomial.size() > static_cast<std::size_t>(FitCapacity::max_powers)) {
       r.fail(*n, "'rotary.polynomial' has more than " + std::to_string(FitCapacity::max_powers) +
                      " coefficients");
@@ -270,6 +343,8 @@ void read_rotary_section(LoadContext& c, const toml::node* rot_node, RotaryConfi
   rotary.candidates.knot_power = 1;
   if (const toml::node* n = rt.get("degree")) {
     rotary.candidates.powers = r.degree_powers(*n, "rotary.degree");
+    c.capacity.push_back({"rotary.degree", "powers (x^0..x^degree)", rotary.candidates.powers.back() + 1,
+                          DefaultCapacity::max_powers, n->source(), CapacityUse::Pool::rotary_estimate});
   } else {
     // Why this default: without a degree the pool is the a-priori polynomial's own powers
     // (at least a constant), so estimate = true re-estimates the same shape.
@@ -279,6 +354,8 @@ void read_rotary_section(LoadContext& c, const toml::node* rot_node, RotaryConfi
   if (const toml::node* n = rt.get("knots_deg")) {
     rotary.candidates.knots_rad = r.knots_deg(*n, "rotary.knots_deg");
     c.knot_sources.push_back({"rotary.knots_deg", &rotary.candidates.knots_rad, n->source()});
+    c.capacity.push_back({"rotary.knots_deg", "knots", static_cast<int>(rotary.candidates.knots_rad.size()),
+                          DefaultCapacity::max_knots, n->source(), CapacityUse::Pool::rotary_estimate});
   }
   if (!rotary.estimate && (rt.get("degree") || rt.get("knots_deg"))) {
     r.fail(*rot_node, "'rotary.degree' and 'rotary.knots_deg' are used only with "
@@ -295,9 +372,19 @@ void read_spline_terms(LoadContext& c, const toml::table& mt, const std::string&
   if (deg && pw) r.fail(*pw, "give 'model." + name + "_degree' or 'model." + name + "_powers', not both");
   if (deg) cfg.powers = r.degree_powers(*deg, "model." + name + "_degree");
   if (pw) cfg.powers = r.powers(*pw, "model." + name + "_powers");
+  // Why a and b1 only are pools: with structure = "stepwise" their terms are candidates; the
+  // corrections diagnose adds are always in the model.
+  const auto pool = name == "a" || name == "b1" ? CapacityUse::Pool::model_stepwise : CapacityUse::Pool::none;
+  if (deg || pw) {
+    c.capacity.push_back({"model." + name + (deg ? "_degree" : "_powers"), "powers (x^0..x^n)",
+                          cfg.powers.empty() ? 0 : cfg.powers.back() + 1, DefaultCapacity::max_powers,
+                          (deg ? deg : pw)->source(), pool});
+  }
   if (const toml::node* k = mt.get(name + "_knots_deg")) {
     cfg.knots_rad = r.knots_deg(*k, "model." + name + "_knots_deg");
     c.knot_sources.push_back({"model." + name + "_knots_deg", &cfg.knots_rad, k->source()});
+    c.capacity.push_back({"model." + name + "_knots_deg", "knots", static_cast<int>(cfg.knots_rad.size()),
+                          DefaultCapacity::max_knots, k->source(), pool});
   }
 }
 
@@ -345,14 +432,33 @@ void read_model_section(LoadContext& c, const toml::node* model_node, bool rotar
       r.fail(*n, "'model.lags' must be 1.." + std::to_string(FitCapacity::max_lags));
     }
     model.lags = static_cast<int>(lags);
+    c.capacity.push_back({"model.lags", "lags", model.lags, DefaultCapacity::max_lags, n->source()});
   }
 }
 
 // Reads every run file and records the model angle's range over all of them.
 void read_runs(const LoadContext& c, const std::vector<RunEntry>& entries, Experiment& e) {
   for (const auto& entry : entries) {
-    Run run = read_run_csv(c.resolve(entry.file), e.axis, e.coefficient, CoefficientPresence::required);
-    run.periodic = entry.periodic;
+    const std::string path = c.resolve(entry.file);
+    std::error_code ec;
+    if (!fs::exists(path, ec)) {
+      throw InputError(c.r.file(), entry.line, "run file '" + entry.file + "' not found (looked for " + path + ")");
+    }
+    Run run = read_run_csv(path, e.axis, e.coefficient, CoefficientPresence::required, entry.csv);
+    run.experiment_line = entry.line;
+    run.airspeed_mps = entry.airspeed_mps;
+    if (run.time_source == TimeSource::phase_column) {
+      if (entry.periodic == false)
+        throw InputError(c.r.file(), entry.line, "run '" + entry.file + "' has a phase column, so it is one periodic "
+                                                 "cycle: remove 'periodic = false'");
+    } else {
+      if (entry.frequency_given)
+        throw InputError(c.r.file(), entry.line, "run '" + entry.file + "' has a time column: 'frequency_hz' and "
+                                                 "'reduced_frequency' are only for a phase column");
+      run.periodic = entry.periodic.value_or(false);
+    }
+    e.notes.insert(e.notes.end(), run.notes.begin(), run.notes.end());
+    e.warnings.insert(e.warnings.end(), run.warnings.begin(), run.warnings.end());
     e.runs.push_back(std::move(run));
   }
   bool first = true;
@@ -392,24 +498,93 @@ void check_against_data(const LoadContext& c, const Experiment& e) {
   }
 }
 
+// Every runtime limit at input time, before fitting (issue 12 item 1): a model that exceeds
+// indicial::DefaultCapacity is refused; a stepwise candidate pool that exceeds it is only
+// warned about (the selected model is usually smaller; the fit reports if it is not).
+void check_runtime_capacity(const LoadContext& c, Experiment& e) {
+  for (const CapacityUse& u : c.capacity) {
+    if (u.needed <= u.limit) continue;
+    const bool pool = (u.pool == CapacityUse::Pool::model_stepwise && e.model.structure == StructureMode::stepwise) ||
+                      (u.pool == CapacityUse::Pool::rotary_estimate && e.rotary.estimate);
+    const std::string text = "'" + u.key + "' needs " + std::to_string(u.needed) + " " + u.what +
+                             "; the runtime (indicial::DefaultCapacity) holds at most " + std::to_string(u.limit);
+    if (!pool) c.r.fail(u.where, text);
+    e.warnings.push_back(c.r.file() + ":" + std::to_string(u.where.begin.line) + ": " + text +
+                         ": a candidate pool may exceed it, the selected model must not");
+  }
+}
+
+// Sections that were left out and so take their defaults.
+void warn_defaulted_sections(const TomlReader& r, const toml::node* rotary, const toml::node* model, Experiment& e) {
+  if (!rotary) {
+    e.warnings.push_back(r.file() + ": no [rotary] section: C_aq(x) = 0 assumed (the rate term is left out)");
+  }
+  if (!model) {
+    e.warnings.push_back(r.file() + ": no [model] section: the default a(x) = a0 + a1 x + a2 x^2, b1(x) = b1_0, "
+                                    "fixed structure");
+  }
+}
+
+// A run whose angle never moves has no unsteady response to fit. Why refuse only when no run
+// moves: a static run among moving ones still informs the fit (its y0, the bias), but with no
+// motion at all a(x) and b1(x) cannot be identified.
+void check_motion(const TomlReader& r, Experiment& e) {
+  std::size_t moving = 0;
+  for (const Run& run : e.runs) {
+    const auto [lo, hi] = std::minmax_element(run.motion_angle_rad.begin(), run.motion_angle_rad.end());
+    if (*hi - *lo > 1e-9) {
+      ++moving;
+      continue;
+    }
+    e.warnings.push_back(run.path + ": the motion angle never moves (constant " + deg_text(*lo) +
+                         " deg): the run has no unsteady response to fit");
+  }
+  if (moving == 0) {
+    throw InputError(r.file(), e.runs.front().experiment_line,
+                     "no run moves: the motion angle is constant in every run, so a(x) and b1(x) cannot be "
+                     "identified");
+  }
+}
+
 }  // namespace
+
+void refuse_unsupported_run_features(const Experiment& e) {
+  for (const Run& run : e.runs) {
+    if (run.time_grid == TimeGrid::nonuniform) {
+      throw InputError(e.path, run.experiment_line,
+                       "run '" + run.path + "' is on a nonuniform time grid: fit and diagnose do not "
+                       "support that yet (predict --time-grid nonuniform does)");
+    }
+    if (run.airspeed_mps != e.airspeed_mps) {
+      throw InputError(e.path, run.experiment_line,
+                       "run '" + run.path + "' has airspeed_mps " + format_double(run.airspeed_mps) +
+                           " but the experiment " + format_double(e.airspeed_mps) +
+                           ": fit and diagnose do not support runs at another airspeed yet");
+    }
+  }
+}
 
 Experiment load_experiment(const std::string& toml_path) {
   const toml::table root = parse_toml(toml_path);
   const TomlReader r(toml_path);
   r.check_keys(root, {"axis", "coefficient", "reference_length_m", "airspeed_mps", "alpha0_deg",
-                      "alpha0_rad", "runs", "static", "rotary", "model"},
+                      "alpha0_rad", "runs", "static", "rotary", "model", "columns"},
                "");
   LoadContext c{r, fs::path(toml_path).parent_path(), {}, root.source()};
   Experiment e;
   e.path = toml_path;
   read_top_level(c, root, e);
-  const std::vector<RunEntry> entries = read_run_entries(c, root);
+  read_columns_section(c, root.get("columns"));
+  const std::vector<RunEntry> entries = read_run_entries(c, root, e);
   read_static_section(c, root, e);
   read_rotary_section(c, root.get("rotary"), e.rotary);
   read_model_section(c, root.get("model"), e.rotary.estimate, e.model);
   read_runs(c, entries, e);
   check_against_data(c, e);
+  check_runtime_capacity(c, e);
+  check_motion(r, e);
+  warn_defaulted_sections(r, root.get("rotary"), root.get("model"), e);
+  refuse_unsupported_run_features(e);
   return e;
 }
 

@@ -78,6 +78,12 @@ constexpr const char* name_of(E value) {
 // Reads the experiment file and every run it names; validates everything (see the warnings).
 Experiment load_experiment(const std::string& toml_path);
 
+// Refuses (InputError naming the experiment file and the run's `runs` line) what the fitter
+// does not support yet: a run on a nonuniform time grid, a run whose airspeed differs from the
+// experiment's. Called by load_experiment. Delete it (and its call) when the fitter supports
+// both (issue 12).
+void refuse_unsupported_run_features(const Experiment& experiment);
+
 // An experiment file as text, for `experiment` with the run files named by runs[i].path
 // (relative to the experiment file) and runs[i].periodic. Knots are written in degrees,
 // polynomials as given. Writes a_degree / b1_degree when the powers are 0..n-1 and
