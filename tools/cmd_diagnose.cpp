@@ -63,9 +63,10 @@ const indicial::tools::RegisterCommand register_diagnose([](CLI::App& app) {
   auto opt = std::make_shared<DiagnoseCliOptions>();
   CLI::App* sub = app.add_subcommand(
       "diagnose",
-      "The missing-effect workflow: fit the configured model, test every candidate effect\n"
-      "(b1_alpha, a_alpha, rotary_alpha, bias, time_delay, second_lag, static_error) by a\n"
-      "likelihood-ratio test with a Bonferroni guard and BIC, add the most significant, repeat.\n"
+      "The missing-effect workflow: fit the configured model, test every candidate effect\n(" +
+          indicial::effect_names_list() +
+          ") by a\n"
+          "likelihood-ratio test with a Bonferroni guard and BIC, add the most significant, repeat.\n"
       "Writes DIR/diagnosis.json, DIR/model.coef (final model), DIR/report.md and DIR/plots/.\n"
       "Exit status: 0 done (any verdict, 'none' included); 1 bad input (nothing written).");
   sub->add_option("experiment", opt->experiment, "experiment file (TOML)")->required();

@@ -13,6 +13,7 @@
 #include <limits>
 #include <map>
 
+#include "diagnose_internal.hpp"
 #include "fit_internal.hpp"
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/io.hpp"
@@ -20,19 +21,6 @@
 namespace indicial {
 
 namespace fs = std::filesystem;
-
-const char* effect_name(Effect e) {
-  switch (e) {
-    case Effect::b1_alpha: return "b1_alpha";
-    case Effect::a_alpha: return "a_alpha";
-    case Effect::rotary_alpha: return "rotary_alpha";
-    case Effect::bias: return "bias";
-    case Effect::time_delay: return "time_delay";
-    case Effect::second_lag: return "second_lag";
-    case Effect::static_error: return "static_error";
-  }
-  return "?";
-}
 
 const char* candidate_status_name(CandidateStatus s) {
   switch (s) {
@@ -67,71 +55,7 @@ NoiseEstimate estimate_noise_level(const std::vector<RunSeries>& runs) {
 
 namespace {
 
-using fit_detail::Term;
-using fit_detail::TermKind;
-constexpr double kRadToDeg = 180.0 / M_PI;
-constexpr double kDegToRad = M_PI / 180.0;
-
-// ------------------------------------------------------------------------------------------
-// Parameters by identity: knots are renumbered when one is inserted (A{j}, B{j} ascending), so
-// start values are carried from fit to fit by what a parameter IS (kind, lag, power, knot),
-// not by its name.
-// ------------------------------------------------------------------------------------------
-std::string term_key(const Term& t) {
-  return fmt::format("{}:{}:{}:{:.12g}", static_cast<int>(t.kind), t.lag, t.power, t.knot_rad);
-}
-
-// (name, key) of every structural and output parameter of a configuration.
-std::vector<std::pair<std::string, std::string>> parameter_keys(const ModelConfig& m) {
-  const fit_detail::UnsteadyStructure s = fit_detail::structure_from_config(m);
-  std::vector<std::pair<std::string, std::string>> out;
-  for (const Term& t : fit_detail::structural_terms(s)) out.emplace_back(t.name, term_key(t));
-  for (const Term& t : fit_detail::rotary_terms(s.rotary)) out.emplace_back(t.name, term_key(t));
-  for (const Term& t : fit_detail::static_corr_terms(s.static_corr))
-    out.emplace_back(t.name, term_key(t));
-  return out;
-}
-
-// Estimates of a fit keyed by identity (y0 names are their own keys).
-std::map<std::string, double> keyed_estimates(const ModelConfig& m, const FitResult& r) {
-  std::map<std::string, double> by_name;
-  for (const ParameterEstimate& p : r.parameters) by_name[p.name] = p.value;
-  std::map<std::string, double> out;
-  for (const auto& [name, key] : parameter_keys(m)) {
-    const auto it = by_name.find(name);
-    if (it != by_name.end()) out[key] = it->second;
-  }
-  for (const ParameterEstimate& p : r.parameters)
-    if (p.name.rfind("y0_", 0) == 0) out[p.name] = p.value;
-  return out;
-}
-
-std::vector<std::pair<std::string, double>> start_values_for(
-    const ModelConfig& m, const std::map<std::string, double>& current, std::size_t n_runs,
-    const std::vector<std::pair<std::string, double>>& extra) {
-  std::vector<std::pair<std::string, double>> sv;
-  for (const auto& [name, key] : parameter_keys(m)) {
-    const auto it = current.find(key);
-    if (it != current.end()) sv.emplace_back(name, it->second);
-  }
-  for (std::size_t r = 1; r <= n_runs; ++r) {
-    for (int j = 1; j <= m.lags; ++j) {
-      const std::string n = j == 1 ? fmt::format("y0_{}", r) : fmt::format("y0_{}_{}", r, j);
-      const auto it = current.find(n);
-      if (it != current.end()) sv.emplace_back(n, it->second);
-    }
-  }
-  for (const auto& e : extra) {
-    bool replaced = false;
-    for (auto& s : sv)
-      if (s.first == e.first) {
-        s.second = e.second;
-        replaced = true;
-      }
-    if (!replaced) sv.push_back(e);
-  }
-  return sv;
-}
+using namespace diagnose_detail;
 
 // ------------------------------------------------------------------------------------------
 // Statistics.
@@ -156,14 +80,8 @@ struct Scored {
   ModelConfig config;
   bool is_knot = false;
   double knot_rad = 0.0;
-  int family_kind = 0;  // which knot family (for refinement)
+  SplineFamily family = SplineFamily::none;  // the spline of a knot (for refinement)
 };
-
-std::size_t total_samples(const Experiment& e) {
-  std::size_t n = 0;
-  for (const Run& r : e.runs) n += r.size();
-  return n;
-}
 
 void score_against(CandidateScore& c, const FitResult& base, const FitResult& ext, std::size_t n) {
   const double N = static_cast<double>(n);
@@ -180,19 +98,6 @@ void score_against(CandidateScore& c, const FitResult& base, const FitResult& ex
   c.p_value = std::pow(10.0, c.log10_p);
   c.delta_bic = 2.0 * N * std::log(s1 / s0) + static_cast<double>(c.added_parameters) * std::log(N);
 }
-
-// One candidate: configuration and its start values (several starts: the best fit is kept;
-// the starts are one model, one test).
-struct CandidateSpec {
-  Effect effect = Effect::bias;
-  std::string term;
-  std::string detail;
-  ModelConfig config;
-  std::vector<std::vector<std::pair<std::string, double>>> starts;  // extra start values
-  bool is_knot = false;
-  double knot_rad = 0.0;
-  int family_kind = 0;
-};
 
 class Diagnoser {
  public:
@@ -217,7 +122,7 @@ class Diagnoser {
     s.config = c.config;
     s.is_knot = c.is_knot;
     s.knot_rad = c.knot_rad;
-    s.family_kind = c.family_kind;
+    s.family = c.family;
     s.score.status = CandidateStatus::fit_failed;
     bool have = false;
     std::string last_message;
@@ -281,174 +186,6 @@ class Diagnoser {
   const DiagnoseOptions& o_;
   DiagnoseResult& d_;
 };
-
-bool has_knot(const std::vector<double>& knots, double k, double min_gap) {
-  for (double q : knots)
-    if (std::abs(q - k) < min_gap) return true;
-  return false;
-}
-
-int max_power(const std::vector<int>& p) {
-  int m = -1;
-  for (int i : p) m = std::max(m, i);
-  return m;
-}
-
-bool has_power(const std::vector<int>& p, int i) {
-  return std::find(p.begin(), p.end(), i) != p.end();
-}
-
-enum KnotFamily { kB1 = 1, kA = 2, kRotary = 3, kStatic = 4 };
-
-SplineConfig& family_spline(ModelConfig& m, int family) {
-  switch (family) {
-    case kB1: return m.b1;
-    case kA: return m.a;
-    case kRotary: return m.rotary_correction;
-    default: return m.static_correction;
-  }
-}
-
-const SplineConfig& family_spline(const ModelConfig& m, int family) {
-  return family_spline(const_cast<ModelConfig&>(m), family);  // read-only view of the same
-}
-
-const char* family_knot_label(int family) {
-  switch (family) {
-    case kB1: return "b1(x) knot (x - k)_+";
-    case kA: return "a(x) knot (x - k)_+^2";
-    case kRotary: return "C_aq(x) knot (x - k)_+";
-    default: return "dC_a(x) knot (x - k)_+^2";
-  }
-}
-
-CandidateSpec knot_candidate(const ModelConfig& m, Effect effect, int family, double k) {
-  CandidateSpec c;
-  c.effect = effect;
-  c.config = m;
-  SplineConfig& sp = family_spline(c.config, family);
-  sp.knots_rad.push_back(k);
-  std::sort(sp.knots_rad.begin(), sp.knots_rad.end());
-  c.term = fmt::format("{} at {:.2f} deg", family_knot_label(family), k * kRadToDeg);
-  c.detail = fmt::format("knot {:.2f} deg", k * kRadToDeg);
-  c.is_knot = true;
-  c.knot_rad = k;
-  c.family_kind = family;
-  return c;
-}
-
-CandidateSpec power_candidate(const ModelConfig& m, Effect effect, int family, int power,
-                              const char* what) {
-  CandidateSpec c;
-  c.effect = effect;
-  c.config = m;
-  SplineConfig& sp = family_spline(c.config, family);
-  sp.powers.push_back(power);
-  std::sort(sp.powers.begin(), sp.powers.end());
-  c.term = fmt::format("{} x^{}", what, power);
-  c.detail = fmt::format("{} x^{} term", what, power);
-  return c;
-}
-
-std::vector<double> knot_grid(const Experiment& e, const DiagnoseOptions& o, double& spacing) {
-  const double lo = e.data_x_min_rad, hi = e.data_x_max_rad;
-  const double range = hi - lo;
-  std::vector<double> g;
-  if (!(range > 0.0)) return g;
-  const double a = lo + o.knot_margin_fraction * range;
-  const double b = hi - o.knot_margin_fraction * range;
-  spacing = std::max(1e-6, o.knot_spacing_deg * kDegToRad);
-  // Why the widening: a wide range at a fine spacing would multiply the fits and the
-  // Bonferroni count; past max_scan_knots the spacing grows instead.
-  if ((b - a) / spacing + 1.0 > o.max_scan_knots && o.max_scan_knots > 1)
-    spacing = (b - a) / (o.max_scan_knots - 1);
-  // Knots at multiples of the spacing (round degree values for the default grid).
-  for (double k = std::ceil(a / spacing - 1e-9) * spacing; k <= b + 1e-12; k += spacing)
-    g.push_back(k);
-  return g;
-}
-
-std::vector<CandidateSpec> candidates(const Experiment& e, const ModelConfig& m,
-                                      const FitResult& base, const DiagnoseOptions& o,
-                                      double& spacing) {
-  using Cap = FitCapacity;
-  std::vector<CandidateSpec> out;
-  const std::vector<double> grid = knot_grid(e, o, spacing);
-  const double gap = 0.5 * spacing;
-  auto add_knots = [&](Effect effect, int family) {
-    const SplineConfig& sp = family_spline(m, family);
-    if (static_cast<int>(sp.knots_rad.size()) >= DefaultCapacity::max_knots) return;
-    for (double k : grid)
-      if (!has_knot(sp.knots_rad, k, gap)) out.push_back(knot_candidate(m, effect, family, k));
-  };
-  // b1_alpha: next power of b1(x), knots.
-  {
-    const int p = max_power(m.b1.powers) + 1;
-    if (p < DefaultCapacity::max_powers) out.push_back(power_candidate(m, Effect::b1_alpha, kB1, p, "b1(x)"));
-    add_knots(Effect::b1_alpha, kB1);
-  }
-  // a_alpha: next power of a(x), knots.
-  {
-    const int p = max_power(m.a.powers) + 1;
-    if (p < DefaultCapacity::max_powers) out.push_back(power_candidate(m, Effect::a_alpha, kA, p, "a(x)"));
-    add_knots(Effect::a_alpha, kA);
-  }
-  // rotary_alpha: C_aq correction powers 0..max(a priori degree, 2) + 1, knots.
-  {
-    const int top = std::max(2, static_cast<int>(e.rotary.polynomial.size()) - 1) + 1;
-    for (int p = 0; p <= top && p < DefaultCapacity::max_powers; ++p)
-      if (!has_power(m.rotary_correction.powers, p))
-        out.push_back(power_candidate(m, Effect::rotary_alpha, kRotary, p, "C_aq(x)"));
-    add_knots(Effect::rotary_alpha, kRotary);
-  }
-  // bias.
-  if (!m.bias) {
-    CandidateSpec c;
-    c.effect = Effect::bias;
-    c.config = m;
-    c.config.bias = true;
-    c.term = "con";
-    c.detail = "con";
-    out.push_back(c);
-  }
-  // time_delay: two starts, at 0 (nested: the right-hand sensitivity moves it) and 4 steps.
-  if (m.delay == DelayEstimation::none) {
-    CandidateSpec c;
-    c.effect = Effect::time_delay;
-    c.config = m;
-    c.config.delay = DelayEstimation::estimated;
-    c.config.delay_start_s = 0.0;
-    c.term = "delay_s";
-    c.detail = "delay";
-    const double dt = e.runs.empty() ? 0.01 : e.runs.front().dt_s();
-    c.starts = {{{"delay_s", 0.0}}, {{"delay_s", 4.0 * dt}}};
-    out.push_back(c);
-  }
-  // second_lag: b2 started slower, faster and much faster than b1.
-  if (m.lags == 1 && DefaultCapacity::max_lags >= 2 && Cap::max_lags >= 2) {
-    double b1_0 = 1.0;
-    for (const ParameterEstimate& p : base.parameters)
-      if (p.name == "b1_0") b1_0 = std::abs(p.value);
-    if (!(b1_0 > 0.0)) b1_0 = 1.0;
-    CandidateSpec c;
-    c.effect = Effect::second_lag;
-    c.config = m;
-    c.config.lags = 2;
-    c.config.further_lag_start = LagStart::at_rest;
-    c.term = "b2_0, c2";
-    c.detail = "";
-    for (double f : {0.3, 4.0, 15.0}) c.starts.push_back({{"b2_0", f * b1_0}, {"c2", 0.1}});
-    out.push_back(c);
-  }
-  // static_error: x^1..x^3 and knots (no x^0: see the header).
-  {
-    for (int p = 1; p <= 3; ++p)
-      if (!has_power(m.static_correction.powers, p))
-        out.push_back(power_candidate(m, Effect::static_error, kStatic, p, "dC_a(x)"));
-    add_knots(Effect::static_error, kStatic);
-  }
-  return out;
-}
 
 // The working configuration: a stepwise structure is frozen at the selected terms, an
 // estimated C_aq at its estimate (diagnose.hpp warning 4).
@@ -521,7 +258,8 @@ DiagnoseResult diagnose_experiment(const Experiment& e_in, const DiagnoseOptions
     const ModelConfig& m = d.configs.back();
     const std::map<std::string, double> current = keyed_estimates(m, base);
     double spacing = o.knot_spacing_deg * kDegToRad;
-    const std::vector<CandidateSpec> specs = candidates(w, m, base, o, spacing);
+    const std::vector<double> grid = knot_grid(w, o, spacing);
+    const std::vector<CandidateSpec> specs = all_candidates(CandidateContext{w, m, base, grid, spacing});
     DiagnoseRound rd;
     rd.round = round;
     rd.base_fit_error = base.fit_error;
@@ -542,7 +280,7 @@ DiagnoseResult diagnose_experiment(const Experiment& e_in, const DiagnoseOptions
     // positions are counted in the Bonferroni M like the grid's.
     if (b >= 0 && scored[static_cast<std::size_t>(b)].is_knot) {
       const Scored& win = scored[static_cast<std::size_t>(b)];
-      const int family = win.family_kind;
+      const SplineFamily family = win.family;
       const Effect effect = win.score.effect;
       const double k0 = win.knot_rad;
       for (double f : {-0.5, -0.25, 0.25, 0.5}) {
@@ -596,318 +334,6 @@ DiagnoseResult diagnose_experiment(const Experiment& e_in, const DiagnoseOptions
   d.verdict = d.steps.empty() ? "none" : effect_name(d.steps.front().effect);
   d.elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return d;
-}
-
-// ==========================================================================================
-// Outputs
-// ==========================================================================================
-namespace {
-
-nlohmann::json candidate_json(const CandidateScore& c) {
-  nlohmann::json j;
-  j["effect"] = effect_name(c.effect);
-  j["term"] = c.term;
-  j["detail"] = c.detail;
-  j["status"] = candidate_status_name(c.status);
-  if (c.status == CandidateStatus::fitted) {
-    j["added_parameters"] = c.added_parameters;
-    j["fit_error"] = finite_or_null(c.fit_error);
-    j["statistic"] = finite_or_null(c.statistic);
-    j["p_value"] = c.p_value;
-    j["log10_p_value"] = finite_or_null(c.log10_p);
-    j["delta_bic"] = finite_or_null(c.delta_bic);
-  } else {
-    j["message"] = c.message;
-  }
-  return j;
-}
-
-std::string num(double v) { return std::isfinite(v) ? fmt::format("{:.4g}", v) : std::string("-"); }
-
-std::string pval(double p, double log10p) {
-  if (p > 0.0 && p >= 1e-300) return fmt::format("{:.3g}", p);
-  return fmt::format("1e{:.0f}", std::floor(log10p));
-}
-
-// Residuals against time (one panel per run) and against the model angle, before and after
-// each step (or of the configured model when there is no step). Same conventions as the fit
-// report (run_gnuplot_script): plots/plots.gp and its data files stay beside the images.
-PlotSet make_plots(const DiagnoseResult& d, const OutputDir& out, const ReportOptions& ro) {
-  if (ro.plots == PlotRequest::none) {
-    PlotSet ps;
-    ps.message = "plots not requested";
-    return ps;
-  }
-  for (std::size_t f = 0; f < d.fits.size(); ++f) {
-    for (std::size_t r = 0; r < d.fits[f].runs.size(); ++r) {
-      const RunSeries& s = d.fits[f].runs[r];
-      std::string t = "# time_s x_deg residual\n";
-      for (std::size_t i = 0; i < s.residual.size(); ++i)
-        t += fmt::format("{:.6g} {:.6g} {:.6g}\n", s.time_s[i], s.x_rad[i] * kRadToDeg, s.residual[i]);
-      out.write(fmt::format("plots/fit{}_run{}.dat", f, r + 1), t);
-    }
-  }
-  const std::size_t n_runs = d.fits.front().runs.size();
-  std::string gp = "# gnuplot script written by indicial diagnose; run `gnuplot plots.gp` here.\n";
-  std::vector<std::string> expected;
-  auto pair_plots = [&](std::size_t before, std::size_t after, const std::string& stem,
-                        const std::string& title) {
-    const bool two = before != after;
-    const std::string png_t = stem + "_time.png";
-    gp += fmt::format("set terminal pngcairo size 1000,{} noenhanced\nset output '{}'\n",
-                      std::max<std::size_t>(300, 230 * n_runs), png_t);
-    gp += fmt::format("set multiplot layout {},1 title '{}: residual (measured - model) against time'\n",
-                      n_runs, title);
-    for (std::size_t r = 1; r <= n_runs; ++r) {
-      gp += fmt::format("set xlabel 'time (s)'\nset ylabel 'run {}'\nset grid\n", r);
-      if (two)
-        gp += fmt::format("plot 'fit{}_run{}.dat' u 1:3 w l lc rgb '#bbbbbb' title 'before', "
-                          "'fit{}_run{}.dat' u 1:3 w l lc rgb '#08519c' title 'after'\n",
-                          before, r, after, r);
-      else
-        gp += fmt::format("plot 'fit{}_run{}.dat' u 1:3 w l lc rgb '#08519c' title 'configured model'\n",
-                          after, r);
-    }
-    gp += "unset multiplot\nset output\n";
-    expected.push_back(png_t);
-    const std::string png_a = stem + "_angle.png";
-    gp += fmt::format("set terminal pngcairo size 1000,450 noenhanced\nset output '{}'\n", png_a);
-    gp += fmt::format("set title '{}: residual against the model angle'\nset xlabel 'x (deg)'\n"
-                      "set ylabel 'residual'\nset grid\nplot ", title);
-    std::string items;
-    for (std::size_t r = 1; r <= n_runs; ++r) {
-      if (two)
-        items += fmt::format("{}'fit{}_run{}.dat' u 2:3 w p pt 7 ps 0.3 lc rgb '#bbbbbb' title '{}'",
-                             items.empty() ? "" : ", ", before, r, r == 1 ? "before" : "");
-    }
-    for (std::size_t r = 1; r <= n_runs; ++r)
-      items += fmt::format("{}'fit{}_run{}.dat' u 2:3 w p pt 7 ps 0.3 lc rgb '#08519c' title '{}'",
-                           items.empty() ? "" : ", ", after, r,
-                           r == 1 ? (two ? "after" : "configured model") : "");
-    gp += items + "\nunset title\nset output\n";
-    expected.push_back(png_a);
-  };
-  if (d.steps.empty()) {
-    pair_plots(0, 0, "initial", "configured model");
-  } else {
-    for (std::size_t k = 1; k <= d.steps.size(); ++k)
-      pair_plots(k - 1, k, fmt::format("step{}", k),
-                 fmt::format("step {}: {} ({})", k, effect_name(d.steps[k - 1].effect),
-                             d.steps[k - 1].detail));
-  }
-  return run_gnuplot_script(out, gp, expected, ro);
-}
-
-std::string rms_list(const std::vector<double>& v) {
-  std::string s;
-  for (double x : v) s += (s.empty() ? "" : ", ") + num(x);
-  return s;
-}
-
-std::string report_markdown(const DiagnoseResult& d, const Experiment& e, const DiagnoseOptions& o,
-                            const RuntimeCheck& rc, const PlotSet& ps, const ReportOptions& ro) {
-  std::string md;
-  md += "# indicial diagnose\n\n";
-  if (!ro.command_line.empty()) md += "`" + ro.command_line + "`\n\n";
-  md += fmt::format("Experiment `{}`: {} of {} axis, {} runs, {} samples.\n\n",
-                    ro.experiment_display.empty() ? e.path : ro.experiment_display, e.coefficient,
-                    axis_name(e.axis), e.runs.size(), total_samples(e));
-  md += fmt::format("**Verdict: `{}`**", d.verdict);
-  if (d.effects_added.size() > 1) {
-    std::string l;
-    for (const auto& s : d.effects_added) l += (l.empty() ? "" : ", ") + s;
-    md += fmt::format(" (effects added in order: {})", l);
-  }
-  md += "\n\n";
-  md += fmt::format("| | value |\n|---|---|\n| initial fit error s(v) | {} |\n| noise estimate (initial "
-                    "residuals) | {} |\n| final fit error | {} |\n| noise estimate (final residuals) | {} |\n"
-                    "| fits run | {} |\n| elapsed | {:.2f} s |\n\n",
-                    num(d.initial_fit_error), num(d.noise.sigma), num(d.final_fit_error),
-                    num(d.final_noise.sigma), d.fits_run, d.elapsed_s);
-  md += "The noise estimate is sqrt(mean (second difference of the residual)^2 / 6): white noise "
-        "passes the second difference with variance 6 sigma^2, a smooth model error is filtered "
-        "out. When the fit error is well above it, the model is missing something.\n\n";
-  md += "## Steps\n\n";
-  if (d.steps.empty()) {
-    md += "No candidate effect is significant: the model is left as configured (verdict `none`).\n\n";
-  } else {
-    md += "| step | effect | detail | LR statistic | dp | p-value | threshold alpha/M (M) | delta BIC | "
-          "fit error before | after | run RMS before | run RMS after |\n"
-          "|---|---|---|---|---|---|---|---|---|---|---|---|\n";
-    for (const DiagnoseStep& s : d.steps)
-      md += fmt::format("| {} | `{}` | {} | {:.1f} | {} | {} | {:.3g} ({}) | {:.1f} | {} | {} | {} | {} |\n",
-                        s.step, effect_name(s.effect), s.detail, s.statistic, s.added_parameters,
-                        pval(s.p_value, s.log10_p), s.threshold, s.candidates_tested, s.delta_bic,
-                        num(s.fit_error_before), num(s.fit_error_after), rms_list(s.run_rms_before),
-                        rms_list(s.run_rms_after));
-    md += "\n";
-  }
-  md += fmt::format("Test: LR = N ln(s0^2/s1^2) against chi^2(dp) (Boost.Math), N = {} samples. An effect "
-                    "enters when p < alpha / M (Bonferroni, alpha = {}, M = every candidate model of the "
-                    "round, each scanned knot position counted) and delta BIC = N ln(s1^2/s0^2) + dp ln N "
-                    "< 0. Knot grid: every {:.2f} deg inside the data's angle range.\n\n",
-                    total_samples(e), o.alpha, o.knot_spacing_deg);
-  md += "## Plots\n\n";
-  if (ps.images.empty()) md += ps.message + "\n\n";
-  for (const std::string& img : ps.images) md += fmt::format("![{}]({})\n\n", img, img);
-  md += "## Candidates per round (best of each effect)\n\n";
-  for (const DiagnoseRound& r : d.rounds) {
-    md += fmt::format("### Round {} (base fit error {}, M = {}, threshold {:.3g}){}\n\n", r.round,
-                      num(r.base_fit_error), r.candidates_tested, r.threshold,
-                      r.added ? "" : ": nothing significant");
-    md += "| effect | best term | LR | dp | p-value | delta BIC | fit error | candidates |\n|---|---|---|---|---|---|---|---|\n";
-    for (int k = 0; k < effect_count; ++k) {
-      const Effect ef = static_cast<Effect>(k);
-      int best = -1, count = 0;
-      for (std::size_t i = 0; i < r.candidates.size(); ++i) {
-        const CandidateScore& c = r.candidates[i];
-        if (c.effect != ef) continue;
-        ++count;
-        if (c.status != CandidateStatus::fitted) continue;
-        if (best < 0 || c.log10_p < r.candidates[static_cast<std::size_t>(best)].log10_p)
-          best = static_cast<int>(i);
-      }
-      if (count == 0) continue;
-      if (best < 0) {
-        md += fmt::format("| `{}` | (no fit) | | | | | | {} |\n", effect_name(ef), count);
-        continue;
-      }
-      const CandidateScore& c = r.candidates[static_cast<std::size_t>(best)];
-      md += fmt::format("| `{}` | {} | {:.1f} | {} | {} | {:.1f} | {} | {} |\n", effect_name(ef),
-                        c.detail.empty() ? c.term : c.detail, c.statistic, c.added_parameters,
-                        pval(c.p_value, c.log10_p), c.delta_bic, num(c.fit_error), count);
-    }
-    md += "\n";
-  }
-  md += "## Final model\n\n```\n" + estimates_text_table(d.fits.back().parameters) + "```\n\n";
-  md += fmt::format("model.coef: runtime {}{}; replay max |runtime - fitter| = {:.3g} over {} samples.\n",
-                    runtime_fit_name(rc.fit), rc.detail.empty() ? "" : " (" + rc.detail + ")",
-                    rc.max_abs_difference, rc.samples_compared);
-  return md;
-}
-
-}  // namespace
-
-nlohmann::json diagnosis_json(const DiagnoseResult& d, const Experiment& e, const DiagnoseOptions& o,
-                              const RuntimeCheck* runtime) {
-  nlohmann::json j;
-  j["initial_fit_error"] = finite_or_null(d.initial_fit_error);
-  j["noise_estimate"] = finite_or_null(d.noise.sigma);
-  nlohmann::json steps = nlohmann::json::array();
-  for (const DiagnoseStep& s : d.steps) {
-    nlohmann::json k;
-    k["effect"] = effect_name(s.effect);
-    k["detail"] = s.detail;
-    k["statistic"] = finite_or_null(s.statistic);
-    k["p_value"] = s.p_value;
-    k["log10_p_value"] = finite_or_null(s.log10_p);
-    k["threshold"] = s.threshold;
-    k["candidates_tested"] = s.candidates_tested;
-    k["added_parameters"] = s.added_parameters;
-    k["delta_bic"] = finite_or_null(s.delta_bic);
-    k["term"] = s.term;
-    k["fit_error_before"] = finite_or_null(s.fit_error_before);
-    k["fit_error_after"] = finite_or_null(s.fit_error_after);
-    nlohmann::json rb = nlohmann::json::array(), ra = nlohmann::json::array();
-    for (double v : s.run_rms_before) rb.push_back(finite_or_null(v));
-    for (double v : s.run_rms_after) ra.push_back(finite_or_null(v));
-    k["run_rms_before"] = rb;
-    k["run_rms_after"] = ra;
-    steps.push_back(k);
-  }
-  j["steps"] = steps;
-  j["final_fit_error"] = finite_or_null(d.final_fit_error);
-  j["verdict"] = d.verdict;
-  j["effects_added"] = d.effects_added;
-  j["alpha"] = o.alpha;
-  j["test"] = "likelihood ratio N ln(s0^2/s1^2) ~ chi2(dp); Bonferroni alpha/M per round; delta BIC < 0";
-  j["noise_estimate_method"] = "second difference of the residual: sqrt(sum d2^2 / (6 n))";
-  nlohmann::json rn = nlohmann::json::array();
-  for (double v : d.noise.run_sigma) rn.push_back(finite_or_null(v));
-  j["noise_estimate_per_run"] = rn;
-  j["final_noise_estimate"] = finite_or_null(d.final_noise.sigma);
-  j["samples"] = total_samples(e);
-  nlohmann::json rounds = nlohmann::json::array();
-  for (const DiagnoseRound& r : d.rounds) {
-    nlohmann::json k;
-    k["round"] = r.round;
-    k["base_fit_error"] = finite_or_null(r.base_fit_error);
-    k["candidates_tested"] = r.candidates_tested;
-    k["threshold"] = r.threshold;
-    k["added"] = r.added;
-    nlohmann::json cs = nlohmann::json::array();
-    for (const CandidateScore& c : r.candidates) cs.push_back(candidate_json(c));
-    k["candidates"] = cs;
-    rounds.push_back(k);
-  }
-  j["rounds"] = rounds;
-  nlohmann::json params = nlohmann::json::array();
-  for (const ParameterEstimate& p : d.fits.back().parameters) {
-    nlohmann::json q;
-    q["name"] = p.name;
-    q["value"] = p.value;
-    q["cr_bound"] = finite_or_null(p.cr_bound);
-    params.push_back(q);
-  }
-  j["final_parameters"] = params;
-  j["fits_run"] = d.fits_run;
-  j["elapsed_s"] = d.elapsed_s;
-  if (runtime) {
-    nlohmann::json r;
-    r["fit"] = runtime_fit_name(runtime->fit);
-    r["detail"] = runtime->detail;
-    r["max_abs_difference"] = finite_or_null(runtime->max_abs_difference);
-    r["samples_compared"] = runtime->samples_compared;
-    j["runtime_check"] = r;
-  }
-  return j;
-}
-
-std::string diagnosed_experiment_toml(const DiagnoseResult& d) {
-  Experiment next = d.experiment;
-  next.model = d.configs.back();
-  // Absolute paths: the file is read from DIR, not from where the original experiment was.
-  std::error_code ec;
-  for (Run& r : next.runs) r.path = fs::absolute(r.path, ec).string();
-  if (next.static_curve.kind == StaticKind::table)
-    next.static_curve.table_path = fs::absolute(next.static_curve.table_path, ec).string();
-  // Why the start value: a delay is a non-convex parameter (diagnose fits it from two starts);
-  // the refit starts from the diagnosed estimate instead of 0.
-  if (next.model.delay == DelayEstimation::estimated) {
-    for (const ParameterEstimate& p : d.fits.back().parameters)
-      if (p.name == "delay_s" && std::isfinite(p.value)) next.model.delay_start_s = std::clamp(p.value, 0.0, 1.0);
-  }
-  std::string added;
-  for (const std::string& x : d.effects_added) added += (added.empty() ? "" : ", ") + x;
-  const std::vector<std::string> comments = {
-      "written by indicial diagnose: the experiment with the diagnosed model structure",
-      "(effects added: " + (added.empty() ? std::string("none") : added) +
-          "); refit it with: indicial fit experiment.toml --out DIR"};
-  return write_experiment_toml(next, comments);
-}
-
-DiagnoseOutputs write_diagnose_outputs(const DiagnoseResult& d, const Experiment& e,
-                                       const DiagnoseOptions& o, const fs::path& dir,
-                                       Overwrite overwrite, const ReportOptions& ro) {
-  OutputDir out(dir, overwrite);
-  DiagnoseOutputs w;
-  w.dir = dir;
-  const FitResult& final_fit = d.fits.back();
-  w.model_coef = model_coef_text(final_fit, "model.coef");
-  w.runtime = replay_in_runtime(final_fit, d.experiment, w.model_coef);
-  w.diagnosis_json = diagnosis_json(d, e, o, &w.runtime).dump(2) + "\n";
-  const PlotSet ps = make_plots(d, out, ro);
-  w.plots = ps.status;
-  w.plot_message = ps.message;
-  w.images = ps.images;
-  w.report_md = report_markdown(d, e, o, w.runtime, ps, ro);
-  w.experiment_toml = diagnosed_experiment_toml(d);
-  out.write("diagnosis.json", w.diagnosis_json);
-  out.write("experiment.toml", w.experiment_toml);
-  out.write("model.coef", w.model_coef);
-  out.write("report.md", w.report_md);
-  out.commit();
-  return w;
 }
 
 }  // namespace indicial

@@ -73,9 +73,24 @@
 
 namespace indicial {
 
+// The effects diagnose can name. Each has ONE entry in the registry (fitter/src/
+// diagnose_effects.cpp: name, description, how it is written to the model, its residual
+// signature, the experiment that separates it, its candidate generator); the count, --help
+// list and report descriptions come from there.
 enum class Effect { b1_alpha, a_alpha, rotary_alpha, bias, time_delay, second_lag, static_error };
-inline constexpr int effect_count = 7;
-const char* effect_name(Effect e);  // the contract's names: "b1_alpha", ...
+inline constexpr int effect_count = 7;  // the registry checks it has exactly this many entries
+
+struct EffectDescription {
+  Effect effect = Effect::bias;
+  const char* name = "";          // the contract's name: "b1_alpha", ...
+  const char* description = "";   // the disagreement it explains
+  const char* written_as = "";    // how it is written to the model (coefficient-file keys)
+  const char* signature = "";     // what it looks like in the residuals
+  const char* separated_by = "";  // the experiment that separates it from its look-alikes
+};
+const std::vector<EffectDescription>& effect_descriptions();  // one per Effect, enum order
+const char* effect_name(Effect e);
+std::string effect_names_list();  // "b1_alpha, a_alpha, ...", for --help and messages
 
 struct DiagnoseOptions {
   double alpha = 0.01;               // family-wise significance level per round
