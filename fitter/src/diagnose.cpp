@@ -22,6 +22,14 @@ namespace indicial {
 
 namespace fs = std::filesystem;
 
+const char* diagnose_stop_name(DiagnoseStop s) {
+  switch (s) {
+    case DiagnoseStop::nothing_significant: return "nothing_significant";
+    case DiagnoseStop::max_steps: return "max_steps";
+  }
+  return "?";
+}
+
 const char* candidate_status_name(CandidateStatus s) {
   switch (s) {
     case CandidateStatus::fitted: return "fitted";
@@ -328,6 +336,7 @@ DiagnoseResult diagnose_experiment(const Experiment& e_in, const DiagnoseOptions
     d.effects_added.push_back(effect_name(st.effect));
     d.configs.push_back(win.config);
     d.fits.push_back(std::move(win.fit));
+    if (round == o.max_steps) d.stopped = DiagnoseStop::max_steps;
   }
   d.final_fit_error = d.fits.back().fit_error;
   d.final_noise = estimate_noise_level(d.fits.back().runs);

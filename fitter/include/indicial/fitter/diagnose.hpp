@@ -157,7 +157,15 @@ struct NoiseEstimate {
   std::vector<double> run_sigma;       // per run
 };
 
+// Why the procedure stopped.
+enum class DiagnoseStop {
+  nothing_significant,  // the last round found no significant candidate
+  max_steps             // DiagnoseOptions::max_steps effects added and one still significant
+};
+const char* diagnose_stop_name(DiagnoseStop s);  // "nothing_significant", "max_steps"
+
 struct DiagnoseResult {
+  DiagnoseStop stopped = DiagnoseStop::nothing_significant;
   double initial_fit_error = 0.0;
   NoiseEstimate noise;                 // from the INITIAL fit's residuals
   NoiseEstimate final_noise;           // from the final fit's residuals
