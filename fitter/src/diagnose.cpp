@@ -17,6 +17,7 @@
 #include "fit_internal.hpp"
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/io.hpp"
+#include "indicial/runtime.hpp"
 
 namespace indicial {
 
@@ -35,6 +36,7 @@ const char* candidate_status_name(CandidateStatus s) {
     case CandidateStatus::fitted: return "fitted";
     case CandidateStatus::fit_failed: return "fit_failed";
     case CandidateStatus::not_identifiable: return "not_identifiable";
+    case CandidateStatus::refused_by_runtime: return "refused_by_runtime";
   }
   return "?";
 }
@@ -82,37 +84,84 @@ double chi2_log10_upper(double x, int k) {
   return ((a - 1.0) * std::log(h) - h - std::lgamma(a)) / std::log(10.0);
 }
 
+// The residual-correlation factor kappa = (1 + r1) / (1 - r1), r1 the lag-1 autocorrelation
+// of the residuals pooled over runs (clamped to [0, 0.98]). For AR(1) noise it is the ratio of
+// the noise spectrum at low frequency to its variance, which is how much the white-noise LR
+// statistic of a slowly varying sensitivity is inflated: LR / kappa restores its chi^2 scale
+// (diagnose.hpp, warning 2).
+double correlation_factor(const FitResult& r) {
+  double c0 = 0.0, c1 = 0.0;
+  for (const RunSeries& s : r.runs) {
+    const std::vector<double>& v = s.residual;
+    for (std::size_t k = 0; k < v.size(); ++k) {
+      c0 += v[k] * v[k];
+      if (k > 0) c1 += v[k] * v[k - 1];
+    }
+  }
+  if (!(c0 > 0.0)) return 1.0;
+  const double r1 = std::clamp(c1 / c0, 0.0, 0.98);
+  return (1.0 + r1) / (1.0 - r1);
+}
+
 struct Scored {
   CandidateScore score;
   FitResult fit;
   ModelConfig config;
+  SplineFamily family = SplineFamily::none;  // the spline of a knot (for refinement)
   bool is_knot = false;
   double knot_rad = 0.0;
-  SplineFamily family = SplineFamily::none;  // the spline of a knot (for refinement)
 };
 
+// LR / kappa against chi^2(dp), BIC with N_eff = N / kappa (kappa of the extended fit).
 void score_against(CandidateScore& c, const FitResult& base, const FitResult& ext, std::size_t n) {
   const double N = static_cast<double>(n);
   const double s0 = base.fit_error;
   const double s1 = ext.fit_error;
   c.fit_error = s1;
   c.added_parameters = ext.output_error.n_parameters - base.output_error.n_parameters;
+  c.correlation_factor = correlation_factor(ext);
+  const double n_eff = N / c.correlation_factor;
   // Why the clamp: the extended fit starts from the base estimates with the new terms at 0 (a
   // nested start), so s1 <= s0 up to the iteration's tolerance; a tiny negative LR is that
   // tolerance, not evidence.
-  c.statistic = std::max(0.0, 2.0 * N * std::log(s0 / s1));
+  c.raw_statistic = std::max(0.0, 2.0 * N * std::log(s0 / s1));
+  c.statistic = c.raw_statistic / c.correlation_factor;
   const int dp = std::max(1, c.added_parameters);
   c.log10_p = chi2_log10_upper(c.statistic, dp);
   c.p_value = std::pow(10.0, c.log10_p);
-  c.delta_bic = 2.0 * N * std::log(s1 / s0) + static_cast<double>(c.added_parameters) * std::log(N);
+  c.delta_bic = -c.statistic + static_cast<double>(c.added_parameters) * std::log(n_eff);
+}
+
+// Why: a model the runtime refuses (b(x) <= 0 inside the envelope, a non-finite value) cannot
+// be the diagnosis, whatever its fit.
+bool runtime_accepts(const FitResult& r, std::string& why) {
+  ParseDiagnostic diag;
+  if (validate_for_runtime(r.model, &diag) == LoadStatus::ok) return true;
+  why = std::string("the runtime refuses the fitted model: ") + diag.reason;
+  return false;
+}
+
+void describe_estimates(Scored& s, Effect effect) {
+  for (const ParameterEstimate& p : s.fit.parameters) {
+    if (effect == Effect::time_delay && p.name == "delay_s") s.score.detail = fmt::format("delay {:.4g} s", p.value);
+    if (effect == Effect::second_lag && p.name == "b2_0")
+      s.score.detail = fmt::format("b2 = {:.4g} 1/s", p.value) + s.score.detail;
+    if (effect == Effect::second_lag && p.name == "c2") s.score.detail += fmt::format(", c2 = {:.4g}", p.value);
+    if (effect == Effect::bias && p.name == "con") s.score.detail = fmt::format("con = {:.4g} 1/s", p.value);
+    // Why: a negative delay is a prediction, which the runtime refuses; it is no evidence of a
+    // delay in the data (the fit is recorded but cannot win).
+    if (effect == Effect::time_delay && p.name == "delay_s" && !(p.value > 0.0)) {
+      s.score.status = CandidateStatus::fit_failed;
+      s.score.message = "the delay estimate is not positive";
+    }
+  }
 }
 
 class Diagnoser {
  public:
   Diagnoser(const DiagnoseOptions& o, DiagnoseResult& d) : o_(o), d_(d) {}
 
-  FitResult fit(const Experiment& e, const ModelConfig& m,
-                const std::vector<std::pair<std::string, double>>& sv) {
+  FitResult fit(const Experiment& e, const ModelConfig& m, const StartValues& sv) {
     Experiment x = e;
     x.model = m;
     FitOptions fo = o_.fit;
@@ -121,6 +170,7 @@ class Diagnoser {
     return fit_experiment(x, fo);
   }
 
+  // Fits a candidate from every start, keeps the best usable fit, scores it against `base`.
   Scored evaluate(const Experiment& e, const CandidateSpec& c, const FitResult& base,
                   const std::map<std::string, double>& current) {
     Scored s;
@@ -133,24 +183,25 @@ class Diagnoser {
     s.family = c.family;
     s.score.status = CandidateStatus::fit_failed;
     bool have = false;
-    std::string last_message;
-    const std::vector<std::vector<std::pair<std::string, double>>> starts =
-        c.starts.empty() ? std::vector<std::vector<std::pair<std::string, double>>>{{}} : c.starts;
-    for (const auto& extra : starts) {
+    const std::vector<StartValues> starts = c.starts.empty() ? std::vector<StartValues>{{}} : c.starts;
+    for (const StartValues& extra : starts) {
       try {
         FitResult r = fit(e, c.config, start_values_for(c.config, current, e.runs.size(), extra));
-        const Termination t = r.output_error.termination;
         if (!std::isfinite(r.fit_error)) {
-          last_message = r.output_error.message;
+          s.score.message = r.output_error.message;
           continue;
         }
         // Why: a rank-deficient extension has a direction the data do not determine; its cost
         // is not evidence for the effect.
-        if (t == Termination::rank_deficient) {
-          if (!have) {
-            s.score.status = CandidateStatus::not_identifiable;
-            last_message = r.output_error.message;
-          }
+        if (r.output_error.termination == Termination::rank_deficient) {
+          if (!have) s.score.status = CandidateStatus::not_identifiable;
+          s.score.message = r.output_error.message;
+          continue;
+        }
+        std::string why;
+        if (!runtime_accepts(r, why)) {
+          if (!have) s.score.status = CandidateStatus::refused_by_runtime;
+          s.score.message = why;
           continue;
         }
         if (!have || r.fit_error < s.fit.fit_error) {
@@ -158,41 +209,52 @@ class Diagnoser {
           have = true;
         }
       } catch (const InputError& err) {
-        last_message = err.what();
+        s.score.message = err.what();
       }
     }
-    if (!have) {
-      s.score.message = last_message;
-      return s;
-    }
+    if (!have) return s;
     s.score.status = CandidateStatus::fitted;
+    s.score.message.clear();
     score_against(s.score, base, s.fit, total_samples(e));
-    // The detail of a delay or a second lag carries the estimate.
-    for (const ParameterEstimate& p : s.fit.parameters) {
-      if (c.effect == Effect::time_delay && p.name == "delay_s")
-        s.score.detail = fmt::format("delay {:.4g} s", p.value);
-      if (c.effect == Effect::second_lag && p.name == "b2_0")
-        s.score.detail = fmt::format("b2 = {:.4g} 1/s", p.value) + s.score.detail;
-      if (c.effect == Effect::second_lag && p.name == "c2")
-        s.score.detail += fmt::format(", c2 = {:.4g}", p.value);
-      if (c.effect == Effect::bias && p.name == "con")
-        s.score.detail = fmt::format("con = {:.4g} 1/s", p.value);
-    }
-    // Why: a negative delay is a prediction, which the runtime refuses; it is no evidence of a
-    // delay in the data (the fit is recorded but cannot win).
-    if (c.effect == Effect::time_delay) {
-      for (const ParameterEstimate& p : s.fit.parameters)
-        if (p.name == "delay_s" && !(p.value > 0.0)) {
-          s.score.status = CandidateStatus::fit_failed;
-          s.score.message = "the delay estimate is not positive";
-        }
-    }
+    describe_estimates(s, c.effect);
     return s;
   }
 
  private:
   const DiagnoseOptions& o_;
   DiagnoseResult& d_;
+};
+
+int best_of(const std::vector<Scored>& scored, Effect only, bool any_effect) {
+  int b = -1;
+  for (std::size_t i = 0; i < scored.size(); ++i) {
+    const CandidateScore& c = scored[i].score;
+    if (c.status != CandidateStatus::fitted || (!any_effect && c.effect != only)) continue;
+    if (b < 0 || c.log10_p < scored[static_cast<std::size_t>(b)].score.log10_p) b = static_cast<int>(i);
+  }
+  return b;
+}
+
+bool significant(const CandidateScore& c, double threshold) {
+  // Why both: the Bonferroni-guarded LR test controls false positives; BIC (penalty ln N_eff
+  // per parameter) additionally refuses an effect too small to pay for itself.
+  return c.status == CandidateStatus::fitted && c.log10_p < std::log10(threshold) && c.delta_bic < 0.0;
+}
+
+// One effect's sub-model grown from its first term: the family's candidates against the
+// current sub-model, the most significant added while it passes alpha / (candidates of that
+// scan) and lowers BIC, up to max_family_terms terms.
+struct Family {
+  Effect effect = Effect::bias;
+  std::vector<Scored> path;  // path[0] the first term (scored against the base), then each added
+};
+
+struct RoundContext {
+  const Experiment& w;
+  const ModelConfig& model;
+  const FitResult& base;
+  const std::vector<double>& grid;
+  double spacing = 0.0;
 };
 
 // The working configuration: a stepwise structure is frozen at the selected terms, an
@@ -230,14 +292,245 @@ std::vector<double> run_rms(const FitResult& r) {
 
 }  // namespace
 
+ResidualSignature residual_signature(const std::vector<RunSeries>& runs) {
+  ResidualSignature sig;
+  constexpr double bin_rad = 2.0 * kDegToRad;
+  std::map<long, std::pair<double, double>> by_angle;          // bin -> (sum, count)
+  std::map<std::pair<long, int>, std::pair<double, double>> by_direction;  // (bin, sign rate)
+  double total = 0.0, ss_rate = 0.0, ss_const = 0.0;
+  for (const RunSeries& s : runs) {
+    std::map<std::pair<long, int>, std::pair<double, double>> run_dir;
+    double sum = 0.0, vq = 0.0, qq = 0.0;
+    for (std::size_t k = 0; k < s.residual.size(); ++k) {
+      const double v = s.residual[k], q = s.rate_radps[k];
+      const long bin = std::lround(s.x_rad[k] / bin_rad);
+      const int dir = q > 0.0 ? 1 : q < 0.0 ? -1 : 0;
+      for (auto* m : {&by_direction, &run_dir}) {
+        (*m)[{bin, dir}].first += v;
+        (*m)[{bin, dir}].second += 1.0;
+      }
+      by_angle[bin].first += v;
+      by_angle[bin].second += 1.0;
+      total += v * v;
+      sum += v;
+      vq += v * q;
+      qq += q * q;
+    }
+    const double n = static_cast<double>(s.residual.size());
+    sig.run_mean.push_back(n > 0.0 ? sum / n : 0.0);
+    sig.run_rate_gain.push_back(qq > 0.0 ? vq / qq : 0.0);
+    sig.run_rms_rate.push_back(n > 0.0 ? std::sqrt(qq / n) : 0.0);
+    ss_const += n > 0.0 ? sum * sum / n : 0.0;
+    ss_rate += qq > 0.0 ? vq * vq / qq : 0.0;
+    // Half the up - down difference of the bin means, RMS over the bins with both strokes.
+    double hs = 0.0, hc = 0.0;
+    for (const auto& [key, up] : run_dir) {
+      if (key.second != 1) continue;
+      const auto down = run_dir.find({key.first, -1});
+      if (down == run_dir.end()) continue;
+      const double h = 0.5 * (up.first / up.second - down->second.first / down->second.second);
+      hs += h * h;
+      hc += 1.0;
+    }
+    sig.run_hysteresis.push_back(hc > 0.0 ? std::sqrt(hs / hc) : 0.0);
+  }
+  if (!(total > 0.0)) return sig;
+  double ss_angle = 0.0, ss_dir = 0.0;
+  for (const auto& [bin, a] : by_angle) ss_angle += a.first * a.first / a.second;
+  for (const auto& [key, a] : by_direction) ss_dir += a.first * a.first / a.second;
+  sig.angle_only = ss_angle / total;
+  sig.hysteresis = std::max(0.0, ss_dir - ss_angle) / total;
+  sig.rate_in_phase = ss_rate / total;
+  sig.constant = ss_const / total;
+  return sig;
+}
+
+namespace {
+
+// Bonferroni count of a round: every candidate model, plus the refinement positions (+-1/4,
+// +-1/2 spacing) budgeted for every knot effect whether or not its best knot is refined.
+constexpr int kRefinements = 4;
+
+std::vector<Scored> score_candidates(Diagnoser& dg, const RoundContext& rc, int& tested) {
+  const std::map<std::string, double> current = keyed_estimates(rc.model, rc.base);
+  const std::vector<CandidateSpec> specs =
+      all_candidates(CandidateContext{rc.w, rc.model, rc.base, rc.grid, rc.spacing});
+  std::vector<Scored> scored;
+  for (const CandidateSpec& c : specs) scored.push_back(dg.evaluate(rc.w, c, rc.base, current));
+  tested = static_cast<int>(specs.size());
+  for (const EffectEntry& e : effect_registry())
+    if (e.family != SplineFamily::none) tested += kRefinements;
+  return scored;
+}
+
+// A winning knot refined between its grid neighbours; the better position replaces it.
+void refine_knot(Diagnoser& dg, const RoundContext& rc, std::vector<Scored>& scored, std::size_t b) {
+  if (!scored[b].is_knot) return;
+  const std::map<std::string, double> current = keyed_estimates(rc.model, rc.base);
+  const SplineFamily family = scored[b].family;
+  const Effect effect = scored[b].score.effect;
+  const double k0 = scored[b].knot_rad;
+  for (double f : {-0.5, -0.25, 0.25, 0.5}) {
+    const double k = k0 + f * rc.spacing;
+    if (!(k > rc.w.data_x_min_rad && k < rc.w.data_x_max_rad)) continue;
+    if (has_knot(family_spline(rc.model, family).knots_rad, k, 0.2 * rc.spacing)) continue;
+    scored.push_back(dg.evaluate(rc.w, knot_candidate(rc.model, effect, family, k), rc.base, current));
+  }
+}
+
+// Grows an effect's sub-model from its first term (see Family).
+Family grow_family(Diagnoser& dg, const RoundContext& rc, Scored first, const DiagnoseOptions& o) {
+  Family f;
+  f.effect = first.score.effect;
+  f.path.push_back(std::move(first));
+  const EffectEntry& entry = effect_entry(f.effect);
+  if (entry.family == SplineFamily::none) return f;
+  while (static_cast<int>(f.path.size()) < o.max_family_terms) {
+    const Scored& cur = f.path.back();
+    const std::map<std::string, double> current = keyed_estimates(cur.config, cur.fit);
+    std::vector<CandidateSpec> specs;
+    entry.generate(CandidateContext{rc.w, cur.config, cur.fit, rc.grid, rc.spacing}, specs);
+    if (specs.empty()) break;
+    std::vector<Scored> sc;
+    for (const CandidateSpec& c : specs) sc.push_back(dg.evaluate(rc.w, c, cur.fit, current));
+    const int b = best_of(sc, f.effect, false);
+    if (b < 0 || !significant(sc[static_cast<std::size_t>(b)].score, o.alpha / static_cast<double>(sc.size()))) break;
+    f.path.push_back(std::move(sc[static_cast<std::size_t>(b)]));
+  }
+  return f;
+}
+
+// A family's sub-model against the round's base: its own kappa for the p-value, a common
+// kappa (the whitest residual of the round's families) for the BIC that compares families.
+FamilyResult summarize(const Family& f, const FitResult& base, std::size_t n, double kappa_common) {
+  const Scored& last = f.path.back();
+  FamilyResult r;
+  r.effect = f.effect;
+  for (const Scored& s : f.path) {
+    r.terms.push_back(s.score.term);
+    r.detail += (r.detail.empty() ? "" : "; ") + s.score.detail;
+  }
+  const double N = static_cast<double>(n);
+  r.added_parameters = last.fit.output_error.n_parameters - base.output_error.n_parameters;
+  r.fit_error = last.fit.fit_error;
+  const double lr = std::max(0.0, 2.0 * N * std::log(base.fit_error / last.fit.fit_error));
+  r.log10_p = chi2_log10_upper(lr / correlation_factor(last.fit), std::max(1, r.added_parameters));
+  r.delta_bic = -lr / kappa_common + r.added_parameters * std::log(N / kappa_common);
+  return r;
+}
+
+// The family that explains the disagreement: the lowest BIC; families within
+// indistinguishable_bic of it are named with it, and among them the one with the fewest
+// parameters (then the registry's order) is the step.
+int choose_family(const std::vector<FamilyResult>& fr, const DiagnoseOptions& o, std::vector<Effect>& tied) {
+  if (fr.empty()) return -1;
+  double best = fr.front().delta_bic;
+  for (const FamilyResult& f : fr) best = std::min(best, f.delta_bic);
+  int w = -1;
+  for (std::size_t i = 0; i < fr.size(); ++i) {
+    if (fr[i].delta_bic > best + o.indistinguishable_bic) continue;
+    const bool better = w < 0 || fr[i].added_parameters < fr[static_cast<std::size_t>(w)].added_parameters ||
+                        (fr[i].added_parameters == fr[static_cast<std::size_t>(w)].added_parameters &&
+                         fr[i].effect < fr[static_cast<std::size_t>(w)].effect);
+    if (better) w = static_cast<int>(i);
+  }
+  for (std::size_t i = 0; i < fr.size(); ++i)
+    if (static_cast<int>(i) != w && fr[i].delta_bic <= best + o.indistinguishable_bic) tied.push_back(fr[i].effect);
+  return w;
+}
+
+void record_step(DiagnoseResult& d, const DiagnoseRound& rd, const FamilyResult& fr, Scored& last,
+                 const std::vector<Effect>& tied) {
+  const FitResult& base = d.fits.back();
+  DiagnoseStep st;
+  st.step = static_cast<int>(d.steps.size()) + 1;
+  st.effect = fr.effect;
+  st.detail = fr.detail;
+  for (const std::string& t : fr.terms) st.term += (st.term.empty() ? "" : "; ") + t;
+  st.indistinguishable = tied;
+  st.correlation_factor = correlation_factor(last.fit);
+  const double N = static_cast<double>(total_samples(d.experiment));
+  st.statistic = std::max(0.0, 2.0 * N * std::log(base.fit_error / last.fit.fit_error)) / st.correlation_factor;
+  st.log10_p = fr.log10_p;
+  st.p_value = std::pow(10.0, fr.log10_p);
+  st.threshold = rd.threshold;
+  st.candidates_tested = rd.candidates_tested;
+  st.added_parameters = fr.added_parameters;
+  st.delta_bic = -st.statistic + fr.added_parameters * std::log(N / st.correlation_factor);
+  st.fit_error_before = base.fit_error;
+  st.fit_error_after = last.fit.fit_error;
+  st.run_rms_before = run_rms(base);
+  st.run_rms_after = run_rms(last.fit);
+  d.steps.push_back(st);
+  d.effects_added.push_back(effect_name(st.effect));
+  d.configs.push_back(last.config);
+  d.fits.push_back(std::move(last.fit));
+}
+
+// One round: every candidate against the current model; the significant effects grown into
+// sub-models and compared; the winner added (unless check_only). Returns whether an effect is
+// significant.
+bool run_round(Diagnoser& dg, const DiagnoseOptions& o, DiagnoseResult& d, bool check_only) {
+  const Experiment& w = d.experiment;
+  double spacing = o.knot_spacing_deg * kDegToRad;
+  const std::vector<double> grid = knot_grid(w, o, spacing);
+  const RoundContext rc{w, d.configs.back(), d.fits.back(), grid, spacing};
+  DiagnoseRound rd;
+  rd.round = static_cast<int>(d.rounds.size()) + 1;
+  rd.check_only = check_only;
+  rd.base_fit_error = rc.base.fit_error;
+  rd.signature = residual_signature(rc.base.runs);
+  int tested = 0;
+  std::vector<Scored> scored = score_candidates(dg, rc, tested);
+  rd.candidates_tested = tested;
+  rd.threshold = o.alpha / static_cast<double>(std::max(1, tested));
+  std::vector<Family> families;
+  for (const EffectEntry& e : effect_registry()) {
+    int b = best_of(scored, e.description.effect, false);
+    if (b < 0 || !significant(scored[static_cast<std::size_t>(b)].score, rd.threshold)) continue;
+    if (check_only) {
+      families.push_back(Family{e.description.effect, {}});
+      continue;
+    }
+    refine_knot(dg, rc, scored, static_cast<std::size_t>(b));
+    b = best_of(scored, e.description.effect, false);
+    families.push_back(grow_family(dg, rc, scored[static_cast<std::size_t>(b)], o));
+  }
+  for (const Scored& s : scored) rd.candidates.push_back(s.score);
+  rd.best = best_of(scored, Effect::bias, true);
+  const bool any = !families.empty();
+  if (check_only || !any) {
+    if (check_only && any) d.still_significant = effect_name(families.front().effect);
+    d.rounds.push_back(std::move(rd));
+    return any;
+  }
+  double kappa_common = std::numeric_limits<double>::infinity();
+  for (const Family& f : families) kappa_common = std::min(kappa_common, correlation_factor(f.path.back().fit));
+  for (const Family& f : families) rd.families.push_back(summarize(f, rc.base, total_samples(w), kappa_common));
+  std::vector<Effect> tied;
+  rd.winner = choose_family(rd.families, o, tied);
+  rd.added = true;
+  const std::size_t win = static_cast<std::size_t>(rd.winner);
+  record_step(d, rd, rd.families[win], families[win].path.back(), tied);
+  d.rounds.push_back(std::move(rd));
+  return true;
+}
+
+void flag_ill_conditioned(DiagnoseResult& d) {
+  // Why y0 is left out: a run's initial state is a nuisance parameter that may well be ~0.
+  for (const ParameterEstimate& p : d.fits.back().parameters)
+    if (p.name.rfind("y0_", 0) != 0 && std::isfinite(p.cr_bound) && p.cr_bound > std::abs(p.value))
+      d.ill_conditioned.push_back(p.name);
+}
+
+}  // namespace
+
 DiagnoseResult diagnose_experiment(const Experiment& e_in, const DiagnoseOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
-  if (!(o.alpha > 0.0 && o.alpha < 1.0))
-    throw InputError("--alpha", 0, "the significance level must be in (0, 1)");
+  if (!(o.alpha > 0.0 && o.alpha < 1.0)) throw InputError("--alpha", 0, "the significance level must be in (0, 1)");
   DiagnoseResult d;
   d.alpha = o.alpha;
   Diagnoser dg(o, d);
-
   Experiment e = e_in;
   // Why: the knot grid needs the model-angle range; an Experiment built in memory may not
   // carry it (load_experiment fills it).
@@ -248,99 +541,27 @@ DiagnoseResult diagnose_experiment(const Experiment& e_in, const DiagnoseOptions
   }
   FitResult first = dg.fit(e, e.model, {});
   const bool frozen = e.model.structure == StructureMode::stepwise || e.rotary.estimate;
-  Experiment w = working_experiment(e, first);
+  d.experiment = working_experiment(e, first);
   if (frozen) {
     // Refit the frozen configuration from the first fit's estimates (same model, fixed form).
+    const Experiment& w = d.experiment;
     std::map<std::string, double> cur = keyed_estimates(w.model, first);
     for (const ParameterEstimate& p : first.parameters) cur[p.name] = p.value;
     first = dg.fit(w, w.model, start_values_for(w.model, cur, w.runs.size(), {}));
   }
-  d.experiment = w;
   d.fits.push_back(first);
-  d.configs.push_back(w.model);
+  d.configs.push_back(d.experiment.model);
   d.initial_fit_error = first.fit_error;
   d.noise = estimate_noise_level(first.runs);
-
-  for (int round = 1; round <= o.max_steps; ++round) {
-    const FitResult& base = d.fits.back();
-    const ModelConfig& m = d.configs.back();
-    const std::map<std::string, double> current = keyed_estimates(m, base);
-    double spacing = o.knot_spacing_deg * kDegToRad;
-    const std::vector<double> grid = knot_grid(w, o, spacing);
-    const std::vector<CandidateSpec> specs = all_candidates(CandidateContext{w, m, base, grid, spacing});
-    DiagnoseRound rd;
-    rd.round = round;
-    rd.base_fit_error = base.fit_error;
-    std::vector<Scored> scored;
-    for (const CandidateSpec& c : specs) scored.push_back(dg.evaluate(w, c, base, current));
-    int tested = static_cast<int>(specs.size());
-    auto best_index = [&]() {
-      int b = -1;
-      for (std::size_t i = 0; i < scored.size(); ++i) {
-        if (scored[i].score.status != CandidateStatus::fitted) continue;
-        if (b < 0 || scored[i].score.log10_p < scored[static_cast<std::size_t>(b)].score.log10_p)
-          b = static_cast<int>(i);
-      }
-      return b;
-    };
-    int b = best_index();
-    // A winning knot is refined between its grid neighbours (+-1/4 and +-1/2 spacing); these
-    // positions are counted in the Bonferroni M like the grid's.
-    if (b >= 0 && scored[static_cast<std::size_t>(b)].is_knot) {
-      const Scored& win = scored[static_cast<std::size_t>(b)];
-      const SplineFamily family = win.family;
-      const Effect effect = win.score.effect;
-      const double k0 = win.knot_rad;
-      for (double f : {-0.5, -0.25, 0.25, 0.5}) {
-        const double k = k0 + f * spacing;
-        if (!(k > w.data_x_min_rad && k < w.data_x_max_rad)) continue;
-        const SplineConfig& sp = family_spline(m, family);
-        if (has_knot(sp.knots_rad, k, 0.2 * spacing)) continue;
-        scored.push_back(dg.evaluate(w, knot_candidate(m, effect, family, k), base, current));
-        ++tested;
-      }
-      b = best_index();
-    }
-    rd.candidates_tested = tested;
-    rd.threshold = o.alpha / static_cast<double>(std::max(1, tested));
-    for (const Scored& s : scored) rd.candidates.push_back(s.score);
-    rd.best = b;
-    bool add = false;
-    if (b >= 0) {
-      const CandidateScore& c = scored[static_cast<std::size_t>(b)].score;
-      // Why both: the Bonferroni-guarded LR test controls false positives; BIC (penalty
-      // ln N per parameter) additionally refuses an effect too small to pay for itself.
-      add = c.log10_p < std::log10(rd.threshold) && c.delta_bic < 0.0;
-    }
-    rd.added = add;
-    d.rounds.push_back(rd);
-    if (!add) break;
-    Scored& win = scored[static_cast<std::size_t>(b)];
-    DiagnoseStep st;
-    st.step = round;
-    st.effect = win.score.effect;
-    st.detail = win.score.detail;
-    st.term = win.score.term;
-    st.statistic = win.score.statistic;
-    st.p_value = win.score.p_value;
-    st.log10_p = win.score.log10_p;
-    st.threshold = rd.threshold;
-    st.candidates_tested = tested;
-    st.added_parameters = win.score.added_parameters;
-    st.delta_bic = win.score.delta_bic;
-    st.fit_error_before = base.fit_error;
-    st.fit_error_after = win.fit.fit_error;
-    st.run_rms_before = run_rms(base);
-    st.run_rms_after = run_rms(win.fit);
-    d.steps.push_back(st);
-    d.effects_added.push_back(effect_name(st.effect));
-    d.configs.push_back(win.config);
-    d.fits.push_back(std::move(win.fit));
-    if (round == o.max_steps) d.stopped = DiagnoseStop::max_steps;
-  }
+  bool last_added = false;
+  for (int round = 1; round <= o.max_steps; ++round)
+    if (!(last_added = run_round(dg, o, d, false))) break;
+  // At max_steps: one more round, tested only, says whether an effect is still significant.
+  if (last_added && run_round(dg, o, d, true)) d.stopped = DiagnoseStop::max_steps;
   d.final_fit_error = d.fits.back().fit_error;
   d.final_noise = estimate_noise_level(d.fits.back().runs);
   d.verdict = d.steps.empty() ? "none" : effect_name(d.steps.front().effect);
+  flag_ill_conditioned(d);
   d.elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return d;
 }

@@ -128,9 +128,10 @@ void gen_second_lag(const CandidateContext& ctx, std::vector<CandidateSpec>& out
   out.push_back(c);
 }
 
-// x^1..x^3 and knots (no x^0: with constant b1 a constant offset is con / b1, named bias).
+// x^0..x^3 and knots. With constant b1, x^0 and bias (con / b1) are the same model on the data:
+// the round names both (DiagnoseStep::indistinguishable) and prefers bias (registry order).
 void gen_static_error(const CandidateContext& ctx, std::vector<CandidateSpec>& out) {
-  for (int p = 1; p <= 3; ++p)
+  for (int p = 0; p <= 3; ++p)
     if (!has_power(ctx.model.static_correction.powers, p))
       out.push_back(power_candidate(ctx.model, Effect::static_error, SplineFamily::static_correction, p,
                                     "dC_a(x)"));
@@ -202,7 +203,7 @@ const std::vector<EffectEntry>& effect_registry() {
        SplineFamily::none, gen_second_lag},
       {{Effect::static_error, "static_error",
         "the static curve C_a(x) is wrong",
-        "a static correction dC_a(x), powers x^1..x^3 or knots (x - k)_+^2 (static_corr_poly / "
+        "a static correction dC_a(x), powers x^0..x^3 or knots (x - k)_+^2 (static_corr_poly / "
         "static_corr_knot)",
         "a residual that depends on the angle alone: the same on upstroke and downstroke, at "
         "every frequency",

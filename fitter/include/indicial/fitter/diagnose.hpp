@@ -98,6 +98,8 @@ struct DiagnoseOptions {
   double knot_spacing_deg = 5.0;     // scan grid of knot positions (model angle x)
   double knot_margin_fraction = 0.1; // the grid stays this fraction of the range inside it
   int max_scan_knots = 16;           // the spacing widens when the range needs more
+  int max_family_terms = 4;          // terms one effect's sub-model may have (stepwise inside it)
+  double indistinguishable_bic = 6.0;  // families closer than this in BIC are named together
   FitOptions fit;                    // for every fit (start_values are set per candidate)
 };
 
@@ -105,7 +107,8 @@ struct DiagnoseOptions {
 enum class CandidateStatus {
   fitted,              // the extended model was fitted; statistic and p_value are valid
   fit_failed,          // fit_experiment threw (e.g. collinear terms) or did not converge
-  not_identifiable     // the extended fit's information matrix is rank deficient
+  not_identifiable,    // the extended fit's information matrix is rank deficient
+  refused_by_runtime   // the fitted model fails validate_for_runtime (e.g. b(x) <= 0)
 };
 const char* candidate_status_name(CandidateStatus s);
 
@@ -116,18 +119,49 @@ struct CandidateScore {
   CandidateStatus status = CandidateStatus::fitted;
   int added_parameters = 0; // dp
   double fit_error = 0.0;   // s(v) of the extended fit
-  double statistic = 0.0;   // LR = N ln(s0^2 / s1^2), >= 0
+  double statistic = 0.0;   // LR / kappa, kappa = correlation_factor: the test statistic, >= 0
+  double raw_statistic = 0.0;  // LR = N ln(s0^2 / s1^2) as for white residuals
+  double correlation_factor = 1.0;  // kappa = (1 + r1) / (1 - r1) of this fit's residuals, >= 1
   double p_value = 1.0;     // chi^2(dp) upper tail of LR
   double log10_p = 0.0;     // log10 p, finite even when p underflows (asymptotic tail)
-  double delta_bic = 0.0;   // BIC(extended) - BIC(base)
+  double delta_bic = 0.0;   // BIC(extended) - BIC(base) with N_eff = N / kappa
   std::string message;      // why it failed, when it did
 };
+
+// One effect's best sub-model in a round: its first term (the most significant of the scan),
+// then terms of the same effect added while they pay for themselves (stepwise in the family).
+struct FamilyResult {
+  Effect effect = Effect::bias;
+  std::vector<std::string> terms;   // in the order added
+  std::string detail;               // the terms for reports
+  int added_parameters = 0;
+  double fit_error = 0.0;
+  double delta_bic = 0.0;           // against the round's base, common N_eff (the comparison)
+  double log10_p = 0.0;             // of the whole sub-model (LR / kappa, chi^2(dp))
+};
+
+// The residual's signatures (issue 13 item 2), shares of the residual sum of squares:
+struct ResidualSignature {
+  double angle_only = 0.0;   // explained by a function of the angle alone (2 deg bins, all runs
+                             // and both stroke directions): a static error
+  double hysteresis = 0.0;   // further explained by the stroke direction within each angle bin
+                             // (up/down difference): an unsteady or delay error
+  double rate_in_phase = 0.0;  // explained by a per-run multiple of the rate (rotary, delay)
+  double constant = 0.0;     // explained by per-run constants (a bias: the same in every run)
+  std::vector<double> run_hysteresis;  // per run: RMS of (upstroke - downstroke) / 2 per bin
+  std::vector<double> run_rate_gain;   // per run: residual-on-rate regression coefficient
+  std::vector<double> run_mean;        // per run: mean residual
+  std::vector<double> run_rms_rate;    // per run: RMS rate (rad/s), to read growth with rate
+};
+ResidualSignature residual_signature(const std::vector<RunSeries>& runs);
 
 struct DiagnoseStep {
   int step = 0;                        // 1-based
   Effect effect = Effect::bias;
   std::string detail;
-  std::string term;
+  std::string term;                    // the terms added (one or several of the same effect)
+  std::vector<Effect> indistinguishable;  // other effects the data cannot tell from this one
+  double correlation_factor = 1.0;     // kappa of the new fit's residuals
   double statistic = 0.0;
   double p_value = 1.0;
   double log10_p = 0.0;
@@ -149,7 +183,11 @@ struct DiagnoseRound {
   double threshold = 0.0;
   std::vector<CandidateScore> candidates;
   int best = -1;                       // index into candidates of the smallest p (fitted)
-  bool added = false;                  // whether `best` became a step
+  bool added = false;                  // whether a family became a step
+  std::vector<FamilyResult> families;  // each significant effect's best sub-model
+  int winner = -1;                     // index into families of the step's effect
+  ResidualSignature signature;         // of the round's base residuals
+  bool check_only = false;             // the round after max_steps: tested, nothing added
 };
 
 struct NoiseEstimate {
@@ -180,6 +218,8 @@ struct DiagnoseResult {
   double alpha = 0.01;
   double elapsed_s = 0.0;
   int fits_run = 0;                    // fit_experiment calls
+  std::string still_significant;       // stopped == max_steps: the effect still significant
+  std::vector<std::string> ill_conditioned;  // final parameters whose bound exceeds |value|
 };
 
 // The noise level of residual series (one per run) from their second differences:
