@@ -509,6 +509,8 @@ bool run_round(Diagnoser& dg, const DiagnoseOptions& o, DiagnoseResult& d, bool 
   for (const Family& f : families) rd.families.push_back(summarize(f, rc.base, total_samples(w), kappa_common));
   std::vector<Effect> tied;
   rd.winner = choose_family(rd.families, o, tied);
+  for (Effect twin : structural_look_alikes(rd.families[static_cast<std::size_t>(rd.winner)].effect, rc.model))
+    if (std::find(tied.begin(), tied.end(), twin) == tied.end()) tied.push_back(twin);
   rd.added = true;
   const std::size_t win = static_cast<std::size_t>(rd.winner);
   record_step(d, rd, rd.families[win], families[win].path.back(), tied);

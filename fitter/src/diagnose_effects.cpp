@@ -128,10 +128,11 @@ void gen_second_lag(const CandidateContext& ctx, std::vector<CandidateSpec>& out
   out.push_back(c);
 }
 
-// x^0..x^3 and knots. With constant b1, x^0 and bias (con / b1) are the same model on the data:
-// the round names both (DiagnoseStep::indistinguishable) and prefers bias (registry order).
+// x^1..x^3 and knots. No x^0: with constant b1 a constant offset IS con / b1 (structural_look_
+// alikes names both); with b1(x) a free x^0 plus further static terms mimics con / b1(x) and took
+// two-effect cases (b1_alpha + bias) from bias.
 void gen_static_error(const CandidateContext& ctx, std::vector<CandidateSpec>& out) {
-  for (int p = 0; p <= 3; ++p)
+  for (int p = 1; p <= 3; ++p)
     if (!has_power(ctx.model.static_correction.powers, p))
       out.push_back(power_candidate(ctx.model, Effect::static_error, SplineFamily::static_correction, p,
                                     "dC_a(x)"));
@@ -203,7 +204,7 @@ const std::vector<EffectEntry>& effect_registry() {
        SplineFamily::none, gen_second_lag},
       {{Effect::static_error, "static_error",
         "the static curve C_a(x) is wrong",
-        "a static correction dC_a(x), powers x^0..x^3 or knots (x - k)_+^2 (static_corr_poly / "
+        "a static correction dC_a(x), powers x^1..x^3 or knots (x - k)_+^2 (static_corr_poly / "
         "static_corr_knot)",
         "a residual that depends on the angle alone: the same on upstroke and downstroke, at "
         "every frequency",
@@ -320,6 +321,14 @@ StartValues start_values_for(const ModelConfig& m, const std::map<std::string, d
       sv.push_back(e);
   }
   return sv;
+}
+
+std::vector<Effect> structural_look_alikes(Effect e, const ModelConfig& m) {
+  const bool b1_constant = m.b1.knots_rad.empty() && (m.b1.powers.empty() || max_power(m.b1.powers) == 0);
+  // Why: y' = -b1 y + con with constant b1 and a free initial state per run is y_hom + con / b1,
+  // exactly a constant static offset.
+  if (e == Effect::bias && b1_constant) return {Effect::static_error};
+  return {};
 }
 
 std::size_t total_samples(const Experiment& e) {

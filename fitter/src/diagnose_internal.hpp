@@ -71,4 +71,8 @@ StartValues start_values_for(const ModelConfig& m, const std::map<std::string, d
 
 std::size_t total_samples(const Experiment& e);
 
+// Effects that are the same model as `e` on ANY data, given the model `m` it extends (bias and
+// a constant static offset when b1 is constant); named with it in the step.
+std::vector<Effect> structural_look_alikes(Effect e, const ModelConfig& m);
+
 }  // namespace indicial::diagnose_detail

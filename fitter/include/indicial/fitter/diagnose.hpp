@@ -25,15 +25,23 @@
 //                      (no x^0: a constant offset equals con / b1 when b1 is constant, so it
 //                      is tested, and named, as `bias`)
 //   3. Score: the likelihood-ratio statistic LR = N ln(s0^2 / s1^2) (Gaussian residuals of
-//      unknown variance, N samples; s = s(v) of the base and the extended fit), against
-//      chi^2(dp), dp = the number of added ML parameters (Boost.Math), and Delta BIC =
-//      N ln(s1^2 / s0^2) + dp ln N. Multiplicity (Bonferroni): a candidate enters only if
-//      p < alpha / M, M = every candidate model fitted in that round, each scanned knot
-//      position counted (and the refinement positions of a winning knot), AND Delta BIC < 0.
-//   4. The most significant candidate (smallest p) is added, the model refitted (that fit IS
-//      the candidate's fit), and the round repeated until nothing is significant or
-//      max_steps. The verdict is the first step's effect ("none" without steps: the model is
-//      left as configured).
+//      unknown variance, N samples; s = s(v) of the base and the extended fit) divided by
+//      kappa = (1 + r1) / (1 - r1), r1 the lag-1 autocorrelation of the extended fit's
+//      residuals (colored residuals inflate LR by about kappa), against chi^2(dp), dp = the
+//      number of added ML parameters (Boost.Math); Delta BIC = -LR / kappa + dp ln(N / kappa).
+//      Multiplicity (Bonferroni): a first term counts only if p < alpha / M, M = every
+//      candidate model of the round (each scanned knot position counted, and 4 refinement
+//      positions per knot effect), AND Delta BIC < 0.
+//   4. Families, not single terms: every effect with a significant first term is grown into
+//      its best sub-model (stepwise inside the effect: further knots/powers of the same kind
+//      while each passes alpha / its scan and lowers BIC, up to max_family_terms); the
+//      sub-models are compared by BIC (one common N_eff) and the lowest is added as ONE step
+//      (several terms possible). Sub-models within indistinguishable_bic of it are named with
+//      it (DiagnoseStep::indistinguishable), the simplest is the step.
+//   5. Repeat until nothing is significant or max_steps; at max_steps one more round is tested
+//      and DiagnoseResult::stopped says whether an effect was still significant. The verdict
+//      is the first step's effect ("none" without steps: the model is left as configured).
+//      Final estimates whose bound exceeds their value are listed (ill_conditioned).
 //
 // Usage
 // -----
@@ -49,12 +57,12 @@
 //    (Davies' problem): the chi^2 p-value of one position is not the p-value of the best of
 //    many; the Bonferroni count over every scanned position is what keeps the false-positive
 //    rate at or below alpha per round (measured: tests/test_diagnose_null.cpp).
-// 2. LR assumes white Gaussian residuals. Colored measurement noise inflates LR; check the
-//    noise estimate against the final fit error (they agree when the model is complete and
-//    the noise white).
-// 3. Names can be ambiguous where the model cannot tell effects apart on the data (e.g. a
-//    delay and a lower b1 at a single frequency); the candidate table in report.md shows how
-//    close the runner-up was.
+// 2. LR assumes white Gaussian residuals; the kappa correction is exact for AR(1) noise and
+//    approximates other spectra by their lag-1 correlation. The noise estimate (second
+//    difference) assumes white noise and underestimates colored noise.
+// 3. Names can be ambiguous where the model cannot tell effects apart on the data (e.g. bias
+//    and a constant static offset with constant b1); such effects are named together with the
+//    experiment that separates them (EffectDescription::separated_by).
 // 4. When rotary.estimate = true, the two-stage fit's C_aq is frozen as the a priori C_aq for
 //    the diagnosis (its power terms; knot terms are kept as estimated correction terms).
 #pragma once
