@@ -4,6 +4,7 @@
 #include <doctest/doctest.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <string>
@@ -48,18 +49,25 @@ TEST_CASE("diagnose matrix subset: AR(1) 0.8 noise and a complete model: nothing
 }
 
 // Environment: INDICIAL_DIAGNOSE_MATRIX = quick | full (default quick),
-// INDICIAL_DIAGNOSE_MATRIX_OUT = the Markdown file to write (default diagnose-matrix.md).
+// INDICIAL_DIAGNOSE_MATRIX_OUT = the Markdown file to write (default diagnose-matrix.md),
+// INDICIAL_DIAGNOSE_MATRIX_SHARD = "i/n" to run cases i, i + n, ... (the script runs shards in
+// parallel and merges them).
 TEST_CASE("diagnose matrix: every effect x motion x size x noise x coefficient" * doctest::skip()) {
   const char* mode_env = std::getenv("INDICIAL_DIAGNOSE_MATRIX");
   const char* out_env = std::getenv("INDICIAL_DIAGNOSE_MATRIX_OUT");
+  const char* shard_env = std::getenv("INDICIAL_DIAGNOSE_MATRIX_SHARD");  // "i/n": every n-th case from i
   const bool quick = !(mode_env && std::string(mode_env) == "full");
   const std::string out_path = out_env ? out_env : "diagnose-matrix.md";
+  int shard = 0, shards = 1;
+  if (shard_env) REQUIRE(std::sscanf(shard_env, "%d/%d", &shard, &shards) == 2);
   std::ofstream out(out_path);
   REQUIRE(out.good());
   out << matrix_header_markdown() << std::flush;
   int effect_cases = 0, first_right = 0, within = 0, null_cases = 0, null_clean = 0;
   std::vector<double> times;
-  for (const MatrixCase& mc : diagnose_matrix(quick)) {
+  const std::vector<MatrixCase> cases = diagnose_matrix(quick);
+  for (std::size_t i = static_cast<std::size_t>(shard); i < cases.size(); i += static_cast<std::size_t>(shards)) {
+    const MatrixCase& mc = cases[i];
     const MatrixRow r = run_matrix_case(mc);
     out << matrix_row_markdown(r) << std::flush;
     MESSAGE(matrix_row_markdown(r));
