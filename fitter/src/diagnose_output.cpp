@@ -336,6 +336,19 @@ nlohmann::json round_json(const DiagnoseRound& r) {
 
 }  // namespace
 
+std::vector<std::string> diagnose_warnings(const DiagnoseResult& d) {
+  std::vector<std::string> w;
+  if (d.stopped == DiagnoseStop::max_steps)
+    w.push_back(fmt::format("stopped at --max-steps {} with {} still significant; the model is not complete",
+                            d.steps.size(), d.still_significant));
+  if (!d.ill_conditioned.empty()) {
+    std::string l;
+    for (const auto& n : d.ill_conditioned) l += (l.empty() ? "" : ", ") + n;
+    w.push_back("ill-conditioned final estimates (Cramer-Rao bound larger than the value): " + l);
+  }
+  return w;
+}
+
 // The one writer of diagnosis.json.
 nlohmann::json diagnosis_json(const DiagnoseResult& d, const Experiment& e, const DiagnoseOptions& o,
                               const RuntimeCheck* runtime) {
@@ -411,9 +424,9 @@ DiagnoseOutputs write_diagnose_outputs(const DiagnoseResult& d, const Experiment
   DiagnoseOutputs w;
   w.dir = dir;
   const FitResult& final_fit = d.fits.back();
-  w.model_coef = model_coef_text(final_fit, "model.coef");
+  w.model_coef = with_provenance_header(model_coef_text(final_fit, "model.coef"), ro.provenance);
   w.runtime = replay_in_runtime(final_fit, d.experiment, w.model_coef);
-  w.diagnosis_json = diagnosis_json(d, e, o, &w.runtime).dump(2) + "\n";
+  w.diagnosis_json = with_provenance_and_warnings(diagnosis_json(d, e, o, &w.runtime), ro).dump(2) + "\n";
   const PlotSet ps = make_plots(d, out, ro);
   w.plots = ps.status;
   w.plot_message = ps.message;

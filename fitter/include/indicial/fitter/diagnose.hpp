@@ -249,6 +249,10 @@ DiagnoseResult diagnose_experiment(const Experiment& e, const DiagnoseOptions& o
 nlohmann::json diagnosis_json(const DiagnoseResult& d, const Experiment& e,
                               const DiagnoseOptions& o, const RuntimeCheck* runtime);
 
+// One-line warnings about the result (diagnosis.json "warnings", stderr): stopped at max_steps
+// with an effect still significant; ill-conditioned final estimates.
+std::vector<std::string> diagnose_warnings(const DiagnoseResult& d);
+
 struct DiagnoseOutputs {
   std::filesystem::path dir;
   std::string diagnosis_json;
