@@ -2,8 +2,10 @@
 #pragma once
 
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <cstdlib>
+#include <stdexcept>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -17,6 +19,27 @@ inline std::string slurp(const std::filesystem::path& p) {
   std::ostringstream ss;
   ss << in.rdbuf();
   return ss.str();
+}
+
+// A fresh directory /tmp/indicial-test-NAME-XXXXXX for this process, made on first use and
+// removed at exit (kept when the environment variable INDICIAL_KEEP_TEST_FILES is set, for
+// debugging). One per test executable: call it with the same NAME throughout.
+inline const std::filesystem::path& scratch_directory(const std::string& name) {
+  static std::filesystem::path holder;
+  static const std::filesystem::path dir = [&name] {
+    std::string tmpl = "/tmp/indicial-test-" + name + "-XXXXXX";
+    const char* d = ::mkdtemp(tmpl.data());
+    if (d == nullptr) throw std::runtime_error("mkdtemp failed for " + tmpl);
+    holder = std::filesystem::path(d);
+    if (std::getenv("INDICIAL_KEEP_TEST_FILES") == nullptr) {
+      std::atexit([] {
+        std::error_code ec;
+        std::filesystem::remove_all(holder, ec);
+      });
+    }
+    return holder;
+  }();
+  return dir;
 }
 
 struct CliRun {

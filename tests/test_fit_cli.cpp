@@ -26,29 +26,7 @@ namespace {
 using Run = indicial::testing::CliRun;
 using indicial::testing::slurp;
 
-fs::path& scratch_holder() {
-  static fs::path dir;
-  return dir;
-}
-
-// A fresh directory under /tmp for this process, removed at exit (kept when the environment
-// variable INDICIAL_KEEP_TEST_FILES is set, for debugging).
-const fs::path& scratch() {
-  static const fs::path dir = [] {
-    char tmpl[] = "/tmp/indicial-test-fit-cli-XXXXXX";
-    const char* d = ::mkdtemp(tmpl);
-    REQUIRE(d != nullptr);
-    scratch_holder() = fs::path(d);
-    if (std::getenv("INDICIAL_KEEP_TEST_FILES") == nullptr) {
-      std::atexit([] {
-        std::error_code ec;
-        fs::remove_all(scratch_holder(), ec);
-      });
-    }
-    return fs::path(d);
-  }();
-  return dir;
-}
+const fs::path& scratch() { return indicial::testing::scratch_directory("fit-cli"); }
 
 Run run_cli(const std::string& args) { return indicial::testing::run_indicial(args, scratch()); }
 

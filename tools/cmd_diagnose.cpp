@@ -1,7 +1,7 @@
 // `indicial diagnose`: the missing-effect workflow (fitter/include/indicial/fitter/diagnose.hpp).
 //
 //   indicial diagnose EXPERIMENT.toml --out DIR [--force] [--alpha 0.01] [--max-steps N]
-//                     [--knot-spacing-deg D] [--no-plots] [--gnuplot EXE]
+//                     [--knot-spacing-deg D] [--no-plots] [--gnuplot EXE] [--quiet]
 //
 // Writes DIR/diagnosis.json, DIR/model.coef (the final model), DIR/report.md and DIR/plots/.
 // Exit status: 0 done (whatever the verdict, "none" included); 1 bad input (one line
@@ -23,31 +23,44 @@ struct DiagnoseCliOptions {
   std::string out;
   bool force = false;
   bool no_plots = false;
+  bool quiet = false;
   std::string gnuplot = "gnuplot";
   indicial::DiagnoseOptions diag;
 };
 
-void run_diagnose(const DiagnoseCliOptions& o, const std::string& command_line) {
+void run_diagnose(const DiagnoseCliOptions& o) {
   using namespace indicial;
   if (o.out.empty()) throw InputError("--out", 0, "an output directory is required");
   if (!(o.diag.alpha > 0.0 && o.diag.alpha < 1.0))
     throw InputError("--alpha", 0, "the significance level must be in (0, 1)");
   if (o.diag.max_steps < 0) throw InputError("--max-steps", 0, "must be >= 0");
   if (!(o.diag.knot_spacing_deg > 0.0)) throw InputError("--knot-spacing-deg", 0, "must be > 0");
-  const Experiment e = load_experiment(o.experiment);
-  for (const std::string& w : runtime_limit_warnings(e)) std::fprintf(stderr, "indicial: warning: %s\n", w.c_str());
+  const tools::StageClock clock("diagnose", o.quiet ? tools::Verbosity::quiet : tools::Verbosity::progress);
+  Experiment e;
+  clock.stage("reading the experiment and its runs", [&] { e = load_experiment(o.experiment); });
+  ReportOptions ro;
+  ro.warnings = tools::experiment_warnings(e);
+  for (const std::string& w : runtime_limit_warnings(e)) ro.warnings.push_back(w);
+  tools::print_warnings(ro.warnings);
   const Overwrite overwrite = o.force ? Overwrite::replace : Overwrite::refuse;
   { OutputDir probe(o.out, overwrite); }  // refuse a non-empty DIR before the long part
-  const DiagnoseResult d = diagnose_experiment(e, o.diag);
+  DiagnoseResult d;
+  clock.stage("diagnosing (fits of every candidate effect, round by round)",
+              [&] { d = diagnose_experiment(e, o.diag); });
   // Never write (or exit 0 with) a model the runtime refuses: one line, nothing written.
-  const RuntimeAcceptance accepted = require_runtime_accepts(d.fits.back().model, o.out + "/model.coef", ModelFile::to_write);
-  if (accepted.capacity == RuntimeCapacity::fit_capacity_only)
-    std::fprintf(stderr, "indicial: warning: %s/model.coef: %s\n", o.out.c_str(), accepted.reason.c_str());
-  ReportOptions ro;
+  const RuntimeAcceptance accepted =
+      require_runtime_accepts(d.fits.back().model, o.out + "/model.coef", ModelFile::to_write);
+  if (accepted.capacity == RuntimeCapacity::fit_capacity_only) {
+    ro.warnings.push_back(o.out + "/model.coef: " + accepted.reason);
+    tools::print_warnings({ro.warnings.back()});
+  }
   ro.plots = o.no_plots ? PlotRequest::none : PlotRequest::gnuplot;
   ro.gnuplot = o.gnuplot;
-  ro.command_line = command_line;
-  const DiagnoseOutputs w = write_diagnose_outputs(d, e, o.diag, o.out, overwrite, ro);
+  ro.command_line = tools::invocation();
+  ro.provenance = experiment_provenance(e, tools::invocation());
+  DiagnoseOutputs w;
+  clock.stage("writing the outputs (runtime check, report, plots)",
+              [&] { w = write_diagnose_outputs(d, e, o.diag, o.out, overwrite, ro); });
   std::printf("diagnose: %s: initial fit error %.6g, noise estimate %.6g\n", o.experiment.c_str(),
               d.initial_fit_error, d.noise.sigma);
   for (const DiagnoseStep& s : d.steps)
@@ -85,12 +98,9 @@ const indicial::tools::RegisterCommand register_diagnose([](CLI::App& app) {
   sub->add_option("--knot-spacing-deg", opt->diag.knot_spacing_deg,
                   "knot scan grid spacing in degrees of the model angle (default 5)");
   sub->add_flag("--no-plots", opt->no_plots, "do not run gnuplot");
+  sub->add_flag("--quiet", opt->quiet, "no progress lines on stderr (warnings and errors are still printed)");
   sub->add_option("--gnuplot", opt->gnuplot, "gnuplot executable (default: gnuplot on PATH)");
-  sub->callback([opt]() {
-    std::string cl = "indicial diagnose " + opt->experiment + " --out " + opt->out;
-    if (opt->force) cl += " --force";
-    run_diagnose(*opt, cl);
-  });
+  sub->callback([opt]() { run_diagnose(*opt); });
 });
 
 }  // namespace

@@ -3,6 +3,11 @@
 //
 //   indicial fit EXPERIMENT.toml --out DIR [--force] [--f-to-enter F] [--f-to-remove F]
 //                [--max-iterations N] [--state-derivative smoothed|modulating] [--no-plots]
+//                [--quiet]
+//
+// Warnings (input warnings of the experiment, and a fit error far above the data's noise
+// level) go to stderr as "indicial: warning: ..." lines and into fit.json "warnings"; a
+// stage that runs past 2 s gets progress lines on stderr (not with --quiet).
 //
 // Exit status (also in --help and the README):
 //   0  converged (or the iteration limit was reached: a "warning:" line says so; the best
@@ -33,6 +38,7 @@ struct FitCliOptions {
   std::string out;
   bool force = false;
   bool no_plots = false;
+  bool quiet = false;
   std::string gnuplot = "gnuplot";
   std::string state_derivative = "smoothed";
   indicial::FitOptions fit;
@@ -41,8 +47,9 @@ struct FitCliOptions {
 // Exit codes of `indicial fit` when outputs were written (see the file comment).
 enum class FitExit : int { ok = 0, diverged = 4, rank_deficient = 5 };
 
-void run_fit(const FitCliOptions& o, const std::string& command_line) {
+void run_fit(const FitCliOptions& o) {
   using namespace indicial;
+  using indicial::tools::print_warnings;
   if (o.out.empty()) throw InputError("--out", 0, "an output directory is required");
   FitOptions fo = o.fit;
   if (o.state_derivative == "smoothed") fo.state_derivative = StateDerivative::smoothed_difference;
@@ -54,21 +61,32 @@ void run_fit(const FitCliOptions& o, const std::string& command_line) {
     throw InputError("--f-to-enter", 0, "need F to enter >= F to remove > 0");
   if (fo.max_iterations < 1) throw InputError("--max-iterations", 0, "must be at least 1");
 
-  const Experiment e = load_experiment(o.experiment);
-  for (const std::string& w : runtime_limit_warnings(e)) std::fprintf(stderr, "indicial: warning: %s\n", w.c_str());
+  const tools::StageClock clock("fit", o.quiet ? tools::Verbosity::quiet : tools::Verbosity::progress);
+  Experiment e;
+  clock.stage("reading the experiment and its runs", [&] { e = load_experiment(o.experiment); });
+  ReportOptions ro;
+  ro.warnings = tools::experiment_warnings(e);
+  for (const std::string& w : runtime_limit_warnings(e)) ro.warnings.push_back(w);
+  print_warnings(ro.warnings);
   // Refuse a non-empty DIR before the (possibly long) fit, not after it.
   const Overwrite overwrite = o.force ? Overwrite::replace : Overwrite::refuse;
   { OutputDir probe(o.out, overwrite); }
-  const FitResult r = fit_experiment(e, fo);
+  FitResult r;
+  clock.stage("fitting (equation error, stepwise, output error)", [&] { r = fit_experiment(e, fo); });
   // Never write (or exit 0 with) a model the runtime refuses: one line, nothing written.
   const RuntimeAcceptance accepted = require_runtime_accepts(r.model, o.out + "/model.coef", ModelFile::to_write);
+  std::vector<std::string> after_fit = fit_warnings(r, e);
   if (accepted.capacity == RuntimeCapacity::fit_capacity_only)
-    std::fprintf(stderr, "indicial: warning: %s/model.coef: %s\n", o.out.c_str(), accepted.reason.c_str());
-  ReportOptions ro;
+    after_fit.push_back(o.out + "/model.coef: " + accepted.reason);
+  print_warnings(after_fit);
+  ro.warnings.insert(ro.warnings.end(), after_fit.begin(), after_fit.end());
   ro.plots = o.no_plots ? PlotRequest::none : PlotRequest::gnuplot;
   ro.gnuplot = o.gnuplot;
-  ro.command_line = command_line;
-  const FitOutputs w = write_fit_outputs(r, e, fo, o.out, overwrite, ro);
+  ro.command_line = tools::invocation();
+  ro.provenance = experiment_provenance(e, tools::invocation());
+  FitOutputs w;
+  clock.stage("writing the outputs (runtime check, report, plots)",
+              [&] { w = write_fit_outputs(r, e, fo, o.out, overwrite, ro); });
 
   const OutputErrorSummary& oe = r.output_error;
   std::size_t samples = 0;
@@ -135,12 +153,9 @@ const indicial::tools::RegisterCommand register_fit([](CLI::App& app) {
   sub->add_option("--state-derivative", opt->state_derivative,
                   "equation error's y_E': smoothed (Savitzky-Golay, default) or modulating (ref. 12)");
   sub->add_flag("--no-plots", opt->no_plots, "do not run gnuplot");
+  sub->add_flag("--quiet", opt->quiet, "no progress lines on stderr (warnings and errors are still printed)");
   sub->add_option("--gnuplot", opt->gnuplot, "gnuplot executable (default: gnuplot on PATH)");
-  sub->callback([opt]() {
-    std::string cl = "indicial fit " + opt->experiment + " --out " + opt->out;
-    if (opt->force) cl += " --force";
-    run_fit(*opt, cl);
-  });
+  sub->callback([opt]() { run_fit(*opt); });
 });
 
 }  // namespace

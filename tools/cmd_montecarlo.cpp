@@ -5,7 +5,7 @@
 //
 // Writes DIR/montecarlo.json and DIR/montecarlo.md (fitter/include/indicial/fitter/montecarlo.hpp
 // says what is computed). Progress goes to stderr: a live counter when stderr is a terminal,
-// otherwise one line every 10 %.
+// otherwise one line every 10 %; none with --quiet.
 #include <unistd.h>
 
 #include <chrono>
@@ -25,6 +25,7 @@ struct MonteCarloCli {
   std::string out;
   std::string noise = "white";
   bool force = false;
+  bool quiet = false;
 };
 
 void run_montecarlo(const MonteCarloCli& o) {
@@ -56,7 +57,7 @@ void run_montecarlo(const MonteCarloCli& o) {
     }
     std::fflush(stderr);
   };
-  const MonteCarloResult res = run_monte_carlo(mc, progress);
+  const MonteCarloResult res = o.quiet ? run_monte_carlo(mc) : run_monte_carlo(mc, progress);
 
   OutputDir out(o.out, overwrite);
   const std::string md = monte_carlo_markdown(res);
@@ -94,6 +95,7 @@ const indicial::tools::RegisterCommand register_montecarlo([](CLI::App& app) {
   sub->add_option("--threads", opt->mc.threads, "worker threads (default 2)");
   sub->add_option("--out", opt->out, "output directory (refused if not empty, unless --force)")->required();
   sub->add_flag("--force", opt->force, "replace the contents of a non-empty output directory");
+  sub->add_flag("--quiet", opt->quiet, "no progress lines on stderr");
   sub->callback([opt]() { run_montecarlo(*opt); });
 });
 

@@ -44,6 +44,10 @@ void run_predict(const PredictOptions& o) {
   using namespace indicial;
   const Overwrite overwrite = o.force ? Overwrite::replace : Overwrite::refuse;
   if (o.out.empty()) throw InputError("--out", 0, "an output CSV path is required");
+  for (const std::string& f : {o.model_path, o.data_path})
+    if (std::filesystem::is_directory(f))
+      throw InputError(f + " is a directory, expected a " +
+                                 std::string(f == o.model_path ? "coefficient file (.coef)" : "CSV file"));
   const auto model = std::make_unique<ModelSet<double, FitCapacity>>(read_model_file(o.model_path));
   if (o.airspeed_mps < 0.0) throw InputError("--airspeed-mps", 0, "must be > 0");
   const double airspeed = o.airspeed_mps > 0.0 ? o.airspeed_mps : model->airspeed_mps;

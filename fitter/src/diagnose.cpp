@@ -893,9 +893,9 @@ DiagnoseOutputs write_diagnose_outputs(const DiagnoseResult& d, const Experiment
   DiagnoseOutputs w;
   w.dir = dir;
   const FitResult& final_fit = d.fits.back();
-  w.model_coef = model_coef_text(final_fit, "model.coef");
+  w.model_coef = with_provenance_header(model_coef_text(final_fit, "model.coef"), ro.provenance);
   w.runtime = replay_in_runtime(final_fit, d.experiment, w.model_coef);
-  w.diagnosis_json = diagnosis_json(d, e, o, &w.runtime).dump(2) + "\n";
+  w.diagnosis_json = with_provenance_and_warnings(diagnosis_json(d, e, o, &w.runtime), ro).dump(2) + "\n";
   const PlotSet ps = make_plots(d, out, ro);
   w.plots = ps.status;
   w.plot_message = ps.message;

@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "indicial/fitter/diagnose.hpp"
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/io.hpp"
 #include "indicial/runtime.hpp"
@@ -189,6 +190,25 @@ std::string estimates_text_table(const std::vector<ParameterEstimate>& parameter
 // ------------------------------------------------------------------------------------------
 // fit.json
 // ------------------------------------------------------------------------------------------
+nlohmann::json with_provenance_and_warnings(nlohmann::json j, const ReportOptions& ro) {
+  if (!ro.provenance.version.empty()) j["provenance"] = provenance_json(ro.provenance);
+  j["warnings"] = ro.warnings;
+  return j;
+}
+
+std::vector<std::string> fit_warnings(const FitResult& r, const Experiment& e) {
+  std::vector<std::string> w;
+  const NoiseEstimate noise = estimate_noise_level(r.runs);
+  if (std::isfinite(r.fit_error) && noise.sigma > 0.0 && r.fit_error > kFitErrorNoiseRatio * noise.sigma) {
+    w.push_back(fmt::format(
+        "{}: the fit error s(v) = {:.4g} is {:.1f} times the noise level estimated from the data "
+        "({:.4g}, from the residuals' second differences; more than {:g} times means the model misses an "
+        "effect or the input is wrong: check the angle units and columns, or run `indicial diagnose`)",
+        e.path, r.fit_error, r.fit_error / noise.sigma, noise.sigma, kFitErrorNoiseRatio));
+  }
+  return w;
+}
+
 namespace {
 
 nlohmann::json parameter_json(const ParameterEstimate& p) {
@@ -334,6 +354,17 @@ nlohmann::json fit_json(const FitResult& r, const Experiment& e, const FitOption
 // ------------------------------------------------------------------------------------------
 // Plots (gnuplot) and report.md
 // ------------------------------------------------------------------------------------------
+std::vector<std::size_t> thinned_indices(std::size_t n, std::size_t max_points) {
+  std::vector<std::size_t> idx;
+  if (n == 0) return idx;
+  // Why max_points - 1: the last sample is always kept, so the stride leaves room for it.
+  const std::size_t slots = std::max<std::size_t>(max_points, 2) - 1;
+  const std::size_t stride = n <= max_points ? 1 : (n - 1 + slots - 1) / slots;
+  for (std::size_t k = 0; k < n; k += stride) idx.push_back(k);
+  if (idx.back() != n - 1) idx.push_back(n - 1);
+  return idx;
+}
+
 namespace {
 
 constexpr double kDegPerRad = 57.29577951308232;
@@ -393,8 +424,10 @@ PlotSet make_plots(const FitResult& r, const Experiment& e, const OutputDir& out
   for (std::size_t ri = 0; ri < r.runs.size(); ++ri) {
     const RunSeries& s = r.runs[ri];
     const std::string dat = fmt::format("run{}.dat", ri + 1);
-    std::string text = "# time_s measured model quasi_steady residual x_deg\n";
-    for (std::size_t k = 0; k < s.time_s.size(); ++k) {
+    const std::vector<std::size_t> shown = thinned_indices(s.time_s.size());
+    std::string text = fmt::format("# time_s measured model quasi_steady residual x_deg ({} of {} samples)\n",
+                                   shown.size(), s.time_s.size());
+    for (std::size_t k : shown) {
       text += fmt::format("{} {} {} {} {} {}\n", s.time_s[k], s.measured[k], s.model[k],
                           s.quasi_steady[k], s.residual[k], s.x_rad[k] * kDegPerRad);
     }
@@ -564,6 +597,12 @@ std::string report_markdown(const FitResult& r, const Experiment& e, const FitOp
 
   m += "## Plots\n\n";
   if (ps.status != PlotStatus::written) m += fmt::format("**No plots: {}.**\n\n", ps.message);
+  for (const RunSeries& s : r.runs) {
+    if (s.time_s.size() <= kMaxPlotPoints) continue;
+    m += fmt::format("Run plots show at most {} points per curve (every k-th sample of a longer run; "
+                     "the statistics above use every sample).\n\n", kMaxPlotPoints);
+    break;
+  }
   m += "### a(x), b1(x), C_aq(x)\n\n";
   m += image(ps, "plots/a_band.png", "a(x) with +/- 2 sigma bands");
   m += image(ps, "plots/b1_band.png", "b1(x) with +/- 2 sigma bands");
@@ -673,14 +712,14 @@ FitOutputs write_fit_outputs(const FitResult& r, const Experiment& e, const FitO
   FitOutputs w;
   w.dir = dir;
   // Everything that can fail on the model comes before the output directory is touched.
-  w.model_coef = model_coef_text(r, e.path);
+  w.model_coef = with_provenance_header(model_coef_text(r, e.path), ro.provenance);
   w.runtime = replay_in_runtime(r, e, w.model_coef);
   OutputDir out(dir, overwrite);
   const PlotSet ps = make_plots(r, e, out, ro);
   w.plots = ps.status;
   w.plot_message = ps.message;
   w.images = ps.images;
-  nlohmann::json j = fit_json(r, e, o, &w.runtime);
+  nlohmann::json j = with_provenance_and_warnings(fit_json(r, e, o, &w.runtime), ro);
   if (!ro.experiment_display.empty()) j["experiment"]["path"] = ro.experiment_display;
   j["plots"] = {{"status", plot_status_name(ps.status)}, {"message", ps.message}, {"images", ps.images}};
   w.fit_json = j.dump(2) + "\n";

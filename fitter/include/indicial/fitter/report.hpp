@@ -7,18 +7,19 @@
 //
 //   fit.json    the contract fields (converged, iterations, fit_error, parameters with name,
 //               value, cr_bound, cr_bound_colored; two_stage when rotary.estimate), extended
-//               with termination, unidentifiable parameters, the equation-error start values,
+//               with provenance (provenance.hpp), warnings, termination, unidentifiable parameters, the equation-error start values,
 //               the stepwise log, the output-error iteration log, per-run fit errors, the
 //               options used, the runtime check and elapsed_s. A bound that the information
 //               matrix cannot determine is written as null with "identifiable": false.
 //   model.coef  the identified model, written by the runtime's own writer (write_coef_file),
-//               then loaded back by the runtime's Predictor and replayed over every run: the
+//               with the provenance as `#` comment lines before the body, then loaded back by the runtime's Predictor and replayed over every run: the
 //               largest difference from the fitter's model output is reported (same equations,
 //               so it is at rounding level).
 //   report.md   estimates with white and colored bounds, equation-error start values, the
 //               stepwise log, the output-error log and termination, the two-stage log, and
 //               plots made by gnuplot (pngcairo): measured vs model per run with the
-//               quasi-steady curve, residuals per run, a(x) and b1(x) with +/- 2 sigma bands,
+//               quasi-steady curve, residuals per run (at most kMaxPlotPoints points per
+//               curve: longer runs are thinned, and report.md says so), a(x) and b1(x) with +/- 2 sigma bands,
 //               C_aq(x) (with its band when estimated). Images live in DIR/plots/ and are
 //               referenced by relative paths; the gnuplot script and data files stay beside
 //               them so a plot can be restyled and regenerated (`cd DIR/plots && gnuplot plots.gp`).
@@ -58,6 +59,7 @@
 #include "indicial/fitter/experiment.hpp"
 #include "indicial/fitter/fit.hpp"
 #include "indicial/fitter/output.hpp"
+#include "indicial/fitter/provenance.hpp"
 
 namespace indicial {
 
@@ -97,7 +99,22 @@ struct ReportOptions {
   std::string experiment_display;   // how report.md and fit.json name the experiment file
                                     // (default: Experiment::path); run paths are shown
                                     // relative to the experiment file's directory
+  Provenance provenance;            // fit.json / diagnosis.json "provenance" and the model.coef
+                                    // header comments (none when provenance.version is empty)
+  std::vector<std::string> warnings;  // one-line warnings: fit.json / diagnosis.json "warnings"
 };
+
+// j with "provenance" (when ro.provenance has a version) and "warnings" (always, maybe empty)
+// set from ro: the fields every JSON output of a fit or diagnose carries.
+nlohmann::json with_provenance_and_warnings(nlohmann::json j, const ReportOptions& ro);
+
+// Warnings about a finished fit, one line each (empty when there is nothing to say):
+//  * the fit error s(v) more than kFitErrorNoiseRatio (3) times the noise level estimated
+//    from the data (estimate_noise_level, diagnose.hpp: the second difference of each run's
+//    residual, which passes white noise and removes a smooth model error). A ratio that high
+//    means a missing effect or wrong input (units, columns), not noise.
+inline constexpr double kFitErrorNoiseRatio = 3.0;
+std::vector<std::string> fit_warnings(const FitResult& r, const Experiment& e);
 
 // What one gnuplot run made.
 struct PlotSet {
@@ -150,6 +167,14 @@ std::string estimates_text_table(const std::vector<ParameterEstimate>& parameter
 
 // Root-mean-square of a run's residuals (measured - model); NaN for an empty run.
 double run_fit_error(const RunSeries& s);
+
+// Plot data thinning: a curve never gets more than kMaxPlotPoints points (a 160,000-sample
+// run would otherwise make megabytes of data and gnuplot would spend seconds drawing points a
+// 960-pixel image cannot show). thinned_indices(n) returns every k-th index from 0, k =
+// ceil(n / max_points), plus n - 1: all of them when n <= max_points. Shared by the fit and
+// diagnose plots.
+inline constexpr std::size_t kMaxPlotPoints = 5000;
+std::vector<std::size_t> thinned_indices(std::size_t n, std::size_t max_points = kMaxPlotPoints);
 
 // The number as JSON: null when it is not finite (JSON has no NaN or Inf).
 nlohmann::json finite_or_null(double v);

@@ -1,0 +1,310 @@
+// The command line's conventions (tools/main.cpp): --version, usage errors as one line with
+// exit 1 (never CLI11's 105-114), the nearest subcommand for a typo, predict on a directory;
+// provenance (SHA-256 against known digests and coreutils' sha256sum), warnings on stderr and
+// in fit.json, progress lines (StageClock), `indicial init`.
+#include <doctest/doctest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <thread>
+
+#include "../tools/command.hpp"
+#include "cli_test_support.hpp"
+#include "indicial/fitter/error.hpp"
+#include "indicial/fitter/provenance.hpp"
+#include "indicial/fitter/report.hpp"
+#include "indicial/runtime.hpp"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+using indicial::testing::CliRun;
+using indicial::testing::slurp;
+
+const fs::path& scratch() { return indicial::testing::scratch_directory("cli-conventions"); }
+CliRun run_cli(const std::string& args) { return indicial::testing::run_indicial(args, scratch()); }
+
+std::size_t count_lines(const std::string& s) {
+  std::size_t n = 0;
+  for (char c : s) n += (c == '\n');
+  return n;
+}
+
+// Exit 1, nothing on stdout, exactly one line on stderr starting "indicial: error: " and
+// containing every one of `needles`.
+void check_usage_error(const CliRun& r, std::initializer_list<const char*> needles) {
+  CHECK(r.exit_code == 1);
+  CHECK(r.out.empty());
+  CHECK(count_lines(r.err) == 1);
+  CHECK(r.err.rfind("indicial: error: ", 0) == 0);
+  for (const char* n : needles) {
+    CAPTURE(n);
+    CHECK(r.err.find(n) != std::string::npos);
+  }
+}
+
+// A simulated data set (tailless Model I, SNR 40), made once.
+const fs::path& data_dir() {
+  static const fs::path dir = [] {
+    const fs::path d = scratch() / "data";
+    const CliRun r = run_cli("simulate --case tailless-model-1 --out '" + d.string() + "' --snr 40 --seed 21");
+    REQUIRE_MESSAGE(r.exit_code == 0, r.err);
+    return d;
+  }();
+  return dir;
+}
+
+// coreutils' sha256sum of a file: an implementation independent of the one under test.
+std::string coreutils_sha256(const fs::path& p) {
+  const std::string cmd = "sha256sum '" + p.string() + "'";
+  FILE* pipe = ::popen(cmd.c_str(), "r");
+  REQUIRE(pipe != nullptr);
+  char buf[65] = {};
+  const std::size_t n = std::fread(buf, 1, 64, pipe);
+  ::pclose(pipe);
+  REQUIRE(n == 64);
+  return std::string(buf, 64);
+}
+
+// A copy of the data set whose measured Cm carries a 3 Hz disturbance of amplitude 0.03 (about
+// 8 noise sigmas): outside the model class, so the fit error is several times the noise.
+fs::path disturbed_data() {
+  const fs::path d = scratch() / "disturbed";
+  fs::create_directories(d);
+  for (const auto& ent : fs::directory_iterator(data_dir())) {
+    const fs::path to = d / ent.path().filename();
+    if (ent.path().extension() != ".csv") {
+      fs::copy_file(ent.path(), to, fs::copy_options::overwrite_existing);
+      continue;
+    }
+    std::ifstream in(ent.path());
+    std::ofstream out(to, std::ios::trunc);
+    std::string line;
+    int cm_column = -1;
+    while (std::getline(in, line)) {
+      if (line.empty() || line[0] == '#') {
+        out << line << "\n";
+        continue;
+      }
+      std::vector<std::string> cells;
+      std::stringstream ss(line);
+      for (std::string c; std::getline(ss, c, ',');) cells.push_back(c);
+      if (cm_column < 0) {
+        for (std::size_t i = 0; i < cells.size(); ++i)
+          if (cells[i] == "Cm") cm_column = static_cast<int>(i);
+        REQUIRE(cm_column >= 0);
+      } else {
+        const double t = std::stod(cells[0]);
+        const double cm = std::stod(cells[static_cast<std::size_t>(cm_column)]);
+        cells[static_cast<std::size_t>(cm_column)] = std::to_string(cm + 0.03 * std::sin(2.0 * M_PI * 3.0 * t));
+      }
+      for (std::size_t i = 0; i < cells.size(); ++i) out << (i ? "," : "") << cells[i];
+      out << "\n";
+    }
+  }
+  return d;
+}
+
+}  // namespace
+
+TEST_CASE("SHA-256 (OpenSSL) gives the FIPS 180-2 example digests") {
+  CHECK(indicial::sha256_hex("") == "e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855");
+  CHECK(indicial::sha256_hex("abc") == "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
+  CHECK(indicial::sha256_hex("abcdbcdecdefdefgefghfghighijhijkijkljklmklmnlmnomnopnopq") ==
+        "248d6a61d20638b8e5c026930c3e6039a33ce45964ff2167f6ecedd419db06c1");
+  CHECK_THROWS_AS(indicial::sha256_file(scratch() / "no-such-file"), indicial::InputError);
+}
+
+TEST_CASE("fit records its provenance in fit.json and model.coef; the file stays valid") {
+  const fs::path exp = data_dir() / "experiment.toml";
+  const fs::path out1 = scratch() / "prov-fit1";
+  const CliRun r = run_cli("fit '" + exp.string() + "' --out '" + out1.string() + "' --no-plots");
+  REQUIRE_MESSAGE(r.exit_code == 0, r.err);
+  const nlohmann::json j = nlohmann::json::parse(slurp(out1 / "fit.json"));
+  REQUIRE(j.contains("provenance"));
+  const nlohmann::json& p = j["provenance"];
+  CHECK(p["version"] == indicial::tool_version());
+  CHECK(p["commit"] == indicial::tool_commit());
+  CHECK(p["command_line"].get<std::string>().find("indicial fit ") == 0);
+  CHECK(p["command_line"].get<std::string>().find("--no-plots") != std::string::npos);
+  REQUIRE(p["inputs"].size() == 4);  // the experiment and its three runs
+  CHECK(p["inputs"][0]["role"] == "experiment");
+  for (const auto& in : p["inputs"]) {
+    CAPTURE(in.dump());
+    CHECK(in["sha256"] == coreutils_sha256(in["path"].get<std::string>()));
+  }
+  CHECK(j["warnings"].is_array());
+  CHECK(j["warnings"].empty());  // a clean fit near the noise level warns of nothing
+  CHECK(r.err.find("warning") == std::string::npos);
+
+  // model.coef: provenance as comments, checksum recomputed, loads in the runtime and in `coef check`.
+  const std::string coef = slurp(out1 / "model.coef");
+  CHECK(coef.rfind("# indicial " + std::string(indicial::tool_version()), 0) == 0);
+  CHECK(coef.find("# input run sha256 " + p["inputs"][1]["sha256"].get<std::string>()) != std::string::npos);
+  auto predictor = std::make_unique<indicial::Predictor<>>();
+  indicial::ParseDiagnostic diag;
+  CHECK_MESSAGE(predictor->load(coef.data(), coef.size(), &diag) == indicial::LoadStatus::ok, diag.reason);
+  const CliRun check = run_cli("coef check '" + (out1 / "model.coef").string() + "'");
+  CHECK_MESSAGE(check.exit_code == 0, check.err);
+
+  // Another command line, same inputs: the same content apart from provenance.
+  const fs::path out2 = scratch() / "prov-fit2";
+  const CliRun r2 = run_cli("fit '" + exp.string() + "' --no-plots --quiet --out '" + out2.string() + "'");
+  REQUIRE_MESSAGE(r2.exit_code == 0, r2.err);
+  const std::string coef2 = slurp(out2 / "model.coef");
+  CHECK(coef2 != coef);
+  CHECK(indicial::strip_provenance_header(coef2) == indicial::strip_provenance_header(coef));
+  CHECK(indicial::strip_provenance_header(coef).rfind("indicial-coef 1\n", 0) == 0);
+}
+
+TEST_CASE("diagnose records its provenance in diagnosis.json and model.coef") {
+  const fs::path out = scratch() / "prov-diagnose";
+  const CliRun r = run_cli("diagnose '" + (data_dir() / "experiment.toml").string() + "' --out '" + out.string() +
+                           "' --no-plots --max-steps 1");
+  REQUIRE_MESSAGE(r.exit_code == 0, r.err);
+  const nlohmann::json j = nlohmann::json::parse(slurp(out / "diagnosis.json"));
+  REQUIRE(j.contains("provenance"));
+  CHECK(j["provenance"]["inputs"].size() == 4);
+  CHECK(j["provenance"]["inputs"][0]["sha256"] == coreutils_sha256(data_dir() / "experiment.toml"));
+  CHECK(j["warnings"].is_array());
+  const std::string coef = slurp(out / "model.coef");
+  CHECK(coef.rfind("# indicial ", 0) == 0);
+  auto predictor = std::make_unique<indicial::Predictor<>>();
+  CHECK(predictor->load(coef.data(), coef.size()) == indicial::LoadStatus::ok);
+}
+
+TEST_CASE("a fit error far above the data's noise level warns on stderr and in fit.json") {
+  const fs::path d = disturbed_data();
+  const fs::path out = scratch() / "warned-fit";
+  const CliRun r = run_cli("fit '" + (d / "experiment.toml").string() + "' --out '" + out.string() + "' --no-plots");
+  REQUIRE_MESSAGE(r.exit_code == 0, r.err);
+  CHECK(r.err.find("indicial: warning: ") != std::string::npos);
+  CHECK(r.err.find("times the noise level estimated from the data") != std::string::npos);
+  const nlohmann::json j = nlohmann::json::parse(slurp(out / "fit.json"));
+  REQUIRE(j["warnings"].size() == 1);
+  CHECK(j["warnings"][0].get<std::string>().find("times the noise level") != std::string::npos);
+  // The measured ratio is well past the threshold (about 6 on these data).
+  CHECK(j["fit_error"].get<double>() > 3.0 * 0.0036);
+}
+
+TEST_CASE("--version prints the version and exits 0") {
+  const CliRun r = run_cli("--version");
+  CHECK(r.exit_code == 0);
+  CHECK(r.out.rfind("indicial 0.", 0) == 0);  // "indicial X.Y.Z[ (commit ...)]"
+  CHECK(count_lines(r.out) == 1);
+  CHECK(r.err.empty());
+}
+
+TEST_CASE("--help exits 0 and points to the formats documentation") {
+  for (const char* args : {"--help", "fit --help", "predict --help"}) {
+    CAPTURE(args);
+    const CliRun r = run_cli(args);
+    CHECK(r.exit_code == 0);
+    CHECK(r.out.find("docs/formats.md") != std::string::npos);
+  }
+}
+
+TEST_CASE("a mistyped subcommand names the nearest one, one line, exit 1") {
+  const CliRun typo = run_cli("fitt some.toml");
+  check_usage_error(typo, {"unknown subcommand 'fitt'", "did you mean 'fit'?"});
+  check_usage_error(run_cli("dignose x.toml --out d"), {"'dignose'", "did you mean 'diagnose'?"});
+  // Nothing near: the list of subcommands instead of a guess.
+  check_usage_error(run_cli("zzzzzzzzzz"), {"unknown subcommand 'zzzzzzzzzz'", "subcommands:", "predict"});
+}
+
+TEST_CASE("no subcommand, a missing required option, an unexpected argument: one line, exit 1") {
+  check_usage_error(run_cli(""), {"subcommand is required"});
+  check_usage_error(run_cli("fit some.toml"), {"fit:", "--out is required", "indicial fit --help"});
+  check_usage_error(run_cli("fit"), {"experiment is required"});
+  check_usage_error(run_cli("fit a.toml --out d surplus"), {"not expected", "surplus"});
+  check_usage_error(run_cli("predict m.coef d.csv --out p.csv --no-such-option"), {"--no-such-option"});
+  check_usage_error(run_cli("fit a.toml --out d --stepwise-refinement sometimes"), {"--stepwise-refinement"});
+  check_usage_error(run_cli("coef chek m.coef"), {"coef"});
+}
+
+TEST_CASE("predict on a directory says so") {
+  const fs::path dir = scratch() / "a-directory";
+  fs::create_directories(dir);
+  const fs::path model = fs::path(INDICIAL_SOURCE_DIR) / "examples" / "tailless-model-1.coef";
+  const CliRun r = run_cli("predict '" + model.string() + "' '" + dir.string() + "' --out '" +
+                           (scratch() / "p.csv").string() + "'");
+  check_usage_error(r, {"a-directory is a directory, expected a CSV file"});
+  CHECK_FALSE(fs::exists(scratch() / "p.csv"));
+  const CliRun m = run_cli("predict '" + dir.string() + "' '" + model.string() + "' --out '" +
+                           (scratch() / "p.csv").string() + "'");
+  check_usage_error(m, {"is a directory, expected a coefficient file"});
+}
+
+TEST_CASE("plot data are thinned to at most kMaxPlotPoints points per curve") {
+  using indicial::thinned_indices;
+  CHECK(thinned_indices(0).empty());
+  CHECK(thinned_indices(3) == std::vector<std::size_t>{0, 1, 2});
+  CHECK(thinned_indices(indicial::kMaxPlotPoints).size() == indicial::kMaxPlotPoints);  // untouched
+  for (std::size_t n : {std::size_t{5001}, std::size_t{80004}, std::size_t{160000}, std::size_t{1234567}}) {
+    CAPTURE(n);
+    const std::vector<std::size_t> idx = thinned_indices(n);
+    CHECK(idx.size() <= indicial::kMaxPlotPoints);
+    CHECK(idx.size() >= indicial::kMaxPlotPoints / 2);  // thinned, not decimated away
+    CHECK(idx.front() == 0);
+    CHECK(idx.back() == n - 1);
+    bool uniform = true;  // one stride up to the last kept sample
+    for (std::size_t i = 1; i + 1 < idx.size(); ++i) uniform = uniform && idx[i] - idx[i - 1] == idx[1] - idx[0];
+    CHECK(uniform);
+  }
+}
+
+namespace {
+
+// What `fn` writes to stderr (fd 2), captured through a temporary file.
+template <class Fn>
+std::string captured_stderr(Fn&& fn) {
+  const fs::path f = scratch() / ("stderr-capture-" + std::to_string(::getpid()));
+  std::fflush(stderr);
+  const int saved = ::dup(2);
+  FILE* sink = std::fopen(f.c_str(), "w");
+  REQUIRE(sink != nullptr);
+  ::dup2(::fileno(sink), 2);
+  fn();
+  std::fflush(stderr);
+  ::dup2(saved, 2);
+  ::close(saved);
+  std::fclose(sink);
+  return slurp(f);
+}
+
+}  // namespace
+
+TEST_CASE("progress: a line per stage once the command runs past the threshold, none with --quiet") {
+  using indicial::tools::StageClock;
+  using indicial::tools::Verbosity;
+  using namespace std::chrono_literals;
+  const auto nap = [] { std::this_thread::sleep_for(250ms); };
+  // A short command prints nothing.
+  CHECK(captured_stderr([] {
+          const StageClock quick("fit", Verbosity::progress, 2000ms);
+          quick.stage("equation error", [] {});
+        }).empty());
+  // A stage running past the threshold is announced while it runs and when it ends; a later
+  // short stage of the same (now long) command gets its done line too.
+  const std::string err = captured_stderr([&] {
+    const StageClock clock("fit", Verbosity::progress, 100ms);
+    clock.stage("output error", nap);
+    clock.stage("report", [] {});
+  });
+  CHECK(err.find("fit: output error ...\n") != std::string::npos);
+  CHECK(err.find("fit: output error done (0.") != std::string::npos);
+  CHECK(err.find("fit: report done (0.0 s)\n") != std::string::npos);
+  CHECK(captured_stderr([&] {
+          const StageClock quiet("fit", Verbosity::quiet, 100ms);
+          quiet.stage("output error", nap);
+        }).empty());
+  // An exception passes through and stops the watchdog.
+  const StageClock failing("fit", Verbosity::quiet, 100ms);
+  CHECK_THROWS_AS(failing.stage("load", [] { throw std::runtime_error("bad"); }), std::runtime_error);
+}
