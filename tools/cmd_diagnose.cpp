@@ -55,11 +55,11 @@ void run_diagnose(const DiagnoseCliOptions& o) {
   clock.stage("diagnosing (fits of every candidate effect, round by round)",
               [&] { d = diagnose_experiment(e, o.diag); });
   // Never write (or exit 0 with) a model the runtime refuses: one line, nothing written.
-  const RuntimeAcceptance accepted = require_runtime_accepts(d.fits.back().model, o.out + "/model.coef", ModelFile::to_write);
+  const RuntimeAcceptance accepted =
+      require_runtime_accepts(d.fits.back().model, o.out + "/model.coef", ModelFile::to_write);
   if (accepted.capacity == RuntimeCapacity::fit_capacity_only) {
-    const std::string w = o.out + "/model.coef: " + accepted.reason;
-    tools::print_warnings({w});
-    ro.warnings.push_back(w);
+    ro.warnings.push_back(o.out + "/model.coef: " + accepted.reason);
+    tools::print_warnings({ro.warnings.back()});
   }
   ro.plots = o.no_plots ? PlotRequest::none : PlotRequest::gnuplot;
   ro.gnuplot = o.gnuplot;

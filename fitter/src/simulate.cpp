@@ -219,6 +219,7 @@ MotionSpec parse_motion_spec(const std::string& spec, Axis axis) {
 
 std::vector<double> motion_sample_times(const MotionSpec& m) {
   if (m.kind == MotionKind::samples) return m.time_s;
+  if (!m.output_times_s.empty()) return m.output_times_s;
   const double duration = m.kind == MotionKind::sine
                               ? m.cycles / m.freq_hz
                               : m.hold_before_s + std::abs(m.to_rad - m.from_rad) / m.rate_radps +
@@ -244,9 +245,14 @@ SimulatedRun simulate_reference(const TruthModel& model, const MotionSpec& motio
   for (int c = 0; c < nc; ++c) {
     offset[static_cast<std::size_t>(c) + 1] = offset[static_cast<std::size_t>(c)] + model.coefficients[c].n_lags;
   }
-  const double l_over_v = model.reference_length_m / model.airspeed_mps;
+  const double airspeed_mps = motion.airspeed_mps > 0.0 ? motion.airspeed_mps : model.airspeed_mps;
+  const double l_over_v = model.reference_length_m / airspeed_mps;
+  const double time_scale = airspeed_mps / model.airspeed_mps;
   const Axis axis = model.axis;
   const double a0 = model.alpha0_rad;
+  std::vector<double> delay_s(static_cast<std::size_t>(nc));
+  for (int c = 0; c < nc; ++c)
+    delay_s[static_cast<std::size_t>(c)] = delay_at_airspeed(model.coefficients[c].delay_s, model.airspeed_mps, airspeed_mps);
 
   auto rhs = [&](const State& y, State& dydt, double t) {
     double angle = 0, rate = 0, x = 0, xdot = 0;
@@ -256,13 +262,14 @@ SimulatedRun simulate_reference(const TruthModel& model, const MotionSpec& motio
       const auto& m = model.coefficients[c];
       double xf = x, xfdot = xdot;
       // Why the branch: only a delayed coefficient needs the motion at another time.
-      if (m.delay_s != 0.0) {
+      const double d = delay_s[static_cast<std::size_t>(c)];
+      if (d != 0.0) {
         double af = 0, rf = 0;
-        f.eval(t - m.delay_s, af, rf);
+        f.eval(t - d, af, rf);
         model_angle_and_rate(axis, a0, af, rf, xf, xfdot);
       }
       const auto o = static_cast<std::size_t>(offset[static_cast<std::size_t>(c)]);
-      lag_derivatives(m, x, xf, xfdot, 1.0, y.data() + o, dydt.data() + o);
+      lag_derivatives(m, x, xf, xfdot, time_scale, y.data() + o, dydt.data() + o);
     }
   };
 
@@ -271,8 +278,8 @@ SimulatedRun simulate_reference(const TruthModel& model, const MotionSpec& motio
   // Break points: the motion's kinks and, per delayed coefficient, the same kinks shifted.
   std::vector<double> breaks = f.kinks();
   for (int c = 0; c < nc; ++c) {
-    if (model.coefficients[c].delay_s == 0.0) continue;
-    const double d = model.coefficients[c].delay_s;
+    const double d = delay_s[static_cast<std::size_t>(c)];
+    if (d == 0.0) continue;
     breaks.push_back(f.start_time() + d);
     for (double k : f.kinks()) breaks.push_back(k + d);
   }

@@ -37,7 +37,8 @@
 //    part (eq. 12) = sum_j y_j. Noise is Gaussian (white by default; AR(1) or band-limited
 //    turbulence by NoiseModel) from std::mt19937_64(seed) and std::normal_distribution;
 //    streams are reproducible with one standard library.
-// 4. The model is simulated at its reference airspeed (time_scale = 1).
+// 4. The model is simulated at its reference airspeed (time_scale = 1) unless
+//    MotionSpec::airspeed_mps says otherwise (then time_scale = V / V_ref, as the runtime).
 #pragma once
 
 #include <cstdint>
@@ -132,6 +133,13 @@ struct MotionSpec {
   std::vector<double> time_s;
   std::vector<double> angle_rad;
   std::string source;  // where the samples came from (messages)
+  // The run's tunnel airspeed; 0: the model's reference airspeed. At V the model's b_j and con
+  // scale by V / V_ref, its delay by V_ref / V and the rotary term's l / V is at V (as the
+  // runtime does).
+  double airspeed_mps = 0.0;
+  // sine and ramp: when not empty, the output sample times (strictly increasing, from >= 0)
+  // instead of the uniform grid of dt_s -- e.g. a jittered, nonuniform log.
+  std::vector<double> output_times_s;
 };
 
 // Parses --motion: "sine:alpha0_deg=35,amp_deg=35,freq_hz=0.5,cycles=3,dt_s=0.01",
