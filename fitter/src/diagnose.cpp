@@ -67,8 +67,7 @@ NoiseEstimate estimate_noise_level(const std::vector<RunSeries>& runs) {
 
 namespace {
 
-using fit_detail::Term;
-using fit_detail::TermKind;
+using Term = ParamId;  // issue 11: fit_detail's terms are ParamIds now
 constexpr double kRadToDeg = 180.0 / M_PI;
 constexpr double kDegToRad = M_PI / 180.0;
 
@@ -85,10 +84,10 @@ std::string term_key(const Term& t) {
 std::vector<std::pair<std::string, std::string>> parameter_keys(const ModelConfig& m) {
   const fit_detail::UnsteadyStructure s = fit_detail::structure_from_config(m);
   std::vector<std::pair<std::string, std::string>> out;
-  for (const Term& t : fit_detail::structural_terms(s)) out.emplace_back(t.name, term_key(t));
-  for (const Term& t : fit_detail::rotary_terms(s.rotary)) out.emplace_back(t.name, term_key(t));
+  for (const Term& t : fit_detail::structural_terms(s)) out.emplace_back(parameter_name(t), term_key(t));
+  for (const Term& t : fit_detail::rotary_terms(s.rotary)) out.emplace_back(parameter_name(t), term_key(t));
   for (const Term& t : fit_detail::static_corr_terms(s.static_corr))
-    out.emplace_back(t.name, term_key(t));
+    out.emplace_back(parameter_name(t), term_key(t));
   return out;
 }
 
@@ -456,13 +455,13 @@ Experiment working_experiment(const Experiment& e, const FitResult& first) {
   Experiment w = e;
   if (e.model.structure == StructureMode::stepwise) {
     fit_detail::UnsteadyStructure pool = fit_detail::structure_from_config(e.model);
-    std::vector<std::string> names;
-    for (const ParameterEstimate& p : first.parameters) names.push_back(p.name);
-    const fit_detail::UnsteadyStructure s = fit_detail::select_terms(pool, names);
+    std::vector<ParamId> ids;
+    for (const ParameterEstimate& p : first.parameters) ids.push_back(p.id);
+    const fit_detail::UnsteadyStructure s = fit_detail::select_terms(pool, ids);
     w.model.a.powers = s.a.powers;
     w.model.a.knots_rad = s.a.knots_rad;
-    w.model.b1.powers = s.b1.powers;
-    w.model.b1.knots_rad = s.b1.knots_rad;
+    w.model.b1.powers = s.b[0].powers;
+    w.model.b1.knots_rad = s.b[0].knots_rad;
     w.model.bias = s.con == fit_detail::Bias::present;
     w.model.structure = StructureMode::fixed;
   }
