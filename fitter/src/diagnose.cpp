@@ -263,13 +263,13 @@ Experiment working_experiment(const Experiment& e, const FitResult& first) {
   Experiment w = e;
   if (e.model.structure == StructureMode::stepwise) {
     fit_detail::UnsteadyStructure pool = fit_detail::structure_from_config(e.model);
-    std::vector<std::string> names;
-    for (const ParameterEstimate& p : first.parameters) names.push_back(p.name);
-    const fit_detail::UnsteadyStructure s = fit_detail::select_terms(pool, names);
+    std::vector<ParamId> ids;
+    for (const ParameterEstimate& p : first.parameters) ids.push_back(p.id);
+    const fit_detail::UnsteadyStructure s = fit_detail::select_terms(pool, ids);
     w.model.a.powers = s.a.powers;
     w.model.a.knots_rad = s.a.knots_rad;
-    w.model.b1.powers = s.b1.powers;
-    w.model.b1.knots_rad = s.b1.knots_rad;
+    w.model.b1.powers = s.b[0].powers;
+    w.model.b1.knots_rad = s.b[0].knots_rad;
     w.model.bias = s.con == fit_detail::Bias::present;
     w.model.structure = StructureMode::fixed;
   }

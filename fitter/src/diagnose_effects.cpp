@@ -15,7 +15,7 @@ namespace diagnose_detail {
 
 namespace {
 
-using fit_detail::Term;
+using Term = ParamId;  // issue 11: fit_detail's terms are ParamIds now
 
 int max_power(const std::vector<int>& p) {
   int m = -1;
@@ -150,9 +150,9 @@ std::string term_key(const Term& t) {
 std::vector<std::pair<std::string, std::string>> parameter_keys(const ModelConfig& m) {
   const fit_detail::UnsteadyStructure s = fit_detail::structure_from_config(m);
   std::vector<std::pair<std::string, std::string>> out;
-  for (const Term& t : fit_detail::structural_terms(s)) out.emplace_back(t.name, term_key(t));
-  for (const Term& t : fit_detail::rotary_terms(s.rotary)) out.emplace_back(t.name, term_key(t));
-  for (const Term& t : fit_detail::static_corr_terms(s.static_corr)) out.emplace_back(t.name, term_key(t));
+  for (const Term& t : fit_detail::structural_terms(s)) out.emplace_back(parameter_name(t), term_key(t));
+  for (const Term& t : fit_detail::rotary_terms(s.rotary)) out.emplace_back(parameter_name(t), term_key(t));
+  for (const Term& t : fit_detail::static_corr_terms(s.static_corr)) out.emplace_back(parameter_name(t), term_key(t));
   return out;
 }
 

@@ -22,111 +22,107 @@ namespace indicial::fit_detail {
 
 namespace {
 
-double plus_pow(double u, int p) {
-  if (!(u > 0.0)) return 0.0;
-  double r = 1.0;
-  for (int i = 0; i < p; ++i) r *= u;
-  return r;
+// Equation-error terms: everything of lag 1 (further lags are output-error only).
+std::vector<ParamId> ee_terms(const UnsteadyStructure& s) {
+  std::vector<ParamId> out;
+  for (const ParamId& t : structural_terms(s))
+    if (t.lag == 0 && t.kind != ParamKind::gain && t.kind != ParamKind::delay) out.push_back(t);
+  return out;
 }
 
-// Basis function g(x) of a term and its antiderivative (for the modulating-function form).
-double term_basis(const Term& t, double x) {
+// The regressor of term t at sample i of eq. 22 (smoothed-difference form).
+double regressor(const ParamId& t, const PreparedRun& r, std::size_t i) {
   switch (t.kind) {
-    case TermKind::a_power:
-    case TermKind::b_power:
-    case TermKind::rotary_power: return std::pow(x, t.power);
-    case TermKind::a_knot:
-    case TermKind::b_knot:
-    case TermKind::rotary_knot: return plus_pow(x - t.knot_rad, t.power);
-    default: return 1.0;
+    case ParamKind::a_power:
+    case ParamKind::a_knot: return -basis_value<double>(term_basis(t), r.x[i]) * r.xdot[i];
+    case ParamKind::b_power:
+    case ParamKind::b_knot: return -basis_value<double>(term_basis(t), r.x[i]) * r.y_e[i];
+    default: return 1.0;  // con
   }
 }
-double term_antiderivative(const Term& t, double x) {
-  if (t.kind == TermKind::a_power) return std::pow(x, t.power + 1) / (t.power + 1);
-  return plus_pow(x - t.knot_rad, t.power + 1) / (t.power + 1);
+
+// The integrand of term t's modulating-function regressor at sample i: weight w, phi and phi'.
+double modulated_regressor(const ParamId& t, const PreparedRun& r, std::size_t i, double w,
+                           double phi, double dphi) {
+  switch (t.kind) {
+    case ParamKind::a_power:
+    case ParamKind::a_knot: return w * dphi * basis_antiderivative<double>(term_basis(t), r.x[i]);
+    case ParamKind::b_power:
+    case ParamKind::b_knot: return -w * phi * basis_value<double>(term_basis(t), r.x[i]) * r.y_e[i];
+    default: return w * phi;  // con
+  }
 }
 
-// Equation-error terms: everything of lag 1 (further lags are output-error only).
-std::vector<Term> ee_terms(const UnsteadyStructure& s) {
-  std::vector<Term> out;
-  for (const Term& t : structural_terms(s))
-    if (t.lag == 0 && t.kind != TermKind::gain && t.kind != TermKind::delay) out.push_back(t);
-  return out;
+}  // namespace
+
+namespace {
+
+// Rows of the smoothed-difference form for one run.
+void smoothed_rows(const PreparedRun& r, const std::vector<ParamId>& terms, const FitOptions& o,
+                   std::vector<std::vector<double>>& rows, std::vector<double>& zs) {
+  const std::size_t n = r.x.size();
+  const std::size_t need = 2 * static_cast<std::size_t>(std::max(1, o.derivative_half_window)) + 1;
+  if (n < need)
+    throw InputError(r.path, 0, fmt::format("run has {} samples; the Savitzky-Golay "
+                                            "derivative of y_E needs at least {}", n, need));
+  const std::vector<double> ydot =
+      sg_derivative(r.y_e, r.dt_s, o.derivative_half_window, o.derivative_order);
+  for (std::size_t i = 0; i < n; ++i) {
+    std::vector<double> row(terms.size());
+    for (std::size_t j = 0; j < terms.size(); ++j) row[j] = regressor(terms[j], r, i);
+    rows.push_back(std::move(row));
+    zs.push_back(ydot[i]);
+  }
+}
+
+// Rows of the modulating-function form for one run: one per window position.
+void modulated_rows(const PreparedRun& r, const std::vector<ParamId>& terms, const FitOptions& o,
+                    std::vector<std::vector<double>>& rows, std::vector<double>& zs) {
+  const std::size_t n = r.x.size();
+  // Why the clamp: a window longer than the run cannot be placed; use the whole run.
+  const std::size_t m =
+      std::min<std::size_t>(n, static_cast<std::size_t>(std::max(5, o.modulating_window)));
+  const std::size_t shift = static_cast<std::size_t>(std::max(1, o.modulating_shift));
+  const double T = static_cast<double>(m - 1) * r.dt_s;
+  std::vector<double> phi(m), dphi(m);
+  for (std::size_t k = 0; k < m; ++k) {
+    const double tau = static_cast<double>(k) * r.dt_s;
+    const double sn = std::sin(M_PI * tau / T);
+    phi[k] = sn * sn;
+    dphi[k] = (M_PI / T) * std::sin(2.0 * M_PI * tau / T);
+  }
+  // Trapezoid weights (phi and phi' vanish at the ends except phi' = 0 exactly there too).
+  auto w = [&](std::size_t k) { return (k == 0 || k + 1 == m) ? 0.5 * r.dt_s : r.dt_s; };
+  for (std::size_t s0 = 0; s0 + m <= n; s0 += shift) {
+    std::vector<double> row(terms.size(), 0.0);
+    double z = 0.0;
+    for (std::size_t k = 0; k < m; ++k) {
+      const std::size_t i = s0 + k;
+      z += -w(k) * dphi[k] * r.y_e[i];
+      for (std::size_t j = 0; j < terms.size(); ++j)
+        row[j] += modulated_regressor(terms[j], r, i, w(k), phi[k], dphi[k]);
+    }
+    rows.push_back(std::move(row));
+    zs.push_back(z);
+  }
 }
 
 }  // namespace
 
 EquationErrorProblem equation_error_problem(const std::vector<PreparedRun>& runs,
                                             const UnsteadyStructure& s, const FitOptions& o) {
-  const std::vector<Term> terms = ee_terms(s);
   EquationErrorProblem p;
-  for (const Term& t : terms) p.names.push_back(t.name);
-  const auto nt = static_cast<Eigen::Index>(terms.size());
+  p.terms = ee_terms(s);
+  for (const ParamId& t : p.terms) p.names.push_back(parameter_name(t));
   std::vector<std::vector<double>> rows;
   std::vector<double> zs;
   p.starts.push_back(0);
   for (const PreparedRun& r : runs) {
-    const std::size_t n = r.x.size();
-    if (o.state_derivative == StateDerivative::smoothed_difference) {
-      const std::size_t need = 2 * static_cast<std::size_t>(std::max(1, o.derivative_half_window)) + 1;
-      if (n < need)
-        throw InputError(r.path, 0, fmt::format("run has {} samples; the Savitzky-Golay "
-                                                "derivative of y_E needs at least {}", n, need));
-      const std::vector<double> ydot =
-          sg_derivative(r.y_e, r.dt_s, o.derivative_half_window, o.derivative_order);
-      for (std::size_t i = 0; i < n; ++i) {
-        std::vector<double> row(static_cast<std::size_t>(nt));
-        for (std::size_t j = 0; j < terms.size(); ++j) {
-          const Term& t = terms[j];
-          switch (t.kind) {
-            case TermKind::a_power:
-            case TermKind::a_knot: row[j] = -term_basis(t, r.x[i]) * r.xdot[i]; break;
-            case TermKind::b_power:
-            case TermKind::b_knot: row[j] = -term_basis(t, r.x[i]) * r.y_e[i]; break;
-            default: row[j] = 1.0; break;  // con
-          }
-        }
-        rows.push_back(std::move(row));
-        zs.push_back(ydot[i]);
-      }
-    } else {
-      // Why the clamp: a window longer than the run cannot be placed; use the whole run.
-      const std::size_t m =
-          std::min<std::size_t>(n, static_cast<std::size_t>(std::max(5, o.modulating_window)));
-      const std::size_t shift = static_cast<std::size_t>(std::max(1, o.modulating_shift));
-      const double T = static_cast<double>(m - 1) * r.dt_s;
-      std::vector<double> phi(m), dphi(m);
-      for (std::size_t k = 0; k < m; ++k) {
-        const double tau = static_cast<double>(k) * r.dt_s;
-        const double sn = std::sin(M_PI * tau / T);
-        phi[k] = sn * sn;
-        dphi[k] = (M_PI / T) * std::sin(2.0 * M_PI * tau / T);
-      }
-      // Trapezoid weights (phi and phi' vanish at the ends except phi' = 0 exactly there too).
-      auto w = [&](std::size_t k) { return (k == 0 || k + 1 == m) ? 0.5 * r.dt_s : r.dt_s; };
-      for (std::size_t s0 = 0; s0 + m <= n; s0 += shift) {
-        std::vector<double> row(static_cast<std::size_t>(nt), 0.0);
-        double z = 0.0;
-        for (std::size_t k = 0; k < m; ++k) {
-          const std::size_t i = s0 + k;
-          z += -w(k) * dphi[k] * r.y_e[i];
-          for (std::size_t j = 0; j < terms.size(); ++j) {
-            const Term& t = terms[j];
-            switch (t.kind) {
-              case TermKind::a_power:
-              case TermKind::a_knot: row[j] += w(k) * dphi[k] * term_antiderivative(t, r.x[i]); break;
-              case TermKind::b_power:
-              case TermKind::b_knot: row[j] += -w(k) * phi[k] * term_basis(t, r.x[i]) * r.y_e[i]; break;
-              default: row[j] += w(k) * phi[k]; break;
-            }
-          }
-        }
-        rows.push_back(std::move(row));
-        zs.push_back(z);
-      }
-    }
+    if (o.state_derivative == StateDerivative::smoothed_difference) smoothed_rows(r, p.terms, o, rows, zs);
+    else modulated_rows(r, p.terms, o, rows, zs);
     p.starts.push_back(rows.size());
   }
+  const auto nt = static_cast<Eigen::Index>(p.terms.size());
   p.X.resize(static_cast<Eigen::Index>(rows.size()), nt);
   p.z.resize(static_cast<Eigen::Index>(rows.size()));
   for (std::size_t i = 0; i < rows.size(); ++i) {
@@ -147,27 +143,32 @@ EquationErrorResult run_equation_error(const std::vector<PreparedRun>& runs,
   res.n_samples = static_cast<std::size_t>(prob.X.rows());
   if (prob.X.cols() == 0) throw InputError(context_file, 0, "the model has no a(x) or b1(x) terms");
   refuse_zero_columns(prob.X, prob.names, context_file);
-  std::vector<std::string> chosen = prob.names;
+  std::vector<int> chosen(static_cast<std::size_t>(prob.X.cols()));
+  for (std::size_t k = 0; k < chosen.size(); ++k) chosen[k] = static_cast<int>(k);
   if (mode == StructureMode::stepwise) {
-    const std::vector<int> idx = stepwise_select(prob.X, prob.z, prob.names, o, res.stepwise);
-    if (idx.empty())
+    chosen = stepwise_select(prob.X, prob.z, prob.names, o, res.stepwise);
+    if (chosen.empty())
       throw InputError(context_file, 0,
                        "stepwise regression selected no term: the data show no unsteady effect "
                        "above the F-to-enter threshold");
-    chosen.clear();
-    Eigen::MatrixXd Xs(prob.X.rows(), static_cast<Eigen::Index>(idx.size()));
-    for (std::size_t k = 0; k < idx.size(); ++k) {
-      Xs.col(static_cast<Eigen::Index>(k)) = prob.X.col(idx[k]);
-      chosen.push_back(prob.names[static_cast<std::size_t>(idx[k])]);
-    }
+    Eigen::MatrixXd Xs(prob.X.rows(), static_cast<Eigen::Index>(chosen.size()));
+    for (std::size_t k = 0; k < chosen.size(); ++k)
+      Xs.col(static_cast<Eigen::Index>(k)) = prob.X.col(chosen[k]);
     prob.X = std::move(Xs);
   }
-  selected = select_terms(pool, chosen);
-  const LinearFit f = least_squares(prob.X, prob.z, prob.starts, chosen, o, context_file);
-  for (std::size_t k = 0; k < chosen.size(); ++k) {
+  std::vector<ParamId> ids;
+  std::vector<std::string> names;
+  for (int j : chosen) {
+    ids.push_back(prob.terms[static_cast<std::size_t>(j)]);
+    names.push_back(prob.names[static_cast<std::size_t>(j)]);
+  }
+  selected = select_terms(pool, ids);
+  const LinearFit f = least_squares(prob.X, prob.z, prob.starts, names, o, context_file);
+  for (std::size_t k = 0; k < ids.size(); ++k) {
     const auto kk = static_cast<Eigen::Index>(k);
     ParameterEstimate pe;
-    pe.name = chosen[k];
+    pe.id = ids[k];
+    pe.name = names[k];
     pe.value = f.beta(kk);
     pe.cr_bound = std::sqrt(f.cov_white(kk, kk));
     pe.cr_bound_colored = std::sqrt(std::max(0.0, f.cov_colored(kk, kk)));

@@ -6,7 +6,9 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <cstddef>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -18,15 +20,22 @@ namespace indicial::fit_detail {
 
 using Cap = FitCapacity;
 using SplineD = Spline<double, Cap::max_powers, Cap::max_knots>;
+struct PreparedRun;
 
 // ------------------------------------------------------------------------------------------
-// Structure of the unsteady part: which terms a(x), b1(x), con and further lags carry.
+// Structure of the unsteady part: which terms a(x), b_j(x), con, the delay and the jointly
+// estimated output terms carry.
 // ------------------------------------------------------------------------------------------
 struct SplineTerms {
   std::vector<int> powers;       // ascending
   std::vector<double> knots_rad; // ascending
   int knot_power = 1;
   std::size_t size() const { return powers.size() + knots_rad.size(); }
+  // The basis of term k (powers first, then knots): model.hpp's BasisTerm.
+  BasisTerm basis(std::size_t k) const {
+    return k < powers.size() ? BasisTerm{BasisKind::power, powers[k], 0.0}
+                             : BasisTerm{BasisKind::knot, knot_power, knots_rad[k - powers.size()]};
+  }
 };
 
 enum class Bias { absent, present };
@@ -40,11 +49,10 @@ enum class RotaryRole { replaces_a_priori, corrects_a_priori };
 
 struct UnsteadyStructure {
   SplineTerms a;
-  SplineTerms b1;
+  // b[j] = b_{j+1}(x), one per lag (at least one; at most Cap::max_lags). Each lag j >= 1 also
+  // has a gain c_{j+1}.
+  std::vector<SplineTerms> b{SplineTerms{}};
   Bias con = Bias::absent;
-  int lags = 1;
-  // Lags 2..lags: b_k(x) terms (same shape as b1 by default) and a gain c_k each.
-  std::vector<SplineTerms> b_more;
   // Rotary terms estimated jointly in the output-error step (two-stage loop, joint_ml):
   // the output is then y_model + (l/V) C_aq(x) rate and the target C - C_a(x). Empty: C_aq is
   // known (the a priori one or the last regression's) and the target is y_E.
@@ -56,32 +64,109 @@ struct UnsteadyStructure {
   DelayTerm delay = DelayTerm::absent;
   // Lags 2..: initial state per run estimated, or 0 (experiment.hpp LagStart).
   LagStart further_lag_start = LagStart::estimated;
-  int y0_per_run() const { return further_lag_start == LagStart::at_rest ? 1 : lags; }
-  double l_over_v_s = 0.0;
-  // Number of structural parameters that drive the states (rotary and y0 not included).
-  int n_struct() const;
+  int lags() const { return static_cast<int>(b.size()); }
+  int y0_per_run() const { return further_lag_start == LagStart::at_rest ? 1 : lags(); }
 };
 
-enum class TermKind { a_power, a_knot, b_power, b_knot, con, gain, rotary_power, rotary_knot,
-                      delay, static_power, static_knot };
+// The terms of a structure, as parameter ids (names by parameter_name), in parameter-vector
+// order. Structural (they drive the states): a powers, a knots, b1 powers, b1 knots, con, then
+// per further lag: b powers, b knots, gain; then delay.
+std::vector<ParamId> structural_terms(const UnsteadyStructure& s);
+// Output terms (linear in the output): the rotary terms, then the static correction terms.
+std::vector<ParamId> output_terms(const UnsteadyStructure& s);
+std::vector<ParamId> rotary_terms(const SplineTerms& pool);        // Caq_{i}, CaqK{j}
+std::vector<ParamId> static_corr_terms(const SplineTerms& pool);   // dCa_{i}, dCaK{j}
+// The basis of a spline term (power or knot kind).
+BasisTerm term_basis(const ParamId& t);
 
-struct Term {
-  TermKind kind = TermKind::a_power;
-  int lag = 0;            // 0-based lag for b_power / b_knot / gain
-  int power = 0;          // x^power, or the knot term's power
-  double knot_rad = 0.0;  // for knot terms
-  int index = 0;          // 0-based index within its spline's powers or knots
-  std::string name;       // contract name: a1, A2, b1_0, B1, con, b2_0, c2, Caq_2, CaqK1
-};
+// A model whose output is exactly one output term at coefficient 1 (everything else zero):
+// coefficient_output of it is that term's regressor (the output is linear in these terms).
+CoefficientModel<double, Cap> unit_output_model(const ParamId& term);
 
-// Order: a powers, a knots, b1 powers, b1 knots, con, then per further lag: b powers, knots, c.
-std::vector<Term> structural_terms(const UnsteadyStructure& s);
 UnsteadyStructure structure_from_config(const ModelConfig& m);
-// The sub-structure made of the named terms of `pool` (names from structural_terms(pool)).
-UnsteadyStructure select_terms(const UnsteadyStructure& pool,
-                               const std::vector<std::string>& names);
-std::vector<Term> rotary_terms(const SplineTerms& pool);
-std::vector<Term> static_corr_terms(const SplineTerms& pool);  // dCa_{i}, dCaK{j}
+// The sub-structure of `pool` made of the given a(x), b1(x) and con terms (identity by
+// ParamId: knots by position); further lags and the ML-only terms are kept whole.
+UnsteadyStructure select_terms(const UnsteadyStructure& pool, const std::vector<ParamId>& ids);
+
+// The parameter vector of the output-error fit: one ordered list of ids,
+//   [structural terms | output terms | initial states (per non-periodic run, y0_per_run)],
+// which builds the model from a vector, names it, places start values and indexes the
+// covariance. Every index arithmetic on theta goes through it.
+class ParameterLayout {
+ public:
+  struct Range { int begin = 0; int end = 0; int size() const { return end - begin; } };
+  ParameterLayout(const UnsteadyStructure& s, const std::vector<PreparedRun>& runs);
+  const UnsteadyStructure& structure() const { return s_; }
+  const std::vector<ParamId>& ids() const { return ids_; }
+  int size() const { return static_cast<int>(ids_.size()); }
+  Range structural() const { return {0, n_struct_}; }
+  Range output() const { return {n_struct_, n_struct_ + n_output_}; }
+  Range initial_states() const { return {n_struct_ + n_output_, size()}; }
+  // Index of run r's first initial state, or -1 (a periodic run: no parameter).
+  int y0_offset(std::size_t r) const { return y0_offset_[r]; }
+  int y0_per_run() const { return s_.y0_per_run(); }
+  std::vector<std::string> names() const;
+  int find(const ParamId& id) const;  // -1 when absent
+  // The model of theta's structural part (size structural().size()): spline shapes from the
+  // structure, every coefficient from its parameter; rotary and static terms not included.
+  template <class S>
+  void build_unsteady(const S* structural, CoefficientModel<S, Cap>& m) const;
+  // Adds the output terms of theta (full vector) to m: rotary terms into m.rotary (added to
+  // what is there when they correct the a priori C_aq, replacing it otherwise), static terms
+  // into m.static_correction (added).
+  void add_output_terms(const double* theta, CoefficientModel<double, Cap>& m) const;
+
+ private:
+  UnsteadyStructure s_;
+  std::vector<ParamId> ids_;
+  int n_struct_ = 0;
+  int n_output_ = 0;
+  std::vector<int> y0_offset_;
+};
+
+// Spline shape (powers, knots and their powers) of a term set, coefficients zero.
+template <class S>
+void shape_spline(const SplineTerms& t, Spline<S, Cap::max_powers, Cap::max_knots>& sp) {
+  int n_powers = 0;
+  for (int p : t.powers) n_powers = std::max(n_powers, p + 1);
+  sp.n_powers = n_powers;
+  for (int i = 0; i < Cap::max_powers; ++i) sp.power_coef[i] = S(0);
+  sp.n_knots = static_cast<int>(t.knots_rad.size());
+  for (std::size_t j = 0; j < t.knots_rad.size(); ++j) {
+    sp.knot_rad[j] = t.knots_rad[j];
+    sp.knot_power[j] = t.knot_power;
+    sp.knot_coef[j] = S(0);
+  }
+}
+
+// Writes the value of one unsteady parameter into its slot of a model shaped by
+// ParameterLayout::build_unsteady (output terms and initial states have no slot there).
+template <class S>
+void set_parameter(const ParamId& id, const S& v, CoefficientModel<S, Cap>& m) {
+  switch (id.kind) {
+    case ParamKind::a_power: m.a.power_coef[id.power] = v; break;
+    case ParamKind::a_knot: m.a.knot_coef[id.knot] = v; break;
+    case ParamKind::b_power: m.lags[id.lag].b.power_coef[id.power] = v; break;
+    case ParamKind::b_knot: m.lags[id.lag].b.knot_coef[id.knot] = v; break;
+    case ParamKind::con: m.con = v; break;
+    case ParamKind::gain: m.lags[id.lag].gain = v; break;
+    case ParamKind::delay: m.delay_s = v; break;
+    default: break;
+  }
+}
+
+template <class S>
+void ParameterLayout::build_unsteady(const S* structural, CoefficientModel<S, Cap>& m) const {
+  shape_spline(s_.a, m.a);
+  m.n_lags = s_.lags();
+  for (int j = 0; j < m.n_lags; ++j) {
+    shape_spline(s_.b[static_cast<std::size_t>(j)], m.lags[j].b);
+    m.lags[j].gain = S(1);
+  }
+  m.con = S(0);
+  m.delay_s = S(0);
+  for (int k = 0; k < n_struct_; ++k) set_parameter(ids_[static_cast<std::size_t>(k)], structural[k], m);
+}
 
 // ------------------------------------------------------------------------------------------
 // Prepared runs.
@@ -149,7 +234,8 @@ struct EquationErrorProblem {
   Eigen::MatrixXd X;
   Eigen::VectorXd z;
   std::vector<std::size_t> starts;  // segment starts (+ end), one segment per run
-  std::vector<std::string> names;
+  std::vector<ParamId> terms;       // column j's term
+  std::vector<std::string> names;   // its name (messages, the stepwise log)
 };
 EquationErrorProblem equation_error_problem(const std::vector<PreparedRun>& runs,
                                             const UnsteadyStructure& s, const FitOptions& o);
@@ -164,47 +250,47 @@ EquationErrorResult run_equation_error(const std::vector<PreparedRun>& runs,
 // ------------------------------------------------------------------------------------------
 // Maximum-likelihood output error.
 // ------------------------------------------------------------------------------------------
+// What an output-error fit works on: the prepared runs and the known part of the model (the
+// static curve, its known correction and the current C_aq: the model y_E was computed with).
+struct OutputErrorData {
+  const std::vector<PreparedRun>& runs;
+  const CoefficientModel<double, Cap>& known;
+  double l_over_v_s = 0.0;  // l / V of the experiment (the rotary term's time scale)
+  const std::string& context_file;
+};
+
+// Whether a model is admissible for the output-error fit (e.g. every b_j(x) > 0 on the
+// envelope). A trial step to an inadmissible model is rejected like a cost increase.
+// Empty: every model is.
+using FeasibilityPredicate = std::function<bool(const CoefficientModel<double, Cap>&)>;
+
 struct MLResult {
   UnsteadyStructure structure;
-  std::vector<std::string> names;     // structural then y0 names
+  std::vector<ParamId> ids;           // ParameterLayout order: structural, output, y0
+  std::vector<std::string> names;     // parameter_name of each id
   Eigen::VectorXd theta;
   Eigen::MatrixXd cov_white;          // NaN rows/cols for unidentifiable parameters
   Eigen::MatrixXd cov_colored;
   std::vector<Identifiability> identifiability;
   OutputErrorSummary summary;
   std::vector<std::vector<double>> y_model;  // per run
+  ParameterEstimate estimate(int i) const;   // parameter i with its bounds
 };
 
-// Value of the rotary basis term k (rotary_terms order) at x. Also the basis of the static
-// correction terms (static_corr_terms order): the same powers-then-knots layout.
-double rotary_basis(const SplineTerms& rotary, std::size_t k, double x);
+// The whole model at theta: `known` with the unsteady part and the output terms of theta.
+CoefficientModel<double, Cap> model_at(const ParameterLayout& L, const Eigen::VectorXd& theta,
+                                       const CoefficientModel<double, Cap>& known);
 
-// Layout of y0 parameters: for every non-periodic run, `lags` values.
-int n_initial_states(const UnsteadyStructure& s, const std::vector<PreparedRun>& runs);
-std::vector<std::string> parameter_names(const UnsteadyStructure& s,
-                                         const std::vector<PreparedRun>& runs);
-
-// theta0: structural start values followed by the y0 start values (size = names).
-MLResult fit_output_error(const UnsteadyStructure& s, const std::vector<PreparedRun>& runs,
+// theta0: start values in ParameterLayout(s, runs) order.
+MLResult fit_output_error(const UnsteadyStructure& s, const OutputErrorData& d,
                           const Eigen::VectorXd& theta0, const FitOptions& o,
-                          const std::string& context_file);
+                          const FeasibilityPredicate& feasible = {});
 
 // Stepwise refinement of a structure on the output-error fit (fit_stepwise_output_error.cpp):
 // from `ml` (a fit of a sub-structure of `pool`), a(x), b1(x) and con terms of the pool enter
 // by the ML partial F and leave by the Wald F; returns the final fit and logs every step.
-MLResult refine_structure_output_error(const UnsteadyStructure& pool,
-                                       const std::vector<PreparedRun>& runs, MLResult ml,
-                                       const FitOptions& o, const std::string& file,
+MLResult refine_structure_output_error(const UnsteadyStructure& pool, const OutputErrorData& d,
+                                       MLResult ml, const FitOptions& o,
                                        OutputErrorStepwiseResult* log);
-
-// Writes the unsteady part of theta (structural part) into a double model.
-void set_unsteady(const UnsteadyStructure& s, const double* theta, CoefficientModel<double, Cap>& m);
-
-// Adds the jointly estimated linear output terms of theta (after the n_struct structural
-// values: rotary, then static correction) to m: rotary terms into m.rotary (added to what is
-// there when s.rotary_role == corrects_a_priori, replacing it otherwise), static terms into
-// m.static_correction (added). Used to build the final model of fit_experiment.
-void add_output_terms(const UnsteadyStructure& s, const double* theta,
-                      CoefficientModel<double, Cap>& m);
 
 }  // namespace indicial::fit_detail

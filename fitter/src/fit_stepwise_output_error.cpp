@@ -20,7 +20,6 @@
 #include <cmath>
 #include <limits>
 #include <map>
-#include <set>
 #include <string>
 #include <vector>
 
@@ -30,174 +29,165 @@
 namespace indicial::fit_detail {
 namespace {
 
-bool refinable(TermKind k, int lag) {
-  switch (k) {
-    case TermKind::a_power:
-    case TermKind::a_knot:
-    case TermKind::con:
+bool refinable(const ParamId& t) {
+  switch (t.kind) {
+    case ParamKind::a_power:
+    case ParamKind::a_knot:
+    case ParamKind::con:
       return true;
-    case TermKind::b_power:
-    case TermKind::b_knot:
-      return lag == 0;
+    case ParamKind::b_power:
+    case ParamKind::b_knot:
+      return t.lag == 0;
     default:
       return false;
   }
 }
 
-// The refinable terms of s by their POOL names (a structure numbers its own knots: the pool's
-// A4 is A2 of a structure with two a(x) knots), paired with their names in s.
-struct Named { std::string pool; std::string own; };
-std::vector<Named> refinable_terms(const UnsteadyStructure& pool, const UnsteadyStructure& s) {
-  const std::vector<Term> pool_terms = structural_terms(pool);
-  std::vector<Named> out;
-  for (const Term& t : structural_terms(s)) {
-    if (!refinable(t.kind, t.lag)) continue;
-    for (const Term& p : pool_terms) {
-      const bool knot = t.kind == TermKind::a_knot || t.kind == TermKind::b_knot;
-      if (p.kind == t.kind && p.lag == t.lag &&
-          (knot ? p.knot_rad == t.knot_rad : p.power == t.power)) {
-        out.push_back({p.name, t.name});
-        break;
-      }
-    }
+// The refinable terms of s, as the POOL's ids (a structure numbers its own knots: the pool's
+// A4 is A2 of a structure with two a(x) knots; the identity is the same, the name is the
+// pool's).
+std::vector<ParamId> pool_terms_of(const UnsteadyStructure& pool, const UnsteadyStructure& s) {
+  const std::vector<ParamId> all = structural_terms(pool);
+  std::vector<ParamId> out;
+  for (const ParamId& t : structural_terms(s)) {
+    if (!refinable(t)) continue;
+    const auto it = std::find(all.begin(), all.end(), t);
+    if (it != all.end()) out.push_back(*it);
   }
   return out;
 }
 
-std::vector<std::string> pool_names_of(const UnsteadyStructure& pool, const UnsteadyStructure& s) {
-  std::vector<std::string> out;
-  for (const Named& n : refinable_terms(pool, s)) out.push_back(n.pool);
-  return out;
+// Whether `ids` hold an a(x) and a b1(x) term (a model needs one of each).
+bool has_a_and_b1(const std::vector<ParamId>& ids) {
+  bool a = false, b1 = false;
+  for (const ParamId& t : ids) {
+    a = a || t.kind == ParamKind::a_power || t.kind == ParamKind::a_knot;
+    b1 = b1 || ((t.kind == ParamKind::b_power || t.kind == ParamKind::b_knot) && t.lag == 0);
+  }
+  return a && b1;
 }
 
-// Counts of a(x) and b1(x) terms among `names` (a model needs one of each).
-struct Counts { int a = 0, b1 = 0; };
-Counts counts(const UnsteadyStructure& pool, const std::vector<std::string>& names) {
-  Counts c;
-  for (const Term& t : structural_terms(pool)) {
-    if (std::find(names.begin(), names.end(), t.name) == names.end()) continue;
-    if (t.kind == TermKind::a_power || t.kind == TermKind::a_knot) ++c.a;
-    if ((t.kind == TermKind::b_power || t.kind == TermKind::b_knot) && t.lag == 0) ++c.b1;
+// The ML fit of the pool's sub-structure `ids`, started from `from` (by identity; new
+// parameters at 0).
+MLResult fit_terms(const UnsteadyStructure& pool, const std::vector<ParamId>& ids,
+                   const OutputErrorData& d, const MLResult& from, const FitOptions& o) {
+  const UnsteadyStructure s = select_terms(pool, ids);
+  const ParameterLayout L(s, d.runs);
+  Eigen::VectorXd theta0 = Eigen::VectorXd::Zero(L.size());
+  for (std::size_t i = 0; i < from.ids.size(); ++i) {
+    const int k = L.find(from.ids[i]);
+    if (k >= 0) theta0(k) = from.theta(static_cast<Eigen::Index>(i));
   }
-  return c;
-}
-
-// The ML fit of the pool's sub-structure `names`, started from `from` (by parameter name;
-// new parameters at 0).
-MLResult fit_names(const UnsteadyStructure& pool, const std::vector<std::string>& names,
-                   const std::vector<PreparedRun>& runs, const MLResult& from, const FitOptions& o,
-                   const std::string& file) {
-  const UnsteadyStructure s = select_terms(pool, names);
-  // Start values by pool identity for the refinable terms (their own names are renumbered),
-  // by name for the rest (y0_*).
-  std::map<std::string, std::string> from_own_to_pool, new_own_to_pool;
-  for (const Named& n : refinable_terms(pool, from.structure)) from_own_to_pool[n.own] = n.pool;
-  for (const Named& n : refinable_terms(pool, s)) new_own_to_pool[n.own] = n.pool;
-  std::map<std::string, double> value_of;  // keyed by pool name or own name
-  for (std::size_t i = 0; i < from.names.size(); ++i) {
-    const auto it = from_own_to_pool.find(from.names[i]);
-    value_of[it != from_own_to_pool.end() ? it->second : from.names[i]] =
-        from.theta(static_cast<Eigen::Index>(i));
-  }
-  const std::vector<std::string> pn = parameter_names(s, runs);
-  Eigen::VectorXd theta0 = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(pn.size()));
-  for (std::size_t i = 0; i < pn.size(); ++i) {
-    const auto it = new_own_to_pool.find(pn[i]);
-    const auto v = value_of.find(it != new_own_to_pool.end() ? it->second : pn[i]);
-    if (v != value_of.end()) theta0(static_cast<Eigen::Index>(i)) = v->second;
-  }
-  return fit_output_error(s, runs, theta0, o, file);
+  return fit_output_error(s, d, theta0, o);
 }
 
 double sse(const MLResult& m) { return 2.0 * m.summary.cost; }
 
+struct Move {
+  ParamId term;
+  double f = 0.0;
+  MLResult fit;
+};
+
+// The best entry: every pool term not in the model (and not moved 4 times) tried by a full
+// ML fit; f = -inf when none could be fitted.
+Move best_entry(const UnsteadyStructure& pool, const OutputErrorData& d, const MLResult& ml,
+                const FitOptions& o, const std::map<ParamId, int>& moves) {
+  const std::vector<ParamId> current = pool_terms_of(pool, ml.structure);
+  const double n = static_cast<double>(ml.summary.n_samples);
+  Move best;
+  best.f = -std::numeric_limits<double>::infinity();
+  for (const ParamId& c : pool_terms_of(pool, pool)) {
+    const auto mv = moves.find(c);
+    if (std::find(current.begin(), current.end(), c) != current.end() ||
+        (mv != moves.end() && mv->second >= 4))
+      continue;
+    std::vector<ParamId> ids = current;
+    ids.push_back(c);
+    MLResult trial;
+    try {
+      trial = fit_terms(pool, ids, d, ml, o);
+    } catch (const InputError&) {
+      continue;
+    }
+    const double p1 = static_cast<double>(trial.theta.size());
+    if (!std::isfinite(trial.summary.cost) || !(n > p1)) continue;
+    const double f = (sse(ml) - sse(trial)) / (sse(trial) / (n - p1));
+    if (f > best.f) best = Move{c, f, std::move(trial)};
+  }
+  return best;
+}
+
+// The weakest term by its Wald F (an unidentifiable one first), among those whose removal
+// leaves an a(x) and a b1(x) term; f = +inf when there is none.
+Move weakest_term(const UnsteadyStructure& pool, const MLResult& ml,
+                  const std::map<ParamId, int>& moves) {
+  const std::vector<ParamId> current = pool_terms_of(pool, ml.structure);
+  Move worst;
+  worst.f = std::numeric_limits<double>::infinity();
+  for (const ParamId& term : current) {
+    const auto mv = moves.find(term);
+    if (mv != moves.end() && mv->second >= 4) continue;
+    std::vector<ParamId> rest = current;
+    rest.erase(std::find(rest.begin(), rest.end(), term));
+    if (!has_a_and_b1(rest)) continue;
+    const auto at = std::find(ml.ids.begin(), ml.ids.end(), term);
+    if (at == ml.ids.end()) continue;
+    const auto i = static_cast<std::size_t>(at - ml.ids.begin());
+    const auto k = static_cast<Eigen::Index>(i);
+    const double sd = std::sqrt(ml.cov_white(k, k));
+    // Why 0 for an unidentifiable term: the data cannot tell it from the others, so it is
+    // the first to go.
+    const double f = (ml.identifiability[i] == Identifiability::identified && sd > 0.0)
+                         ? (ml.theta(k) / sd) * (ml.theta(k) / sd)
+                         : 0.0;
+    if (f < worst.f) {
+      worst.term = term;
+      worst.f = f;
+    }
+  }
+  return worst;
+}
+
 }  // namespace
 
-MLResult refine_structure_output_error(const UnsteadyStructure& pool,
-                                       const std::vector<PreparedRun>& runs, MLResult ml,
-                                       const FitOptions& o, const std::string& file,
+MLResult refine_structure_output_error(const UnsteadyStructure& pool, const OutputErrorData& d,
+                                       MLResult ml, const FitOptions& o,
                                        OutputErrorStepwiseResult* log) {
-  const std::vector<std::string> pool_names = pool_names_of(pool, pool);
-  std::map<std::string, int> moves;  // entries + removals per term: at most 4 each
-  const double n = static_cast<double>(ml.summary.n_samples);
-  for (int round = 0; round < 4 * static_cast<int>(pool_names.size()) + 4; ++round) {
+  const std::size_t n_pool = pool_terms_of(pool, pool).size();
+  std::map<ParamId, int> moves;  // entries + removals per term: at most 4 each
+  for (int round = 0; round < 4 * static_cast<int>(n_pool) + 4; ++round) {
     bool changed = false;
-    std::vector<std::string> current = pool_names_of(pool, ml.structure);
-    // Entry.
-    double best_f = -std::numeric_limits<double>::infinity();
-    std::string best_name;
-    MLResult best;
-    for (const std::string& c : pool_names) {
-      if (std::find(current.begin(), current.end(), c) != current.end() || moves[c] >= 4) continue;
-      std::vector<std::string> names = current;
-      names.push_back(c);
-      MLResult trial;
-      try {
-        trial = fit_names(pool, names, runs, ml, o, file);
-      } catch (const InputError&) {
-        continue;
-      }
-      const double p1 = static_cast<double>(trial.theta.size());
-      if (!std::isfinite(trial.summary.cost) || !(n > p1)) continue;
-      const double f = (sse(ml) - sse(trial)) / (sse(trial) / (n - p1));
-      if (f > best_f) {
-        best_f = f;
-        best_name = c;
-        best = std::move(trial);
-      }
-    }
-    if (!best_name.empty() && best_f > o.f_to_enter) {
-      log->steps.push_back({OutputErrorStepwiseStep::Action::entered, best_name, best_f, sse(ml), sse(best)});
-      ++moves[best_name];
-      ml = std::move(best);
-      current = pool_names_of(pool, ml.structure);
+    Move in = best_entry(pool, d, ml, o, moves);
+    if (in.f > o.f_to_enter) {  // -inf when no trial fit succeeded
+      log->steps.push_back({OutputErrorStepwiseStep::Action::entered, parameter_name(in.term),
+                            in.f, sse(ml), sse(in.fit)});
+      ++moves[in.term];
+      ml = std::move(in.fit);
       changed = true;
     }
-    // Removal.
-    double worst_f = std::numeric_limits<double>::infinity();
-    std::string worst_name;
-    for (const Named& term : refinable_terms(pool, ml.structure)) {
-      const std::string& name = term.pool;
-      if (moves[name] >= 4) continue;
-      std::vector<std::string> rest = current;
-      rest.erase(std::find(rest.begin(), rest.end(), name));
-      const Counts c = counts(pool, rest);
-      if (c.a == 0 || c.b1 == 0) continue;  // why: the model needs an a(x) and a b1(x)
-      const auto at = std::find(ml.names.begin(), ml.names.end(), term.own);
-      if (at == ml.names.end()) continue;
-      const auto i = static_cast<std::size_t>(at - ml.names.begin());
-      const auto k = static_cast<Eigen::Index>(i);
-      const double sd = std::sqrt(ml.cov_white(k, k));
-      // Why 0 for an unidentifiable term: the data cannot tell it from the others, so it is
-      // the first to go.
-      const double f = (ml.identifiability[i] == Identifiability::identified && sd > 0.0)
-                           ? (ml.theta(k) / sd) * (ml.theta(k) / sd)
-                           : 0.0;
-      if (f < worst_f) {
-        worst_f = f;
-        worst_name = name;
-      }
-    }
-    if (!worst_name.empty() && worst_f < o.f_to_remove) {
-      std::vector<std::string> rest = current;
-      rest.erase(std::find(rest.begin(), rest.end(), worst_name));
+    const Move out = weakest_term(pool, ml, moves);
+    if (out.f < o.f_to_remove) {  // +inf when no term may leave
+      std::vector<ParamId> rest = pool_terms_of(pool, ml.structure);
+      rest.erase(std::find(rest.begin(), rest.end(), out.term));
       MLResult refit;
       bool fitted = true;
       try {
-        refit = fit_names(pool, rest, runs, ml, o, file);
+        refit = fit_terms(pool, rest, d, ml, o);
       } catch (const InputError&) {
         fitted = false;
       }
       if (fitted && std::isfinite(refit.summary.cost)) {
-        log->steps.push_back({OutputErrorStepwiseStep::Action::removed, worst_name, worst_f, sse(ml), sse(refit)});
-        ++moves[worst_name];
+        log->steps.push_back({OutputErrorStepwiseStep::Action::removed, parameter_name(out.term),
+                              out.f, sse(ml), sse(refit)});
+        ++moves[out.term];
         ml = std::move(refit);
         changed = true;
       }
     }
     if (!changed) break;
   }
-  log->selected = pool_names_of(pool, ml.structure);
+  for (const ParamId& t : pool_terms_of(pool, ml.structure)) log->selected.push_back(parameter_name(t));
   return ml;
 }
 

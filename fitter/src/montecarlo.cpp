@@ -44,46 +44,54 @@ Experiment experiment_from_simulation(const SimulationCase& c, const std::vector
 
 namespace {
 
-// The index part of a name "<prefix><digits>", or -1.
-int suffix_index(const std::string& name, const std::string& prefix) {
-  if (name.size() <= prefix.size() || name.compare(0, prefix.size(), prefix) != 0) return -1;
-  if (name.find_first_not_of("0123456789", prefix.size()) != std::string::npos) return -1;
-  return std::stoi(name.substr(prefix.size()));
-}
-
-template <class S1, class S2>
-double knot_truth(const S1& truth, const S2& fitted, int j1) {
-  const int j = j1 - 1;
-  if (j < 0 || j >= fitted.n_knots) return std::numeric_limits<double>::quiet_NaN();
-  // Why match by location: the fitted knot j need not be the truth's knot j (a larger pool);
-  // a fitted knot where the truth has none has true coefficient 0.
+// The truth's coefficient of the knot term at knot_rad (0 where the truth has no such knot:
+// a fitted knot of a larger pool).
+template <class S>
+double knot_truth(const S& truth, double knot_rad) {
   for (int k = 0; k < truth.n_knots; ++k)
-    if (std::fabs(truth.knot_rad[k] - fitted.knot_rad[j]) < 1e-9) return truth.knot_coef[k];
+    if (std::fabs(truth.knot_rad[k] - knot_rad) < 1e-9) return truth.knot_coef[k];
   return 0.0;
 }
 
 template <class S>
 double power_truth(const S& truth, int i) {
-  if (i < 0) return std::numeric_limits<double>::quiet_NaN();
   return i < truth.n_powers ? truth.power_coef[i] : 0.0;
 }
 
 }  // namespace
 
+double true_parameter_value(const TruthModel& truth, const ParamId& id) {
+  const auto& t = truth.coefficients[0];
+  switch (id.kind) {
+    case ParamKind::initial_state: return 0.0;  // the simulator starts every run at rest
+    case ParamKind::con: return t.con;
+    case ParamKind::a_power: return power_truth(t.a, id.power);
+    case ParamKind::a_knot: return knot_truth(t.a, id.knot_rad);
+    case ParamKind::b_power:
+      return id.lag == 0 ? power_truth(t.lags[0].b, id.power) : std::numeric_limits<double>::quiet_NaN();
+    case ParamKind::b_knot:
+      return id.lag == 0 ? knot_truth(t.lags[0].b, id.knot_rad) : std::numeric_limits<double>::quiet_NaN();
+    case ParamKind::rotary_power: return power_truth(t.rotary, id.power);
+    case ParamKind::rotary_knot: return knot_truth(t.rotary, id.knot_rad);
+    default: return std::numeric_limits<double>::quiet_NaN();
+  }
+}
+
 double true_parameter_value(const TruthModel& truth, const ModelSet<double, FitCapacity>& fitted,
                             const std::string& name) {
-  const auto& t = truth.coefficients[0];
+  ParamId id;
+  if (!parse_parameter_name(name, &id)) return std::numeric_limits<double>::quiet_NaN();
+  // A knot named by its number is the fitted model's knot of that number.
   const auto& f = fitted.coefficients[0];
-  if (name.rfind("y0_", 0) == 0) return 0.0;  // the simulator starts every run at rest
-  if (name == "con") return t.con;
-  int i = -1;
-  if ((i = suffix_index(name, "b1_")) >= 0) return power_truth(t.lags[0].b, i);
-  if ((i = suffix_index(name, "Caq_")) >= 0) return power_truth(t.rotary, i);
-  if ((i = suffix_index(name, "CaqK")) >= 0) return knot_truth(t.rotary, f.rotary, i);
-  if ((i = suffix_index(name, "a")) >= 0) return power_truth(t.a, i);
-  if ((i = suffix_index(name, "A")) >= 0) return knot_truth(t.a, f.a, i);
-  if ((i = suffix_index(name, "B")) >= 0) return knot_truth(t.lags[0].b, f.lags[0].b, i);
-  return std::numeric_limits<double>::quiet_NaN();
+  const auto* sp = id.kind == ParamKind::a_knot                        ? &f.a
+                   : id.kind == ParamKind::b_knot && id.lag == 0       ? &f.lags[0].b
+                   : id.kind == ParamKind::rotary_knot                 ? &f.rotary
+                                                                       : nullptr;
+  if (sp != nullptr) {
+    if (id.knot >= sp->n_knots) return std::numeric_limits<double>::quiet_NaN();
+    id.knot_rad = sp->knot_rad[id.knot];
+  }
+  return true_parameter_value(truth, id);
 }
 
 namespace {
@@ -141,7 +149,7 @@ MonteCarloResult run_monte_carlo(const MonteCarloOptions& o, const MonteCarloPro
         out.fit_error = fr.fit_error;
         out.parameters = fr.parameters;
         for (const ParameterEstimate& p : fr.parameters)
-          out.truth.push_back(true_parameter_value(c.truth, fr.model, p.name));
+          out.truth.push_back(true_parameter_value(c.truth, p.id));
       } catch (const std::exception& ex) {
         out.ok = false;
         out.error = ex.what();

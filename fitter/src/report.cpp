@@ -89,16 +89,12 @@ std::string display_path(const std::string& path, const Experiment& e) {
 // The initial lag states of run `ri` (0-based) as the fitter estimated them.
 // Returns false when they cannot be recovered (a periodic run of a multi-lag model).
 bool initial_states(const FitResult& r, std::size_t ri, int n_lags, double* y) {
-  const std::string base = "y0_" + std::to_string(ri + 1);
   bool found_first = false;
   for (int j = 0; j < n_lags; ++j) y[j] = 0.0;
   for (const ParameterEstimate& p : r.parameters) {
-    if (p.name == base) {
-      y[0] = p.value;
-      found_first = true;
-    }
-    for (int j = 1; j < n_lags; ++j)
-      if (p.name == base + "_" + std::to_string(j + 1)) y[j] = p.value;
+    if (p.id.kind != ParamKind::initial_state || p.id.run != static_cast<int>(ri)) continue;
+    if (p.id.lag < n_lags) y[p.id.lag] = p.value;
+    if (p.id.lag == 0) found_first = true;
   }
   if (found_first) return true;
   // Why: a periodic run has no y0 parameter (its state is the periodic steady state); with one
@@ -395,16 +391,9 @@ std::string rel_percent(double bound, double value) {
   return fmt::format("{:.2f}", 100.0 * bound / std::fabs(value));
 }
 
-bool function_estimated(const FitResult& r, const char* power_prefix, const char* knot_prefix) {
-  for (const ParameterEstimate& p : r.parameters) {
-    const std::string& n = p.name;
-    for (const char* pre_c : {power_prefix, knot_prefix}) {
-      const std::string pre(pre_c);
-      if (n.size() > pre.size() && n.compare(0, pre.size(), pre) == 0 &&
-          n.find_first_not_of("0123456789", pre.size()) == std::string::npos)
-        return true;
-    }
-  }
+bool rotary_terms_estimated(const FitResult& r) {
+  for (const ParameterEstimate& p : r.parameters)
+    if (p.id.kind == ParamKind::rotary_power || p.id.kind == ParamKind::rotary_knot) return true;
   return false;
 }
 
@@ -480,7 +469,7 @@ PlotSet make_plots(const FitResult& r, const Experiment& e, const OutputDir& out
     int col;  // value column
     bool colored;
   };
-  const bool rotary_estimated = e.rotary.estimate && function_estimated(r, "Caq_", "CaqK");
+  const bool rotary_estimated = e.rotary.estimate && rotary_terms_estimated(r);
   for (const FPlot& f : {FPlot{"a_band.png", "a(x)", 2, true}, FPlot{"b1_band.png", "b1(x), 1/s", 7, true},
                          FPlot{"caq_band.png", "C_aq(x)", 12, false}}) {
     gp += fmt::format("set output {}\nset ylabel {} noenhanced\n", gp_quote(f.png), gp_quote(f.label));

@@ -121,17 +121,59 @@ inline Scalar int_power(const Scalar& u, int p) {
 }
 }  // namespace detail
 
+// ------------------------------------------------------------------------------------------
+// The spline basis: the ONE definition of a spline term and its antiderivative. spline_value
+// and spline_antiderivative below sum it (the powers by Horner's rule), the fitter's
+// regressors evaluate it term by term. To add a kind of basis term, add it here and to Spline.
+//   power term  x^i            antiderivative  x^(i+1) / (i+1)
+//   knot term   (x - k)_+^p    antiderivative  (x - k)_+^(p+1) / (p+1)      ((u)_+ = max(u, 0))
+// The argument type X may differ from Scalar (a plain double angle with an autodiff Scalar,
+// see spline_antiderivative). The plus function branches on the value only, so an autodiff
+// type carries the derivative of whichever side it is on.
+// ------------------------------------------------------------------------------------------
+enum class BasisKind : int { power = 0, knot = 1 };
+
+struct BasisTerm {
+  BasisKind kind = BasisKind::power;
+  int power = 0;          // i of x^i, or p of (x - k)_+^p
+  double knot_rad = 0.0;  // k (knot terms)
+};
+
+template <class Scalar, class X>
+inline Scalar basis_value(const BasisTerm& t, const X& x) {
+  if (t.kind == BasisKind::power) return Scalar(detail::int_power(x, t.power));
+  const X u = x - X(t.knot_rad);
+  return u > X(0) ? Scalar(detail::int_power(u, t.power)) : Scalar(0);
+}
+
+// coef times the term's antiderivative, rounded as (coef * u^(p+1)) / (p+1): the form the
+// runtime has always evaluated (spline_antiderivative), kept so that its results do not move.
+template <class Scalar, class X>
+inline Scalar scaled_basis_antiderivative(const BasisTerm& t, const X& x, const Scalar& coef) {
+  const X u = t.kind == BasisKind::power ? x : x - X(t.knot_rad);
+  if (t.kind == BasisKind::knot && !(u > X(0))) return Scalar(0);
+  return coef * detail::int_power(u, t.power + 1) / Scalar(t.power + 1);
+}
+
+template <class Scalar, class X>
+inline Scalar basis_antiderivative(const BasisTerm& t, const X& x) {
+  return scaled_basis_antiderivative(t, x, Scalar(1));
+}
+
+template <class Scalar, int P, int K>
+inline BasisTerm knot_term(const Spline<Scalar, P, K>& s, int j) {
+  return BasisTerm{BasisKind::knot, s.knot_power[j], s.knot_rad[j]};
+}
+
 // Value s(x).
 template <class Scalar, int P, int K>
 inline Scalar spline_value(const Spline<Scalar, P, K>& s, const Scalar& x) {
   Scalar r = Scalar(0);
-  // Horner from the highest power.
+  // Horner from the highest power: sum_i power_coef[i] x^i.
   for (int i = s.n_powers - 1; i >= 0; --i) r = r * x + s.power_coef[i];
   for (int j = 0; j < s.n_knots; ++j) {
-    const Scalar u = x - Scalar(s.knot_rad[j]);
-    // The plus function: the branch is on the value only, so an autodiff type carries the
-    // derivative of whichever side it is on (both sides agree at u = 0 for power >= 1).
-    if (u > Scalar(0)) r = r + s.knot_coef[j] * detail::int_power(u, s.knot_power[j]);
+    // Why the branch: a term below its knot is 0; skipping it saves an autodiff type the work.
+    if (x > Scalar(s.knot_rad[j])) r = r + s.knot_coef[j] * basis_value<Scalar>(knot_term(s, j), x);
   }
   return r;
 }
@@ -165,9 +207,8 @@ inline Scalar spline_antiderivative(const Spline<Scalar, P, K>& s, const X& x) {
   for (int i = s.n_powers - 1; i >= 0; --i) r = r * x + s.power_coef[i] / Scalar(i + 1);
   r = r * x;
   for (int j = 0; j < s.n_knots; ++j) {
-    const int p = s.knot_power[j];
-    const X u = x - X(s.knot_rad[j]);
-    if (u > X(0)) r = r + s.knot_coef[j] * detail::int_power(u, p + 1) / Scalar(p + 1);
+    if (x > X(s.knot_rad[j]))
+      r = r + scaled_basis_antiderivative(knot_term(s, j), x, s.knot_coef[j]);
   }
   return r;
 }

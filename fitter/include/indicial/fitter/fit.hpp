@@ -38,7 +38,7 @@
 // Parameter names (../shared/reference/interface.md): a{i} for a(x)'s x^i term, A{j} for its
 // knot terms (j from 1, knots ascending), b1_{i} and B{j} for b1(x), con, Caq_{i} for the
 // estimated rotary polynomial and CaqK{j} for its knot terms, y0_{r} for run r's initial state
-// (r from 1, lag 1), y0_{r}_{k} for lag k >= 2, b{k}_{i} and c{k} for lag k >= 2; with the
+// (r from 1, lag 1), y0_{r}_{k} for lag k >= 2, b{k}_{i}, B{k}_{j} and c{k} for lag k >= 2; with the
 // diagnose extensions of ModelConfig (experiment.hpp): dCa_{i} / dCaK{j} for static-correction
 // terms, Caq_{i} / CaqK{j} for rotary-correction terms, delay_s for an estimated delay.
 //
@@ -160,13 +160,58 @@ struct FitOptions {
   std::vector<std::pair<std::string, double>> start_values;
 };
 
+// Parameter identity ------------------------------------------------------------------------
+// Every estimated parameter (and every internal term of the fitter) carries a ParamId: what it
+// is, not what it is called. The contract's display name (a1, A2, b1_0, B1, con, Caq_2, CaqK1,
+// dCa_1, dCaK1, b2_0, B2_1, c2, delay_s, y0_3, y0_3_2; see the essay above) is derived from it
+// by parameter_name() only, and parse_parameter_name() is its one inverse, used only where a
+// name enters from outside (a start value, a table row).
+enum class ParamKind {
+  a_power, a_knot,            // a(x): x^power, (x - knot_rad)_+^power
+  b_power, b_knot,            // b_{lag+1}(x)
+  con,                        // the constant of the first state equation
+  gain,                       // c_{lag+1} of a further lag (lag >= 1)
+  delay,                      // delay_s of the unsteady forcing
+  rotary_power, rotary_knot,  // C_aq(x) terms (two-stage loop, or diagnose's correction)
+  static_power, static_knot,  // dC_a(x) terms (diagnose's static correction)
+  initial_state               // y0 of lag `lag` in run `run`
+};
+
+struct ParamId {
+  ParamKind kind = ParamKind::a_power;
+  int lag = 0;            // 0-based lag: b_power, b_knot, gain, initial_state
+  int power = 0;          // power kinds: x^power; knot kinds: the plus function's power
+  int knot = 0;           // knot kinds: 0-based index among its spline's knots (ascending);
+                          // the display number (A{knot+1}), NOT part of the identity
+  double knot_rad = 0.0;  // knot kinds: where the knot is (part of the identity)
+  int run = 0;            // initial_state: 0-based run of the experiment
+};
+
+// Identity: a knot term is the same term wherever it is numbered (adding a knot renumbers the
+// names A1, A2, ... but not the terms). Comparable, ordered and hashable, so it can key maps.
+bool same_parameter(const ParamId& x, const ParamId& y);
+inline bool operator==(const ParamId& x, const ParamId& y) { return same_parameter(x, y); }
+inline bool operator!=(const ParamId& x, const ParamId& y) { return !same_parameter(x, y); }
+bool operator<(const ParamId& x, const ParamId& y);
+struct ParamIdHash {
+  std::size_t operator()(const ParamId& id) const;
+};
+
+// The contract name of a parameter (see the essay above).
+std::string parameter_name(const ParamId& id);
+// The inverse of parameter_name, for names from outside (start values, report tables): false
+// for a string that is no parameter name. A knot's knot_rad is unknown from its name (NaN):
+// the caller resolves it against its model (the knot with index `knot`).
+bool parse_parameter_name(const std::string& name, ParamId* id);
+
 enum class Identifiability {
   identified,        // the information matrix determines it; bounds are finite
   not_identifiable   // (a component of) its direction is in the null space; bounds are NaN
 };
 
 struct ParameterEstimate {
-  std::string name;
+  ParamId id;
+  std::string name;               // parameter_name(id), for output
   double value = 0.0;
   double cr_bound = 0.0;          // white-residual standard error (Cramer-Rao bound)
   double cr_bound_colored = 0.0;  // colored-residual (sandwich) standard error
@@ -231,6 +276,11 @@ struct OutputErrorIteration {
   double max_step_in_bounds = 0.0;  // max |d theta_i| / CR bound_i of the accepted step
 };
 
+// Whether the estimate sits on the boundary of the admissible models (the output-error
+// solver's feasibility predicate rejected the steps tried from it), see
+// fitter/src/fit_levenberg_marquardt.hpp.
+enum class FeasibilityBoundary { interior, active };
+
 struct OutputErrorSummary {
   Termination termination = Termination::converged;
   int iterations = 0;
@@ -242,6 +292,8 @@ struct OutputErrorSummary {
   int correlation_lag = 0;        // lags used by the colored bounds
   std::vector<std::string> unidentifiable;  // parameters in the null space (empty if full rank)
   std::vector<OutputErrorIteration> log;
+  FeasibilityBoundary boundary = FeasibilityBoundary::interior;
+  int infeasible_trials = 0;      // trial steps rejected as inadmissible models
   std::string message;            // one line: what happened (for reports and the CLI)
 };
 

@@ -51,7 +51,11 @@ namespace indicial {
 // coefficient_measured[0]; the run paths are the case's run file names.
 Experiment experiment_from_simulation(const SimulationCase& c, const std::vector<SimulatedRun>& runs);
 
-// The true value of the fitted parameter `name` (warning 4); NaN when the truth has none.
+// The true value of a fitted parameter (warning 4); NaN when the truth has none. A knot term
+// is matched by its position (0 where the truth has no knot there).
+double true_parameter_value(const TruthModel& truth, const ParamId& id);
+// The same for a parameter named as in fit.hpp (a knot by its number in `fitted`); NaN for a
+// string that is no parameter name.
 double true_parameter_value(const TruthModel& truth, const ModelSet<double, FitCapacity>& fitted,
                             const std::string& name);
 
