@@ -48,7 +48,7 @@ void run_diagnose(const DiagnoseCliOptions& o) {
   ro.plots = o.no_plots ? PlotRequest::none : PlotRequest::gnuplot;
   ro.gnuplot = o.gnuplot;
   ro.command_line = tools::invocation();
-  ro.provenance = experiment_provenance(e, tools::invocation());
+  ro.provenance = tools::provenance_of(e);
   DiagnoseOutputs w;
   clock.stage("writing the outputs (runtime check, report, plots)",
               [&] { w = write_diagnose_outputs(d, e, o.diag, o.out, overwrite, ro); });

@@ -75,7 +75,7 @@ void run_fit(const FitCliOptions& o) {
   ro.plots = o.no_plots ? PlotRequest::none : PlotRequest::gnuplot;
   ro.gnuplot = o.gnuplot;
   ro.command_line = tools::invocation();
-  ro.provenance = experiment_provenance(e, tools::invocation());
+  ro.provenance = tools::provenance_of(e);
   FitOutputs w;
   clock.stage("writing the outputs (runtime check, report, plots)",
               [&] { w = write_fit_outputs(r, e, fo, o.out, overwrite, ro); });

@@ -9,6 +9,8 @@
 //
 // Shared by the subcommands:
 //   invocation()         the whole command line as typed (shell-quoted), for provenance
+//   build_commit()       the commit the executable was built from
+//   provenance_of(e)     version, commit, command line and input digests for outputs of e
 //   print_warnings(v)    each entry on stderr as "indicial: warning: ..."
 //   experiment_warnings  an Experiment's input warnings (Experiment::warnings)
 //   StageClock           progress lines on stderr for stages longer than ~2 s
@@ -34,6 +36,9 @@
 #include <utility>
 #include <vector>
 
+#include "indicial/fitter/experiment.hpp"
+#include "indicial/fitter/provenance.hpp"
+
 namespace indicial::tools {
 
 using CommandSetup = std::function<void(CLI::App& app)>;
@@ -51,6 +56,14 @@ struct RegisterCommand {
 inline std::string& invocation() {
   static std::string line;
   return line;
+}
+
+// The git commit this executable was built from (tools/build_commit.cpp), or "unknown".
+const char* build_commit();
+
+// The provenance of outputs made from experiment e by this invocation.
+inline Provenance provenance_of(const Experiment& e) {
+  return experiment_provenance(e, invocation(), build_commit());
 }
 
 // Appended to every subcommand's description.
