@@ -1,13 +1,15 @@
 # cmake/version.cmake -- the one version of indicial, and the commit it was built from.
 #
 # The version is the root CMakeLists.txt's project(VERSION); nothing else spells it. Included
-# from fitter/CMakeLists.txt: it generates, in the build tree,
-#   generated/indicial/fitter/version.hpp   INDICIAL_VERSION "X.Y.Z" (at configure time)
-#   generated/indicial/fitter/commit.hpp    INDICIAL_COMMIT "abcdef123456[-dirty]" or "unknown"
-# commit.hpp is refreshed at every build by running this file in script mode (-P) and is
-# rewritten only when the commit changes, so an unchanged commit recompiles nothing.
-# Used by fitter/src/provenance.cpp (`indicial --version`, fit.json, diagnosis.json and the
-# model.coef header).
+# from fitter/CMakeLists.txt: it generates, in the build tree (PROJECT_BINARY_DIR/generated),
+#   indicial/fitter/version.hpp   INDICIAL_VERSION "X.Y.Z" (at configure time), included by
+#                                 fitter/src/provenance.cpp
+#   indicial/fitter/commit.hpp    INDICIAL_COMMIT "abcdef123456[-dirty]" or "unknown", by the
+#                                 target indicial_commit_header at every build
+# commit.hpp is rewritten only when the commit changes, and only tools/build_commit.cpp
+# includes it: a new commit recompiles that one file and relinks the `indicial` executable,
+# not the library and every test. Used for `indicial --version`, fit.json, diagnosis.json and
+# the model.coef header.
 if(CMAKE_SCRIPT_MODE_FILE)
   # Script mode: SOURCE_DIR and OUTPUT are given with -D.
   set(commit "unknown")

@@ -21,6 +21,13 @@ inline std::string slurp(const std::filesystem::path& p) {
   return ss.str();
 }
 
+// The number of '\n' in s (a one-line message has 1).
+inline std::size_t count_lines(const std::string& s) {
+  std::size_t n = 0;
+  for (char c : s) n += (c == '\n');
+  return n;
+}
+
 // A fresh directory /tmp/indicial-test-NAME-XXXXXX for this process, made on first use and
 // removed at exit (kept when the environment variable INDICIAL_KEEP_TEST_FILES is set, for
 // debugging). One per test executable: call it with the same NAME throughout.

@@ -24,17 +24,12 @@ namespace fs = std::filesystem;
 namespace {
 
 using Run = indicial::testing::CliRun;
+using indicial::testing::count_lines;
 using indicial::testing::slurp;
 
 const fs::path& scratch() { return indicial::testing::scratch_directory("fit-cli"); }
 
 Run run_cli(const std::string& args) { return indicial::testing::run_indicial(args, scratch()); }
-
-std::size_t count_lines(const std::string& s) {
-  std::size_t n = 0;
-  for (char c : s) n += (c == '\n');
-  return n;
-}
 
 // The simulated data set every test case fits (seed not used by any tuning).
 const fs::path& data_dir() {

@@ -46,7 +46,8 @@ void run_diagnose(const DiagnoseCliOptions& o) {
   Experiment e;
   clock.stage("reading the experiment and its runs", [&] { e = load_experiment(o.experiment); });
   ReportOptions ro;
-  ro.warnings = tools::experiment_warnings(e);
+  tools::print_notes(e.notes);
+  ro.warnings = e.warnings;
   for (const std::string& w : runtime_limit_warnings(e)) ro.warnings.push_back(w);
   tools::print_warnings(ro.warnings);
   const Overwrite overwrite = o.force ? Overwrite::replace : Overwrite::refuse;
@@ -64,7 +65,7 @@ void run_diagnose(const DiagnoseCliOptions& o) {
   ro.plots = o.no_plots ? PlotRequest::none : PlotRequest::gnuplot;
   ro.gnuplot = o.gnuplot;
   ro.command_line = tools::invocation();
-  ro.provenance = experiment_provenance(e, tools::invocation());
+  ro.provenance = tools::provenance_of(e);
   const std::vector<std::string> after = diagnose_warnings(d);  // listed in diagnosis.json too
   ro.warnings.insert(ro.warnings.end(), after.begin(), after.end());
   DiagnoseOutputs w;
@@ -97,10 +98,8 @@ const indicial::tools::RegisterCommand register_diagnose([](CLI::App& app) {
           ") by a\n"
           "likelihood-ratio test with a Bonferroni guard and BIC, add the most significant, repeat.\n"
       "Writes DIR/diagnosis.json, DIR/model.coef (final model), DIR/report.md and DIR/plots/.\n"
-      "Exit status: 0 done (any verdict, 'none' included); 1 bad input, or a final model the
-"
-      "runtime refuses (one line, nothing written); 6 stopped at --max-steps with an effect still
-"
+      "Exit status: 0 done (any verdict, 'none' included); 1 bad input, or a final model the\n"
+      "runtime refuses (one line, nothing written); 6 stopped at --max-steps with an effect still\n"
       "significant (outputs written).");
   sub->add_option("experiment", opt->experiment, "experiment file (TOML)")->required();
   sub->add_option("--out", opt->out, "output directory (refused if not empty, unless --force)")->required();

@@ -145,7 +145,8 @@ ColumnResult fit_column(const fs::path& experiment, const fs::path& fit_dir, dou
   ro.experiment_display = shown;
   // Provenance as for that `indicial fit`, input paths as shown (the data set is still in the
   // staging directory now, under its final name later).
-  ro.provenance = experiment_provenance(e, ro.command_line + " (by " + tools::invocation() + ")");
+  ro.provenance = experiment_provenance(e, ro.command_line + " (by " + tools::invocation() + ")",
+                                       tools::build_commit());
   for (InputDigest& d : ro.provenance.inputs)
     d.path = "../" + experiment.parent_path().filename().string() + "/" + fs::path(d.path).filename().string();
   write_fit_outputs(cr.fit, e, fo, fit_dir, Overwrite::refuse, ro);

@@ -65,8 +65,8 @@ void run_fit(const FitCliOptions& o) {
   Experiment e;
   clock.stage("reading the experiment and its runs", [&] { e = load_experiment(o.experiment); });
   ReportOptions ro;
-  for (const std::string& n : e.notes) std::fprintf(stderr, "indicial: note: %s\n", n.c_str());
-  ro.warnings = tools::experiment_warnings(e);
+  tools::print_notes(e.notes);
+  ro.warnings = e.warnings;
   for (const std::string& w : runtime_limit_warnings(e)) ro.warnings.push_back(w);
   print_warnings(ro.warnings);
   // Refuse a non-empty DIR before the (possibly long) fit, not after it.
@@ -84,7 +84,7 @@ void run_fit(const FitCliOptions& o) {
   ro.plots = o.no_plots ? PlotRequest::none : PlotRequest::gnuplot;
   ro.gnuplot = o.gnuplot;
   ro.command_line = tools::invocation();
-  ro.provenance = experiment_provenance(e, tools::invocation());
+  ro.provenance = tools::provenance_of(e);
   FitOutputs w;
   clock.stage("writing the outputs (runtime check, report, plots)",
               [&] { w = write_fit_outputs(r, e, fo, o.out, overwrite, ro); });

@@ -9,8 +9,10 @@
 //
 // Shared by the subcommands:
 //   invocation()         the whole command line as typed (shell-quoted), for provenance
+//   build_commit()       the commit the executable was built from
+//   provenance_of(e)     version, commit, command line and input digests for outputs of e
+//   print_notes(v)       each entry on stderr as "indicial: note: ..."
 //   print_warnings(v)    each entry on stderr as "indicial: warning: ..."
-//   experiment_warnings  an Experiment's input warnings (Experiment::warnings)
 //   StageClock           progress lines on stderr for stages longer than ~2 s
 //   formats_pointer      the sentence every --help text ends with
 //
@@ -30,9 +32,10 @@
 #include <mutex>
 #include <string>
 #include <thread>
-#include <type_traits>
-#include <utility>
 #include <vector>
+
+#include "indicial/fitter/experiment.hpp"
+#include "indicial/fitter/provenance.hpp"
 
 namespace indicial::tools {
 
@@ -53,29 +56,29 @@ inline std::string& invocation() {
   return line;
 }
 
+// The git commit this executable was built from (tools/build_commit.cpp), or "unknown".
+const char* build_commit();
+
+// The provenance of outputs made from experiment e by this invocation.
+inline Provenance provenance_of(const Experiment& e) {
+  return experiment_provenance(e, invocation(), build_commit());
+}
+
 // Appended to every subcommand's description.
 inline constexpr const char* formats_pointer =
     "\nFile formats (experiment keys with units and defaults, run CSV columns, outputs):\n"
     "docs/formats.md in the source tree; `indicial init FILE.toml` writes a commented template.\n";
 
+// Prints each note (what a reader did: an ignored column, ...) as one line on stderr.
+inline void print_notes(const std::vector<std::string>& notes) {
+  for (const std::string& n : notes) std::fprintf(stderr, "indicial: note: %s\n", n.c_str());
+  std::fflush(stderr);
+}
+
 // Prints each warning as one line on stderr.
 inline void print_warnings(const std::vector<std::string>& warnings) {
   for (const std::string& w : warnings) std::fprintf(stderr, "indicial: warning: %s\n", w.c_str());
   std::fflush(stderr);
-}
-
-// The input warnings of a loaded experiment (Experiment::warnings: one-line strings about
-// plausible mistakes, filled by load_experiment). Why a trait: the field is added by the
-// issue-14 input work; until it is there this returns nothing, afterwards it returns the
-// field, with no edit here.
-template <class E, class = void>
-struct HasWarnings : std::false_type {};
-template <class E>
-struct HasWarnings<E, std::void_t<decltype(std::declval<const E&>().warnings)>> : std::true_type {};
-template <class E>
-std::vector<std::string> experiment_warnings(const E& e) {
-  if constexpr (HasWarnings<E>::value) return std::vector<std::string>(e.warnings.begin(), e.warnings.end());
-  else return {};
 }
 
 // Whether progress lines are printed.

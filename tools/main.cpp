@@ -8,6 +8,7 @@
 //     (105-114) are never returned.
 //   * A subcommand's callback may end with CLI::RuntimeError(code) to exit with its own
 //     documented status (fit: 4, 5; example: 2) after writing its outputs.
+#include <algorithm>
 #include <cstdio>
 #include <exception>
 #include <string>
@@ -93,7 +94,8 @@ int main(int argc, char** argv) {
   CLI::App app{"indicial: identify nonlinear unsteady aerodynamic models from wind-tunnel data "
                "and run them in real time"};
   app.require_subcommand(1);
-  app.set_version_flag("--version", indicial::version_line(), "print the version and the commit, then exit");
+  app.set_version_flag("--version", indicial::version_line(indicial::tools::build_commit()),
+                       "print the version and the commit, then exit");
   app.footer(indicial::tools::formats_pointer);
   for (auto& setup : indicial::tools::command_registry()) setup(app);
   for (CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; })) sub->footer(indicial::tools::formats_pointer);

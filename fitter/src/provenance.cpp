@@ -10,18 +10,15 @@
 #include <sstream>
 
 #include "indicial/coef_file.hpp"
-#include "indicial/fitter/commit.hpp"
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/version.hpp"
 
 namespace indicial {
 
 const char* tool_version() { return INDICIAL_VERSION; }
-const char* tool_commit() { return INDICIAL_COMMIT; }
 
-std::string version_line() {
-  const std::string commit = tool_commit();
-  if (commit == "unknown") return std::string("indicial ") + tool_version();
+std::string version_line(const std::string& commit) {
+  if (commit.empty() || commit == "unknown") return std::string("indicial ") + tool_version();
   return std::string("indicial ") + tool_version() + " (commit " + commit + ")";
 }
 
@@ -45,10 +42,10 @@ std::string sha256_file(const std::filesystem::path& path) {
   return sha256_hex(ss.str());
 }
 
-Provenance make_provenance(const std::string& command_line) {
+Provenance make_provenance(const std::string& command_line, const std::string& commit) {
   Provenance p;
   p.version = tool_version();
-  p.commit = tool_commit();
+  p.commit = commit.empty() ? "unknown" : commit;
   p.command_line = command_line;
   return p;
 }
@@ -57,8 +54,9 @@ void add_input(Provenance& p, const std::string& role, const std::string& path) 
   p.inputs.push_back({role, path, sha256_file(path)});
 }
 
-Provenance experiment_provenance(const Experiment& e, const std::string& command_line) {
-  Provenance p = make_provenance(command_line);
+Provenance experiment_provenance(const Experiment& e, const std::string& command_line,
+                                 const std::string& commit) {
+  Provenance p = make_provenance(command_line, commit);
   add_input(p, "experiment", e.path);
   for (const Run& r : e.runs) add_input(p, "run", r.path);
   if (e.static_curve.kind == StaticKind::table && !e.static_curve.table_path.empty())
@@ -92,7 +90,7 @@ std::string with_provenance_header(const std::string& coef_text, const Provenanc
   if (p.version.empty()) return coef_text;
   const std::size_t at = coef_text.rfind("\nchecksum ");
   if (at == std::string::npos) throw std::logic_error("with_provenance_header: no checksum line");
-  std::string text = "# " + version_line() + "\n";
+  std::string text = "# " + version_line(p.commit) + "\n";
   if (!p.command_line.empty()) text += "# command: " + one_line(p.command_line) + "\n";
   for (const InputDigest& d : p.inputs)
     text += "# input " + d.role + " sha256 " + d.sha256 + " " + one_line(d.path) + "\n";

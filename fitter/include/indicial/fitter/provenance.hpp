@@ -19,16 +19,19 @@
 //
 // Usage
 // -----
-//   indicial::Provenance p = indicial::experiment_provenance(e, "indicial fit exp.toml --out d");
+//   indicial::Provenance p =
+//       indicial::experiment_provenance(e, "indicial fit exp.toml --out d", commit);
 //   json["provenance"] = indicial::provenance_json(p);
 //   coef_text = indicial::with_provenance_header(coef_text, p);
-//   std::puts(indicial::version_line().c_str());     // "indicial 0.1.0 (commit 3f2c...)"
+//   std::puts(indicial::version_line(commit).c_str());   // "indicial 0.1.0 (commit 3f2c...)"
 //
 // Warnings
 // --------
-// 1. The version is the root CMakeLists.txt's project(VERSION) (cmake/version.cmake); the
-//    commit is read from git at build time ("unknown" outside a git checkout, "-dirty" when
-//    the tree had uncommitted changes). Nothing else may spell either.
+// 1. The version is the root CMakeLists.txt's project(VERSION) (cmake/version.cmake); nothing
+//    else may spell it. The commit is read from git at build time by the command line
+//    (tools/build_commit.cpp: "unknown" outside a git checkout, "-dirty" when the tree had
+//    uncommitted changes) and passed in here; the library does not embed it, so a new commit
+//    relinks one executable, not every test.
 // 2. Digests are of the files as they are on disk when the provenance is made (just after
 //    load_experiment read them); SHA-256 comes from OpenSSL's libcrypto, never hand-written.
 // 3. Two outputs made from the same inputs by different command lines or builds differ in
@@ -47,11 +50,8 @@ namespace indicial {
 
 // "0.1.0": the project version.
 const char* tool_version();
-// The git commit the tool was built from (12 hex digits, "-dirty" appended for uncommitted
-// changes), or "unknown".
-const char* tool_commit();
-// "indicial 0.1.0 (commit 3f2c1a9b8d7e)", or "indicial 0.1.0" when the commit is unknown.
-std::string version_line();
+// "indicial 0.1.0 (commit 3f2c1a9b8d7e)", or "indicial 0.1.0" when commit is "unknown" or "".
+std::string version_line(const std::string& commit);
 
 // SHA-256 of bytes / of a file's contents as 64 lowercase hex digits. sha256_file throws
 // InputError naming the path if it cannot be read.
@@ -66,17 +66,18 @@ struct InputDigest {
 
 struct Provenance {
   std::string version;       // tool_version()
-  std::string commit;        // tool_commit()
+  std::string commit;        // the build's commit (12 hex digits[-dirty]) or "unknown"
   std::string command_line;  // the whole invocation, shell-quoted where needed
   std::vector<InputDigest> inputs;
 };
 
 // The version, commit and command line, no inputs yet.
-Provenance make_provenance(const std::string& command_line);
+Provenance make_provenance(const std::string& command_line, const std::string& commit);
 // Appends an input with its digest (reads the file).
 void add_input(Provenance& p, const std::string& role, const std::string& path);
 // make_provenance plus the experiment file, every run CSV and the static table (if any).
-Provenance experiment_provenance(const Experiment& e, const std::string& command_line);
+Provenance experiment_provenance(const Experiment& e, const std::string& command_line,
+                                 const std::string& commit);
 
 nlohmann::json provenance_json(const Provenance& p);
 
