@@ -23,6 +23,7 @@ struct DiagnoseCliOptions {
   bool force = false;
   bool no_plots = false;
   std::string gnuplot = "gnuplot";
+  std::string coefficient;  // of a multi-coefficient experiment
   indicial::DiagnoseOptions diag;
 };
 
@@ -33,7 +34,7 @@ void run_diagnose(const DiagnoseCliOptions& o, const std::string& command_line) 
     throw InputError("--alpha", 0, "the significance level must be in (0, 1)");
   if (o.diag.max_steps < 0) throw InputError("--max-steps", 0, "must be >= 0");
   if (!(o.diag.knot_spacing_deg > 0.0)) throw InputError("--knot-spacing-deg", 0, "must be > 0");
-  const Experiment e = load_experiment(o.experiment);
+  const Experiment e = load_experiment(o.experiment, o.coefficient);
   const Overwrite overwrite = o.force ? Overwrite::replace : Overwrite::refuse;
   { OutputDir probe(o.out, overwrite); }  // refuse a non-empty DIR before the long part
   const DiagnoseResult d = diagnose_experiment(e, o.diag);
@@ -78,6 +79,8 @@ const indicial::tools::RegisterCommand register_diagnose([](CLI::App& app) {
   sub->add_option("--knot-spacing-deg", opt->diag.knot_spacing_deg,
                   "knot scan grid spacing in degrees of the model angle (default 5)");
   sub->add_flag("--no-plots", opt->no_plots, "do not run gnuplot");
+  sub->add_option("--coefficient", opt->coefficient,
+                  "with an experiment listing several coefficients: the one to diagnose (e.g. Cm)");
   sub->add_option("--gnuplot", opt->gnuplot, "gnuplot executable (default: gnuplot on PATH)");
   sub->callback([opt]() {
     std::string cl = "indicial diagnose " + opt->experiment + " --out " + opt->out;

@@ -12,15 +12,22 @@
 //      "warning:" line says so
 //   5  the information matrix is rank deficient: outputs written, the parameters that cannot
 //      be identified are named (bounds null in fit.json)
+// With several coefficients (`coefficients = ["CL", "Cm"]`) each is fitted into DIR/<name>/ and
+// the status is the first non-zero one of them.
 #include <cstdio>
 #include <map>
 #include <memory>
+#include <set>
 #include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include "command.hpp"
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/fit.hpp"
 #include "indicial/fitter/io.hpp"
+#include "indicial/fitter/model_merge.hpp"
 #include "indicial/fitter/report.hpp"
 
 namespace {
@@ -38,7 +45,7 @@ struct FitCliOptions {
 // Exit codes of `indicial fit` when outputs were written (see the file comment).
 enum class FitExit : int { ok = 0, diverged = 4, rank_deficient = 5 };
 
-void run_fit(const FitCliOptions& o, const std::string& command_line) {
+indicial::FitOptions checked_fit_options(const FitCliOptions& o) {
   using namespace indicial;
   if (o.out.empty()) throw InputError("--out", 0, "an output directory is required");
   FitOptions fo = o.fit;
@@ -50,21 +57,24 @@ void run_fit(const FitCliOptions& o, const std::string& command_line) {
   if (!(fo.f_to_enter > 0.0) || !(fo.f_to_remove > 0.0) || fo.f_to_remove > fo.f_to_enter)
     throw InputError("--f-to-enter", 0, "need F to enter >= F to remove > 0");
   if (fo.max_iterations < 1) throw InputError("--max-iterations", 0, "must be at least 1");
+  return fo;
+}
 
-  const Experiment e = load_experiment(o.experiment);
-  // The CLI engineer's shared printer replaces this (issue 14 item 3); fit.json gets the warnings there.
-  for (const std::string& n : e.notes) std::fprintf(stderr, "indicial: note: %s\n", n.c_str());
-  for (const std::string& w : e.warnings) std::fprintf(stderr, "indicial: warning: %s\n", w.c_str());
-  // Refuse a non-empty DIR before the (possibly long) fit, not after it.
-  const Overwrite overwrite = o.force ? Overwrite::replace : Overwrite::refuse;
-  { OutputDir probe(o.out, overwrite); }
-  const FitResult r = fit_experiment(e, fo);
-  ReportOptions ro;
-  ro.plots = o.no_plots ? PlotRequest::none : PlotRequest::gnuplot;
-  ro.gnuplot = o.gnuplot;
-  ro.command_line = command_line;
-  const FitOutputs w = write_fit_outputs(r, e, fo, o.out, overwrite, ro);
+// Notes and warnings of the experiments, each line once (several coefficients share runs).
+// The CLI engineer's shared printer replaces this (issue 14 item 3); fit.json gets the warnings there.
+void print_input_messages(const std::vector<indicial::Experiment>& es) {
+  std::set<std::string> seen;
+  for (const auto& e : es)
+    for (const std::string& n : e.notes)
+      if (seen.insert(n).second) std::fprintf(stderr, "indicial: note: %s\n", n.c_str());
+  for (const auto& e : es)
+    for (const std::string& w : e.warnings)
+      if (seen.insert(w).second) std::fprintf(stderr, "indicial: warning: %s\n", w.c_str());
+}
 
+void print_fit_summary(const FitCliOptions& o, const indicial::Experiment& e, const indicial::FitResult& r,
+                       const indicial::FitOutputs& w, const std::string& where) {
+  using namespace indicial;
   const OutputErrorSummary& oe = r.output_error;
   std::size_t samples = 0;
   for (const Run& run : e.runs) samples += run.size();
@@ -73,7 +83,7 @@ void run_fit(const FitCliOptions& o, const std::string& command_line) {
   std::printf("fit: output error %s after %d iterations, s(v) = %.6g (%.2f s)\n",
               termination_name(oe.termination), oe.iterations, r.fit_error, r.elapsed_s);
   std::fputs(estimates_text_table(r.parameters).c_str(), stdout);
-  std::printf("fit: wrote %s/fit.json, model.coef, report.md (%s)\n", o.out.c_str(), w.plot_message.c_str());
+  std::printf("fit: wrote %s/fit.json, model.coef, report.md (%s)\n", where.c_str(), w.plot_message.c_str());
   if (w.runtime.fit == RuntimeFit::refused)
     std::printf("fit: WARNING: the runtime refuses model.coef: %s\n", w.runtime.detail.c_str());
   else
@@ -83,25 +93,101 @@ void run_fit(const FitCliOptions& o, const std::string& command_line) {
   if (w.plots == PlotStatus::gnuplot_not_found || w.plots == PlotStatus::gnuplot_failed)
     std::fprintf(stderr, "indicial: warning: %s\n", w.plot_message.c_str());
   std::fflush(stdout);
+}
+
+// The warning line of a fit that did not converge and its exit status (0: none).
+int termination_exit(const FitCliOptions& o, const indicial::FitOptions& fo, const indicial::FitResult& r,
+                     const std::string& what) {
+  using namespace indicial;
+  const OutputErrorSummary& oe = r.output_error;
   switch (oe.termination) {
-    case Termination::converged: return;
+    case Termination::converged: return 0;
     case Termination::iteration_limit:
       std::fprintf(stderr, "indicial: warning: %s: output error stopped at the iteration limit (%d) before "
-                   "converging; the best estimate was written to %s\n", o.experiment.c_str(), fo.max_iterations,
+                   "converging; the best estimate was written to %s\n", what.c_str(), fo.max_iterations,
                    o.out.c_str());
-      return;
+      return 0;
     case Termination::diverged:
       std::fprintf(stderr, "indicial: warning: %s: the output-error iteration diverged; the best estimate "
-                   "was written to %s: %s\n", o.experiment.c_str(), o.out.c_str(), oe.message.c_str());
-      throw CLI::RuntimeError(static_cast<int>(FitExit::diverged));
+                   "was written to %s: %s\n", what.c_str(), o.out.c_str(), oe.message.c_str());
+      return static_cast<int>(FitExit::diverged);
     case Termination::rank_deficient: {
       std::string names;
       for (const std::string& n : oe.unidentifiable) names += (names.empty() ? "" : ", ") + n;
       std::fprintf(stderr, "indicial: warning: %s: rank-deficient information matrix; not identifiable: %s "
-                   "(outputs written to %s)\n", o.experiment.c_str(), names.c_str(), o.out.c_str());
-      throw CLI::RuntimeError(static_cast<int>(FitExit::rank_deficient));
+                   "(outputs written to %s)\n", what.c_str(), names.c_str(), o.out.c_str());
+      return static_cast<int>(FitExit::rank_deficient);
     }
   }
+  return 0;
+}
+
+indicial::ReportOptions report_options(const FitCliOptions& o, const std::string& command_line) {
+  indicial::ReportOptions ro;
+  ro.plots = o.no_plots ? indicial::PlotRequest::none : indicial::PlotRequest::gnuplot;
+  ro.gnuplot = o.gnuplot;
+  ro.command_line = command_line;
+  return ro;
+}
+
+void run_fit_one(const FitCliOptions& o, const indicial::FitOptions& fo, const indicial::Experiment& e,
+                 const std::string& command_line) {
+  using namespace indicial;
+  // Refuse a non-empty DIR before the (possibly long) fit, not after it.
+  const Overwrite overwrite = o.force ? Overwrite::replace : Overwrite::refuse;
+  { OutputDir probe(o.out, overwrite); }
+  const FitResult r = fit_experiment(e, fo);
+  const FitOutputs w = write_fit_outputs(r, e, fo, o.out, overwrite, report_options(o, command_line));
+  print_fit_summary(o, e, r, w, o.out);
+  const int status = termination_exit(o, fo, r, o.experiment);
+  if (status != 0) throw CLI::RuntimeError(status);
+}
+
+// Several coefficients: each fitted by fit_experiment into DIR/<coefficient>/ (its own
+// fit.json, model.coef, report.md), the models merged into DIR/model.coef, and DIR/fit.json
+// listing per coefficient the contract's keys (docs/formats.md).
+void run_fit_several(const FitCliOptions& o, const indicial::FitOptions& fo,
+                     const std::vector<indicial::Experiment>& es, const std::string& command_line) {
+  using namespace indicial;
+  const Overwrite overwrite = o.force ? Overwrite::replace : Overwrite::refuse;
+  { OutputDir probe(o.out, overwrite); }
+  std::vector<FitResult> results;
+  for (const Experiment& e : es) results.push_back(fit_experiment(e, fo));
+  OutputDir out(o.out, overwrite);
+  std::vector<NamedModelSet> parts;
+  nlohmann::json j = {{"experiment", o.experiment}, {"model_coef", "model.coef"}, {"coefficients", nlohmann::json::array()}};
+  int status = 0;
+  for (std::size_t i = 0; i < es.size(); ++i) {
+    const std::string sub = es[i].coefficient;
+    const FitOutputs w = write_fit_outputs(results[i], es[i], fo, out.path(sub), Overwrite::refuse,
+                                           report_options(o, command_line));
+    print_fit_summary(o, es[i], results[i], w, o.out + "/" + sub);
+    const nlohmann::json one = nlohmann::json::parse(w.fit_json);
+    nlohmann::json entry = {{"coefficient", sub}, {"directory", sub}};
+    for (const char* key : {"converged", "iterations", "fit_error", "parameters", "two_stage", "termination"})
+      if (one.contains(key)) entry[key] = one[key];
+    j["coefficients"].push_back(entry);
+    parts.push_back({o.out + "/" + sub + "/model.coef", &results[i].model});
+    const int s = termination_exit(o, fo, results[i], o.experiment + " (" + sub + ")");
+    if (s != 0 && status == 0) status = s;
+  }
+  const ModelMerge merged = merge_model_sets(parts);
+  for (const std::string& w : merged.warnings) std::fprintf(stderr, "indicial: warning: %s\n", w.c_str());
+  out.write("model.coef", coef_file_text(merged.model, o.out + "/model.coef"));
+  out.write("fit.json", j.dump(2) + "\n");
+  out.commit();
+  std::printf("fit: wrote %s/model.coef (%d coefficients) and %s/fit.json\n", o.out.c_str(),
+              merged.model.n_coefficients, o.out.c_str());
+  if (status != 0) throw CLI::RuntimeError(status);
+}
+
+void run_fit(const FitCliOptions& o, const std::string& command_line) {
+  using namespace indicial;
+  const FitOptions fo = checked_fit_options(o);
+  const std::vector<Experiment> es = load_experiments(o.experiment);
+  print_input_messages(es);
+  if (es.size() == 1) run_fit_one(o, fo, es.front(), command_line);
+  else run_fit_several(o, fo, es, command_line);
 }
 
 const indicial::tools::RegisterCommand register_fit([](CLI::App& app) {
