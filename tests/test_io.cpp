@@ -886,3 +886,78 @@ TEST_CASE("phase cycles and run conditions: every wrong combination names the li
   CHECK_HAS(csv_error("both.csv", "time_s,phase_rad,alpha_deg,Cm\n0,0,1,1\n"),
             "both.csv:1: both 'time_s' and 'phase_rad' given; keep one");
 }
+
+// ==========================================================================================
+// Several coefficients per experiment (issue 14 item 4)
+// ==========================================================================================
+namespace {
+
+// The interface example's runs with a CL column besides Cm.
+std::string two_coefficient_experiment(const std::string& sections) {
+  std::string s = "time_s,alpha_deg,Cm,CL\n";
+  for (int k = 0; k < 200; ++k) {
+    const double t = 0.01 * k, a = 35.0 - 35.0 * std::cos(2 * kPi * 0.5 * t);
+    s += indicial::format_double(t) + "," + indicial::format_double(a) + "," + indicial::format_double(-0.002 * a) +
+         "," + indicial::format_double(0.03 * a) + "\n";
+  }
+  std::ofstream(runs_dir() / "two.csv") << s;
+  return "axis = \"pitch\"\ncoefficients = [\"CL\", \"Cm\"]\nreference_length_m = 0.3765\n"
+         "airspeed_mps = 17.667762\nruns = [\"two.csv\"]\n" + sections;
+}
+
+}  // namespace
+
+TEST_CASE("coefficients = [\"CL\", \"Cm\"]: per-coefficient or shared sections, one Experiment each") {
+  const std::string per = two_coefficient_experiment(
+      "\n[static.CL]\npolynomial = [0.0, 2.0]\n[static.Cm]\npolynomial = [0.0, -0.1]\n"
+      "\n[rotary]\npolynomial = [-1.0]\n"
+      "\n[model.CL]\na_degree = 1\n[model.Cm]\na_degree = 2\nb1_knots_deg = [30.0]\n");
+  const std::string path = write_exp("two.toml", per);
+  const std::vector<indicial::Experiment> es = indicial::load_experiments(path);
+  REQUIRE(es.size() == 2);
+  CHECK(es[0].coefficient == "CL");
+  CHECK(es[1].coefficient == "Cm");
+  CHECK(es[0].static_curve.polynomial == std::vector<double>{0.0, 2.0});
+  CHECK(es[1].static_curve.polynomial == std::vector<double>{0.0, -0.1});
+  CHECK(es[0].rotary.polynomial == es[1].rotary.polynomial);  // shared
+  CHECK(es[0].model.a.powers == std::vector<int>{0, 1});
+  CHECK(es[1].model.a.powers == std::vector<int>{0, 1, 2});
+  CHECK(es[1].model.b1.knots_rad.size() == 1);
+  CHECK(es[0].runs[0].coefficient[10] == doctest::Approx(0.03 * es[0].runs[0].motion_angle_rad[10] * 180 / kPi));
+  CHECK(es[1].runs[0].coefficient[10] == doctest::Approx(-0.002 * es[1].runs[0].motion_angle_rad[10] * 180 / kPi));
+  // One of them, by name (diagnose --coefficient); none named: refused with the hint.
+  CHECK(indicial::load_experiment(path, "Cm").model.a.powers.size() == 3);
+  CHECK_HAS(error_of([&] { indicial::load_experiment(path); }),
+            "two.toml:2: 'coefficients' lists several coefficients; this command works on one: name it (e.g. "
+            "--coefficient CL)");
+  CHECK_HAS(error_of([&] { indicial::load_experiment(path, "CD"); }), "coefficient 'CD' is not modelled by this experiment");
+  // A single-coefficient file gives one.
+  CHECK(indicial::load_experiments(write_exp("one.toml", kInterfaceExample)).size() == 1);
+}
+
+// load_experiments' error for an experiment file.
+std::string exps_error(const std::string& name, const std::string& text) {
+  const std::string p = write_exp(name, text);
+  return error_of([&] { indicial::load_experiments(p); });
+}
+
+TEST_CASE("several coefficients: ambiguous or wrong sections are refused with the line") {
+  const std::string statics = "\n[static.CL]\npolynomial = [0.0, 2.0]\n[static.Cm]\npolynomial = [0.0, -0.1]\n";
+  CHECK_HAS(exps_error("mix.toml", two_coefficient_experiment(statics + "\n[model]\nbias = true\n[model.CL]\na_degree = 1\n")),
+            "mix.toml:12: '[model]' mixes per-coefficient tables (CL) with shared keys (bias): give one form");
+  CHECK_HAS(exps_error("shared_static.toml", two_coefficient_experiment("\n[static]\npolynomial = [0.0, 2.0]\n")),
+            "shared_static.toml:7: a shared '[static] polynomial' would be one static curve for every coefficient: "
+            "give [static.CL], [static.Cm], ...");
+  CHECK_HAS(exps_error("cd.toml", two_coefficient_experiment(statics + "\n[rotary.CD]\npolynomial = [1.0]\n")),
+            "cd.toml:12: '[rotary.CD]': CD is not in 'coefficients'");
+  CHECK_HAS(exps_error("nostatic.toml", two_coefficient_experiment("\n[static.CL]\npolynomial = [0.0, 2.0]\n")),
+            "missing required key 'static.Cm'");
+  CHECK_HAS(exps_error("bothkeys.toml", replace(two_coefficient_experiment(statics), "coefficients = [",
+                                               "coefficient = \"CL\"\ncoefficients = [")),
+            "bothkeys.toml:3: give 'coefficient' or 'coefficients', not both");
+  CHECK_HAS(exps_error("twice.toml", replace(two_coefficient_experiment(statics), "[\"CL\", \"Cm\"]", "[\"CL\", \"CL\"]")),
+            "twice.toml:2: 'coefficients' names CL twice");
+  CHECK_HAS(exps_error("four.toml", replace(two_coefficient_experiment(statics), "[\"CL\", \"Cm\"]",
+                                           "[\"CL\", \"Cm\", \"CD\", \"CY\"]")),
+            "four.toml:2: 'coefficients' lists 4; the runtime (indicial::DefaultCapacity) holds at most 3 per model");
+}

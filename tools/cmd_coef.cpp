@@ -1,14 +1,20 @@
 // `indicial coef check MODEL.coef`: parse and validate a coefficient file exactly as the
 // runtime does (runtime/include/indicial/coef_file.hpp, Predictor::load) and print a summary.
 // A refusal is reported as FILE:LINE: reason (status) and exits 1.
+// `indicial coef merge A.coef B.coef ... --out AB.coef [--force]`: one model set from
+// separately fitted coefficients of one axis (indicial::merge_model_sets: same axis, reference
+// length, alpha0 and airspeed, distinct names, envelope = the intersection).
 #include <cstdio>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "command.hpp"
 #include "indicial/coef_file.hpp"
 #include "indicial/fitter/error.hpp"
+#include "indicial/fitter/model_merge.hpp"
 #include "indicial/fitter/output.hpp"
+#include "indicial/fitter/predict.hpp"
 #include "indicial/runtime.hpp"
 
 namespace {
@@ -70,6 +76,29 @@ void run_check(const std::string& path) {
   }
 }
 
+struct MergeCliOptions {
+  std::vector<std::string> inputs;
+  std::string out;
+  bool force = false;
+};
+
+void run_merge(const MergeCliOptions& o) {
+  using namespace indicial;
+  if (o.inputs.size() < 2) throw InputError("merge", 0, "give at least two coefficient files");
+  std::vector<ModelSet<double, FitCapacity>> models;
+  models.reserve(o.inputs.size());
+  for (const std::string& path : o.inputs) models.push_back(read_model_file(path));
+  std::vector<NamedModelSet> parts;
+  for (std::size_t i = 0; i < models.size(); ++i) parts.push_back({o.inputs[i], &models[i]});
+  const ModelMerge merged = merge_model_sets(parts);
+  for (const std::string& w : merged.warnings) std::fprintf(stderr, "indicial: warning: %s\n", w.c_str());
+  write_file_atomically(o.out, coef_file_text(merged.model, o.out), o.force ? Overwrite::replace : Overwrite::refuse);
+  std::printf("%s: %d coefficients (", o.out.c_str(), merged.model.n_coefficients);
+  for (int c = 0; c < merged.model.n_coefficients; ++c)
+    std::printf("%s%s", c ? ", " : "", merged.model.coefficients[c].name);
+  std::printf("), envelope %g .. %g deg\n", merged.model.x_min_rad * kDegPerRad, merged.model.x_max_rad * kDegPerRad);
+}
+
 const indicial::tools::RegisterCommand register_coef([](CLI::App& app) {
   CLI::App* coef = app.add_subcommand("coef", "Inspect coefficient files (.coef).");
   coef->require_subcommand(1);
@@ -80,6 +109,18 @@ const indicial::tools::RegisterCommand register_coef([](CLI::App& app) {
       "b_j(x) > 0 over the envelope) and print a summary; exit 1 with FILE:LINE: reason if refused.");
   check->add_option("MODEL", *path, "coefficient file")->required();
   check->callback([path]() { run_check(*path); });
+  auto merge_opt = std::make_shared<MergeCliOptions>();
+  CLI::App* merge = coef->add_subcommand(
+      "merge",
+      "Merge separately fitted coefficient files of one axis into one model (the runtime steps\n"
+      "all of them from one Predictor). Refused when the axis, reference length, alpha0 or\n"
+      "airspeed differ (the field and both values named), when a coefficient repeats, when the\n"
+      "envelopes do not overlap or there are more than 3 coefficients; the envelope is the\n"
+      "intersection (a warning when it shrinks).");
+  merge->add_option("MODELS", merge_opt->inputs, "coefficient files, in output order")->required();
+  merge->add_option("--out", merge_opt->out, "the merged coefficient file")->required();
+  merge->add_flag("--force", merge_opt->force, "replace an existing --out file");
+  merge->callback([merge_opt]() { run_merge(*merge_opt); });
 });
 
 }  // namespace

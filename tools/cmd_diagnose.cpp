@@ -31,6 +31,7 @@ struct DiagnoseCliOptions {
   bool no_plots = false;
   bool quiet = false;
   std::string gnuplot = "gnuplot";
+  std::string coefficient;  // of a multi-coefficient experiment
   indicial::DiagnoseOptions diag;
 };
 
@@ -44,7 +45,7 @@ void run_diagnose(const DiagnoseCliOptions& o) {
   if (!(o.diag.knot_spacing_deg > 0.0)) throw InputError("--knot-spacing-deg", 0, "must be > 0");
   const tools::StageClock clock("diagnose", o.quiet ? tools::Verbosity::quiet : tools::Verbosity::progress);
   Experiment e;
-  clock.stage("reading the experiment and its runs", [&] { e = load_experiment(o.experiment); });
+  clock.stage("reading the experiment and its runs", [&] { e = load_experiment(o.experiment, o.coefficient); });
   ReportOptions ro;
   tools::print_notes(e.notes);
   ro.warnings = e.warnings;
@@ -115,6 +116,8 @@ const indicial::tools::RegisterCommand register_diagnose([](CLI::App& app) {
                   "knot scan grid spacing in degrees of the model angle (default 5)");
   sub->add_flag("--no-plots", opt->no_plots, "do not run gnuplot");
   sub->add_flag("--quiet", opt->quiet, "no progress lines on stderr (warnings and errors are still printed)");
+  sub->add_option("--coefficient", opt->coefficient,
+                  "with an experiment listing several coefficients: the one to diagnose (e.g. Cm)");
   sub->add_option("--gnuplot", opt->gnuplot, "gnuplot executable (default: gnuplot on PATH)");
   sub->callback([opt]() { run_diagnose(*opt); });
 });

@@ -19,15 +19,22 @@
 //      "warning:" line says so
 //   5  the information matrix is rank deficient: outputs written, the parameters that cannot
 //      be identified are named (bounds null in fit.json)
+// With several coefficients (`coefficients = ["CL", "Cm"]`) each is fitted into DIR/<name>/, the
+// models are merged into DIR/model.coef, and the status is the first non-zero one of them.
 #include <cstdio>
 #include <map>
 #include <memory>
+#include <set>
 #include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include "command.hpp"
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/fit.hpp"
 #include "indicial/fitter/io.hpp"
+#include "indicial/fitter/model_merge.hpp"
 #include "indicial/fitter/report.hpp"
 #include "indicial/fitter/runtime_limits.hpp"
 
@@ -47,9 +54,8 @@ struct FitCliOptions {
 // Exit codes of `indicial fit` when outputs were written (see the file comment).
 enum class FitExit : int { ok = 0, diverged = 4, rank_deficient = 5 };
 
-void run_fit(const FitCliOptions& o) {
+indicial::FitOptions checked_fit_options(const FitCliOptions& o) {
   using namespace indicial;
-  using indicial::tools::print_warnings;
   if (o.out.empty()) throw InputError("--out", 0, "an output directory is required");
   FitOptions fo = o.fit;
   if (o.state_derivative == "smoothed") fo.state_derivative = StateDerivative::smoothed_difference;
@@ -60,35 +66,30 @@ void run_fit(const FitCliOptions& o) {
   if (!(fo.f_to_enter > 0.0) || !(fo.f_to_remove > 0.0) || fo.f_to_remove > fo.f_to_enter)
     throw InputError("--f-to-enter", 0, "need F to enter >= F to remove > 0");
   if (fo.max_iterations < 1) throw InputError("--max-iterations", 0, "must be at least 1");
+  return fo;
+}
 
-  const tools::StageClock clock("fit", o.quiet ? tools::Verbosity::quiet : tools::Verbosity::progress);
-  Experiment e;
-  clock.stage("reading the experiment and its runs", [&] { e = load_experiment(o.experiment); });
-  ReportOptions ro;
-  tools::print_notes(e.notes);
-  ro.warnings = e.warnings;
-  for (const std::string& w : runtime_limit_warnings(e)) ro.warnings.push_back(w);
-  print_warnings(ro.warnings);
-  // Refuse a non-empty DIR before the (possibly long) fit, not after it.
-  const Overwrite overwrite = o.force ? Overwrite::replace : Overwrite::refuse;
-  { OutputDir probe(o.out, overwrite); }
-  FitResult r;
-  clock.stage("fitting (equation error, stepwise, output error)", [&] { r = fit_experiment(e, fo); });
-  // Never write (or exit 0 with) a model the runtime refuses: one line, nothing written.
-  const RuntimeAcceptance accepted = require_runtime_accepts(r.model, o.out + "/model.coef", ModelFile::to_write);
-  std::vector<std::string> after_fit = fit_warnings(r, e);
-  if (accepted.capacity == RuntimeCapacity::fit_capacity_only)
-    after_fit.push_back(o.out + "/model.coef: " + accepted.reason);
-  print_warnings(after_fit);
-  ro.warnings.insert(ro.warnings.end(), after_fit.begin(), after_fit.end());
-  ro.plots = o.no_plots ? PlotRequest::none : PlotRequest::gnuplot;
-  ro.gnuplot = o.gnuplot;
-  ro.command_line = tools::invocation();
-  ro.provenance = tools::provenance_of(e);
-  FitOutputs w;
-  clock.stage("writing the outputs (runtime check, report, plots)",
-              [&] { w = write_fit_outputs(r, e, fo, o.out, overwrite, ro); });
+// Notes and warnings of the experiments, each line once (several coefficients share runs), with
+// the runtime-limit warnings of each; returns the warnings for fit.json.
+std::vector<std::string> input_messages(const std::vector<indicial::Experiment>& es) {
+  std::set<std::string> seen;
+  std::vector<std::string> notes, warnings;
+  for (const auto& e : es) {
+    for (const std::string& n : e.notes)
+      if (seen.insert(n).second) notes.push_back(n);
+    std::vector<std::string> w = e.warnings;
+    for (const std::string& x : indicial::runtime_limit_warnings(e)) w.push_back(x);
+    for (const std::string& x : w)
+      if (seen.insert(x).second) warnings.push_back(x);
+  }
+  indicial::tools::print_notes(notes);
+  indicial::tools::print_warnings(warnings);
+  return warnings;
+}
 
+void print_fit_summary(const FitCliOptions& o, const indicial::Experiment& e, const indicial::FitResult& r,
+                       const indicial::FitOutputs& w, const std::string& where) {
+  using namespace indicial;
   const OutputErrorSummary& oe = r.output_error;
   std::size_t samples = 0;
   for (const Run& run : e.runs) samples += run.size();
@@ -97,7 +98,7 @@ void run_fit(const FitCliOptions& o) {
   std::printf("fit: output error %s after %d iterations, s(v) = %.6g (%.2f s)\n",
               termination_name(oe.termination), oe.iterations, r.fit_error, r.elapsed_s);
   std::fputs(estimates_text_table(r.parameters).c_str(), stdout);
-  std::printf("fit: wrote %s/fit.json, model.coef, report.md (%s)\n", o.out.c_str(), w.plot_message.c_str());
+  std::printf("fit: wrote %s/fit.json, model.coef, report.md (%s)\n", where.c_str(), w.plot_message.c_str());
   if (w.runtime.fit == RuntimeFit::refused)
     std::printf("fit: WARNING: the runtime refuses model.coef: %s\n", w.runtime.detail.c_str());
   else
@@ -107,25 +108,135 @@ void run_fit(const FitCliOptions& o) {
   if (w.plots == PlotStatus::gnuplot_not_found || w.plots == PlotStatus::gnuplot_failed)
     std::fprintf(stderr, "indicial: warning: %s\n", w.plot_message.c_str());
   std::fflush(stdout);
+}
+
+// The warning line of a fit that did not converge and its exit status (0: none).
+int termination_exit(const FitCliOptions& o, const indicial::FitOptions& fo, const indicial::FitResult& r,
+                     const std::string& what) {
+  using namespace indicial;
+  const OutputErrorSummary& oe = r.output_error;
   switch (oe.termination) {
-    case Termination::converged: return;
+    case Termination::converged: return 0;
     case Termination::iteration_limit:
       std::fprintf(stderr, "indicial: warning: %s: output error stopped at the iteration limit (%d) before "
-                   "converging; the best estimate was written to %s\n", o.experiment.c_str(), fo.max_iterations,
+                   "converging; the best estimate was written to %s\n", what.c_str(), fo.max_iterations,
                    o.out.c_str());
-      return;
+      return 0;
     case Termination::diverged:
       std::fprintf(stderr, "indicial: warning: %s: the output-error iteration diverged; the best estimate "
-                   "was written to %s: %s\n", o.experiment.c_str(), o.out.c_str(), oe.message.c_str());
-      throw CLI::RuntimeError(static_cast<int>(FitExit::diverged));
+                   "was written to %s: %s\n", what.c_str(), o.out.c_str(), oe.message.c_str());
+      return static_cast<int>(FitExit::diverged);
     case Termination::rank_deficient: {
       std::string names;
       for (const std::string& n : oe.unidentifiable) names += (names.empty() ? "" : ", ") + n;
       std::fprintf(stderr, "indicial: warning: %s: rank-deficient information matrix; not identifiable: %s "
-                   "(outputs written to %s)\n", o.experiment.c_str(), names.c_str(), o.out.c_str());
-      throw CLI::RuntimeError(static_cast<int>(FitExit::rank_deficient));
+                   "(outputs written to %s)\n", what.c_str(), names.c_str(), o.out.c_str());
+      return static_cast<int>(FitExit::rank_deficient);
     }
   }
+  return 0;
+}
+
+indicial::ReportOptions report_options(const FitCliOptions& o, const indicial::Experiment& e,
+                                      const std::vector<std::string>& warnings) {
+  indicial::ReportOptions ro;
+  ro.plots = o.no_plots ? indicial::PlotRequest::none : indicial::PlotRequest::gnuplot;
+  ro.gnuplot = o.gnuplot;
+  ro.command_line = indicial::tools::invocation();
+  ro.provenance = indicial::tools::provenance_of(e);
+  ro.warnings = warnings;
+  return ro;
+}
+
+// Never write (or exit 0 with) a model the runtime refuses: throws (one line, nothing written);
+// returns the post-fit warnings (fit error far above the noise, a model only FitCapacity holds).
+std::vector<std::string> checked_fit(const indicial::FitResult& r, const indicial::Experiment& e,
+                                     const std::string& coef_path) {
+  using namespace indicial;
+  const RuntimeAcceptance accepted = require_runtime_accepts(r.model, coef_path, ModelFile::to_write);
+  std::vector<std::string> after_fit = fit_warnings(r, e);
+  if (accepted.capacity == RuntimeCapacity::fit_capacity_only) after_fit.push_back(coef_path + ": " + accepted.reason);
+  tools::print_warnings(after_fit);
+  return after_fit;
+}
+
+void run_fit_one(const FitCliOptions& o, const indicial::FitOptions& fo, const indicial::Experiment& e,
+                 std::vector<std::string> warnings, const indicial::tools::StageClock& clock) {
+  using namespace indicial;
+  // Refuse a non-empty DIR before the (possibly long) fit, not after it.
+  const Overwrite overwrite = o.force ? Overwrite::replace : Overwrite::refuse;
+  { OutputDir probe(o.out, overwrite); }
+  FitResult r;
+  clock.stage("fitting (equation error, stepwise, output error)", [&] { r = fit_experiment(e, fo); });
+  const std::vector<std::string> after_fit = checked_fit(r, e, o.out + "/model.coef");
+  warnings.insert(warnings.end(), after_fit.begin(), after_fit.end());
+  FitOutputs w;
+  clock.stage("writing the outputs (runtime check, report, plots)",
+              [&] { w = write_fit_outputs(r, e, fo, o.out, overwrite, report_options(o, e, warnings)); });
+  print_fit_summary(o, e, r, w, o.out);
+  const int status = termination_exit(o, fo, r, o.experiment);
+  if (status != 0) throw CLI::RuntimeError(status);
+}
+
+std::vector<std::string> with_after(std::vector<std::string> w, const std::vector<std::string>& more) {
+  w.insert(w.end(), more.begin(), more.end());
+  return w;
+}
+
+// Several coefficients: each fitted by fit_experiment into DIR/<coefficient>/ (its own
+// fit.json, model.coef, report.md), the models merged into DIR/model.coef, and DIR/fit.json
+// listing per coefficient the contract's keys (docs/formats.md).
+void run_fit_several(const FitCliOptions& o, const indicial::FitOptions& fo,
+                     const std::vector<indicial::Experiment>& es, const std::vector<std::string>& warnings,
+                     const indicial::tools::StageClock& clock) {
+  using namespace indicial;
+  const Overwrite overwrite = o.force ? Overwrite::replace : Overwrite::refuse;
+  { OutputDir probe(o.out, overwrite); }
+  std::vector<FitResult> results;
+  std::vector<std::vector<std::string>> after(es.size());
+  for (std::size_t i = 0; i < es.size(); ++i) {
+    clock.stage("fitting " + es[i].coefficient + " (equation error, stepwise, output error)",
+                [&] { results.push_back(fit_experiment(es[i], fo)); });
+    after[i] = checked_fit(results[i], es[i], o.out + "/" + es[i].coefficient + "/model.coef");
+  }
+  OutputDir out(o.out, overwrite);
+  std::vector<NamedModelSet> parts;
+  nlohmann::json j = {{"experiment", o.experiment}, {"model_coef", "model.coef"}, {"coefficients", nlohmann::json::array()}};
+  int status = 0;
+  for (std::size_t i = 0; i < es.size(); ++i) {
+    const std::string sub = es[i].coefficient;
+    const FitOutputs w = write_fit_outputs(results[i], es[i], fo, out.path(sub), Overwrite::refuse,
+                                           report_options(o, es[i], with_after(warnings, after[i])));
+    print_fit_summary(o, es[i], results[i], w, o.out + "/" + sub);
+    const nlohmann::json one = nlohmann::json::parse(w.fit_json);
+    nlohmann::json entry = {{"coefficient", sub}, {"directory", sub}};
+    for (const char* key : {"converged", "iterations", "fit_error", "parameters", "two_stage", "termination"})
+      if (one.contains(key)) entry[key] = one[key];
+    j["coefficients"].push_back(entry);
+    parts.push_back({o.out + "/" + sub + "/model.coef", &results[i].model});
+    const int s = termination_exit(o, fo, results[i], o.experiment + " (" + sub + ")");
+    if (s != 0 && status == 0) status = s;
+  }
+  const ModelMerge merged = merge_model_sets(parts);
+  tools::print_warnings(merged.warnings);
+  require_runtime_accepts(merged.model, o.out + "/model.coef", ModelFile::to_write);
+  out.write("model.coef", coef_file_text(merged.model, o.out + "/model.coef"));
+  out.write("fit.json", j.dump(2) + "\n");
+  out.commit();
+  std::printf("fit: wrote %s/model.coef (%d coefficients) and %s/fit.json\n", o.out.c_str(),
+              merged.model.n_coefficients, o.out.c_str());
+  if (status != 0) throw CLI::RuntimeError(status);
+}
+
+void run_fit(const FitCliOptions& o) {
+  using namespace indicial;
+  const FitOptions fo = checked_fit_options(o);
+  const tools::StageClock clock("fit", o.quiet ? tools::Verbosity::quiet : tools::Verbosity::progress);
+  std::vector<Experiment> es;
+  clock.stage("reading the experiment and its runs", [&] { es = load_experiments(o.experiment); });
+  const std::vector<std::string> warnings = input_messages(es);
+  if (es.size() == 1) run_fit_one(o, fo, es.front(), warnings, clock);
+  else run_fit_several(o, fo, es, warnings, clock);
 }
 
 const indicial::tools::RegisterCommand register_fit([](CLI::App& app) {

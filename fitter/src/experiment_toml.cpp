@@ -146,17 +146,11 @@ toml::table parse_toml(const std::string& toml_path) {
 }
 
 // axis, coefficient, reference_length_m, airspeed_mps, alpha0_*.
-void read_top_level(LoadContext& c, const toml::table& root, Experiment& e) {
+void read_top_level(LoadContext& c, const toml::table& root, const std::string& coefficient, Experiment& e) {
   const TomlReader& r = c.r;
   e.axis = r.choice<Axis>(c.require(root, "axis", ""), "axis");
 
-  const toml::node& coef_node = c.require(root, "coefficient", "");
-  e.coefficient = r.string(coef_node, "coefficient");
-  if (coefficient_names().count(e.coefficient) == 0) {
-    r.fail(coef_node, "'coefficient' must be one of CL, Cm, CD, CY, Cl, Cn, found \"" +
-                          e.coefficient + "\"");
-  }
-
+  e.coefficient = coefficient;
   const toml::node& l_node = c.require(root, "reference_length_m", "");
   e.reference_length_m = r.number(l_node, "reference_length_m");
   if (!(e.reference_length_m > 0)) r.fail(l_node, "'reference_length_m' must be > 0");
@@ -174,6 +168,66 @@ void read_top_level(LoadContext& c, const toml::table& root, Experiment& e) {
                                               "angle of attack of a ") +
                                       axis_name(e.axis) + " experiment)");
   }
+}
+
+// The coefficients the file models: `coefficient = "Cm"` or `coefficients = ["CL", "Cm"]`,
+// exactly one of the two; names valid and distinct, at most DefaultCapacity::max_coefficients.
+std::vector<std::string> read_coefficient_names(const LoadContext& c, const toml::table& root) {
+  const TomlReader& r = c.r;
+  const toml::node* one = root.get("coefficient");
+  const toml::node* many = root.get("coefficients");
+  if (one && many) r.fail(*many, "give 'coefficient' or 'coefficients', not both");
+  if (!one && !many) c.require(root, "coefficient", "");
+  auto valid = [&](const toml::node& n, const std::string& key) {
+    const std::string name = r.string(n, key);
+    if (coefficient_names().count(name) == 0)
+      r.fail(n, "'" + key + "' must be one of CL, Cm, CD, CY, Cl, Cn, found \"" + name + "\"");
+    return name;
+  };
+  if (one) return {valid(*one, "coefficient")};
+  std::vector<std::string> names;
+  for (const auto& n : r.array(*many, "coefficients")) {
+    names.push_back(valid(n, "coefficients"));
+    if (std::count(names.begin(), names.end(), names.back()) > 1)
+      r.fail(n, "'coefficients' names " + names.back() + " twice");
+  }
+  if (names.empty()) r.fail(*many, "'coefficients' is empty");
+  if (names.size() > static_cast<std::size_t>(DefaultCapacity::max_coefficients))
+    r.fail(*many, "'coefficients' lists " + std::to_string(names.size()) +
+                      "; the runtime (indicial::DefaultCapacity) holds at most " +
+                      std::to_string(DefaultCapacity::max_coefficients) + " per model");
+  return names;
+}
+
+// The section `name` ("static", "rotary", "model") that applies to `coefficient`. With several
+// coefficients a section is either shared ([model] with its keys, for all) or per coefficient
+// ([model.CL], [model.Cm], each with the same keys): never both, and a per-coefficient table
+// must name one of `coefficients`. A shared [static] polynomial is refused (one static curve
+// for CL and Cm is a mistake); a shared static table (one file with both columns) is fine.
+const toml::node* section_for(const LoadContext& c, const toml::table& root, const std::string& name,
+                              const std::vector<std::string>& coefficients, const std::string& coefficient) {
+  const toml::node* node = root.get(name);
+  if (coefficients.size() < 2 || !node || !node->is_table()) return node;
+  const TomlReader& r = c.r;
+  std::string per, shared;
+  for (auto&& [key, value] : *node->as_table()) {
+    const std::string k(key.str());
+    const bool is_coefficient = coefficient_names().count(k) > 0;
+    if (is_coefficient && std::find(coefficients.begin(), coefficients.end(), k) == coefficients.end())
+      r.fail(key.source(), "'[" + name + "." + k + "]': " + k + " is not in 'coefficients'");
+    (is_coefficient ? per : shared) += (is_coefficient ? per : shared).empty() ? k : ", " + k;
+  }
+  if (!per.empty() && !shared.empty()) {
+    r.fail(*node, "'[" + name + "]' mixes per-coefficient tables (" + per + ") with shared keys (" + shared +
+                      "): give one form");
+  }
+  if (per.empty()) {
+    if (name == "static" && node->as_table()->get("polynomial"))
+      r.fail(*node, "a shared '[static] polynomial' would be one static curve for every coefficient: give "
+                    "[static." + coefficients.front() + "], [static." + coefficients.back() + "], ...");
+    return node;
+  }
+  return node->as_table()->get(coefficient);
 }
 
 // One table entry of `runs`: {file = ..., periodic, frequency_hz | reduced_frequency,
@@ -249,9 +303,13 @@ void read_columns_section(LoadContext& c, const toml::node* node) {
 }
 
 // [static]: polynomial or table.
-void read_static_section(LoadContext& c, const toml::table& root, Experiment& e) {
+void read_static_section(LoadContext& c, const toml::table& root, const toml::node* section, Experiment& e) {
   const TomlReader& r = c.r;
-  const toml::node& static_node = c.require(root, "static", "");
+  if (!section) {
+    throw InputError(r.file(), static_cast<long>(root.source().begin.line),
+                     "missing required key 'static" + (root.get("static") ? "." + e.coefficient : std::string()) + "'");
+  }
+  const toml::node& static_node = *section;
   const toml::table& st = r.table(static_node, "static");
   r.check_keys(st, {"polynomial", "table"}, "static.");
   const toml::node* poly = st.get("polynomial");
@@ -564,28 +622,67 @@ void refuse_unsupported_run_features(const Experiment& e) {
   }
 }
 
-Experiment load_experiment(const std::string& toml_path) {
-  const toml::table root = parse_toml(toml_path);
+namespace {
+
+// One coefficient's experiment from the parsed file (see load_experiments).
+Experiment load_one(const std::string& toml_path, const toml::table& root, const std::string& coefficient,
+                    const std::vector<std::string>& coefficients) {
   const TomlReader r(toml_path);
-  r.check_keys(root, {"axis", "coefficient", "reference_length_m", "airspeed_mps", "alpha0_deg",
-                      "alpha0_rad", "runs", "static", "rotary", "model", "columns"},
-               "");
   LoadContext c{r, fs::path(toml_path).parent_path(), {}, root.source()};
   Experiment e;
   e.path = toml_path;
-  read_top_level(c, root, e);
+  read_top_level(c, root, coefficient, e);
   read_columns_section(c, root.get("columns"));
   const std::vector<RunEntry> entries = read_run_entries(c, root, e);
-  read_static_section(c, root, e);
-  read_rotary_section(c, root.get("rotary"), e.rotary);
-  read_model_section(c, root.get("model"), e.rotary.estimate, e.model);
+  read_static_section(c, root, section_for(c, root, "static", coefficients, coefficient), e);
+  const toml::node* rotary = section_for(c, root, "rotary", coefficients, coefficient);
+  const toml::node* model = section_for(c, root, "model", coefficients, coefficient);
+  read_rotary_section(c, rotary, e.rotary);
+  read_model_section(c, model, e.rotary.estimate, e.model);
   read_runs(c, entries, e);
   check_against_data(c, e);
   check_runtime_capacity(c, e);
   check_motion(r, e);
-  warn_defaulted_sections(r, root.get("rotary"), root.get("model"), e);
+  warn_defaulted_sections(r, rotary, model, e);
   refuse_unsupported_run_features(e);
   return e;
+}
+
+toml::table parse_checked(const std::string& toml_path, std::vector<std::string>& coefficients) {
+  toml::table root = parse_toml(toml_path);
+  const TomlReader r(toml_path);
+  r.check_keys(root, {"axis", "coefficient", "coefficients", "reference_length_m", "airspeed_mps", "alpha0_deg",
+                      "alpha0_rad", "runs", "static", "rotary", "model", "columns"},
+               "");
+  const LoadContext c{r, {}, {}, root.source()};
+  coefficients = read_coefficient_names(c, root);
+  return root;
+}
+
+}  // namespace
+
+std::vector<Experiment> load_experiments(const std::string& toml_path) {
+  std::vector<std::string> coefficients;
+  const toml::table root = parse_checked(toml_path, coefficients);
+  std::vector<Experiment> out;
+  for (const std::string& name : coefficients) out.push_back(load_one(toml_path, root, name, coefficients));
+  return out;
+}
+
+Experiment load_experiment(const std::string& toml_path, const std::string& coefficient) {
+  std::vector<std::string> coefficients;
+  const toml::table root = parse_checked(toml_path, coefficients);
+  if (coefficient.empty() && coefficients.size() > 1) {
+    const toml::node* n = root.get("coefficients");
+    throw InputError(toml_path, static_cast<long>(n->source().begin.line),
+                     "'coefficients' lists several coefficients; this command works on one: name it (e.g. "
+                     "--coefficient " + coefficients.front() + ")");
+  }
+  const std::string name = coefficient.empty() ? coefficients.front() : coefficient;
+  if (std::find(coefficients.begin(), coefficients.end(), name) == coefficients.end()) {
+    throw InputError(toml_path, 0, "coefficient '" + name + "' is not modelled by this experiment");
+  }
+  return load_one(toml_path, root, name, coefficients);
 }
 
 // ==========================================================================================

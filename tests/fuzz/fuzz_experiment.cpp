@@ -1,5 +1,5 @@
 // tests/fuzz/fuzz_experiment.cpp -- libFuzzer target: the experiment-file loader
-// (indicial::load_experiment, fitter/include/indicial/fitter/io.hpp) on any byte string.
+// (indicial::load_experiments, fitter/include/indicial/fitter/experiment_toml.hpp) on any byte string.
 //
 // The input is the TOML text, written to experiment.toml in a private scratch directory that
 // also holds valid run and static-table CSVs (run.csv for every axis; static.csv with alpha_deg,
@@ -15,6 +15,7 @@
 #include <cstdint>
 #include <cstring>
 #include <string>
+#include <vector>
 
 #include "fuzz_common.hpp"
 #include "indicial/fitter/error.hpp"
@@ -75,7 +76,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   if (skipped(text)) return 0;
   indicial_fuzz::write_file(path, text);
   try {
-    const indicial::Experiment e = indicial::load_experiment(path);
+    // load_experiments: the single- and the multi-coefficient paths.
+    const std::vector<indicial::Experiment> es = indicial::load_experiments(path);
+    if (es.empty() || es.size() > 3) fuzz_fail("accepted no coefficient or more than the runtime holds");
+    for (const indicial::Experiment& e : es) {
     if (e.runs.empty()) fuzz_fail("accepted with no runs");
     if (!(e.reference_length_m > 0.0) || !(e.airspeed_mps > 0.0) || !std::isfinite(e.alpha0_rad) ||
         !std::isfinite(e.reference_length_m) || !std::isfinite(e.airspeed_mps))
@@ -87,6 +91,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     knots_inside(e.model.a.knots_rad);
     knots_inside(e.model.b1.knots_rad);
     if (e.rotary.estimate) knots_inside(e.rotary.candidates.knots_rad);
+    if (e.static_curve.kind == indicial::StaticKind::table &&
+        e.static_curve.table_x_rad.size() > static_cast<std::size_t>(indicial::DefaultCapacity::max_table_points))
+      fuzz_fail("accepted a static table beyond the runtime's capacity");
+    }
   } catch (const indicial::InputError& e) {
     // The message names the experiment file or a file it names (a run, a static table).
     if (std::strchr(e.what(), ':') == nullptr) fuzz_fail("message names no file:", e.what());

@@ -76,7 +76,14 @@ constexpr const char* name_of(E value) {
 }
 
 // Reads the experiment file and every run it names; validates everything (see the warnings).
-Experiment load_experiment(const std::string& toml_path);
+// A file listing several coefficients (`coefficients = ["CL", "Cm"]`) is refused unless
+// `coefficient` names one of them (diagnose --coefficient).
+Experiment load_experiment(const std::string& toml_path, const std::string& coefficient = "");
+
+// One Experiment per coefficient of the file (one for `coefficient = ...`), each with its own
+// [static], [rotary] and [model] (shared or per coefficient: [static.CL], [model.Cm]; see
+// docs/formats.md) and the same runs, in the order of `coefficients`.
+std::vector<Experiment> load_experiments(const std::string& toml_path);
 
 // Refuses (InputError naming the experiment file and the run's `runs` line) what the fitter
 // does not support yet: a run on a nonuniform time grid, a run whose airspeed differs from the
