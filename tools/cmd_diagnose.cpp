@@ -9,6 +9,7 @@
 // effect still significant (outputs written, a warning line); 7 the runtime refuses the final
 // model.coef (outputs written for inspection, an error line). Ill-conditioned final estimates
 // (bound larger than the value) are a warning line, exit 0.
+#include <cmath>
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -63,8 +64,8 @@ void run_diagnose(const DiagnoseCliOptions& o) {
   std::printf("diagnose: %s: initial fit error %.6g, noise estimate %.6g\n", o.experiment.c_str(),
               d.initial_fit_error, d.noise.sigma);
   for (const DiagnoseStep& s : d.steps)
-    std::printf("diagnose: step %d: %s (%s): LR/kappa %.1f, p %.3g < %.3g, fit error %.6g -> %.6g%s\n",
-                s.step, effect_name(s.effect), s.detail.c_str(), s.statistic, s.p_value, s.threshold,
+    std::printf("diagnose: step %d: %s (%s): LR/kappa %.1f, log10 p %.1f < %.2f, fit error %.6g -> %.6g%s\n",
+                s.step, effect_name(s.effect), s.detail.c_str(), s.statistic, s.log10_p, std::log10(s.threshold),
                 s.fit_error_before, s.fit_error_after,
                 s.indistinguishable.empty() ? "" : " (indistinguishable on these data from another effect: see report.md)");
   std::printf("diagnose: verdict %s; final fit error %.6g (%d fits, %.2f s)\n", d.verdict.c_str(),
