@@ -47,7 +47,7 @@ null = [cells(r) for r in rows if cells(r)[1] == "none"]
 right = sum(c[7] == "yes" for c in eff)
 within = sum(abs(float(c[9]) - 1.0) <= 0.15 for c in eff)
 clean = sum(c[6] == "none" for c in null)
-times = sorted(float(c[12]) for c in rows)
+times = sorted(float(cells(r)[12]) for r in rows)
 wrong = [f"{c[0]} {c[1]} x{c[2]} {c[3]} {c[4]}: {c[6]}" for c in eff if c[7] != "yes"]
 far = [f"{c[0]} {c[1]} x{c[2]} {c[3]} {c[4]}: {c[9]}" for c in eff if abs(float(c[9]) - 1.0) > 0.15]
 summary = (f"**Summary ({mode})**: first named effect right in {right} of {len(eff)} effect cases; final fit "
