@@ -6,8 +6,9 @@
 // Writes DIR/diagnosis.json, DIR/model.coef (the final model), DIR/report.md and DIR/plots/.
 // Exit status (DiagnoseExit): 0 done (whatever the verdict, "none" included); 1 bad input (one
 // line "indicial: error: FILE:LINE: problem"; nothing written); 6 stopped at --max-steps with an
-// effect still significant (outputs written, a warning line); 7 the runtime refuses the final
-// model.coef (outputs written for inspection, an error line). Ill-conditioned final estimates
+// effect still significant (outputs written, a warning line). A final model the runtime refuses
+// is bad input too: one line naming DIR/model.coef and the reason, nothing written (exit 1).
+// Ill-conditioned final estimates
 // (bound larger than the value) are a warning line, exit 0.
 #include <cmath>
 #include <cstdio>
@@ -18,10 +19,11 @@
 #include "indicial/fitter/diagnose.hpp"
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/io.hpp"
+#include "indicial/fitter/runtime_limits.hpp"
 
 namespace {
 
-enum class DiagnoseExit { done = 0, bad_input = 1, max_steps = 6, runtime_refused = 7 };
+enum class DiagnoseExit { done = 0, bad_input = 1, max_steps = 6 };
 
 struct DiagnoseCliOptions {
   std::string experiment;
@@ -46,12 +48,20 @@ void run_diagnose(const DiagnoseCliOptions& o) {
   clock.stage("reading the experiment and its runs", [&] { e = load_experiment(o.experiment); });
   ReportOptions ro;
   ro.warnings = tools::experiment_warnings(e);
+  for (const std::string& w : runtime_limit_warnings(e)) ro.warnings.push_back(w);
   tools::print_warnings(ro.warnings);
   const Overwrite overwrite = o.force ? Overwrite::replace : Overwrite::refuse;
   { OutputDir probe(o.out, overwrite); }  // refuse a non-empty DIR before the long part
   DiagnoseResult d;
   clock.stage("diagnosing (fits of every candidate effect, round by round)",
               [&] { d = diagnose_experiment(e, o.diag); });
+  // Never write (or exit 0 with) a model the runtime refuses: one line, nothing written.
+  const RuntimeAcceptance accepted =
+      require_runtime_accepts(d.fits.back().model, o.out + "/model.coef", ModelFile::to_write);
+  if (accepted.capacity == RuntimeCapacity::fit_capacity_only) {
+    ro.warnings.push_back(o.out + "/model.coef: " + accepted.reason);
+    tools::print_warnings({ro.warnings.back()});
+  }
   ro.plots = o.no_plots ? PlotRequest::none : PlotRequest::gnuplot;
   ro.gnuplot = o.gnuplot;
   ro.command_line = tools::invocation();
@@ -76,11 +86,6 @@ void run_diagnose(const DiagnoseCliOptions& o) {
   tools::print_warnings(after);
   if (w.plots == PlotStatus::gnuplot_not_found || w.plots == PlotStatus::gnuplot_failed)
     std::fprintf(stderr, "indicial: warning: %s\n", w.plot_message.c_str());
-  if (w.runtime.fit == RuntimeFit::refused) {
-    std::fprintf(stderr, "indicial: error: %s/model.coef: the runtime refuses the final model: %s\n",
-                 o.out.c_str(), w.runtime.detail.c_str());
-    throw CLI::RuntimeError(static_cast<int>(DiagnoseExit::runtime_refused));
-  }
   if (d.stopped == DiagnoseStop::max_steps) throw CLI::RuntimeError(static_cast<int>(DiagnoseExit::max_steps));
 }
 
@@ -93,9 +98,11 @@ const indicial::tools::RegisterCommand register_diagnose([](CLI::App& app) {
           ") by a\n"
           "likelihood-ratio test with a Bonferroni guard and BIC, add the most significant, repeat.\n"
       "Writes DIR/diagnosis.json, DIR/model.coef (final model), DIR/report.md and DIR/plots/.\n"
-      "Exit status: 0 done (any verdict, 'none' included); 1 bad input (nothing written);\n"
-          "6 stopped at --max-steps with an effect still significant; 7 the runtime refuses the final\n"
-          "model (outputs written in both).");
+      "Exit status: 0 done (any verdict, 'none' included); 1 bad input, or a final model the
+"
+      "runtime refuses (one line, nothing written); 6 stopped at --max-steps with an effect still
+"
+      "significant (outputs written).");
   sub->add_option("experiment", opt->experiment, "experiment file (TOML)")->required();
   sub->add_option("--out", opt->out, "output directory (refused if not empty, unless --force)")->required();
   sub->add_flag("--force", opt->force, "replace the contents of a non-empty output directory");

@@ -12,7 +12,9 @@
 // Exit status (also in --help and the README):
 //   0  converged (or the iteration limit was reached: a "warning:" line says so; the best
 //      estimate is written)
-//   1  bad input: one line "indicial: error: FILE:LINE: problem"; nothing written
+//   1  bad input: one line "indicial: error: FILE:LINE: problem"; nothing written. Also when
+//      the fitted model is one the runtime refuses ("DIR/model.coef: not written: the runtime
+//      refuses the model: <reason>"): nothing written
 //   4  the output-error iteration diverged: the best estimate found IS written, and a
 //      "warning:" line says so
 //   5  the information matrix is rank deficient: outputs written, the parameters that cannot
@@ -27,6 +29,7 @@
 #include "indicial/fitter/fit.hpp"
 #include "indicial/fitter/io.hpp"
 #include "indicial/fitter/report.hpp"
+#include "indicial/fitter/runtime_limits.hpp"
 
 namespace {
 
@@ -62,14 +65,20 @@ void run_fit(const FitCliOptions& o) {
   Experiment e;
   clock.stage("reading the experiment and its runs", [&] { e = load_experiment(o.experiment); });
   ReportOptions ro;
+  for (const std::string& n : e.notes) std::fprintf(stderr, "indicial: note: %s\n", n.c_str());
   ro.warnings = tools::experiment_warnings(e);
+  for (const std::string& w : runtime_limit_warnings(e)) ro.warnings.push_back(w);
   print_warnings(ro.warnings);
   // Refuse a non-empty DIR before the (possibly long) fit, not after it.
   const Overwrite overwrite = o.force ? Overwrite::replace : Overwrite::refuse;
   { OutputDir probe(o.out, overwrite); }
   FitResult r;
   clock.stage("fitting (equation error, stepwise, output error)", [&] { r = fit_experiment(e, fo); });
-  const std::vector<std::string> after_fit = fit_warnings(r, e);
+  // Never write (or exit 0 with) a model the runtime refuses: one line, nothing written.
+  const RuntimeAcceptance accepted = require_runtime_accepts(r.model, o.out + "/model.coef", ModelFile::to_write);
+  std::vector<std::string> after_fit = fit_warnings(r, e);
+  if (accepted.capacity == RuntimeCapacity::fit_capacity_only)
+    after_fit.push_back(o.out + "/model.coef: " + accepted.reason);
   print_warnings(after_fit);
   ro.warnings.insert(ro.warnings.end(), after_fit.begin(), after_fit.end());
   ro.plots = o.no_plots ? PlotRequest::none : PlotRequest::gnuplot;
@@ -126,7 +135,8 @@ const indicial::tools::RegisterCommand register_fit([](CLI::App& app) {
       "Identify the model of an experiment (equation error, stepwise, ML output error, two-stage)\n"
       "and write DIR/fit.json, DIR/model.coef, DIR/report.md and DIR/plots/.\n"
       "Exit status: 0 converged, or iteration limit reached (a warning line; outputs written);\n"
-      "  1 bad input (one-line message, nothing written); 4 output error diverged (best estimate\n"
+      "  1 bad input, or a fitted model the runtime refuses (one-line message, nothing written);\n"
+      "  4 output error diverged (best estimate\n"
       "  written, warning line); 5 rank-deficient information matrix (outputs written, the\n"
       "  unidentifiable parameters named).");
   sub->add_option("experiment", opt->experiment, "experiment file (TOML)")->required();

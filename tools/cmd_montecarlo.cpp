@@ -23,6 +23,7 @@ namespace {
 struct MonteCarloCli {
   indicial::MonteCarloOptions mc;
   std::string out;
+  std::string noise = "white";
   bool force = false;
   bool quiet = false;
 };
@@ -32,6 +33,8 @@ void run_montecarlo(const MonteCarloCli& o) {
   if (o.out.empty()) throw InputError("--out", 0, "an output directory is required");
   const Overwrite overwrite = o.force ? Overwrite::replace : Overwrite::refuse;
   find_simulation_case(o.mc.case_name);  // an unknown case fails here, before any work
+  MonteCarloOptions mc = o.mc;
+  mc.noise = parse_noise_spec(o.noise);
   { OutputDir probe(o.out, overwrite); }  // refuse a non-empty DIR before the long run
 
   const bool tty = ::isatty(STDERR_FILENO) != 0;
@@ -54,8 +57,7 @@ void run_montecarlo(const MonteCarloCli& o) {
     }
     std::fflush(stderr);
   };
-  const MonteCarloResult res =
-      o.quiet ? run_monte_carlo(o.mc) : run_monte_carlo(o.mc, progress);
+  const MonteCarloResult res = o.quiet ? run_monte_carlo(mc) : run_monte_carlo(mc, progress);
 
   OutputDir out(o.out, overwrite);
   const std::string md = monte_carlo_markdown(res);
@@ -63,8 +65,8 @@ void run_montecarlo(const MonteCarloCli& o) {
   out.write("montecarlo.md", md);
   out.commit();
 
-  std::printf("montecarlo: %s, SNR %g, seeds %llu..%llu, noise sigma %.6g, %d fitted, %zu failed, %.1f s\n",
-              o.mc.case_name.c_str(), o.mc.snr, static_cast<unsigned long long>(o.mc.first_seed),
+  std::printf("montecarlo: %s, noise %s, SNR %g, seeds %llu..%llu, noise sigma %.6g, %d fitted, %zu failed, %.1f s\n",
+              o.mc.case_name.c_str(), noise_spec_text(mc.noise).c_str(), o.mc.snr, static_cast<unsigned long long>(o.mc.first_seed),
               static_cast<unsigned long long>(o.mc.first_seed + static_cast<std::uint64_t>(o.mc.seeds) - 1),
               res.noise_sigma, res.fitted, res.failed_seeds.size(), res.elapsed_s);
   std::printf("  %-10s %10s %12s %11s %11s %9s %11s %9s\n", "parameter", "truth", "mean", "std", "mean CR",
@@ -86,6 +88,9 @@ const indicial::tools::RegisterCommand register_montecarlo([](CLI::App& app) {
   sub->add_option("--case", opt->mc.case_name, "built-in case (see `indicial simulate --list`)")->required();
   sub->add_option("--seeds", opt->mc.seeds, "number of noise seeds (>= 2)")->required();
   sub->add_option("--snr", opt->mc.snr, "signal-to-noise ratio (default 40)");
+  sub->add_option("--noise", opt->noise,
+                  "noise: white (default), ar1:phi=0.8 or turbulence:cutoff_hz=2[,zeta=0.7]; sigma is "
+                  "the noise's marginal std");
   sub->add_option("--first-seed", opt->mc.first_seed, "first seed (default 1): seeds K..K+N-1");
   sub->add_option("--threads", opt->mc.threads, "worker threads (default 2)");
   sub->add_option("--out", opt->out, "output directory (refused if not empty, unless --force)")->required();

@@ -1,7 +1,7 @@
 // `indicial predict`: run a model on the motion of a run CSV with the embedded runtime.
 //
 //   indicial predict MODEL.coef DATA.csv --out FILE.csv [--plot FILE.png] [--metrics FILE.json]
-//                    [--airspeed-mps V] [--time-grid uniform|nonuniform] [--force]
+//                    [--airspeed-mps V] [--time-grid uniform|nonuniform] [--periodic] [--force]
 //
 // Writes time_s, the angle column as given, <c>_pred, <c>_quasi_steady and the measured <c>
 // where DATA.csv has it; where measured, prints the metrics (RMS, max, Theil's inequality
@@ -18,6 +18,7 @@
 #include "indicial/fitter/io.hpp"
 #include "indicial/fitter/output.hpp"
 #include "indicial/fitter/predict.hpp"
+#include "indicial/fitter/runtime_limits.hpp"
 
 namespace {
 
@@ -30,6 +31,7 @@ struct PredictOptions {
   double airspeed_mps = 0.0;  // 0: the model's reference airspeed
   indicial::TimeGrid grid = indicial::TimeGrid::uniform;
   bool force = false;
+  bool periodic = false;
 };
 
 std::string default_metrics_path(const std::string& out) {
@@ -58,7 +60,11 @@ void run_predict(const PredictOptions& o) {
   const Run& run = runs.front();
   const std::string angle_column = motion_column_name(o.data_path, model->axis);
 
-  Prediction p = predict_motion(*model, run.time_s, run.motion_angle_rad, run.rate_radps, airspeed);
+  require_runtime_accepts(*model, o.model_path, ModelFile::read);  // a refused model names the file
+  Prediction p = o.periodic ? predict_periodic(*model, run.time_s, run.motion_angle_rad, run.rate_radps, airspeed,
+                                               o.model_path)
+                            : predict_motion(*model, run.time_s, run.motion_angle_rad, run.rate_radps, airspeed,
+                                             o.model_path);
   bool any_measured = false;
   for (std::size_t c = 0; c < p.coefficients.size(); ++c) {
     p.coefficients[c].measured = runs[c].coefficient;
@@ -76,8 +82,10 @@ void run_predict(const PredictOptions& o) {
         throw InputError(f, 0, "exists; use --force to replace it");
   }
   std::vector<std::string> comments = {"indicial predict " + o.model_path + " " + o.data_path,
-                                       "predicted with the runtime (indicial::Predictor), reset "
-                                       "to the steady state at the first sample"};
+                                       o.periodic ? "predicted with the runtime (indicial::Predictor): the "
+                                                    "cycle's periodic steady state"
+                                                  : "predicted with the runtime (indicial::Predictor), reset "
+                                                    "to the steady state at the first sample"};
   for (const auto& l : lines) comments.push_back(l);
   if (!o.plot.empty()) {
     write_prediction_plot(p, o.plot, "indicial predict: " + std::filesystem::path(o.data_path).filename().string(),
@@ -118,6 +126,10 @@ const indicial::tools::RegisterCommand register_predict([](CLI::App& app) {
       ->transform(CLI::CheckedTransformer(
           std::map<std::string, indicial::TimeGrid>{{"uniform", indicial::TimeGrid::uniform},
                                                     {"nonuniform", indicial::TimeGrid::nonuniform}}));
+  sub->add_flag("--periodic", opt->periodic,
+                "DATA is one cycle of a periodic motion (an ensemble-averaged cycle): predict its periodic "
+                "steady state (the cycle closes on its last sample if it repeats the first angle, else "
+                "with one more mean step back to the first)");
   sub->add_flag("--force", opt->force, "replace existing outputs");
   sub->callback([opt]() { run_predict(*opt); });
 });

@@ -12,6 +12,7 @@
 
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/report.hpp"
+#include "indicial/fitter/runtime_limits.hpp"
 
 namespace indicial {
 
@@ -113,7 +114,7 @@ MonteCarloResult run_monte_carlo(const MonteCarloOptions& o, const MonteCarloPro
   res.options = o;
   {
     std::vector<SimulatedRun> probe = clean;
-    const std::vector<double> sigma = add_measurement_noise(probe, o.snr, o.first_seed);
+    const std::vector<double> sigma = add_measurement_noise(probe, o.snr, o.first_seed, o.noise);
     res.noise_sigma = sigma.empty() ? 0.0 : sigma[0];
   }
 
@@ -130,9 +131,11 @@ MonteCarloResult run_monte_carlo(const MonteCarloOptions& o, const MonteCarloPro
       const auto ts = std::chrono::steady_clock::now();
       try {
         std::vector<SimulatedRun> runs = clean;
-        add_measurement_noise(runs, o.snr, o.first_seed + k);
+        add_measurement_noise(runs, o.snr, o.first_seed + k, o.noise);
         const Experiment e = experiment_from_simulation(c, runs);
         const FitResult fr = fit_experiment(e, o.fit);
+        // A model the runtime refuses is a failed fit: counted and named, never averaged in.
+        require_runtime_accepts(fr.model, fmt::format("seed {}", o.first_seed + k), ModelFile::to_write);
         out.ok = true;
         out.termination = fr.output_error.termination;
         out.fit_error = fr.fit_error;
@@ -225,6 +228,7 @@ nlohmann::json monte_carlo_json(const MonteCarloResult& r) {
   j["seeds"] = r.options.seeds;
   j["first_seed"] = r.options.first_seed;
   j["threads"] = r.options.threads;
+  j["noise"] = noise_spec_text(r.options.noise);
   j["noise_sigma"] = finite_or_null(r.noise_sigma);
   j["fitted"] = r.fitted;
   j["failed_seeds"] = r.failed_seeds;
@@ -255,9 +259,9 @@ std::string monte_carlo_markdown(const MonteCarloResult& r) {
   m += fmt::format("# Monte Carlo: {} at SNR {}, {} seeds ({}..{})\n\n", r.options.case_name,
                    num(r.options.snr), r.options.seeds, r.options.first_seed,
                    r.options.first_seed + static_cast<std::uint64_t>(r.options.seeds) - 1);
-  m += fmt::format("White Gaussian noise, sigma = {} (RMS of y over all runs / SNR). {} fits returned, "
-                   "{} failed; {} threads, {:.1f} s wall, {:.3f} s per fit. Mean s(v) = {}.\n\n",
-                   num(r.noise_sigma), r.fitted, r.failed_seeds.size(), r.options.threads, r.elapsed_s,
+  m += fmt::format("Gaussian noise `{}`, marginal sigma = {} (RMS of y over all runs / SNR). {} fits "
+                   "returned, {} failed; {} threads, {:.1f} s wall, {:.3f} s per fit. Mean s(v) = {}.\n\n",
+                   noise_spec_text(r.options.noise), num(r.noise_sigma), r.fitted, r.failed_seeds.size(), r.options.threads, r.elapsed_s,
                    r.fit_seconds_mean, num(r.mean_fit_error));
   m += "Terminations:";
   for (const auto& [name, count] : r.terminations) m += fmt::format(" {} {};", name, count);

@@ -69,7 +69,8 @@ ErrorMetrics score_prediction(const std::vector<double>& measured,
 Prediction predict_motion(const ModelSet<double, FitCapacity>& model,
                           const std::vector<double>& time_s,
                           const std::vector<double>& motion_angle_rad,
-                          const std::vector<double>& rate_radps, double airspeed_mps) {
+                          const std::vector<double>& rate_radps, double airspeed_mps,
+                          const std::string& model_label) {
   const std::size_t n = time_s.size();
   if (n == 0 || motion_angle_rad.size() != n || rate_radps.size() != n)
     throw std::invalid_argument("predict_motion: time, angle and rate differ in length or are empty");
@@ -78,7 +79,7 @@ Prediction predict_motion(const ModelSet<double, FitCapacity>& model,
   ParseDiagnostic diag;
   const LoadStatus ls = predictor->load(model, &diag);
   if (ls != LoadStatus::ok)
-    throw InputError("model", 0, std::string("the runtime refuses the model: ") + diag.reason +
+    throw InputError(model_label, 0, std::string("the runtime refuses the model: ") + diag.reason +
                                      " (" + to_string(ls) + ")");
   const auto& m = predictor->model();
 
@@ -119,7 +120,7 @@ Prediction predict_motion(const ModelSet<double, FitCapacity>& model,
     if (st == StepStatus::angle_clamped) {
       ++p.clamped_samples;
     } else if (st != StepStatus::ok) {
-      throw InputError("model", 0, "the runtime refused sample " + std::to_string(i) + " (t = " +
+      throw InputError(model_label, 0, "the runtime refused sample " + std::to_string(i) + " (t = " +
                                        fmt_num(time_s[i]) + " s): " + to_string(st));
     }
     for (int c = 0; c < m.n_coefficients; ++c) {
@@ -130,6 +131,87 @@ Prediction predict_motion(const ModelSet<double, FitCapacity>& model,
           quasi_steady_output(m.coefficients[c], clamp_x(x), rate_radps[i], l_over_v_s);
     }
   }
+  return p;
+}
+
+namespace {
+
+using PeriodicPredictor = Predictor<double, FitCapacity>;
+
+// Steps the predictor once round the cycle from its current state: samples 1..n-1, then (for
+// an open cycle) the wrap step back to sample 0. Calls emit(i, outputs) after each step
+// (i = 0 for the wrap step or, for a closed cycle, the last sample's step's index).
+template <class Emit>
+void step_cycle(PeriodicPredictor& p, const std::vector<double>& time_s, const std::vector<double>& angle,
+                const std::vector<double>& rate, double airspeed_mps, bool closed, double wrap_dt_s,
+                const std::string& label, Emit&& emit) {
+  const std::size_t n = time_s.size();
+  PeriodicPredictor::Outputs out;
+  auto step = [&](std::size_t i, double dt_s) {
+    const StepStatus st = p.step(MotionInput{angle[i], rate[i], airspeed_mps}, dt_s, &out);
+    if (st != StepStatus::ok && st != StepStatus::angle_clamped)
+      throw InputError(label, 0, "the runtime refused sample " + std::to_string(i) + " of the cycle: " + to_string(st));
+    emit(i, out);
+  };
+  for (std::size_t i = 1; i < n; ++i) step(i, time_s[i] - time_s[i - 1]);
+  if (!closed) step(0, wrap_dt_s);
+}
+
+}  // namespace
+
+Prediction predict_periodic(const ModelSet<double, FitCapacity>& model, const std::vector<double>& time_s,
+                            const std::vector<double>& motion_angle_rad, const std::vector<double>& rate_radps,
+                            double airspeed_mps, const std::string& model_label) {
+  // The quasi-steady part, the model angles and the clamping count do not depend on the state.
+  Prediction p = predict_motion(model, time_s, motion_angle_rad, rate_radps, airspeed_mps, model_label);
+  const std::size_t n = time_s.size();
+  if (n < 3) throw InputError(model_label, 0, "a periodic cycle needs at least 3 samples");
+  auto predictor = std::make_unique<PeriodicPredictor>();
+  ParseDiagnostic diag;
+  if (predictor->load(model, &diag) != LoadStatus::ok)
+    throw InputError(model_label, 0, std::string("the runtime refuses the model: ") + diag.reason);
+  const auto& m = predictor->model();
+  const bool closed = std::abs(model_angle<double>(m.axis, m.alpha0_rad, motion_angle_rad.back()) -
+                               model_angle<double>(m.axis, m.alpha0_rad, motion_angle_rad.front())) <= 1e-9;
+  const double wrap_dt_s = (time_s.back() - time_s.front()) / static_cast<double>(n - 1);
+  auto ignore = [](std::size_t, const PeriodicPredictor::Outputs&) {};
+  predictor->reset(motion_angle_rad[0], airspeed_mps);
+  // Warm-up cycle: fills a delayed coefficient's history with the cycle's own angles.
+  step_cycle(*predictor, time_s, motion_angle_rad, rate_radps, airspeed_mps, closed, wrap_dt_s, model_label, ignore);
+  const PeriodicPredictor::Snapshot start = predictor->snapshot();
+  auto cycle_end_from = [&](double y_start) {
+    PeriodicPredictor::Snapshot s = start;
+    for (int c = 0; c < m.n_coefficients; ++c)
+      for (int j = 0; j < m.coefficients[c].n_lags; ++j) s.y[c][j] = y_start;
+    predictor->restore(s);
+    step_cycle(*predictor, time_s, motion_angle_rad, rate_radps, airspeed_mps, closed, wrap_dt_s, model_label, ignore);
+    return predictor->snapshot();
+  };
+  const PeriodicPredictor::Snapshot ya = cycle_end_from(0.0);
+  const PeriodicPredictor::Snapshot yb = cycle_end_from(1.0);
+  PeriodicPredictor::Snapshot fixed = start;
+  for (int c = 0; c < m.n_coefficients; ++c) {
+    for (int j = 0; j < m.coefficients[c].n_lags; ++j) {
+      const double phi = yb.y[c][j] - ya.y[c][j];
+      // Why: 1 - Phi <= 0 means the lag does not decay over the cycle: no periodic state.
+      if (!(phi < 1.0 - 1e-12))
+        throw InputError(model_label, 0, fmt_num(phi) + " = the cycle's decay factor of lag " + std::to_string(j + 1) +
+                                             " of " + m.coefficients[c].name + ": no periodic steady state");
+      fixed.y[c][j] = ya.y[c][j] / (1.0 - phi);
+    }
+  }
+  predictor->restore(fixed);
+  for (int c = 0; c < m.n_coefficients; ++c) {
+    // The output at sample 0 at the fixed-point state (a closed cycle's last step gives it too).
+    p.coefficients[static_cast<std::size_t>(c)].predicted[0] =
+        coefficient_output(m.coefficients[c], std::min(std::max(p.x_rad[0], m.x_min_rad), m.x_max_rad),
+                           rate_radps[0], m.reference_length_m / airspeed_mps, fixed.y[c]);
+  }
+  step_cycle(*predictor, time_s, motion_angle_rad, rate_radps, airspeed_mps, closed, wrap_dt_s, model_label,
+             [&](std::size_t i, const PeriodicPredictor::Outputs& out) {
+               if (!closed && i == 0) return;  // the wrap step only closes the cycle
+               for (int c = 0; c < m.n_coefficients; ++c) p.coefficients[static_cast<std::size_t>(c)].predicted[i] = out.value[c];
+             });
   return p;
 }
 

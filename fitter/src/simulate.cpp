@@ -13,6 +13,7 @@
 
 #include "indicial/fitter/error.hpp"
 #include "indicial/coef_file.hpp"
+#include "indicial/fitter/tailless_model.hpp"
 #include "indicial/fitter/io.hpp"
 
 namespace indicial {
@@ -218,6 +219,7 @@ MotionSpec parse_motion_spec(const std::string& spec, Axis axis) {
 
 std::vector<double> motion_sample_times(const MotionSpec& m) {
   if (m.kind == MotionKind::samples) return m.time_s;
+  if (!m.output_times_s.empty()) return m.output_times_s;
   const double duration = m.kind == MotionKind::sine
                               ? m.cycles / m.freq_hz
                               : m.hold_before_s + std::abs(m.to_rad - m.from_rad) / m.rate_radps +
@@ -243,9 +245,14 @@ SimulatedRun simulate_reference(const TruthModel& model, const MotionSpec& motio
   for (int c = 0; c < nc; ++c) {
     offset[static_cast<std::size_t>(c) + 1] = offset[static_cast<std::size_t>(c)] + model.coefficients[c].n_lags;
   }
-  const double l_over_v = model.reference_length_m / model.airspeed_mps;
+  const double airspeed_mps = motion.airspeed_mps > 0.0 ? motion.airspeed_mps : model.airspeed_mps;
+  const double l_over_v = model.reference_length_m / airspeed_mps;
+  const double time_scale = airspeed_mps / model.airspeed_mps;
   const Axis axis = model.axis;
   const double a0 = model.alpha0_rad;
+  std::vector<double> delay_s(static_cast<std::size_t>(nc));
+  for (int c = 0; c < nc; ++c)
+    delay_s[static_cast<std::size_t>(c)] = delay_at_airspeed(model.coefficients[c].delay_s, model.airspeed_mps, airspeed_mps);
 
   auto rhs = [&](const State& y, State& dydt, double t) {
     double angle = 0, rate = 0, x = 0, xdot = 0;
@@ -255,13 +262,14 @@ SimulatedRun simulate_reference(const TruthModel& model, const MotionSpec& motio
       const auto& m = model.coefficients[c];
       double xf = x, xfdot = xdot;
       // Why the branch: only a delayed coefficient needs the motion at another time.
-      if (m.delay_s != 0.0) {
+      const double d = delay_s[static_cast<std::size_t>(c)];
+      if (d != 0.0) {
         double af = 0, rf = 0;
-        f.eval(t - m.delay_s, af, rf);
+        f.eval(t - d, af, rf);
         model_angle_and_rate(axis, a0, af, rf, xf, xfdot);
       }
       const auto o = static_cast<std::size_t>(offset[static_cast<std::size_t>(c)]);
-      lag_derivatives(m, x, xf, xfdot, 1.0, y.data() + o, dydt.data() + o);
+      lag_derivatives(m, x, xf, xfdot, time_scale, y.data() + o, dydt.data() + o);
     }
   };
 
@@ -270,8 +278,8 @@ SimulatedRun simulate_reference(const TruthModel& model, const MotionSpec& motio
   // Break points: the motion's kinks and, per delayed coefficient, the same kinks shifted.
   std::vector<double> breaks = f.kinks();
   for (int c = 0; c < nc; ++c) {
-    if (model.coefficients[c].delay_s == 0.0) continue;
-    const double d = model.coefficients[c].delay_s;
+    const double d = delay_s[static_cast<std::size_t>(c)];
+    if (d == 0.0) continue;
     breaks.push_back(f.start_time() + d);
     for (double k : f.kinks()) breaks.push_back(k + d);
   }
@@ -333,7 +341,7 @@ SimulatedRun simulate_reference(const TruthModel& model, const MotionSpec& motio
 }
 
 std::vector<double> add_measurement_noise(std::vector<SimulatedRun>& runs, double snr,
-                                          std::uint64_t seed) {
+                                          std::uint64_t seed, const NoiseModel& noise_model) {
   if (runs.empty()) return {};
   const std::size_t nc = runs.front().y_true.size();
   std::vector<double> sigma(nc, 0.0);
@@ -351,10 +359,17 @@ std::vector<double> add_measurement_noise(std::vector<SimulatedRun>& runs, doubl
   std::mt19937_64 rng(seed);
   for (auto& r : runs) {
     for (std::size_t c = 0; c < nc; ++c) {
-      std::normal_distribution<double> noise(0.0, sigma[c]);
-      for (std::size_t k = 0; k < r.coefficient_measured[c].size(); ++k) {
-        r.coefficient_measured[c][k] = r.coefficient_true[c][k] + noise(rng);
+      auto& measured = r.coefficient_measured[c];
+      if (noise_model.kind == NoiseKind::white) {
+        // Why this branch: the very stream the report's tables were reproduced with.
+        std::normal_distribution<double> noise(0.0, sigma[c]);
+        for (std::size_t k = 0; k < measured.size(); ++k) measured[k] = r.coefficient_true[c][k] + noise(rng);
+        continue;
       }
+      const std::size_t n = measured.size();
+      const double dt_s = n > 1 ? (r.time_s.back() - r.time_s.front()) / static_cast<double>(n - 1) : 0.0;
+      const std::vector<double> e = colored_noise(noise_model, n, dt_s, sigma[c], rng);
+      for (std::size_t k = 0; k < n; ++k) measured[k] = r.coefficient_true[c][k] + e[k];
     }
   }
   return sigma;
@@ -364,19 +379,6 @@ std::vector<double> add_measurement_noise(std::vector<SimulatedRun>& runs, doubl
 // Built-in cases
 // ==========================================================================================
 namespace {
-
-template <class S>
-void set_poly(S& s, std::initializer_list<double> coefs) {
-  s.n_powers = 0;
-  for (double c : coefs) s.power_coef[s.n_powers++] = c;
-}
-template <class S>
-void add_knot(S& s, double knot_rad, int power, double coef) {
-  s.knot_rad[s.n_knots] = knot_rad;
-  s.knot_power[s.n_knots] = power;
-  s.knot_coef[s.n_knots] = coef;
-  ++s.n_knots;
-}
 
 // Report Table I (Example 1), the tailless aircraft; Model II when b1 depends on alpha.
 enum class TaillessB1 { constant_model_1, spline_model_2 };
@@ -388,30 +390,9 @@ SimulationCase tailless_case(TaillessB1 kind) {
   c.description = model2 ? "report Table I, Model II: b1(alpha) spline with 4 knots"
                          : "report Table I, Model I: b1 = 2.5 1/s";
   TruthModel& t = c.truth;
-  t.axis = Axis::pitch;
-  t.reference_length_m = 0.3765;             // l; with V below, l / V = 0.02131 s (Table I)
-  t.airspeed_mps = 0.3765 / 0.02131;
-  t.alpha0_rad = 0.0;
-  t.x_min_rad = 0.0;
-  t.x_max_rad = 70.0 * kDegToRad;
-  t.n_coefficients = 1;
-  auto& m = t.coefficients[0];
-  m.name[0] = 'C';
-  m.name[1] = 'm';
-  m.static_curve.kind = StaticKind::polynomial;
-  set_poly(m.static_curve.polynomial, {0.0, 0.42, 0.34, -1.0, 0.40});
-  set_poly(m.rotary, {-2.0, 0.0, 0.8});
-  set_poly(m.a, {0.0, 0.28, -3.2});
-  add_knot(m.a, 0.4363, 2, 8.0);
-  add_knot(m.a, 0.9599, 2, -7.4);
-  m.n_lags = 1;
-  set_poly(m.lags[0].b, {2.5});
-  if (model2) {
-    add_knot(m.lags[0].b, 0.349, 1, -5.73);
-    add_knot(m.lags[0].b, 0.5236, 1, 5.73);
-    add_knot(m.lags[0].b, 0.827, 1, 5.73);
-    add_knot(m.lags[0].b, 1.0472, 1, -5.73);
-  }
+  // Table I (tailless_model.hpp); V from the report's l / V = 0.02131 s exactly.
+  t = tailless_model_set<FitCapacity>(model2 ? TaillessModel::model_2 : TaillessModel::model_1,
+                                      tailless_reference_length_m / tailless_l_over_v_s);
   for (double f : {0.25, 0.5, 1.0}) {
     MotionSpec s;
     s.kind = MotionKind::sine;
@@ -510,11 +491,12 @@ std::string truth_coef_text(const TruthModel& model) {
 }
 
 std::vector<double> write_simulation_case(const SimulationCase& c, const std::string& out_dir,
-                                          double snr, std::uint64_t seed, Overwrite overwrite) {
+                                          double snr, std::uint64_t seed, Overwrite overwrite,
+                                          const NoiseModel& noise) {
   OutputDir out(out_dir, overwrite);
   std::vector<SimulatedRun> runs;
   for (const auto& m : c.motions) runs.push_back(simulate_reference(c.truth, m));
-  const std::vector<double> sigma = add_measurement_noise(runs, snr, seed);
+  const std::vector<double> sigma = add_measurement_noise(runs, snr, seed, noise);
   std::vector<std::string> comments = {
       "indicial simulate --case " + c.name + " (" + c.description + ")",
       "truth: continuous model integrated by Dormand-Prince 5(4), abs/rel tolerance 1e-12",
@@ -522,7 +504,8 @@ std::vector<double> write_simulation_case(const SimulationCase& c, const std::st
   for (std::size_t i = 0; i < sigma.size(); ++i) {
     comments.push_back(std::string("noise: ") + c.truth.coefficients[i].name + " sigma " +
                        format_double(sigma[i]) + " (SNR " + format_double(snr) + ", seed " +
-                       std::to_string(seed) + ", sigma = RMS(y) / SNR)");
+                       std::to_string(seed) + ", noise " + noise_spec_text(noise) +
+                       ", sigma = RMS(y) / SNR, the noise's marginal std)");
   }
   for (std::size_t r = 0; r < runs.size(); ++r) {
     out.write(c.run_files[r], simulated_run_csv(c.truth, runs[r], comments));

@@ -23,8 +23,9 @@
 //    (noise from std::mt19937_64(seed)), so results are identical for any thread count.
 // 2. The progress callback is called from the worker threads, serialised by a mutex, after each
 //    finished seed; keep it short.
-// 3. A seed whose fit throws (InputError) is counted in MonteCarloResult::failed_seeds and left
-//    out of the statistics; seeds whose ML fit did not converge are kept (their termination is
+// 3. A seed whose fit throws (InputError), or whose fitted model the runtime refuses
+//    (runtime_limits.hpp), is counted in MonteCarloResult::failed_seeds and left out of the
+//    statistics; seeds whose ML fit did not converge are kept (their termination is
 //    counted) since dropping them would bias the scatter.
 // 4. The true value of a parameter is looked up in the case's truth model by its name (a{i},
 //    A{j} matched by knot location, b1_{i}, B{j}, con, Caq_{i}, CaqK{j}); y0_{r} is 0 because
@@ -59,6 +60,7 @@ struct MonteCarloOptions {
   int seeds = 200;
   std::uint64_t first_seed = 1;  // seeds first_seed .. first_seed + seeds - 1
   double snr = 40.0;
+  NoiseModel noise;  // white (the report's), AR(1) or turbulence; sigma is its marginal std
   int threads = 2;
   FitOptions fit;
 };

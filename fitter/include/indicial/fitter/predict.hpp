@@ -27,10 +27,11 @@
 //
 // Warnings
 // --------
-// 1. The predictor is reset to the steady state at the FIRST sample (y_0 = con / b_1(x), other
+// 1. predict_motion resets the predictor to the steady state at the FIRST sample (y_0 = con / b_1(x), other
 //    lags 0) and then stepped sample by sample; the first output is that steady state. A run
 //    that begins in motion (or a simulated run that begins with y = 0 while con != 0) starts
-//    with a transient error that decays like exp(-b t).
+//    with a transient error that decays like exp(-b t). For one cycle of a periodic motion
+//    use predict_periodic (its periodic steady state) instead.
 // 2. Angles outside the model's envelope are clamped by the runtime (its warning 3); the
 //    number of clamped samples is reported (Prediction::clamped_samples) -- a prediction with
 //    clamped samples is an extrapolation the model was never fitted for.
@@ -86,12 +87,30 @@ struct Prediction {
 
 // Runs the runtime Predictor (FitCapacity, so any model the fitter writes fits) over the
 // motion. rate_radps is q, p or r; airspeed_mps the tunnel speed (normally the model's
-// reference airspeed). Throws InputError("model", 0, ...) if the runtime refuses the model or
-// a step, std::invalid_argument for inconsistent vector lengths.
+// reference airspeed). Throws InputError(model_label, 0, ...) if the runtime refuses the
+// model or a step (model_label: the model file's path), std::invalid_argument for
+// inconsistent vector lengths.
 Prediction predict_motion(const ModelSet<double, FitCapacity>& model,
                           const std::vector<double>& time_s,
                           const std::vector<double>& motion_angle_rad,
-                          const std::vector<double>& rate_radps, double airspeed_mps);
+                          const std::vector<double>& rate_radps, double airspeed_mps,
+                          const std::string& model_label = "model");
+
+// The periodic steady state of one cycle (`indicial predict --periodic`): the samples are one
+// period of a periodic motion (an ensemble-averaged cycle). The cycle closes on its last
+// sample when the last angle repeats the first (within 1e-9 rad), otherwise with one more
+// step of the mean sample step from the last sample back to the first. The state at the
+// cycle's start is the fixed point of the cycle map, found as the fitter finds it for a
+// periodic run: every lag is linear in its own state, so the runtime propagates the cycle
+// from y = 0 and from y = 1 (Predictor snapshot/restore; after one warm-up cycle that fills
+// a delay's history), Phi = y_b - y_a, y0 = y_a / (1 - Phi); then it steps the cycle from y0
+// and reports every sample. Throws InputError(model_label, ...) when some lag has no periodic
+// steady state (Phi >= 1) or the runtime refuses the model or a step.
+Prediction predict_periodic(const ModelSet<double, FitCapacity>& model,
+                            const std::vector<double>& time_s,
+                            const std::vector<double>& motion_angle_rad,
+                            const std::vector<double>& rate_radps, double airspeed_mps,
+                            const std::string& model_label = "model");
 
 // Scores every coefficient whose measured vector is filled (model and quasi-steady).
 void score_coefficients(Prediction& p);

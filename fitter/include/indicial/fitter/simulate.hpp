@@ -34,12 +34,15 @@
 //    b(x) are left to the error control (they are C0..C1 in time, not discontinuous).
 // 3. SNR follows the corrected definition at the top of the reference report: sigma =
 //    RMS(y) over all samples of all runs of the set, divided by the SNR, with y the unsteady
-//    part (eq. 12) = sum_j y_j. Noise is white Gaussian from std::mt19937_64(seed) and
-//    std::normal_distribution; streams are reproducible with one standard library.
-// 4. The model is simulated at its reference airspeed (time_scale = 1).
+//    part (eq. 12) = sum_j y_j. Noise is Gaussian (white by default; AR(1) or band-limited
+//    turbulence by NoiseModel) from std::mt19937_64(seed) and std::normal_distribution;
+//    streams are reproducible with one standard library.
+// 4. The model is simulated at its reference airspeed (time_scale = 1) unless
+//    MotionSpec::airspeed_mps says otherwise (then time_scale = V / V_ref, as the runtime).
 #pragma once
 
 #include <cstdint>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -130,6 +133,13 @@ struct MotionSpec {
   std::vector<double> time_s;
   std::vector<double> angle_rad;
   std::string source;  // where the samples came from (messages)
+  // The run's tunnel airspeed; 0: the model's reference airspeed. At V the model's b_j and con
+  // scale by V / V_ref, its delay by V_ref / V and the rotary term's l / V is at V (as the
+  // runtime does).
+  double airspeed_mps = 0.0;
+  // sine and ramp: when not empty, the output sample times (strictly increasing, from >= 0)
+  // instead of the uniform grid of dt_s -- e.g. a jittered, nonuniform log.
+  std::vector<double> output_times_s;
 };
 
 // Parses --motion: "sine:alpha0_deg=35,amp_deg=35,freq_hz=0.5,cycles=3,dt_s=0.01",
@@ -167,10 +177,49 @@ struct SimulatedRun {
 SimulatedRun simulate_reference(const TruthModel& model, const MotionSpec& motion,
                                 const ReferenceTolerance& tolerance = {});
 
-// Adds N(0, sigma_c) to coefficient_measured of every run, sigma_c = RMS(y_true[c] over all
-// runs) / snr. Returns sigma per coefficient. snr = +inf adds nothing (sigma 0, RNG unused).
+// ------------------------------------------------------------------------------------------
+// Measurement noise (white or colored)
+// ------------------------------------------------------------------------------------------
+// Tunnel residuals are colored (balance dynamics, turbulence, vortex shedding). Every kind is
+// a zero-mean stationary Gaussian sequence per run and coefficient, started in its stationary
+// distribution (no transient), with MARGINAL standard deviation sigma_c = RMS(y_true[c] over
+// all runs) / snr (the report's corrected SNR convention, applied to the noise's marginal std).
+//   white       e_k = sigma w_k                                 (the report's noise)
+//   ar1         e_k = phi e_{k-1} + sigma sqrt(1 - phi^2) w_k,  |phi| < 1 (lag-1 corr. phi)
+//   turbulence  white noise through the 2nd-order low pass wn^2 / (s^2 + 2 zeta wn s + wn^2),
+//               wn = 2 pi cutoff_hz, discretized exactly at the run's step by its poles
+//               (z = exp(s dt)): the AR(2) e_k = a1 e_{k-1} + a2 e_{k-2} + s_w w_k, scaled to
+//               the marginal sigma; a band-limited (Dryden-like) turbulence spectrum.
+// Command-line spelling (parse_noise_spec): "white", "ar1:phi=0.8",
+// "turbulence:cutoff_hz=2[,zeta=0.7]".
+enum class NoiseKind { white, ar1, turbulence };
+
+struct NoiseModel {
+  NoiseKind kind = NoiseKind::white;
+  double phi = 0.0;        // ar1: lag-1 autocorrelation, |phi| < 1
+  double cutoff_hz = 0.0;  // turbulence: natural frequency of the low pass, > 0
+  double zeta = 0.7;       // turbulence: damping ratio, > 0
+};
+
+// Parses the spelling above; throws InputError("--noise", 0, problem).
+NoiseModel parse_noise_spec(const std::string& spec);
+// The spelling back ("ar1:phi=0.8"), for comments and reports.
+std::string noise_spec_text(const NoiseModel& noise);
+// The theoretical lag-1 autocorrelation of the noise sampled at step dt_s.
+double noise_lag1_correlation(const NoiseModel& noise, double dt_s);
+
+// One stationary noise sequence of n samples at step dt_s with marginal std sigma, drawn
+// from rng (std::mt19937_64 with std::normal_distribution).
+std::vector<double> colored_noise(const NoiseModel& noise, std::size_t n, double dt_s, double sigma,
+                                  std::mt19937_64& rng);
+
+// Adds noise to coefficient_measured of every run, sigma_c = RMS(y_true[c] over all runs) /
+// snr. Returns sigma per coefficient. snr = +inf adds nothing (sigma 0, RNG unused). White
+// noise draws exactly the stream it always drew (Tables II-IV are reproduced with it); each
+// run and coefficient gets its own stationary sequence, in run-major order, from one
+// std::mt19937_64(seed).
 std::vector<double> add_measurement_noise(std::vector<SimulatedRun>& runs, double snr,
-                                          std::uint64_t seed);
+                                          std::uint64_t seed, const NoiseModel& noise = {});
 
 // ------------------------------------------------------------------------------------------
 // Built-in cases
@@ -203,6 +252,7 @@ std::string truth_coef_text(const TruthModel& model);
 // true model, loadable by the runtime and by `simulate --model`) through OutputDir. Returns
 // sigma per coefficient.
 std::vector<double> write_simulation_case(const SimulationCase& c, const std::string& out_dir,
-                                          double snr, std::uint64_t seed, Overwrite overwrite);
+                                          double snr, std::uint64_t seed, Overwrite overwrite,
+                                          const NoiseModel& noise = {});
 
 }  // namespace indicial

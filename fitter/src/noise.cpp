@@ -1,0 +1,150 @@
+// Measurement noise of the simulator: white, AR(1) and band-limited turbulence. See
+// indicial/fitter/simulate.hpp ("Measurement noise").
+#include <cmath>
+#include <complex>
+#include <map>
+#include <sstream>
+
+#include "indicial/fitter/error.hpp"
+#include "indicial/fitter/io.hpp"
+#include "indicial/fitter/simulate.hpp"
+
+namespace indicial {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// The AR(2) recursion e_k = a1 e_{k-1} + a2 e_{k-2} + w_k of the turbulence filter at step
+// dt_s: the continuous poles s = wn (-zeta +- sqrt(zeta^2 - 1)) mapped by z = exp(s dt).
+struct Ar2 {
+  double a1 = 0.0;
+  double a2 = 0.0;
+};
+
+Ar2 turbulence_recursion(const NoiseModel& n, double dt_s) {
+  const double wn = 2.0 * kPi * n.cutoff_hz;
+  const std::complex<double> root = std::sqrt(std::complex<double>(n.zeta * n.zeta - 1.0, 0.0));
+  const std::complex<double> z1 = std::exp(wn * (-n.zeta + root) * dt_s);
+  const std::complex<double> z2 = std::exp(wn * (-n.zeta - root) * dt_s);
+  return {(z1 + z2).real(), -(z1 * z2).real()};
+}
+
+// Lag-1 autocorrelation of the stationary AR(2): rho1 = a1 / (1 - a2).
+double ar2_rho1(const Ar2& r) { return r.a1 / (1.0 - r.a2); }
+
+// Stationary variance of the AR(2) per unit innovation variance.
+double ar2_variance(const Ar2& r) {
+  return (1.0 - r.a2) / ((1.0 + r.a2) * ((1.0 - r.a2) * (1.0 - r.a2) - r.a1 * r.a1));
+}
+
+double parse_number(const std::string& key, const std::string& text) {
+  std::size_t used = 0;
+  double v = 0.0;
+  try {
+    v = std::stod(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (text.empty() || used != text.size() || !std::isfinite(v))
+    throw InputError("--noise", 0, "'" + key + "' needs a finite number, found '" + text + "'");
+  return v;
+}
+
+}  // namespace
+
+NoiseModel parse_noise_spec(const std::string& spec) {
+  const std::size_t colon = spec.find(':');
+  const std::string kind = spec.substr(0, colon);
+  std::map<std::string, double> kv;
+  if (colon != std::string::npos) {
+    std::stringstream ss(spec.substr(colon + 1));
+    std::string item;
+    while (std::getline(ss, item, ',')) {
+      const std::size_t eq = item.find('=');
+      if (eq == std::string::npos)
+        throw InputError("--noise", 0, "expected key=value, found '" + item + "'");
+      kv[item.substr(0, eq)] = parse_number(item.substr(0, eq), item.substr(eq + 1));
+    }
+  }
+  auto take = [&](const std::string& key, bool required, double fallback) {
+    const auto it = kv.find(key);
+    if (it == kv.end()) {
+      if (required) throw InputError("--noise", 0, kind + " noise needs '" + key + "'");
+      return fallback;
+    }
+    const double v = it->second;
+    kv.erase(it);
+    return v;
+  };
+  NoiseModel n;
+  if (kind == "white") {
+    n.kind = NoiseKind::white;
+  } else if (kind == "ar1") {
+    n.kind = NoiseKind::ar1;
+    n.phi = take("phi", true, 0.0);
+    if (!(std::fabs(n.phi) < 1.0)) throw InputError("--noise", 0, "ar1 'phi' must be in (-1, 1)");
+  } else if (kind == "turbulence") {
+    n.kind = NoiseKind::turbulence;
+    n.cutoff_hz = take("cutoff_hz", true, 0.0);
+    n.zeta = take("zeta", false, 0.7);
+    if (!(n.cutoff_hz > 0.0)) throw InputError("--noise", 0, "turbulence 'cutoff_hz' must be > 0");
+    if (!(n.zeta > 0.0)) throw InputError("--noise", 0, "turbulence 'zeta' must be > 0");
+  } else {
+    throw InputError("--noise", 0,
+                     "unknown noise '" + kind + "' (white, ar1:phi=P, turbulence:cutoff_hz=F[,zeta=Z])");
+  }
+  if (!kv.empty()) throw InputError("--noise", 0, "unknown key '" + kv.begin()->first + "' in " + kind + " noise");
+  return n;
+}
+
+std::string noise_spec_text(const NoiseModel& n) {
+  switch (n.kind) {
+    case NoiseKind::white: return "white";
+    case NoiseKind::ar1: return "ar1:phi=" + format_double(n.phi);
+    case NoiseKind::turbulence:
+      return "turbulence:cutoff_hz=" + format_double(n.cutoff_hz) + ",zeta=" + format_double(n.zeta);
+  }
+  return "white";
+}
+
+double noise_lag1_correlation(const NoiseModel& n, double dt_s) {
+  switch (n.kind) {
+    case NoiseKind::white: return 0.0;
+    case NoiseKind::ar1: return n.phi;
+    case NoiseKind::turbulence: return ar2_rho1(turbulence_recursion(n, dt_s));
+  }
+  return 0.0;
+}
+
+std::vector<double> colored_noise(const NoiseModel& n, std::size_t count, double dt_s, double sigma,
+                                  std::mt19937_64& rng) {
+  std::normal_distribution<double> unit(0.0, 1.0);
+  std::vector<double> e(count, 0.0);
+  if (count == 0) return e;
+  switch (n.kind) {
+    case NoiseKind::white:
+      for (double& v : e) v = sigma * unit(rng);
+      return e;
+    case NoiseKind::ar1: {
+      // Why sigma for e_0: the stationary marginal, so there is no start-up transient.
+      const double innovation = sigma * std::sqrt(1.0 - n.phi * n.phi);
+      e[0] = sigma * unit(rng);
+      for (std::size_t k = 1; k < count; ++k) e[k] = n.phi * e[k - 1] + innovation * unit(rng);
+      return e;
+    }
+    case NoiseKind::turbulence: {
+      if (!(dt_s > 0.0)) throw InputError("--noise", 0, "turbulence noise needs a positive time step");
+      const Ar2 r = turbulence_recursion(n, dt_s);
+      const double innovation = sigma / std::sqrt(ar2_variance(r));
+      const double rho1 = ar2_rho1(r);
+      // (e_0, e_1) drawn from the stationary joint distribution (correlation rho1).
+      e[0] = sigma * unit(rng);
+      if (count > 1) e[1] = rho1 * e[0] + sigma * std::sqrt(1.0 - rho1 * rho1) * unit(rng);
+      for (std::size_t k = 2; k < count; ++k) e[k] = r.a1 * e[k - 1] + r.a2 * e[k - 2] + innovation * unit(rng);
+      return e;
+    }
+  }
+  return e;
+}
+
+}  // namespace indicial
