@@ -95,13 +95,11 @@ const indicial::tools::RegisterCommand register_diagnose([](CLI::App& app) {
       "diagnose",
       "The missing-effect workflow: fit the configured model, test every candidate effect\n(" +
           indicial::effect_names_list() +
-          ") by a\n"
-          "likelihood-ratio test with a Bonferroni guard and BIC, add the most significant, repeat.\n"
+          "):\nlikelihood ratio / kappa (residual correlation) with a Bonferroni guard and BIC; each\n"
+          "significant effect grown into its best sub-model, the best by BIC added; repeat.\n"
       "Writes DIR/diagnosis.json, DIR/model.coef (final model), DIR/report.md and DIR/plots/.\n"
-      "Exit status: 0 done (any verdict, 'none' included); 1 bad input, or a final model the
-"
-      "runtime refuses (one line, nothing written); 6 stopped at --max-steps with an effect still
-"
+      "Exit status: 0 done (any verdict, 'none' included); 1 bad input, or a final model the\n"
+      "runtime refuses (one line, nothing written); 6 stopped at --max-steps with an effect still\n"
       "significant (outputs written).");
   sub->add_option("experiment", opt->experiment, "experiment file (TOML)")->required();
   sub->add_option("--out", opt->out, "output directory (refused if not empty, unless --force)")->required();
