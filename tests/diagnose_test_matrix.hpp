@@ -7,8 +7,9 @@
 // outside the single-term vocabulary: Model II's four-knot b1(alpha), a static error
 // 0.03 sin(3 alpha) with nonzero mean as a 0.5 deg table, two effects at once, or nothing), a
 // motion family (three sine runs starting at rest, three sine runs 35 + 35 sin(wt) starting at
-// the mean angle with the rate jumping from 0, or three ramps), and noise (white, or AR(1)
-// with phi = 0.8, both with marginal sigma = RMS(y) / 40). The truth comes from the simulator's
+// the mean angle with the rate jumping from 0, or three ramps), and noise (the simulator's:
+// white, AR(1) with phi = 0.8, or, for null cases, band-limited turbulence; marginal sigma =
+// RMS(y) / 40). The truth comes from the simulator's
 // reference integration (Dormand-Prince, never the fitter's discrete update); the configured
 // model is the case's own, i.e. it lacks exactly the hidden effect.
 //
@@ -32,7 +33,7 @@
 namespace indicial::testing {
 
 enum class MatrixMotion { sine_from_rest, sine_from_mean, ramps };
-enum class MatrixNoise { white, ar1 };
+enum class MatrixNoise { white, ar1, turbulence };
 
 inline const char* matrix_motion_name(MatrixMotion m) {
   switch (m) {
@@ -42,7 +43,22 @@ inline const char* matrix_motion_name(MatrixMotion m) {
   }
   return "?";
 }
-inline const char* matrix_noise_name(MatrixNoise n) { return n == MatrixNoise::white ? "white" : "AR(1) 0.8"; }
+inline const char* matrix_noise_name(MatrixNoise n) {
+  return n == MatrixNoise::white ? "white" : n == MatrixNoise::ar1 ? "AR(1) 0.8" : "turbulence 2 Hz";
+}
+// The simulator's noise models (simulate.hpp): white; AR(1) phi 0.8; band-limited turbulence
+// (2nd-order low pass at 2 Hz, zeta 0.7: not AR(1), for the kappa approximation).
+inline NoiseModel matrix_noise_model(MatrixNoise n) {
+  NoiseModel m;
+  if (n == MatrixNoise::ar1) {
+    m.kind = NoiseKind::ar1;
+    m.phi = 0.8;
+  } else if (n == MatrixNoise::turbulence) {
+    m.kind = NoiseKind::turbulence;
+    m.cutoff_hz = 2.0;
+  }
+  return m;
+}
 
 struct MatrixCase {
   std::string coefficient = "Cm";   // "Cm" or "CL"
@@ -147,28 +163,6 @@ inline void add_static_sine(TruthCoefficient& t) {
   prepare_static_table(sc);
 }
 
-// AR(1) noise e[k] = phi e[k-1] + sqrt(1 - phi^2) sigma w[k] (stationary start), marginal
-// sigma = RMS(y_true over all runs) / snr, added to coefficient_measured. Returns sigma.
-inline double add_ar1_noise(std::vector<SimulatedRun>& runs, double snr, double phi, std::uint64_t seed) {
-  double ss = 0.0, n = 0.0;
-  for (const auto& r : runs)
-    for (double y : r.y_true[0]) {
-      ss += y * y;
-      n += 1.0;
-    }
-  const double sigma = std::sqrt(ss / n) / snr;
-  std::mt19937_64 rng(seed);
-  std::normal_distribution<double> w(0.0, 1.0);
-  for (auto& r : runs) {
-    double e = sigma * w(rng);
-    for (std::size_t k = 0; k < r.coefficient_measured[0].size(); ++k) {
-      if (k > 0) e = phi * e + std::sqrt(1.0 - phi * phi) * sigma * w(rng);
-      r.coefficient_measured[0][k] = r.coefficient_true[0][k] + e;
-    }
-  }
-  return sigma;
-}
-
 // The experiment of a case; `sigma` receives the noise's marginal standard deviation.
 inline Experiment matrix_experiment(const MatrixCase& mc, double* sigma) {
   SimulationCase c = matrix_base_case(mc.coefficient, mc.motion);
@@ -191,11 +185,7 @@ inline Experiment matrix_experiment(const MatrixCase& mc, double* sigma) {
   }
   std::vector<SimulatedRun> runs;
   for (const auto& m : c.motions) runs.push_back(simulate_reference(c.truth, m));
-  double s = 0.0;
-  if (mc.noise == MatrixNoise::white)
-    s = add_measurement_noise(runs, 40.0, mc.seed).at(0);
-  else
-    s = add_ar1_noise(runs, 40.0, 0.8, mc.seed);
+  const double s = add_measurement_noise(runs, 40.0, mc.seed, matrix_noise_model(mc.noise)).at(0);
   if (sigma) *sigma = s;
   Experiment e = experiment_from_simulation(c, runs);
   e.path = fmt::format("matrix-{}-{}-{}-{}.toml", mc.coefficient, mc.truth, matrix_motion_name(mc.motion), mc.seed);
@@ -254,6 +244,8 @@ inline std::vector<MatrixCase> diagnose_matrix(bool quick) {
   for (const auto& coef : coefs)
     for (int s = 0; s < null_seeds; ++s)
       cases.push_back({coef, "none", "none", 1.0, MatrixMotion::sine_from_rest, MatrixNoise::ar1, 5000u + s});
+  for (int s = 0; s < null_seeds / 2; ++s)
+    cases.push_back({"Cm", "none", "none", 1.0, MatrixMotion::sine_from_rest, MatrixNoise::turbulence, 6000u + s});
   return cases;
 }
 

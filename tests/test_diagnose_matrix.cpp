@@ -84,7 +84,7 @@ TEST_CASE("diagnose matrix: every effect x motion x size x noise x coefficient" 
   std::sort(times.begin(), times.end());
   out << fmt::format(
       "\nSummary ({}): first named effect right in {} of {} effect cases; final fit error within 15 % "
-      "of the noise level in {} of {}; no effect named in {} of {} null cases (AR(1) 0.8); "
+      "of the noise level in {} of {}; no effect named in {} of {} null cases (colored noise); "
       "diagnose time median {:.1f} s, max {:.1f} s.\n",
       quick ? "quick" : "full", first_right, effect_cases, within, effect_cases, null_clean, null_cases,
       times.empty() ? 0.0 : times[times.size() / 2], times.empty() ? 0.0 : times.back());

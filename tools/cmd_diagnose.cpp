@@ -10,6 +10,7 @@
 // is bad input too: one line naming DIR/model.coef and the reason, nothing written (exit 1).
 // Ill-conditioned final estimates
 // (bound larger than the value) are a warning line, exit 0.
+#include <cmath>
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -75,8 +76,8 @@ void run_diagnose(const DiagnoseCliOptions& o) {
   std::printf("diagnose: %s: initial fit error %.6g, noise estimate %.6g\n", o.experiment.c_str(),
               d.initial_fit_error, d.noise.sigma);
   for (const DiagnoseStep& s : d.steps)
-    std::printf("diagnose: step %d: %s (%s): LR/kappa %.1f, p %.3g < %.3g, fit error %.6g -> %.6g%s\n",
-                s.step, effect_name(s.effect), s.detail.c_str(), s.statistic, s.p_value, s.threshold,
+    std::printf("diagnose: step %d: %s (%s): LR/kappa %.1f, log10 p %.1f < %.2f, fit error %.6g -> %.6g%s\n",
+                s.step, effect_name(s.effect), s.detail.c_str(), s.statistic, s.log10_p, std::log10(s.threshold),
                 s.fit_error_before, s.fit_error_after,
                 s.indistinguishable.empty() ? "" : " (indistinguishable on these data from another effect: see report.md)");
   std::printf("diagnose: verdict %s; final fit error %.6g (%d fits, %.2f s)\n", d.verdict.c_str(),
@@ -96,8 +97,8 @@ const indicial::tools::RegisterCommand register_diagnose([](CLI::App& app) {
       "diagnose",
       "The missing-effect workflow: fit the configured model, test every candidate effect\n(" +
           indicial::effect_names_list() +
-          ") by a\n"
-          "likelihood-ratio test with a Bonferroni guard and BIC, add the most significant, repeat.\n"
+          "):\nlikelihood ratio / kappa (residual correlation) with a Bonferroni guard and BIC; each\n"
+          "significant effect grown into its best sub-model, the best by BIC added; repeat.\n"
       "Writes DIR/diagnosis.json, DIR/model.coef (final model), DIR/report.md and DIR/plots/.\n"
       "Exit status: 0 done (any verdict, 'none' included); 1 bad input, or a final model the\n"
       "runtime refuses (one line, nothing written); 6 stopped at --max-steps with an effect still\n"
