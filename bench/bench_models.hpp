@@ -29,6 +29,7 @@
 #include <cstddef>
 #include <vector>
 
+#include "indicial/fitter/tailless_model.hpp"
 #include "indicial/model.hpp"
 
 namespace indicial {
@@ -42,8 +43,8 @@ inline const char* model_kind_name(ModelKind k) {
   return k == ModelKind::model_i ? "model1" : k == ModelKind::model_ii ? "model2" : "twolag";
 }
 
-constexpr double kReferenceLengthM = 0.3765;     // l = c/2 with l/V = 0.02131 s (Table I)
-constexpr double kAirspeedMps = 17.667762;
+constexpr double kReferenceLengthM = tailless_reference_length_m;  // l / V = 0.02131 s (Table I)
+constexpr double kAirspeedMps = tailless_airspeed_mps;
 
 namespace detail {
 template <class Scalar, int P, int K>
@@ -59,33 +60,21 @@ void add_knot(Spline<Scalar, P, K>& s, double knot_rad, int power, double coef) 
   ++s.n_knots;
 }
 
+// C_m is Table I (tailless_model.hpp); C_L takes Table I's structure with its own values and
+// C_m's b1 (the cost of a step depends on the structure, not the values).
 template <class Scalar>
 void fill_coefficient(CoefficientModel<Scalar, Cap>& m, const char* name, bool lift,
                       ModelKind kind) {
+  tailless_pitching_moment(kind == ModelKind::model_i ? TaillessModel::model_1 : TaillessModel::model_2, &m);
+  for (int i = 0; i < 8; ++i) m.name[i] = '\0';
   for (int i = 0; name[i] != '\0' && i < 7; ++i) m.name[i] = name[i];
-  m.static_curve.kind = StaticKind::polynomial;
   if (lift) {
     // Plausible delta-wing C_L(alpha): slope 2.6/rad, stall-like rounding near 40-50 deg.
     set_poly(m.static_curve.polynomial, {0.0, 2.6, 0.9, -2.1, 0.6});
     set_poly(m.rotary, {1.5, 0.0, -1.0});
     set_poly(m.a, {0.0, -1.1, 4.0});
-    add_knot(m.a, 0.4363, 2, -9.0);
-    add_knot(m.a, 0.9599, 2, 7.0);
-  } else {
-    // Table I.
-    set_poly(m.static_curve.polynomial, {0.0, 0.42, 0.34, -1.0, 0.40});
-    set_poly(m.rotary, {-2.0, 0.0, 0.8});
-    set_poly(m.a, {0.0, 0.28, -3.2});
-    add_knot(m.a, 0.4363, 2, 8.0);
-    add_knot(m.a, 0.9599, 2, -7.4);
-  }
-  m.n_lags = 1;
-  set_poly(m.lags[0].b, {2.5});
-  if (kind != ModelKind::model_i) {
-    add_knot(m.lags[0].b, 0.349, 1, -5.73);
-    add_knot(m.lags[0].b, 0.5236, 1, 5.73);
-    add_knot(m.lags[0].b, 0.827, 1, 5.73);
-    add_knot(m.lags[0].b, 1.0472, 1, -5.73);
+    m.a.knot_coef[0] = Scalar(-9.0);
+    m.a.knot_coef[1] = Scalar(7.0);
   }
   if (kind == ModelKind::two_lags) {
     m.n_lags = 2;

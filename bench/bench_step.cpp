@@ -5,6 +5,9 @@
 // For C_L + C_m in pitch (bench_models.hpp: Model I, Model II, two lags; double and float),
 // at 1 kHz (dt = 1 ms) on the report's 35 +/- 35 deg, 1 Hz motion:
 //   step/<model>/<scalar>      indicial::Predictor::step (runtime/include/indicial/runtime.hpp)
+//   state/<model>/<scalar>     indicial::step(model, State, ...): the stateless core on a
+//                              shared RuntimeModel (what Predictor::step wraps)
+//   c/<model>/double           indicial_step, the C interface (indicial/indicial.h)
 //   model/<model>/<scalar>     advance_lags + coefficient_output straight from model.hpp, i.e.
 //                              the step without the runtime's input checks and bookkeeping
 //   floor/<model>/<scalar>     only the work no implementation can avoid: per coefficient the
@@ -48,6 +51,8 @@
 
 #include "alloc_counter.hpp"
 #include "bench_models.hpp"
+#include "indicial/coef_file.hpp"
+#include "indicial/indicial.h"
 #include "indicial/model.hpp"
 #include "indicial/runtime.hpp"
 
@@ -93,10 +98,69 @@ class PredictorStepper {
   unsigned long long bad_steps_ = 0;
 };
 
+// ------------------------------------------------------------------------------------------
+// state/: the stateless core, indicial::step(model, State, ...) on a shared RuntimeModel (what
+// Predictor::step wraps; the checks, clamp and copy-then-commit are the same).
+// c/: the same through the C interface (indicial_step, indicial/indicial.h).
+// ------------------------------------------------------------------------------------------
+template <class Scalar>
+class StateStepper {
+ public:
+  explicit StateStepper(ModelKind kind) : model_(std::make_unique<indicial::RuntimeModel<Scalar, Cap>>()) {
+    if (indicial::make_runtime_model(ib::make_model_set<double>(kind), model_.get()) !=
+        indicial::LoadStatus::ok)
+      std::abort();
+  }
+  void reset(Scalar x_rad) { indicial::reset(*model_, state_, static_cast<double>(x_rad), ib::kAirspeedMps); }
+  Scalar step(Scalar x1_rad, Scalar q_radps, Scalar dt_s) {
+    const indicial::MotionInput in{static_cast<double>(x1_rad), static_cast<double>(q_radps),
+                                   ib::kAirspeedMps};
+    const indicial::StepStatus s = indicial::step(*model_, state_, in, static_cast<double>(dt_s), out_);
+    bad_steps_ += (s != indicial::StepStatus::ok);
+    return out_[0] + out_[1];
+  }
+  unsigned long long bad_steps() const { return bad_steps_; }
+
+ private:
+  std::unique_ptr<indicial::RuntimeModel<Scalar, Cap>> model_;
+  indicial::State<Scalar, Cap> state_;
+  Scalar out_[Cap::max_coefficients] = {};
+  unsigned long long bad_steps_ = 0;
+};
+
+class CStepper {
+ public:
+  explicit CStepper(ModelKind kind) : model_(indicial_model_bytes() / sizeof(double) + 1) {
+    char text[8192];
+    std::size_t n = 0;
+    if (indicial::write_coef_file(ib::make_model_set<double>(kind), text, sizeof text, &n) !=
+            indicial::WriteStatus::ok ||
+        indicial_model_load(model_.data(), text, n, nullptr, 0) != INDICIAL_OK)
+      std::abort();
+    state_.resize(indicial_state_bytes(model_.data()) / sizeof(double) + 1);
+  }
+  void reset(double x_rad) { indicial_reset(model_.data(), state_.data(), x_rad, ib::kAirspeedMps); }
+  double step(double x1_rad, double q_radps, double dt_s) {
+    const int s = indicial_step(model_.data(), state_.data(), x1_rad, q_radps, ib::kAirspeedMps, dt_s, out_);
+    bad_steps_ += (s != INDICIAL_OK);
+    return out_[0] + out_[1];
+  }
+  unsigned long long bad_steps() const { return bad_steps_; }
+
+ private:
+  std::vector<double> model_;  // double-aligned storage, as indicial.h asks
+  std::vector<double> state_;
+  double out_[3] = {};
+  unsigned long long bad_steps_ = 0;
+};
+
 template <class Stepper>
 unsigned long long bad_steps_of(const Stepper&) { return 0; }
 template <class Scalar>
 unsigned long long bad_steps_of(const PredictorStepper<Scalar>& s) { return s.bad_steps(); }
+template <class Scalar>
+unsigned long long bad_steps_of(const StateStepper<Scalar>& s) { return s.bad_steps(); }
+inline unsigned long long bad_steps_of(const CStepper& s) { return s.bad_steps(); }
 
 // ------------------------------------------------------------------------------------------
 // model/: the update exactly as model.hpp writes it (what the runtime's step wraps).
@@ -307,6 +371,7 @@ void register_scalar() {
   for (ModelKind k : {ModelKind::model_i, ModelKind::model_ii, ModelKind::two_lags}) {
     const std::string m = ib::model_kind_name(k);
     register_variant<Scalar, PredictorStepper<Scalar>>("step/" + m + "/" + s, 1000, k);
+    register_variant<Scalar, StateStepper<Scalar>>("state/" + m + "/" + s, 1000, k);
     register_variant<Scalar, ModelStepper<Scalar>>("model/" + m + "/" + s, 1000, k);
     register_variant<Scalar, FloorStepper<Scalar>>("floor/" + m + "/" + s, 1000, k);
   }
@@ -387,6 +452,8 @@ int main(int argc, char** argv) {
   if (!check_step_matches_model()) return 1;
   register_scalar<double>();
   register_scalar<float>();
+  for (ModelKind k : {ModelKind::model_i, ModelKind::model_ii, ModelKind::two_lags})
+    register_variant<double, CStepper>(std::string("c/") + ib::model_kind_name(k) + "/double", 1000, k);
   register_variant<double, Rk4Stepper<double>>("rk4/model2/double", 1000, ModelKind::model_ii);
   register_variant<double, ConvolutionStepper<double>>("conv1s/model2/double", 3000,
                                                         ModelKind::model_ii, std::size_t{1000});

@@ -10,8 +10,11 @@
 //   batch/     predictor-major: each predictor runs its 1000 steps before the next (a Monte
 //              Carlo batch: one model and state stay in L1 for 1000 steps)
 //   lockstep/  time-major: every predictor advances one step before any advances again (a
-//              simulation of 1024 aircraft in one world; 1024 Predictor<double> x 9.2 KB = 9.4 MB,
-//              beyond the private L2, so each step reloads its predictor from L3)
+//              simulation of 1024 aircraft in one world; each Predictor carries its own copy of
+//              the model, 1024 x 13.7 KB = 14 MB, beyond the private L2)
+// and, for 1024 instances sharing ONE model (a 160-byte State each: 160 KB in all), lockstep:
+//   shared/    indicial::step per instance; stepbatch/ indicial::step_batch; cbatch/ the C
+//              interface's indicial_step_batch (see SharedFleet)
 // Reported: steps_per_s, the aggregate over all threads (wall time, UseRealTime). The 1 -> 2
 // thread scaling is steps_per_s(T=2) / steps_per_s(T=1), computed by run_all.sh.
 //
@@ -30,9 +33,13 @@
 #include <vector>
 
 #include "bench_models.hpp"
+#include "indicial/batch.hpp"
+#include "indicial/coef_file.hpp"
+#include "indicial/indicial.h"
 #include "indicial/runtime.hpp"
 
 namespace ib = indicial::bench;
+using Cap = indicial::DefaultCapacity;
 
 namespace {
 
@@ -94,6 +101,74 @@ struct Fleet {
   }
 };
 
+// 1024 instances sharing ONE model: a State (160 bytes for double) each, the RuntimeModel once
+// (it stays in cache). Time-major (lockstep) like a simulation of many aircraft, stepped by
+//   shared/    indicial::step per instance
+//   stepbatch/ indicial::step_batch over each thread's range (structure-of-arrays exp)
+//   cbatch/    indicial_step_batch, the C interface
+enum class SharedMode : int { single = 0, batch = 1, c_batch = 2 };
+
+struct SharedFleet {
+  std::unique_ptr<indicial::RuntimeModel<double, Cap>> model;
+  std::vector<indicial::State<double, Cap>> states;
+  std::vector<double> c_model;   // the C interface's storage (double-aligned)
+  std::vector<double> c_states;
+  std::size_t c_state_bytes = 0;
+  std::vector<std::size_t> phase;
+  std::vector<double> angle, rate, airspeed, out, sink;
+  ib::Motion<double> motion{1.0 / kDtS};
+
+  SharedFleet()
+      : model(std::make_unique<indicial::RuntimeModel<double, Cap>>()), states(kAircraft),
+        c_model(indicial_model_bytes() / sizeof(double) + 1), phase(kAircraft), angle(kAircraft),
+        rate(kAircraft), airspeed(kAircraft, ib::kAirspeedMps), out(2 * kAircraft),
+        sink(kAircraft, 0.0) {
+    const auto set = ib::make_model_set<double>(ib::ModelKind::model_ii);
+    if (indicial::make_runtime_model(set, model.get()) != indicial::LoadStatus::ok) std::abort();
+    char text[8192];
+    std::size_t n = 0;
+    if (indicial::write_coef_file(set, text, sizeof text, &n) != indicial::WriteStatus::ok ||
+        indicial_model_load(c_model.data(), text, n, nullptr, 0) != INDICIAL_OK)
+      std::abort();
+    c_state_bytes = indicial_state_bytes(c_model.data());
+    c_states.resize(kAircraft * c_state_bytes / sizeof(double) + 1);
+    for (int a = 0; a < kAircraft; ++a) {
+      phase[a] = static_cast<std::size_t>(a * 7) % motion.size();
+      indicial::reset(*model, states[a], motion.angle_rad(phase[a]), ib::kAirspeedMps);
+      indicial_reset(c_model.data(), c_state(a), motion.angle_rad(phase[a]), ib::kAirspeedMps);
+    }
+  }
+  void* c_state(int a) { return reinterpret_cast<char*>(c_states.data()) + a * c_state_bytes; }
+
+  int advance(int begin, int end, SharedMode mode) {
+    int bad = 0;
+    const std::size_t n = motion.size();
+    const std::size_t count = static_cast<std::size_t>(end - begin);
+    for (int s = 0; s < kStepsPerIteration; ++s) {
+      for (int a = begin; a < end; ++a) {
+        std::size_t m = phase[a] + 1;
+        if (m == n) m = 0;
+        phase[a] = m;
+        angle[a] = motion.angle_rad(m);
+        rate[a] = motion.rate_radps(m);
+      }
+      if (mode == SharedMode::single) {
+        for (int a = begin; a < end; ++a)
+          bad += indicial::step(*model, states[a], {angle[a], rate[a], airspeed[a]}, kDtS,
+                                &out[2 * a]) != indicial::StepStatus::ok;
+      } else if (mode == SharedMode::batch) {
+        bad += indicial::step_batch(*model, &states[begin], count, &angle[begin], &rate[begin],
+                                    &airspeed[begin], kDtS, &out[2 * begin]) != indicial::StepStatus::ok;
+      } else {
+        bad += indicial_step_batch(c_model.data(), c_state(begin), count, &angle[begin],
+                                   &rate[begin], &airspeed[begin], kDtS, &out[2 * begin]) != INDICIAL_OK;
+      }
+      for (int a = begin; a < end; ++a) sink[a] += out[2 * a] + out[2 * a + 1];
+    }
+    return bad;
+  }
+};
+
 void pin_self(int cpu) {
   cpu_set_t set;
   CPU_ZERO(&set);
@@ -101,10 +176,10 @@ void pin_self(int cpu) {
   sched_setaffinity(0, sizeof set, &set);
 }
 
-template <class Scalar>
-void BM_Fleet(benchmark::State& state, Order order) {
+template <class FleetT, class ModeT>
+void run_fleet(benchmark::State& state, ModeT order) {
   const int threads = static_cast<int>(state.range(0));
-  auto fleet = std::make_unique<Fleet<Scalar>>();
+  auto fleet = std::make_unique<FleetT>();
   const int ncpu = static_cast<int>(std::thread::hardware_concurrency());
   int bad = 0;
   for (auto _ : state) {
@@ -136,15 +211,24 @@ void BM_Fleet(benchmark::State& state, Order order) {
 
 }  // namespace
 
-void BM_batch_double(benchmark::State& s) { BM_Fleet<double>(s, Order::batch); }
-void BM_batch_float(benchmark::State& s) { BM_Fleet<float>(s, Order::batch); }
-void BM_lockstep_double(benchmark::State& s) { BM_Fleet<double>(s, Order::lockstep); }
+void BM_batch_double(benchmark::State& s) { run_fleet<Fleet<double>>(s, Order::batch); }
+void BM_batch_float(benchmark::State& s) { run_fleet<Fleet<float>>(s, Order::batch); }
+void BM_lockstep_double(benchmark::State& s) { run_fleet<Fleet<double>>(s, Order::lockstep); }
+void BM_shared_double(benchmark::State& s) { run_fleet<SharedFleet>(s, SharedMode::single); }
+void BM_stepbatch_double(benchmark::State& s) { run_fleet<SharedFleet>(s, SharedMode::batch); }
+void BM_cbatch_double(benchmark::State& s) { run_fleet<SharedFleet>(s, SharedMode::c_batch); }
 
 BENCHMARK(BM_batch_double)->Name("batch/double")->Arg(1)->Arg(2)->UseRealTime()
     ->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_batch_float)->Name("batch/float")->Arg(1)->Arg(2)->UseRealTime()
     ->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_lockstep_double)->Name("lockstep/double")->Arg(1)->Arg(2)->UseRealTime()
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_shared_double)->Name("shared/double")->Arg(1)->Arg(2)->UseRealTime()
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_stepbatch_double)->Name("stepbatch/double")->Arg(1)->Arg(2)->UseRealTime()
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_cbatch_double)->Name("cbatch/double")->Arg(1)->Arg(2)->UseRealTime()
     ->Unit(benchmark::kMillisecond);
 
 BENCHMARK_MAIN();

@@ -3,70 +3,18 @@
 // Header-only and heap-free so that the -fno-exceptions test can use it too.
 #pragma once
 
+#include "indicial/fitter/tailless_model.hpp"
 #include "indicial/model.hpp"
 
 namespace indicial::test_models {
 
 using Set = ModelSet<double, DefaultCapacity>;
 
-// Table I, tailless aircraft: C_m(alpha) = 0.42 a + 0.34 a^2 - a^3 + 0.40 a^4,
-// C_mq = -2 + 0.8 a^2, a(alpha) = 0.28 a - 3.2 a^2 + 8 (a - 0.4363)_+^2 - 7.4 (a - 0.9599)_+^2,
-// l / V = 0.3765 / 17.667762 = 0.02131 s, envelope 0..70 deg.
-inline Set table_one_model_one() {
-  Set m{};
-  m.axis = Axis::pitch;
-  m.reference_length_m = 0.3765;
-  m.airspeed_mps = 17.667762;
-  m.alpha0_rad = 0.0;
-  m.x_min_rad = 0.0;
-  m.x_max_rad = 1.2217304763960306;  // 70 deg
-  m.n_coefficients = 1;
-  auto& c = m.coefficients[0];
-  c.name[0] = 'C';
-  c.name[1] = 'm';
-  auto& st = c.static_curve.polynomial;
-  st.n_powers = 5;
-  st.power_coef[0] = 0.0;
-  st.power_coef[1] = 0.42;
-  st.power_coef[2] = 0.34;
-  st.power_coef[3] = -1.0;
-  st.power_coef[4] = 0.40;
-  c.rotary.n_powers = 3;
-  c.rotary.power_coef[0] = -2.0;
-  c.rotary.power_coef[1] = 0.0;
-  c.rotary.power_coef[2] = 0.8;
-  c.a.n_powers = 3;
-  c.a.power_coef[0] = 0.0;
-  c.a.power_coef[1] = 0.28;
-  c.a.power_coef[2] = -3.2;
-  c.a.n_knots = 2;
-  c.a.knot_rad[0] = 0.4363;
-  c.a.knot_power[0] = 2;
-  c.a.knot_coef[0] = 8.0;
-  c.a.knot_rad[1] = 0.9599;
-  c.a.knot_power[1] = 2;
-  c.a.knot_coef[1] = -7.4;
-  c.n_lags = 1;
-  c.lags[0].b.n_powers = 1;
-  c.lags[0].b.power_coef[0] = 2.5;
-  return m;
-}
+// Table I, tailless aircraft, Model I (b1 = 2.5 1/s) and Model II (b1(alpha) with 4 knots):
+// the one definition in fitter/include/indicial/fitter/tailless_model.hpp.
+inline Set table_one_model_one() { return tailless_model_set<DefaultCapacity>(TaillessModel::model_1); }
 
-// Model II: b1(alpha) = 2.5 - 5.73 (a - 0.349)_+ + 5.73 (a - 0.5236)_+ + 5.73 (a - 0.827)_+
-//                       - 5.73 (a - 1.0472)_+
-inline Set table_one_model_two() {
-  Set m = table_one_model_one();
-  auto& b = m.coefficients[0].lags[0].b;
-  const double knots[4] = {0.349, 0.5236, 0.827, 1.0472};
-  const double coefs[4] = {-5.73, 5.73, 5.73, -5.73};
-  b.n_knots = 4;
-  for (int k = 0; k < 4; ++k) {
-    b.knot_rad[k] = knots[k];
-    b.knot_power[k] = 1;
-    b.knot_coef[k] = coefs[k];
-  }
-  return m;
-}
+inline Set table_one_model_two() { return tailless_model_set<DefaultCapacity>(TaillessModel::model_2); }
 
 // Pitch, two coefficients: CL with a static table (0..60 deg, a stall-like curve) and two lag
 // states with a bias, then Model II's Cm.

@@ -120,10 +120,13 @@ std::string good_run_csv(int rows = 64) {
   return s;
 }
 
+// [rotary] and [model] are stated after `extra` (without them fit warns that they were
+// defaulted, a second stderr line these single-line checks do not expect).
 std::string experiment_toml(const std::string& run = "run.csv", const std::string& extra = "") {
   return "axis = \"pitch\"\ncoefficient = \"Cm\"\nreference_length_m = 0.3765\n"
          "airspeed_mps = 17.667762\nruns = [\"" + run + "\"]\n\n[static]\n"
-         "polynomial = [0.0, 0.42, 0.34, -1.0, 0.40]\n" + extra;
+         "polynomial = [0.0, 0.42, 0.34, -1.0, 0.40]\n" + extra + "\n[rotary]\npolynomial = [0.0]\n" +
+         (extra.find("[model]") == std::string::npos ? "\n[model]\n" : "");
 }
 
 // Writes the experiment and the run, runs `fit`, and checks exit 1, the exact line, and that
@@ -134,7 +137,10 @@ void expect_fit_refusal(const std::string& run_csv, const std::string& toml,
   write(dir / "run.csv", run_csv);
   write(dir / "experiment.toml", toml);
   const Result r = run_cli(dir, {"fit", dir / "experiment.toml", "--out", dir / "out", "--no-plots"});
-  const std::string expected = "indicial: error: " + dir.path.string() + "/" + expected_after_dir + "\n";
+  std::string expected = "indicial: error: " + dir.path.string() + "/" + expected_after_dir + "\n";
+  // "{DIR}" inside the message stands for the temporary directory too.
+  for (std::size_t at = expected.find("{DIR}"); at != std::string::npos; at = expected.find("{DIR}"))
+    expected.replace(at, 5, dir.path.string());
   MESSAGE("message: " << r.err);
   CHECK(r.status == 1);
   CHECK(r.err == expected);
@@ -171,7 +177,9 @@ TEST_CASE("CSV: header only") {
 TEST_CASE("CSV: missing column") {
   std::string csv = good_run_csv();
   csv = replace_once(csv, "time_s,alpha_deg,q_degps,Cm", "time_s,alpha_deg,q_degps,CL");
-  expect_fit_refusal(csv, experiment_toml(), "run.csv:1: missing column 'Cm'");
+  expect_fit_refusal(csv, experiment_toml(), "run.csv:1: missing column 'Cm' (columns found: time_s, alpha_deg, q_degps, "
+                                             "CL); did you mean 'CL'? (rename it, or map it in the experiment: "
+                                             "[columns] Cm = \"CL\")");
 }
 TEST_CASE("CSV: duplicate column") {
   std::string csv = replace_once(good_run_csv(), "time_s,alpha_deg,q_degps,Cm", "time_s,alpha_deg,q_degps,q_degps");
@@ -210,7 +218,8 @@ TEST_CASE("CSV: non-uniform step") {
   const std::string row8 = line_of(good, 8);
   expect_fit_refusal(replace_once(good, row8, with_time(row8, "0.09")), experiment_toml(),
                      "run.csv:8: non-uniform time step: 0.011874999999999997 s after 0.078125, the run's "
-                     "step is 0.015625 s (allowed deviation 1e-6 relative)");
+                     "step is 0.015625 s (allowed deviation 1e-6 relative or the printed digits; declare "
+                     "time_grid = \"nonuniform\" in the run's entry if the log is not uniform)");
 }
 TEST_CASE("CSV: unit suffix missing or unknown") {
   const std::string good = good_run_csv();
@@ -401,4 +410,117 @@ TEST_CASE("disk write failure of a single file with --force: the previous file s
                      (dir / "sim.csv") + " left as it was\n");
   CHECK(read_file(dir / "sim.csv") == before);
   CHECK(names_in(dir.path) == std::vector<std::string>{"sim.csv"});
+}
+
+// ---- tolerant input, phase cycles, run conditions, warnings, capacities (issues 12, 14) -----
+
+namespace {
+
+// A phase-averaged cycle of 64 samples (phase rounded to 0.01 rad), alpha 5..35 deg.
+std::string cycle_csv(double jitter_rad = 0.0) {
+  std::string s = "phase_rad,alpha_deg,Cm\n";
+  for (int k = 0; k < 64; ++k) {
+    const double ph = 2.0 * M_PI * k / 64 + (k == 32 ? jitter_rad : 0.0);
+    char line[96];
+    std::snprintf(line, sizeof line, "%.2f,%.17g,%.17g\n", ph, 20.0 - 15.0 * std::cos(ph), -0.01 * std::sin(ph));
+    s += line;
+  }
+  return s;
+}
+
+std::string with_runs(const std::string& runs_value, const std::string& extra = "") {
+  return replace_once(experiment_toml("run.csv", extra), "runs = [\"run.csv\"]", "runs = [" + runs_value + "]");
+}
+
+}  // namespace
+
+TEST_CASE("runs: a phase column without its frequency, with periodic = false; a frequency for a time column") {
+  expect_fit_refusal(cycle_csv(), experiment_toml(),
+                     "run.csv:1: column 'phase_rad' needs the cycle's frequency: give frequency_hz or "
+                     "reduced_frequency in the experiment's runs entry");
+  expect_fit_refusal(cycle_csv(), with_runs(R"({file = "run.csv", frequency_hz = 1.0, periodic = false})"),
+                     "experiment.toml:5: run 'run.csv' has a phase column, so it is one periodic cycle: remove "
+                     "'periodic = false'");
+  expect_fit_refusal(good_run_csv(), with_runs(R"({file = "run.csv", reduced_frequency = 0.1})"),
+                     "experiment.toml:5: run 'run.csv' has a time column: 'frequency_hz' and 'reduced_frequency' "
+                     "are only for a phase column");
+}
+
+TEST_CASE("runs: what fit does not support yet is refused at input (nonuniform grid, another airspeed)") {
+  expect_fit_refusal(cycle_csv(0.03), with_runs(R"({file = "run.csv", frequency_hz = 1.0})"),
+                     "experiment.toml:5: run '{DIR}/run.csv' is on a nonuniform time grid: fit and diagnose do not "
+                     "support that yet (predict --time-grid nonuniform does)");
+  expect_fit_refusal(good_run_csv(), with_runs(R"({file = "run.csv", time_grid = "nonuniform"})"),
+                     "experiment.toml:5: run '{DIR}/run.csv' is on a nonuniform time grid: fit and diagnose do not "
+                     "support that yet (predict --time-grid nonuniform does)");
+  expect_fit_refusal(cycle_csv(), with_runs(R"({file = "run.csv", frequency_hz = 1.0, airspeed_mps = 30.0})"),
+                     "experiment.toml:5: run '{DIR}/run.csv' has airspeed_mps 30 but the experiment 17.667762: fit "
+                     "and diagnose do not support runs at another airspeed yet");
+}
+
+TEST_CASE("a missing run file names the experiment's line") {
+  expect_fit_refusal(good_run_csv(), with_runs(R"("run.csv", "nope.csv")"),
+                     "experiment.toml:5: run file 'nope.csv' not found (looked for {DIR}/nope.csv)");
+}
+
+TEST_CASE("runtime limits are checked at input: static-table rows, knots, lags") {
+  TempDir dir;
+  std::string table = "alpha_deg,Cm\n";
+  for (int i = 0; i < 80; ++i) table += std::to_string(i * 0.5) + ",0\n";
+  write(dir / "static.csv", table);
+  write(dir / "run.csv", good_run_csv());
+  write(dir / "experiment.toml", replace_once(experiment_toml(), "polynomial = [0.0, 0.42, 0.34, -1.0, 0.40]",
+                                              "table = \"static.csv\""));
+  const Result r = run_cli(dir, {"fit", dir / "experiment.toml", "--out", dir / "out", "--no-plots"});
+  CHECK(r.status == 1);
+  CHECK(r.err == "indicial: error: " + (dir / "experiment.toml") + ":8: 'static.table' needs 80 rows ('" +
+                     (dir / "static.csv") + "'); the runtime (indicial::DefaultCapacity) holds at most 64\n");
+  expect_fit_refusal(good_run_csv(), experiment_toml("run.csv", "\n[model]\nb1_knots_deg = [6, 8, 10, 12, 14, 16, 18, 20, 22]\n"),
+                     "experiment.toml:11: 'model.b1_knots_deg' needs 9 knots; the runtime "
+                     "(indicial::DefaultCapacity) holds at most 8");
+  expect_fit_refusal(good_run_csv(), experiment_toml("run.csv", "\n[model]\nlags = 3\n"),
+                     "experiment.toml:11: 'model.lags' needs 3 lags; the runtime (indicial::DefaultCapacity) holds "
+                     "at most 2");
+}
+
+TEST_CASE("no run moves: refused; one still run among moving ones: a warning") {
+  std::string still = "time_s,alpha_deg,Cm\n";
+  for (int i = 0; i < 64; ++i) still += std::to_string(i / 64.0) + ",20,0.01\n";
+  expect_fit_refusal(still, experiment_toml(),
+                     "experiment.toml:5: no run moves: the motion angle is constant in every run, so a(x) and b1(x) "
+                     "cannot be identified");
+}
+
+TEST_CASE("warnings on plausible mistakes go to stderr, the fit goes on") {
+  TempDir dir;
+  // Radians in the degree column (0.09..0.61 "deg"), no [rotary] and no [model] sections, an
+  // unknown column and a still run beside the moving one.
+  std::string rad = "time_s,alpha_deg,q_pa,Cm\n";
+  std::string still = "time_s,alpha_deg,Cm\n";
+  for (int i = 0; i < 64; ++i) {
+    const double t = i / 64.0;
+    rad += std::to_string(t) + "," + std::to_string(0.35 + 0.26 * std::sin(2 * M_PI * t)) + ",101325," +
+           std::to_string(-0.01 * std::sin(2 * M_PI * t)) + "\n";
+    still += std::to_string(t) + ",0.35,0\n";
+  }
+  write(dir / "run.csv", rad);
+  write(dir / "still.csv", still);
+  write(dir / "experiment.toml", "axis = \"pitch\"\ncoefficient = \"Cm\"\nreference_length_m = 0.3765\n"
+                                 "airspeed_mps = 17.667762\nruns = [\"run.csv\", \"still.csv\"]\n\n[static]\n"
+                                 "polynomial = [0.0, 0.42]\n");
+  const Result r = run_cli(dir, {"fit", dir / "experiment.toml", "--out", dir / "out", "--no-plots"});
+  MESSAGE(r.err);
+  const std::string d = dir.path.string();
+  for (const std::string& line :
+       {"indicial: note: " + d + "/run.csv: ignored column(s) 'q_pa' (not a column indicial reads)\n",
+        "indicial: warning: " + d + "/run.csv: 'alpha_deg' never exceeds 0.61 in magnitude: it looks like "
+                                    "radians in a degree column (name it alpha_rad if so)\n",
+        "indicial: warning: " + d + "/still.csv: the motion angle never moves (constant 0.35 deg): the run has no "
+                                    "unsteady response to fit\n",
+        "indicial: warning: " + d + "/experiment.toml: no [rotary] section: C_aq(x) = 0 assumed (the rate term is "
+                                    "left out)\n",
+        "indicial: warning: " + d + "/experiment.toml: no [model] section: the default a(x) = a0 + a1 x + a2 x^2, "
+                                    "b1(x) = b1_0, fixed structure\n"}) {
+    CHECK(r.err.find(line) != std::string::npos);
+  }
 }

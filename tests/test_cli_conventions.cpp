@@ -202,7 +202,7 @@ TEST_CASE("--version prints the version and exits 0") {
 }
 
 TEST_CASE("--help exits 0 and points to the formats documentation") {
-  for (const char* args : {"--help", "fit --help", "predict --help"}) {
+  for (const char* args : {"--help", "fit --help", "init --help"}) {
     CAPTURE(args);
     const CliRun r = run_cli(args);
     CHECK(r.exit_code == 0);
@@ -307,4 +307,61 @@ TEST_CASE("progress: a line per stage once the command runs past the threshold, 
   // An exception passes through and stops the watchdog.
   const StageClock failing("fit", Verbosity::quiet, 100ms);
   CHECK_THROWS_AS(failing.stage("load", [] { throw std::runtime_error("bad"); }), std::runtime_error);
+}
+
+TEST_CASE("init writes a commented template with every key, refuses to overwrite, --force replaces") {
+  const fs::path f = scratch() / "template.toml";
+  const CliRun r = run_cli("init '" + f.string() + "'");
+  REQUIRE_MESSAGE(r.exit_code == 0, r.err);
+  const std::string t = slurp(f);
+  // Every key the experiment reader accepts (fitter/src/io.cpp), set or commented out.
+  for (const char* key :
+       {"axis", "coefficient", "reference_length_m", "airspeed_mps", "alpha0_deg", "runs", "[static]",
+        "polynomial", "table", "[rotary]", "estimate", "degree", "knots_deg", "prior_knots_deg",
+        "prior_knot_powers", "prior_knot_coefficients", "[model]", "a_degree", "a_powers", "a_knots_deg",
+        "b1_degree", "b1_powers", "b1_knots_deg", "bias", "structure", "lags", "static_correction_degree",
+        "static_correction_knots_deg", "rotary_correction_degree", "rotary_correction_knots_deg", "delay",
+        "delay_start_s", "further_lag_start"}) {
+    CAPTURE(key);
+    const std::string k = key;
+    const bool found = k[0] == '[' ? t.find("\n" + k + "\n") != std::string::npos
+                                   : t.find("\n" + k + " = ") != std::string::npos ||
+                                         t.find("\n# " + k + " = ") != std::string::npos;
+    CHECK(found);
+  }
+  // Units and the angle unit of every polynomial are stated.
+  CHECK(t.find("in RAD") != std::string::npos);
+  CHECK(t.find("l in m") != std::string::npos);
+  CHECK(t.find("V in m/s") != std::string::npos);
+  CHECK(t.find("docs/formats.md") != std::string::npos);
+
+  // Refused without --force (file unchanged), replaced with it.
+  { std::ofstream(f, std::ios::trunc) << "precious\n"; }
+  const CliRun again = run_cli("init '" + f.string() + "'");
+  check_usage_error(again, {"template.toml", "--force"});
+  CHECK(slurp(f) == "precious\n");
+  const CliRun forced = run_cli("init '" + f.string() + "' --force");
+  CHECK_MESSAGE(forced.exit_code == 0, forced.err);
+  const std::string replaced = slurp(f);  // the same apart from the first line (the command)
+  CHECK(replaced.substr(replaced.find('\n')) == t.substr(t.find('\n')));
+  check_usage_error(run_cli("init '" + (scratch() / "x.toml").string() + "' --case no-such-case"), {"no-such-case"});
+}
+
+TEST_CASE("init --case NAME beside that case's runs fits exactly like simulate's experiment.toml") {
+  const fs::path d = scratch() / "init-case";
+  const CliRun sim = run_cli("simulate --case tailless-model-2 --out '" + d.string() + "' --snr 40 --seed 4");
+  REQUIRE_MESSAGE(sim.exit_code == 0, sim.err);
+  // What simulate writes states the polynomials' angle unit too.
+  const std::string written = slurp(d / "experiment.toml");
+  CHECK(written.find("polynomial = [0, 0.42, 0.34, -1, 0.4]  # x^0, x^1, ... with x in rad") != std::string::npos);
+  const CliRun init = run_cli("init --case tailless-model-2 '" + (d / "mine.toml").string() + "'");
+  REQUIRE_MESSAGE(init.exit_code == 0, init.err);
+  const CliRun a = run_cli("fit '" + (d / "experiment.toml").string() + "' --out '" + (d / "fit-a").string() + "' --no-plots");
+  const CliRun b = run_cli("fit '" + (d / "mine.toml").string() + "' --out '" + (d / "fit-b").string() + "' --no-plots");
+  REQUIRE_MESSAGE(a.exit_code == 0, a.err);
+  REQUIRE_MESSAGE(b.exit_code == 0, b.err);
+  const nlohmann::json ja = nlohmann::json::parse(slurp(d / "fit-a" / "fit.json"));
+  const nlohmann::json jb = nlohmann::json::parse(slurp(d / "fit-b" / "fit.json"));
+  CHECK(ja["parameters"] == jb["parameters"]);
+  CHECK(ja["parameters"].size() >= 10);  // Model II: b1 with four knots
 }

@@ -19,14 +19,20 @@
 #include "synthetic_lift_moment.hpp"
 #include "tailless_model_1.hpp"
 #include "tailless_model_2.hpp"
+#include "codegen_only_tu.hpp"
 #include "runtime_test_models.hpp"
 
+using indicial_generated::synthetic_lift_moment;
+using indicial_generated::tailless_model_1;
+using indicial_generated::tailless_model_2;
+
 // The generated models are constant expressions: usable where only constants are allowed.
-static_assert(tailless_model_1.n_coefficients == 1, "Model I has one coefficient (Cm)");
-static_assert(tailless_model_2.coefficients[0].lags[0].b.n_knots == 4, "Model II's b1 has 4 knots");
-static_assert(synthetic_lift_moment.coefficients[0].static_curve.kind == indicial::StaticKind::table,
+static_assert(tailless_model_1.set.n_coefficients == 1, "Model I has one coefficient (Cm)");
+static_assert(tailless_model_2.set.coefficients[0].lags[0].b.n_knots == 4, "Model II's b1 has 4 knots");
+static_assert(synthetic_lift_moment.set.coefficients[0].static_curve.kind == indicial::StaticKind::table,
               "CL is a table");
-static_assert(synthetic_lift_moment.coefficients[0].lags[1].gain == -0.35, "exact literal");
+static_assert(synthetic_lift_moment.set.coefficients[0].lags[1].gain == -0.35, "exact literal");
+static_assert(tailless_model_2.delay == indicial::DelayUse::none, "no delay in Model II");
 
 namespace {
 
@@ -45,12 +51,15 @@ std::string write(const Set& m) {
   return std::string(buffer, n);
 }
 
-void compare_runs(const std::string& text, const Set& generated) {
+using Generated = indicial::RuntimeModel<double, indicial::DefaultCapacity>;
+
+void compare_runs(const std::string& text, const Generated& generated) {
   P from_text;
   P from_header;
   indicial::ParseDiagnostic diag;
   REQUIRE(from_text.load(text.data(), text.size(), &diag) == indicial::LoadStatus::ok);
-  REQUIRE(from_header.load(generated) == indicial::LoadStatus::ok);
+  REQUIRE(from_header.use(generated) == indicial::LoadStatus::ok);  // in place, no copy
+  CHECK(&from_header.runtime() == &generated);
   REQUIRE(from_text.reset(0.61, 17.667762) == indicial::StepStatus::ok);
   REQUIRE(from_header.reset(0.61, 17.667762) == indicial::StepStatus::ok);
   int steps = 0;
@@ -93,7 +102,7 @@ int run(const std::string& args, std::string* output) {
 
 TEST_CASE("generated models equal the parsed files exactly") {
   const char* names[3] = {"tailless-model-1", "tailless-model-2", "synthetic-lift-moment"};
-  const Set* generated[3] = {&tailless_model_1, &tailless_model_2, &synthetic_lift_moment};
+  const Set* generated[3] = {&tailless_model_1.set, &tailless_model_2.set, &synthetic_lift_moment.set};
   for (int i = 0; i < 3; ++i) {
     const std::string text = example(names[i]);
     // Writing the constexpr model gives back the committed file byte for byte.
@@ -135,12 +144,27 @@ TEST_CASE("codegen refuses damaged files with file:line: reason, and existing ou
   const std::string good = std::string(INDICIAL_SOURCE_DIR) + "/examples/tailless-model-1.coef";
   const std::string hpp = (dir / "m1.hpp").string();
   CHECK(run("codegen \"" + good + "\" --out \"" + hpp + "\"", &out) == 0);
-  CHECK(indicial::read_text(hpp).find("inline constexpr indicial::ModelSet<double, indicial::DefaultCapacity> "
-                                      "tailless_model_1 =") != std::string::npos);
+  CHECK(indicial::read_text(hpp).find("inline constexpr indicial::RuntimeModel<double, "
+                                      "indicial::DefaultCapacity> tailless_model_1 =") != std::string::npos);
+  CHECK(indicial::read_text(hpp).find("namespace indicial_generated {") != std::string::npos);
   CHECK(run("codegen \"" + good + "\" --out \"" + hpp + "\" --name other", &out) == 1);  // exists
   CHECK(run("codegen \"" + good + "\" --out \"" + hpp + "\" --name other --force", &out) == 0);
   CHECK(indicial::read_text(hpp).find(" other =") != std::string::npos);
   CHECK(run("codegen \"" + good + "\" --out \"" + hpp + "\" --name 9lives --force", &out) == 1);
+  CHECK(run("codegen \"" + good + "\" --out \"" + hpp + "\" --name x --namespace my_models --force", &out) == 0);
+  CHECK(indicial::read_text(hpp).find("namespace my_models {") != std::string::npos);
+  // A keyword is refused naming --name: from the file name (default.coef) or given.
+  const std::string keyword_file = (dir / "default.coef").string();
+  indicial::write_file_atomically(keyword_file, indicial::read_text(good), indicial::Overwrite::refuse);
+  CHECK(run("codegen \"" + keyword_file + "\" --out \"" + (dir / "k.hpp").string() + "\"", &out) == 1);
+  CHECK(out.find("--name") != std::string::npos);
+  CHECK(out.find("'default' is a C++ keyword") != std::string::npos);
+  CHECK(!std::filesystem::exists(dir / "k.hpp"));
+  CHECK(run("codegen \"" + good + "\" --out \"" + hpp + "\" --name class --force", &out) == 1);
+  CHECK(out.find("'class' is a C++ keyword") != std::string::npos);
+  CHECK(run("codegen \"" + good + "\" --out \"" + hpp + "\" --name ok --namespace namespace --force", &out) == 1);
+  CHECK(out.find("--namespace") != std::string::npos);
+  CHECK(run("codegen \"" + keyword_file + "\" --out \"" + (dir / "k.hpp").string() + "\" --name default_model", &out) == 0);
 
   // An unstable model (b1 < 0 somewhere) is refused like Predictor::load refuses it.
   Set unstable = indicial::test_models::table_one_model_two();
@@ -156,4 +180,37 @@ TEST_CASE("codegen refuses damaged files with file:line: reason, and existing ou
   CHECK(run("coef check \"" + bad + "\"", &out) == 1);
   CHECK(out.find("checksum_mismatch") != std::string::npos);
   std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("a translation unit with only the generated header and runtime.hpp steps bit for bit") {
+  // tests/codegen_only_tu.cpp has #error guards against the parser header and <charconv>;
+  // that it compiled is half the test. Here its free-function steps are compared with a
+  // Predictor that loaded the same file as text.
+  const codegen_only::GeneratedModel which[2] = {codegen_only::GeneratedModel::tailless_model_2,
+                                                 codegen_only::GeneratedModel::synthetic_lift_moment};
+  const char* names[2] = {"tailless-model-2", "synthetic-lift-moment"};
+  const int n = 800;
+  static double angle[n];
+  static double rate[n];
+  static double out[n * 3];
+  for (int k = 0; k < n; ++k) {
+    const double t = 0.002 * k;
+    angle[k] = 0.61 + 0.5 * std::sin(2 * kPi * 1.3 * t);
+    rate[k] = 0.5 * 2 * kPi * 1.3 * std::cos(2 * kPi * 1.3 * t);
+  }
+  for (int i = 0; i < 2; ++i) {
+    REQUIRE(codegen_only::step_generated(which[i], angle, rate, n, 0.002, 19.0, out) == n - 1);
+    const std::string text = example(names[i]);
+    P p;
+    REQUIRE(p.load(text.data(), text.size()) == indicial::LoadStatus::ok);
+    REQUIRE(p.reset(angle[0], 19.0) == indicial::StepStatus::ok);
+    int same = 0;
+    for (int k = 1; k < n; ++k) {
+      P::Outputs o;
+      REQUIRE(p.step({angle[k], rate[k], 19.0}, 0.002, &o) == indicial::StepStatus::ok);
+      for (int c = 0; c < o.count; ++c)
+        same += std::memcmp(&o.value[c], &out[o.count * k + c], sizeof(double)) == 0;
+    }
+    CHECK(same == (n - 1) * p.coefficient_count());
+  }
 }

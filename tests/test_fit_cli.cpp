@@ -220,7 +220,7 @@ TEST_CASE("stepwise structure: the report and fit.json carry every step of the l
 }
 
 TEST_CASE("rotary.estimate = true: fit.json has the two_stage log and report.md the loop's table") {
-  const fs::path d = edited_data("data-two-stage", "polynomial = [-2, 0, 0.8]\nestimate = false",
+  const fs::path d = edited_data("data-two-stage", "polynomial = [-2, 0, 0.8]  # x^0, x^1, ... with x in rad\nestimate = false",
                                  "polynomial = [-1.4]\nestimate = true\ndegree = 2");
   const Run r = run_cli("fit '" + (d / "experiment.toml").string() + "' --out '" + (d / "fit").string() + "'");
   REQUIRE_MESSAGE(r.exit_code == 0, r.err);

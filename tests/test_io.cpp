@@ -2,6 +2,7 @@
 #include <doctest/doctest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -551,7 +552,7 @@ TEST_CASE("each bad experiment file names the file, the line and the key") {
   }
   SUBCASE("bytes the TOML library cannot take are refused before it sees them") {
     // A non-ASCII byte where whitespace is expected reaches __builtin_unreachable in the
-    // system toml++ (found by the fuzzer); io.cpp refuses it with the line.
+    // system toml++ (found by the fuzzer); experiment_toml.cpp refuses it with the line.
     std::string m = exp_error("n1.toml", replace(t, "axis = \"pitch\"", "axis =\xef\xbb\xb7\"pitch\""));
     CHECK_HAS(m, "n1.toml:1: non-ASCII byte 0xEF outside a string or comment");
     m = exp_error("n2.toml", replace(t, "[static]", std::string("[stat\0ic]", 9)));
@@ -602,6 +603,286 @@ TEST_CASE("each bad experiment file names the file, the line and the key") {
     std::string m = exp_error("syn.toml", replace(t, "bias = false", "bias = "));
     CHECK_HAS(m, "syn.toml:25: TOML syntax error");
     m = exp_error("run.toml", replace(t, "run_f0.50.csv", "missing_run.csv"));
-    CHECK_HAS(m, "missing_run.csv: cannot open file");
+    CHECK_HAS(m, "run.toml:6: run file 'missing_run.csv' not found (looked for ");
   }
+}
+
+// ==========================================================================================
+// Tolerant CSV dialects, [columns], unknown columns (issue 14 item 2)
+// ==========================================================================================
+namespace {
+
+// good_csv(n) in another dialect: delimiter, decimal separator, BOM, quoted header names.
+std::string dialect_csv(int n, char delimiter, bool decimal_comma, bool bom, bool quoted) {
+  std::string out = bom ? "\xEF\xBB\xBF" : "";
+  std::istringstream in(good_csv(n));
+  std::string line;
+  bool header = true;
+  while (std::getline(in, line)) {
+    if (line[0] == '#') continue;
+    std::string row;
+    std::istringstream cells(line);
+    std::string cell;
+    while (std::getline(cells, cell, ',')) {
+      if (!row.empty()) row += delimiter;
+      if (header && quoted) cell = "\"" + cell + "\"";
+      if (!header && decimal_comma) std::replace(cell.begin(), cell.end(), '.', ',');
+      row += cell;
+    }
+    out += row + "\r\n";
+    header = false;
+  }
+  return out;
+}
+
+indicial::Run read_pitch(const std::string& path) {
+  return indicial::read_run_csv(path, indicial::Axis::pitch, "Cm", indicial::CoefficientPresence::required);
+}
+
+bool any_note_has(const std::vector<std::string>& notes, const std::string& s) {
+  for (const auto& n : notes)
+    if (n.find(s) != std::string::npos) return true;
+  return false;
+}
+
+}  // namespace
+
+TEST_CASE("CSV dialects: ';' with decimal commas, tabs, a BOM and quoted names read the same values") {
+  const indicial::Run ref = read_pitch(write("dialect_ref.csv", good_csv(40)));
+  CHECK(ref.notes.empty());
+  struct Case {
+    const char* name;
+    char delimiter;
+    bool decimal_comma, bom, quoted;
+    const char* note;
+  };
+  for (const Case& c : {Case{"semi_comma.csv", ';', true, true, true, "semicolon-separated, with ',' as the decimal"},
+                        Case{"semi_point.csv", ';', false, false, false, "read as semicolon-separated"},
+                        Case{"tab.csv", '\t', true, false, true, "tab-separated, with ','"},
+                        Case{"bom_quoted.csv", ',', false, true, true, ""}}) {
+    INFO(c.name);
+    const indicial::Run r = read_pitch(write(c.name, dialect_csv(40, c.delimiter, c.decimal_comma, c.bom, c.quoted)));
+    REQUIRE(r.size() == ref.size());
+    CHECK(r.time_s == ref.time_s);
+    CHECK(r.motion_angle_rad == ref.motion_angle_rad);
+    CHECK(r.coefficient == ref.coefficient);
+    if (*c.note) CHECK(any_note_has(r.notes, c.note));
+    else CHECK(r.notes.empty());
+  }
+  // In a comma-separated file a decimal comma cannot be read: the quoted cell is refused.
+  std::string bad = good_csv(30);
+  bad = replace_line(bad, 7, "0.04,\"1,5\",1,2");
+  CHECK_HAS(csv_error("quoted_comma.csv", bad), "quoted_comma.csv:7: column 'alpha_deg': non-numeric value '1,5'");
+  // A ';' file's wrong field count names its delimiter.
+  CHECK_HAS(csv_error("semi_fields.csv", replace_line(dialect_csv(30, ';', true, false, false), 5, "0,03;1")),
+            "semi_fields.csv:5: expected 4 semicolon-separated fields as in the header, found 2");
+}
+
+TEST_CASE("a missing column lists the columns found and suggests the nearest") {
+  const std::string good = good_csv(30);
+  std::string m = csv_error("lower.csv", replace_line(good, 2, "time_s,alpha_deg,q_degps,cm"));
+  CHECK_HAS(m, "lower.csv:2: missing column 'Cm' (columns found: time_s, alpha_deg, q_degps, cm); did you mean 'cm'?");
+  CHECK_HAS(m, "[columns] Cm = \"cm\"");
+  m = csv_error("typo.csv", replace_line(good, 2, "time_s,alpah_deg,q_degps,Cm"));
+  CHECK_HAS(m, "missing column 'alpha_deg' or 'alpha_rad' (the pitch motion angle) (columns found: time_s, alpah_deg, "
+               "q_degps, Cm); did you mean 'alpah_deg'?");
+  // Nothing near: no suggestion.
+  m = csv_error("far.csv", replace_line(good, 2, "time_s,alpha_deg,q_degps,balance"));
+  CHECK_HAS(m, "missing column 'Cm' (columns found: time_s, alpha_deg, q_degps, balance)");
+  CHECK(m.find("did you mean") == std::string::npos);
+}
+
+TEST_CASE("unknown columns are ignored with a note; one of ours with an unknown unit is refused") {
+  std::string s = "time_s,alpha_deg,q_pa,alpha_cmd_deg,r_m,Cm,Cm_true,beta_deg\n";
+  for (int k = 0; k < 20; ++k) s += indicial::format_double(0.01 * k) + "," + std::to_string(k) + ",101325,5,0.2,0.1,0.1,0\n";
+  const indicial::Run r = read_pitch(write("tunnel_log.csv", s));
+  CHECK(r.motion_angle_rad[3] == doctest::Approx(3 * kPi / 180));
+  REQUIRE(r.notes.size() == 1);
+  CHECK_HAS(r.notes[0], "tunnel_log.csv: ignored column(s) 'q_pa', 'alpha_cmd_deg', 'r_m' (not a column indicial reads)");
+  // The rule: one of our bases (time, phase, alpha, beta, phi, psi, theta, q, p, r) with a
+  // suffix that names a unit we do not read is refused.
+  for (const char* name : {"alpha_grad", "q_dps", "time_ms", "phase_turns", "alpha_degrees"}) {
+    std::string h = "time_s,alpha_deg,Cm," + std::string(name) + "\n";
+    for (int k = 0; k < 20; ++k) h += std::to_string(k) + ",1,1,1\n";
+    if (std::string(name) == "time_ms") h = replace_line(h, 1, "time_s,alpha_deg,Cm,time_ms");
+    CHECK_HAS(csv_error(std::string(name) + ".csv", h), "has unknown unit suffix");
+  }
+}
+
+TEST_CASE("[columns] maps the file's names to ours, in runs and the static table") {
+  // The simulated runs renamed: time_s -> Time, alpha_deg -> AoA, Cm -> CM_balance.
+  std::vector<std::string> files;
+  for (const char* f : {"run_f0.25.csv", "run_f0.50.csv", "run_f1.00.csv"}) {
+    std::ifstream in(runs_dir() / f);
+    std::ostringstream ss;
+    ss << in.rdbuf();
+    std::string text = ss.str();
+    for (auto [from, to] : {std::pair<const char*, const char*>{"time_s,", "Time,"}, {"alpha_deg,", "AoA,"},
+                            {",Cm,", ",CM_balance,"}}) {
+      const std::size_t i = text.find(from);
+      if (i != std::string::npos) text.replace(i, std::string(from).size(), to);
+    }
+    std::ofstream(runs_dir() / (std::string("mapped_") + f)) << text;
+  }
+  std::string t = replace(kInterfaceExample, "run_f0.25.csv\", \"run_f0.50.csv\", \"run_f1.00.csv",
+                          "mapped_run_f0.25.csv\", \"mapped_run_f0.50.csv\", \"mapped_run_f1.00.csv");
+  const std::string columns = "\n[columns]\ntime_s = \"Time\"\nalpha_deg = \"AoA\"\nCm = \"CM_balance\"\n";
+  const indicial::Experiment mapped = indicial::load_experiment(write_exp("mapped.toml", t + columns));
+  const indicial::Experiment plain = indicial::load_experiment(write_exp("plain.toml", kInterfaceExample));
+  REQUIRE(mapped.runs.size() == 3);
+  CHECK(mapped.runs[1].time_s == plain.runs[1].time_s);
+  CHECK(mapped.runs[1].motion_angle_rad == plain.runs[1].motion_angle_rad);
+  CHECK(mapped.runs[1].coefficient == plain.runs[1].coefficient);
+  // Without the table: the message suggests the mapping.
+  const std::string m = exp_error("unmapped.toml", t);
+  CHECK_HAS(m, "missing column 'time_s' (or 'phase_rad' / 'phase_deg') (columns found: Time, AoA");
+  CHECK_HAS(m, "did you mean 'Time'?");
+  // A mapping to a column the file does not have is named.
+  const std::string m2 = exp_error("badmap.toml", t + replace(columns, "\"AoA\"", "\"AOA2\""));
+  CHECK_HAS(m2, "[columns] maps alpha_deg to 'AOA2', not in this file");
+  CHECK_HAS(exp_error("typemap.toml", t + "\n[columns]\nalpha_deg = 3\n"),
+            "typemap.toml:29: wrong type: 'columns.alpha_deg' must be a string, found an integer");
+}
+
+// ==========================================================================================
+// Phase-averaged cycles and per-run conditions (issue 12 item 3, input side)
+// ==========================================================================================
+namespace {
+
+// One ensemble-averaged cycle of n samples: alpha = 35 - 35 cos(phase) deg, phase printed by
+// `fmt` (e.g. "%.2f": rounded to 0.01 rad), or time_s printed by fmt when f_hz > 0.
+std::string cycle_csv(int n, const char* fmt, double f_hz = 0.0, double jitter_rad = 0.0) {
+  std::string s = f_hz > 0.0 ? "time_s,alpha_deg,Cm\n" : "phase_rad,alpha_deg,Cm\n";
+  for (int k = 0; k < n; ++k) {
+    const double phase = 2 * kPi * k / n + (k == n / 2 ? jitter_rad : 0.0);
+    char cell[64];
+    std::snprintf(cell, sizeof cell, fmt, f_hz > 0.0 ? phase / (2 * kPi * f_hz) : phase);
+    const double a = 35.0 - 35.0 * std::cos(phase);
+    s += std::string(cell) + "," + indicial::format_double(a) + "," + indicial::format_double(0.01 * a) + "\n";
+  }
+  return s;
+}
+
+std::string cycle_experiment(const std::string& runs) {
+  return replace(kInterfaceExample, R"(runs = ["run_f0.25.csv", "run_f0.50.csv", "run_f1.00.csv"])",
+                 "runs = [" + runs + "]");
+}
+
+}  // namespace
+
+TEST_CASE("a 128-sample cycle with phase rounded to 0.01 rad is uniform, snapped, periodic") {
+  std::ofstream(runs_dir() / "cycle128.csv") << cycle_csv(128, "%.2f");
+  const indicial::Experiment e = indicial::load_experiment(
+      write_exp("cycle.toml", cycle_experiment(R"({file = "cycle128.csv", frequency_hz = 2.0}, "run_f0.50.csv")")));
+  const indicial::Run& r = e.runs[0];
+  CHECK(r.time_source == indicial::TimeSource::phase_column);
+  CHECK(r.time_grid == indicial::TimeGrid::uniform);
+  CHECK(r.periodic);
+  CHECK(r.frequency_hz == 2.0);
+  CHECK(r.airspeed_mps == e.airspeed_mps);
+  CHECK(r.experiment_line == 6);
+  REQUIRE(r.size() == 128);
+  // t = phase / (2 pi f): the exact grid k / (128 f), recovered from the rounded phases.
+  for (std::size_t k = 0; k < r.size(); ++k) CHECK(r.time_s[k] == doctest::Approx(static_cast<double>(k) / 256.0).epsilon(1e-9));
+  CHECK(r.dt_s() == doctest::Approx(1 / 256.0).epsilon(1e-9));
+  CHECK(any_note_has(e.notes, "cycle128.csv: 'phase_rad' is uniform to its printed digits"));
+  CHECK_FALSE(e.runs[1].periodic);
+  CHECK(e.runs[1].time_source == indicial::TimeSource::time_column);
+  CHECK(e.runs[1].frequency_hz == 0.0);
+  // reduced_frequency k = 2 pi f l / V gives the same frequency.
+  const double k_red = 2 * kPi * 2.0 * 0.3765 / 17.667762;
+  const indicial::Experiment e2 = indicial::load_experiment(write_exp(
+      "cycle_k.toml", cycle_experiment("{file = \"cycle128.csv\", reduced_frequency = " + indicial::format_double(k_red) + "}")));
+  CHECK(e2.runs[0].frequency_hz == doctest::Approx(2.0).epsilon(1e-12));
+  // phase_deg rounded to 0.1 deg, the same grid.
+  std::string deg = "phase_deg,alpha_deg,Cm\n";
+  for (int k = 0; k < 128; ++k) {
+    char cell[32];
+    std::snprintf(cell, sizeof cell, "%.1f", 360.0 * k / 128);
+    deg += std::string(cell) + ",10,0.1\n";
+  }
+  const indicial::Run rd = indicial::read_run_csv(write("cycle_deg.csv", deg), indicial::Axis::pitch, "Cm",
+                                                  indicial::CoefficientPresence::required,
+                                                  indicial::RunCsvOptions{indicial::TimeGrid::uniform, {}, 1.0});
+  CHECK(rd.time_s[127] == doctest::Approx(127 / 128.0).epsilon(1e-9));
+}
+
+// 300 samples at 3 kHz from t = 10 s, time printed with "%.9g" (a resolution of 1e-7 s, i.e.
+// 3e-4 of the step: far beyond the 1e-6 relative check); sample 150 moved by jitter_s.
+std::string time9_csv(double jitter_s) {
+  std::string s = "time_s,alpha_deg,Cm\n";
+  for (int k = 0; k < 300; ++k) {
+    char cell[64];
+    std::snprintf(cell, sizeof cell, "%.9g", 10.0 + k / 3000.0 + (k == 150 ? jitter_s : 0.0));
+    const double a = 10.0 * std::sin(2 * kPi * 10.0 * k / 3000.0);
+    s += std::string(cell) + "," + indicial::format_double(a) + "," + indicial::format_double(0.01 * a) + "\n";
+  }
+  return s;
+}
+
+TEST_CASE("a time column written to 9 significant digits is uniform; beyond its digits it is refused") {
+  const indicial::Run r = read_pitch(write("nine.csv", time9_csv(0.0)));
+  CHECK(r.time_grid == indicial::TimeGrid::uniform);
+  CHECK(any_note_has(r.notes, "nine.csv: 'time_s' is uniform to its printed digits"));
+  // Snapped to the weighted least-squares grid: within 2e-8 s of the exact one (the printing's
+  // half unit is 5e-8 s; the rounding errors average out over 300 samples).
+  double worst = 0.0;
+  for (std::size_t k = 0; k < r.size(); ++k)
+    worst = std::max(worst, std::abs(r.time_s[k] - (10.0 + static_cast<double>(k) / 3000.0)));
+  CHECK(worst < 2e-8);
+  CHECK(r.dt_s() == doctest::Approx(1 / 3000.0).epsilon(1e-6));
+  // One sample moved by 1e-6 s (20 times the half unit) is not uniform: refused, with the hint.
+  const std::string moved = time9_csv(1e-6);
+  const std::string m = csv_error("nine_moved.csv", moved);
+  CHECK_HAS(m, "nine_moved.csv:152: non-uniform time step");
+  CHECK_HAS(m, "declare time_grid = \"nonuniform\" in the run's entry");
+  // Declared nonuniform, it is read with each sample's own time.
+  indicial::RunCsvOptions o;
+  o.grid = indicial::TimeGrid::nonuniform;
+  const indicial::Run rn = indicial::read_run_csv(write("nine_moved3.csv", moved), indicial::Axis::pitch, "Cm",
+                                                  indicial::CoefficientPresence::required, o);
+  CHECK(rn.time_grid == indicial::TimeGrid::nonuniform);
+  CHECK(rn.time_s[150] == doctest::Approx(10.05 + 1e-6).epsilon(1e-12));
+}
+
+TEST_CASE("phase cycles and run conditions: every wrong combination names the line") {
+  std::ofstream(runs_dir() / "cycle64.csv") << cycle_csv(64, "%.2f");
+  std::ofstream(runs_dir() / "cycle_jitter.csv") << cycle_csv(64, "%.2f", 0.0, 0.03);
+  CHECK_HAS(exp_error("c1.toml", cycle_experiment(R"("cycle64.csv")")),
+            "cycle64.csv:1: column 'phase_rad' needs the cycle's frequency: give frequency_hz or reduced_frequency");
+  CHECK_HAS(exp_error("c2.toml", cycle_experiment(R"({file = "cycle64.csv", frequency_hz = 1.0, periodic = false})")),
+            "c2.toml:6: run 'cycle64.csv' has a phase column, so it is one periodic cycle: remove 'periodic = false'");
+  CHECK_HAS(exp_error("c3.toml", cycle_experiment(R"({file = "run_f0.50.csv", frequency_hz = 0.5})")),
+            "c3.toml:6: run 'run_f0.50.csv' has a time column: 'frequency_hz' and 'reduced_frequency' are only for a phase column");
+  CHECK_HAS(exp_error("c4.toml", cycle_experiment(R"({file = "cycle64.csv", frequency_hz = 1.0, reduced_frequency = 0.1})")),
+            "c4.toml:6: give 'runs.frequency_hz' or 'runs.reduced_frequency', not both");
+  CHECK_HAS(exp_error("c5.toml", cycle_experiment(R"({file = "cycle64.csv", frequency_hz = -1.0})")),
+            "c5.toml:6: 'runs.frequency_hz' must be > 0");
+  CHECK_HAS(exp_error("c6.toml", cycle_experiment(R"({file = "cycle64.csv", frequency_hz = 1.0, time_grid = "jittery"})")),
+            "c6.toml:6: 'runs.time_grid' must be \"uniform\" or \"nonuniform\", found \"jittery\"");
+  // What the fitter does not support yet (refuse_unsupported_run_features).
+  CHECK_HAS(exp_error("c7.toml", cycle_experiment(R"({file = "cycle_jitter.csv", frequency_hz = 1.0})")),
+            "c7.toml:6: run '");
+  CHECK_HAS(exp_error("c7b.toml", cycle_experiment(R"({file = "cycle_jitter.csv", frequency_hz = 1.0})")),
+            "cycle_jitter.csv' is on a nonuniform time grid: fit and diagnose do not support that yet");
+  CHECK_HAS(exp_error("c8.toml", cycle_experiment(R"({file = "run_f0.50.csv", time_grid = "nonuniform"})")),
+            "is on a nonuniform time grid");
+  CHECK_HAS(exp_error("c9.toml", cycle_experiment(R"({file = "cycle64.csv", frequency_hz = 1.0, airspeed_mps = 30.0})")),
+            "has airspeed_mps 30 but the experiment 17.667762: fit and diagnose do not support runs at another airspeed yet");
+  // The jittered cycle itself is read, as nonuniform.
+  const indicial::Run rj = indicial::read_run_csv((runs_dir() / "cycle_jitter.csv").string(), indicial::Axis::pitch,
+                                                  "Cm", indicial::CoefficientPresence::required,
+                                                  indicial::RunCsvOptions{indicial::TimeGrid::uniform, {}, 1.0});
+  CHECK(rj.time_grid == indicial::TimeGrid::nonuniform);
+  // Phase outside [0, 2 pi) and time and phase together.
+  std::string over = cycle_csv(20, "%.2f");
+  over = replace_line(over, 21, "6.30,1,1");
+  CHECK_HAS(error_of([&] {
+              indicial::read_run_csv(write("over.csv", over), indicial::Axis::pitch, "Cm",
+                                     indicial::CoefficientPresence::required,
+                                     indicial::RunCsvOptions{indicial::TimeGrid::uniform, {}, 1.0});
+            }),
+            "over.csv:21: column 'phase_rad': phase 6.30 is outside [0, 2 pi)");
+  CHECK_HAS(csv_error("both.csv", "time_s,phase_rad,alpha_deg,Cm\n0,0,1,1\n"),
+            "both.csv:1: both 'time_s' and 'phase_rad' given; keep one");
 }

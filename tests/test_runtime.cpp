@@ -7,6 +7,7 @@
 #include <limits>
 #include <string>
 
+#include "indicial/coef_file.hpp"
 #include "indicial/runtime.hpp"
 #include "runtime_test_models.hpp"
 
@@ -40,15 +41,19 @@ std::string text_of(const Set& m) {
 
 }  // namespace
 
-// Sum of the member sizes of a Snapshot: doubles (time, history times), Scalars (lag states,
-// previous angle, history angles), ints (phase, newest, count, origin, reserved).
+// Sum of the member sizes of a Snapshot (a DelayedState): the State's Scalars (lag states,
+// cached step ends, previous angle, airspeed terms) and ints, then the ring's doubles (time,
+// delay cache, history times), Scalars (history angles) and ints.
 template <class Pred, class Cap>
 std::size_t snapshot_member_bytes() {
   using S = typename Pred::Snapshot;
-  const std::size_t doubles = 1 + Cap::max_delay_samples;
-  const std::size_t scalars = Cap::max_coefficients * Cap::max_lags + 1 + Cap::max_delay_samples;
-  return doubles * sizeof(double) + scalars * sizeof(decltype(S{}.x_prev_rad)) +
-         4 * sizeof(int) + sizeof(S{}.reserved);
+  using Scalar = decltype(S{}.x_prev_rad);
+  const std::size_t state_scalars = Cap::max_coefficients * Cap::max_lags +
+                                    Cap::max_coefficients * (1 + Cap::max_lags) + 4;
+  const std::size_t doubles = 2 + Cap::max_coefficients + Cap::max_delay_samples;
+  return state_scalars * sizeof(Scalar) + sizeof(int) + sizeof(S{}.reserved) +
+         doubles * sizeof(double) + Cap::max_delay_samples * sizeof(Scalar) + 3 * sizeof(int) +
+         sizeof(S{}.history_reserved);
 }
 
 // Steps a float and a double predictor of the same model over `steps` samples of the
@@ -82,6 +87,13 @@ TEST_CASE("Snapshot has no padding bytes (bytewise comparison is meaningful)") {
   CHECK(sizeof(indicial::Predictor<float, Odd>::Snapshot) ==
         snapshot_member_bytes<indicial::Predictor<float, Odd>, Odd>());
   MESSAGE("sizeof(Predictor<double>::Snapshot) = ", sizeof(P::Snapshot), " bytes");
+  // The per-instance state without a delay ring: issue 15's target is <= 256 bytes for
+  // Model II C_L + C_m in double (DefaultCapacity holds up to 3 coefficients and 2 lags).
+  static_assert(sizeof(indicial::State<double, indicial::DefaultCapacity>) <= 256, "state size");
+  static_assert(std::is_trivially_copyable<indicial::State<float, indicial::DefaultCapacity>>::value,
+                "state must be plain data");
+  MESSAGE("sizeof(State<double>) = ", sizeof(indicial::State<double, indicial::DefaultCapacity>),
+          ", sizeof(State<float>) = ", sizeof(indicial::State<float, indicial::DefaultCapacity>));
   // The five-parameter form still names a capacity (MaxDelaySamples defaults to 256).
   static_assert(indicial::Capacity<8, 8, 2, 64, 3>::max_delay_samples == 256, "default");
   static_assert(std::is_same<indicial::DefaultCapacity, indicial::Capacity<8, 8, 2, 64, 3, 256>>::value,

@@ -8,6 +8,7 @@
 #include <cstring>
 
 #include "indicial/coef_file.hpp"
+#include "indicial/fitter/tailless_model.hpp"
 #include "indicial/runtime.hpp"
 
 #if defined(__cpp_exceptions) || defined(__GXX_RTTI)
@@ -15,30 +16,20 @@
 #endif
 
 namespace {
-// Table I, Model II (the committed examples/tailless-model-2.coef, byte for byte).
-const char kModelTwo[] =
-    "indicial-coef 1\n"
-    "axis pitch\n"
-    "reference_length_m 0.3765\n"
-    "airspeed_mps 17.667762\n"
-    "alpha0_rad 0\n"
-    "envelope_rad 0 1.2217304763960306\n"
-    "coefficient Cm\n"
-    "static_poly 0 0.42 0.34 -1 0.4\n"
-    "rotary_poly -2 0 0.8\n"
-    "a_poly 0 0.28 -3.2\n"
-    "a_knot 0.4363 2 8\n"
-    "a_knot 0.9599 2 -7.4\n"
-    "lag_poly 1 2.5\n"
-    "lag_knot 1 0.349 1 -5.73\n"
-    "lag_knot 1 0.5236 1 5.73\n"
-    "lag_knot 1 0.827 1 5.73\n"
-    "lag_knot 1 1.0472 1 -5.73\n"
-    "end_coefficient\n"
-    "checksum 9fc9ba7e\n";
+// Table I, Model II as coefficient-file text, written by the runtime's own writer from the
+// one definition (tailless_model.hpp; the same bytes as examples/tailless-model-2.coef).
+char kModelTwo[1024];
+
+void write_model_two() {
+  std::size_t n = 0;
+  const auto m = indicial::tailless_model_set<indicial::DefaultCapacity>(indicial::TaillessModel::model_2);
+  REQUIRE(indicial::write_coef_file(m, kModelTwo, sizeof kModelTwo - 1, &n) == indicial::WriteStatus::ok);
+  kModelTwo[n] = '\0';
+}
 }  // namespace
 
 TEST_CASE("load from a char buffer, reset, step without exceptions or RTTI") {
+  write_model_two();
   indicial::Predictor<double> p;
   indicial::ParseDiagnostic diag;
   REQUIRE(p.load(kModelTwo, std::strlen(kModelTwo), &diag) == indicial::LoadStatus::ok);

@@ -1,6 +1,8 @@
-// `indicial codegen MODEL.coef --out FILE.hpp [--force] [--name IDENT]`: turns a coefficient
-// file into a C++17 header holding the model as a constexpr indicial::ModelSet, so that an
-// embedded target loads it with `predictor.load(IDENT)` and never parses text.
+// `indicial codegen MODEL.coef --out FILE.hpp [--force] [--name IDENT] [--namespace NS]`: turns
+// a coefficient file into a C++17 header holding the model as a constexpr
+// indicial::RuntimeModel<double, DefaultCapacity> NS::IDENT (NS defaults to
+// indicial_generated), so that an embedded target steps it in place (it lives in read-only
+// memory; the header includes runtime.hpp and no parser) and never parses text.
 //
 // The file is parsed by the runtime's own parser (runtime/include/indicial/coef_file.hpp) and
 // validated like Predictor::load does; every number is written in its shortest round-trip
@@ -29,6 +31,7 @@ struct CodegenOptions {
   std::string model_path;
   std::string out;
   std::string name;
+  std::string name_space = "indicial_generated";
   bool force = false;
 };
 
@@ -52,6 +55,37 @@ bool is_identifier(const std::string& s) {
   }
   return true;
 }
+
+// C++ keywords and alternative tokens (C++20, which includes C++17's): a generated
+// `inline constexpr ... default = ...` would not compile.
+bool is_keyword(const std::string& s) {
+  static const char* const keywords[] = {
+      "alignas", "alignof", "and", "and_eq", "asm", "auto", "bitand", "bitor", "bool", "break",
+      "case", "catch", "char", "char8_t", "char16_t", "char32_t", "class", "compl", "concept",
+      "const", "consteval", "constexpr", "constinit", "const_cast", "continue", "co_await",
+      "co_return", "co_yield", "decltype", "default", "delete", "do", "double", "dynamic_cast",
+      "else", "enum", "explicit", "export", "extern", "false", "float", "for", "friend", "goto",
+      "if", "inline", "int", "long", "mutable", "namespace", "new", "noexcept", "not", "not_eq",
+      "nullptr", "operator", "or", "or_eq", "private", "protected", "public", "register",
+      "reinterpret_cast", "requires", "return", "short", "signed", "sizeof", "static",
+      "static_assert", "static_cast", "struct", "switch", "template", "this", "thread_local",
+      "throw", "true", "try", "typedef", "typeid", "typename", "union", "unsigned", "using",
+      "virtual", "void", "volatile", "wchar_t", "while", "xor", "xor_eq"};
+  for (const char* k : keywords)
+    if (s == k) return true;
+  return false;
+}
+
+// Letters, digits and _, not starting with a digit, not a keyword, not reserved to the
+// implementation (a leading _ followed by a capital, or a double underscore anywhere).
+std::string identifier_problem(const std::string& s) {
+  if (!is_identifier(s)) return "is not a C++ identifier (letters, digits, _; no leading digit)";
+  if (is_keyword(s)) return "is a C++ keyword";
+  if (s.find("__") != std::string::npos || (s.size() > 1 && s[0] == '_' && s[1] >= 'A' && s[1] <= 'Z'))
+    return "is reserved to the C++ implementation (__ or _ and a capital)";
+  return "";
+}
+
 
 // tailless-model-2.coef -> tailless_model_2
 std::string identifier_from_path(const std::string& path) {
@@ -79,23 +113,74 @@ void emit_spline(std::string& o, const std::string& lhs, const indicial::Spline<
   }
 }
 
-std::string generate(const Set& m, const std::string& ident, const std::string& source_name,
-                     std::uint32_t crc) {
+// The step constants of the RuntimeModel (derive_step_constants' values, computed by the
+// tool with the same function the runtime uses to check them).
+void emit_step_constants(std::string& o, const indicial::RuntimeModel<double, Cap>& r) {
+  o += "  r.x_min_rad = " + literal(r.x_min_rad) + ";\n";
+  o += "  r.x_max_rad = " + literal(r.x_max_rad) + ";\n";
+  o += "  r.angle_factor = " + literal(r.angle_factor) + ";\n";
+  o += "  r.reference_length_m = " + literal(r.reference_length_m) + ";\n";
+  o += "  r.airspeed_mps = " + literal(r.airspeed_mps) + ";\n";
+  o += std::string("  r.delay = indicial::DelayUse::") +
+       (r.delay == indicial::DelayUse::delayed ? "delayed" : "none") + ";\n";
+}
+
+void emit_coefficient(std::string& o, const std::string& p,
+                      const indicial::CoefficientModel<double, Cap>& cm) {
+  o += "  // " + std::string(cm.name) + "\n";
+  for (int i = 0; cm.name[i] != '\0'; ++i)
+    o += "  " + p + ".name[" + std::to_string(i) + "] = '" + cm.name[i] + "';\n";
+  const auto& sc = cm.static_curve;
+  if (sc.kind == indicial::StaticKind::table) {
+    o += "  " + p + ".static_curve.kind = indicial::StaticKind::table;\n";
+    o += "  " + p + ".static_curve.n_table = " + std::to_string(sc.n_table) + ";\n";
+    for (int i = 0; i < sc.n_table; ++i) {
+      const std::string at = "[" + std::to_string(i) + "]";
+      o += "  " + p + ".static_curve.table_x_rad" + at + " = " + literal(sc.table_x_rad[i]) + ";\n";
+      o += "  " + p + ".static_curve.table_value" + at + " = " + literal(sc.table_value[i]) + ";\n";
+      o += "  " + p + ".static_curve.table_second_derivative" + at + " = " +
+           literal(sc.table_second_derivative[i]) + ";\n";
+    }
+  } else {
+    emit_spline(o, p + ".static_curve.polynomial", sc.polynomial);
+  }
+  emit_spline(o, p + ".static_correction", cm.static_correction);
+  emit_spline(o, p + ".rotary", cm.rotary);
+  emit_spline(o, p + ".a", cm.a);
+  o += "  " + p + ".n_lags = " + std::to_string(cm.n_lags) + ";\n";
+  for (int j = 0; j < cm.n_lags; ++j) {
+    const std::string lag = p + ".lags[" + std::to_string(j) + "]";
+    emit_spline(o, lag + ".b", cm.lags[j].b);
+    o += "  " + lag + ".gain = " + literal(cm.lags[j].gain) + ";\n";
+  }
+  o += "  " + p + ".con = " + literal(cm.con) + ";\n";
+  o += "  " + p + ".delay_s = " + literal(cm.delay_s) + ";\n";
+}
+
+std::string generate(const indicial::RuntimeModel<double, Cap>& r, const std::string& ident,
+                     const std::string& ns, const std::string& source_name, std::uint32_t crc) {
+  const Set& m = r.set;
   char crc_hex[16];
   std::snprintf(crc_hex, sizeof crc_hex, "%08x", static_cast<unsigned>(crc));
+  const std::string type = "indicial::RuntimeModel<double, indicial::DefaultCapacity>";
   std::string o;
   o += "// Generated by `indicial codegen` from " + source_name + " (checksum " + crc_hex +
        "). Do not edit:\n"
        "// regenerate from the coefficient file instead.\n"
        "//\n"
-       "//   #include \"" + ident + ".hpp\"\n"
-       "//   indicial::Predictor<> predictor;\n"
-       "//   predictor.load(" + ident + ");   // validated, never parsed; then reset() and step()\n"
+       "//   #include \"" + ident + ".hpp\"   // includes indicial/runtime.hpp, no parser\n"
+       "//   const auto& model = " + ns + "::" + ident + ";   // in read-only memory, never copied\n"
+       "//   indicial::check_runtime_model(model);            // once, at start: LoadStatus::ok\n"
+       "//   indicial::State<double, indicial::DefaultCapacity> state;  // per instance\n"
+       "//   indicial::reset(model, state, angle_rad, airspeed_mps);  // then indicial::step(...)\n"
+       "//   // or: indicial::Predictor<> p; p.use(model);   (p.load(model) copies it)\n"
        "#pragma once\n\n"
-       "#include \"indicial/model.hpp\"\n\n"
-       "namespace indicial_codegen_detail {\n"
-       "constexpr indicial::ModelSet<double, indicial::DefaultCapacity> make_" + ident + "() {\n"
-       "  indicial::ModelSet<double, indicial::DefaultCapacity> m{};\n";
+       "#include \"indicial/runtime.hpp\"\n\n"
+       "namespace " + ns + " {\n"
+       "namespace codegen_detail {\n"
+       "constexpr " + type + " make_" + ident + "() {\n"
+       "  " + type + " r{};\n"
+       "  indicial::ModelSet<double, indicial::DefaultCapacity>& m = r.set;\n";
   o += std::string("  m.axis = indicial::Axis::") + indicial::axis_name(m.axis) + ";\n";
   o += "  m.reference_length_m = " + literal(m.reference_length_m) + ";\n";
   o += "  m.airspeed_mps = " + literal(m.airspeed_mps) + ";\n";
@@ -103,82 +188,63 @@ std::string generate(const Set& m, const std::string& ident, const std::string& 
   o += "  m.x_min_rad = " + literal(m.x_min_rad) + ";\n";
   o += "  m.x_max_rad = " + literal(m.x_max_rad) + ";\n";
   o += "  m.n_coefficients = " + std::to_string(m.n_coefficients) + ";\n";
-  for (int c = 0; c < m.n_coefficients; ++c) {
-    const auto& cm = m.coefficients[c];
-    const std::string p = "m.coefficients[" + std::to_string(c) + "]";
-    o += "  // " + std::string(cm.name) + "\n";
-    for (int i = 0; cm.name[i] != '\0'; ++i)
-      o += "  " + p + ".name[" + std::to_string(i) + "] = '" + cm.name[i] + "';\n";
-    const auto& sc = cm.static_curve;
-    if (sc.kind == indicial::StaticKind::table) {
-      o += "  " + p + ".static_curve.kind = indicial::StaticKind::table;\n";
-      o += "  " + p + ".static_curve.n_table = " + std::to_string(sc.n_table) + ";\n";
-      for (int i = 0; i < sc.n_table; ++i) {
-        const std::string at = "[" + std::to_string(i) + "]";
-        o += "  " + p + ".static_curve.table_x_rad" + at + " = " + literal(sc.table_x_rad[i]) + ";\n";
-        o += "  " + p + ".static_curve.table_value" + at + " = " + literal(sc.table_value[i]) + ";\n";
-        o += "  " + p + ".static_curve.table_second_derivative" + at + " = " +
-             literal(sc.table_second_derivative[i]) + ";\n";
-      }
-    } else {
-      emit_spline(o, p + ".static_curve.polynomial", sc.polynomial);
-    }
-    emit_spline(o, p + ".static_correction", cm.static_correction);
-    emit_spline(o, p + ".rotary", cm.rotary);
-    emit_spline(o, p + ".a", cm.a);
-    o += "  " + p + ".n_lags = " + std::to_string(cm.n_lags) + ";\n";
-    for (int j = 0; j < cm.n_lags; ++j) {
-      const std::string lag = p + ".lags[" + std::to_string(j) + "]";
-      emit_spline(o, lag + ".b", cm.lags[j].b);
-      o += "  " + lag + ".gain = " + literal(cm.lags[j].gain) + ";\n";
-    }
-    o += "  " + p + ".con = " + literal(cm.con) + ";\n";
-    o += "  " + p + ".delay_s = " + literal(cm.delay_s) + ";\n";
-  }
-  o += "  return m;\n"
+  for (int c = 0; c < m.n_coefficients; ++c)
+    emit_coefficient(o, "m.coefficients[" + std::to_string(c) + "]", m.coefficients[c]);
+  emit_step_constants(o, r);
+  o += "  return r;\n"
        "}\n"
-       "}  // namespace indicial_codegen_detail\n\n"
-       "inline constexpr indicial::ModelSet<double, indicial::DefaultCapacity> " + ident +
-       " =\n    indicial_codegen_detail::make_" + ident + "();\n";
+       "}  // namespace codegen_detail\n\n"
+       "inline constexpr " + type + " " + ident + " =\n    codegen_detail::make_" + ident + "();\n"
+       "}  // namespace " + ns + "\n";
   return o;
 }
 
 void run_codegen(const CodegenOptions& o) {
   using namespace indicial;
   const std::string ident = o.name.empty() ? identifier_from_path(o.model_path) : o.name;
-  if (!is_identifier(ident))
-    throw InputError("--name", 0, "'" + ident + "' is not a C++ identifier (letters, digits, _)");
+  const std::string ident_problem = identifier_problem(ident);
+  if (!ident_problem.empty())
+    throw InputError("--name", 0,
+                     "'" + ident + "' " + ident_problem +
+                         (o.name.empty() ? " (taken from the file name; give --name IDENT)" : ""));
+  const std::string ns_problem = identifier_problem(o.name_space);
+  if (!ns_problem.empty())
+    throw InputError("--namespace", 0, "'" + o.name_space + "' " + ns_problem);
   if (o.out.empty()) throw InputError("--out", 0, "an output header path is required");
   const std::string text = read_text(o.model_path);
-  auto model = std::make_unique<Set>();
+  auto model = std::make_unique<RuntimeModel<double, Cap>>();
   ParseDiagnostic diag;
-  LoadStatus st = parse_coef_file(text.data(), text.size(), model.get(), &diag);
-  if (st == LoadStatus::ok) st = validate_for_runtime(*model, &diag);
+  const LoadStatus st = load_runtime_model(text.data(), text.size(), model.get(), &diag);
   if (st != LoadStatus::ok) {
     throw InputError(o.model_path, static_cast<long>(diag.line),
                      std::string(diag.reason) + " (" + to_string(st) + ")");
   }
   const std::size_t at = text.rfind("checksum ");
   const std::uint32_t crc = crc32(text.data(), at == std::string::npos ? 0 : at);
-  const std::string header =
-      generate(*model, ident, std::filesystem::path(o.model_path).filename().string(), crc);
+  const std::string header = generate(*model, ident, o.name_space,
+                                      std::filesystem::path(o.model_path).filename().string(), crc);
   write_file_atomically(o.out, header, o.force ? Overwrite::replace : Overwrite::refuse);
-  std::printf("codegen: wrote %s (%s: %s, %d coefficient%s)\n", o.out.c_str(), ident.c_str(),
-              axis_name(model->axis), model->n_coefficients, model->n_coefficients == 1 ? "" : "s");
+  std::printf("codegen: wrote %s (%s::%s: %s, %d coefficient%s)\n", o.out.c_str(),
+              o.name_space.c_str(), ident.c_str(), axis_name(model->set.axis),
+              model->set.n_coefficients, model->set.n_coefficients == 1 ? "" : "s");
 }
 
 const indicial::tools::RegisterCommand register_codegen([](CLI::App& app) {
   auto opt = std::make_shared<CodegenOptions>();
   CLI::App* sub = app.add_subcommand(
       "codegen",
-      "Write a C++17 header holding MODEL.coef as an `inline constexpr` indicial::ModelSet<double,\n"
-      "indicial::DefaultCapacity> that the runtime loads with predictor.load(IDENT), no parsing.\n"
-      "The file is parsed and validated exactly as Predictor::load does; refusals are reported as\n"
-      "FILE:LINE: reason (status).");
+      "Write a C++17 header holding MODEL.coef as `inline constexpr\n"
+      "indicial::RuntimeModel<double, indicial::DefaultCapacity> NS::IDENT` (read-only memory,\n"
+      "stepped in place: indicial::step(NS::IDENT, state, ...) or Predictor::use(NS::IDENT); no\n"
+      "parsing, the header includes only indicial/runtime.hpp). The file is parsed and validated\n"
+      "exactly as Predictor::load does; refusals are reported as FILE:LINE: reason (status).");
   sub->add_option("MODEL", opt->model_path, "coefficient file (.coef)")->required();
   sub->add_option("--out", opt->out, "header to write")->required();
   sub->add_option("--name", opt->name,
-                  "C++ identifier of the model (default: the file stem, e.g. tailless_model_2)");
+                  "C++ identifier of the model, not a keyword (default: the file stem, e.g.\n"
+                  "tailless_model_2)");
+  sub->add_option("--namespace", opt->name_space,
+                  "namespace of the generated model (default: indicial_generated)");
   sub->add_flag("--force", opt->force, "replace an existing header");
   sub->callback([opt]() { run_codegen(*opt); });
 });

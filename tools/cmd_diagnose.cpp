@@ -4,8 +4,12 @@
 //                     [--knot-spacing-deg D] [--no-plots] [--gnuplot EXE] [--quiet]
 //
 // Writes DIR/diagnosis.json, DIR/model.coef (the final model), DIR/report.md and DIR/plots/.
-// Exit status: 0 done (whatever the verdict, "none" included); 1 bad input (one line
-// "indicial: error: FILE:LINE: problem"; nothing written).
+// Exit status (DiagnoseExit): 0 done (whatever the verdict, "none" included); 1 bad input (one
+// line "indicial: error: FILE:LINE: problem"; nothing written); 6 stopped at --max-steps with an
+// effect still significant (outputs written, a warning line). A final model the runtime refuses
+// is bad input too: one line naming DIR/model.coef and the reason, nothing written (exit 1).
+// Ill-conditioned final estimates
+// (bound larger than the value) are a warning line, exit 0.
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -17,6 +21,8 @@
 #include "indicial/fitter/runtime_limits.hpp"
 
 namespace {
+
+enum class DiagnoseExit { done = 0, bad_input = 1, max_steps = 6 };
 
 struct DiagnoseCliOptions {
   std::string experiment;
@@ -34,6 +40,7 @@ void run_diagnose(const DiagnoseCliOptions& o) {
   if (!(o.diag.alpha > 0.0 && o.diag.alpha < 1.0))
     throw InputError("--alpha", 0, "the significance level must be in (0, 1)");
   if (o.diag.max_steps < 0) throw InputError("--max-steps", 0, "must be >= 0");
+  if (o.diag.max_family_terms < 1) throw InputError("--max-family-terms", 0, "must be >= 1");
   if (!(o.diag.knot_spacing_deg > 0.0)) throw InputError("--knot-spacing-deg", 0, "must be > 0");
   const tools::StageClock clock("diagnose", o.quiet ? tools::Verbosity::quiet : tools::Verbosity::progress);
   Experiment e;
@@ -58,43 +65,53 @@ void run_diagnose(const DiagnoseCliOptions& o) {
   ro.gnuplot = o.gnuplot;
   ro.command_line = tools::invocation();
   ro.provenance = experiment_provenance(e, tools::invocation());
+  const std::vector<std::string> after = diagnose_warnings(d);  // listed in diagnosis.json too
+  ro.warnings.insert(ro.warnings.end(), after.begin(), after.end());
   DiagnoseOutputs w;
   clock.stage("writing the outputs (runtime check, report, plots)",
               [&] { w = write_diagnose_outputs(d, e, o.diag, o.out, overwrite, ro); });
   std::printf("diagnose: %s: initial fit error %.6g, noise estimate %.6g\n", o.experiment.c_str(),
               d.initial_fit_error, d.noise.sigma);
   for (const DiagnoseStep& s : d.steps)
-    std::printf("diagnose: step %d: %s (%s): LR %.1f, p %.3g < %.3g, fit error %.6g -> %.6g\n", s.step,
-                effect_name(s.effect), s.detail.c_str(), s.statistic, s.p_value, s.threshold,
-                s.fit_error_before, s.fit_error_after);
+    std::printf("diagnose: step %d: %s (%s): LR/kappa %.1f, p %.3g < %.3g, fit error %.6g -> %.6g%s\n",
+                s.step, effect_name(s.effect), s.detail.c_str(), s.statistic, s.p_value, s.threshold,
+                s.fit_error_before, s.fit_error_after,
+                s.indistinguishable.empty() ? "" : " (indistinguishable on these data from another effect: see report.md)");
   std::printf("diagnose: verdict %s; final fit error %.6g (%d fits, %.2f s)\n", d.verdict.c_str(),
               d.final_fit_error, d.fits_run, d.elapsed_s);
   std::printf("diagnose: wrote %s/diagnosis.json, model.coef, report.md (%s)\n", o.out.c_str(),
               w.plot_message.c_str());
-  if (w.runtime.fit == RuntimeFit::refused)
-    std::printf("diagnose: WARNING: the runtime refuses model.coef: %s\n", w.runtime.detail.c_str());
+  std::fflush(stdout);
+  tools::print_warnings(after);
   if (w.plots == PlotStatus::gnuplot_not_found || w.plots == PlotStatus::gnuplot_failed)
     std::fprintf(stderr, "indicial: warning: %s\n", w.plot_message.c_str());
-  std::fflush(stdout);
+  if (d.stopped == DiagnoseStop::max_steps) throw CLI::RuntimeError(static_cast<int>(DiagnoseExit::max_steps));
 }
 
 const indicial::tools::RegisterCommand register_diagnose([](CLI::App& app) {
   auto opt = std::make_shared<DiagnoseCliOptions>();
   CLI::App* sub = app.add_subcommand(
       "diagnose",
-      "The missing-effect workflow: fit the configured model, test every candidate effect\n"
-      "(b1_alpha, a_alpha, rotary_alpha, bias, time_delay, second_lag, static_error) by a\n"
-      "likelihood-ratio test with a Bonferroni guard and BIC, add the most significant, repeat.\n"
+      "The missing-effect workflow: fit the configured model, test every candidate effect\n(" +
+          indicial::effect_names_list() +
+          ") by a\n"
+          "likelihood-ratio test with a Bonferroni guard and BIC, add the most significant, repeat.\n"
       "Writes DIR/diagnosis.json, DIR/model.coef (final model), DIR/report.md and DIR/plots/.\n"
-      "Exit status: 0 done (any verdict, 'none' included); 1 bad input, or a final model the\n"
-      "runtime refuses (one line, nothing written).");
+      "Exit status: 0 done (any verdict, 'none' included); 1 bad input, or a final model the
+"
+      "runtime refuses (one line, nothing written); 6 stopped at --max-steps with an effect still
+"
+      "significant (outputs written).");
   sub->add_option("experiment", opt->experiment, "experiment file (TOML)")->required();
   sub->add_option("--out", opt->out, "output directory (refused if not empty, unless --force)")->required();
   sub->add_flag("--force", opt->force, "replace the contents of a non-empty output directory");
   sub->add_option("--alpha", opt->diag.alpha,
                   "family-wise significance level per round (default 0.01; Bonferroni over every "
                   "candidate and scanned knot)");
-  sub->add_option("--max-steps", opt->diag.max_steps, "effects added at most (default 6)");
+  sub->add_option("--max-steps", opt->diag.max_steps,
+                  "effects added at most (default 6); reached with an effect still significant: exit 6");
+  sub->add_option("--max-family-terms", opt->diag.max_family_terms,
+                  "terms one effect's sub-model may have, e.g. b1(x) knots (default 4)");
   sub->add_option("--knot-spacing-deg", opt->diag.knot_spacing_deg,
                   "knot scan grid spacing in degrees of the model angle (default 5)");
   sub->add_flag("--no-plots", opt->no_plots, "do not run gnuplot");

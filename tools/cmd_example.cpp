@@ -143,6 +143,11 @@ ColumnResult fit_column(const fs::path& experiment, const fs::path& fit_dir, dou
   const std::string shown = "../" + experiment.parent_path().filename().string() + "/" + experiment.filename().string();
   ro.command_line = "indicial fit " + shown + " --out " + fit_dir.filename().string();
   ro.experiment_display = shown;
+  // Provenance as for that `indicial fit`, input paths as shown (the data set is still in the
+  // staging directory now, under its final name later).
+  ro.provenance = experiment_provenance(e, ro.command_line + " (by " + tools::invocation() + ")");
+  for (InputDigest& d : ro.provenance.inputs)
+    d.path = "../" + experiment.parent_path().filename().string() + "/" + fs::path(d.path).filename().string();
   write_fit_outputs(cr.fit, e, fo, fit_dir, Overwrite::refuse, ro);
   // The runtime loads the file as written on disk, not the in-memory text.
   cr.runtime = replay_in_runtime(cr.fit, e, read_text(fit_dir / "model.coef"));

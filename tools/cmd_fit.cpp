@@ -65,6 +65,7 @@ void run_fit(const FitCliOptions& o) {
   Experiment e;
   clock.stage("reading the experiment and its runs", [&] { e = load_experiment(o.experiment); });
   ReportOptions ro;
+  for (const std::string& n : e.notes) std::fprintf(stderr, "indicial: note: %s\n", n.c_str());
   ro.warnings = tools::experiment_warnings(e);
   for (const std::string& w : runtime_limit_warnings(e)) ro.warnings.push_back(w);
   print_warnings(ro.warnings);

@@ -1,11 +1,38 @@
 #!/usr/bin/env bash
-# Installs what indicial needs to build, test and benchmark on Debian 12 (run as root).
+# Installs, on Debian 12, what indicial needs. Run as root (or with sudo available).
+#
+#   tools/install-deps.sh              build and test: compiler, CMake, the libraries, doctest,
+#                                      gnuplot (report plots)
+#   tools/install-deps.sh fuzz         plus clang 14 with libFuzzer (tools/run-fuzz.sh)
+#   tools/install-deps.sh bench        plus Google Benchmark, python3 and valgrind (bench/run_all.sh)
+#   tools/install-deps.sh fuzz bench   both extras
+#
+# Nothing is installed when every package asked for is already there (no apt-get update).
 set -euo pipefail
 if [ "$(id -u)" -ne 0 ]; then SUDO=sudo; else SUDO=; fi
 export DEBIAN_FRONTEND=noninteractive
+
+packages=(
+  ca-certificates cmake ninja-build g++ pkg-config git
+  libeigen3-dev libboost-dev libtomlplusplus-dev libcli11-dev libfmt-dev nlohmann-json3-dev
+  libssl-dev   # OpenSSL's libcrypto: SHA-256 of the input files (provenance)
+  doctest-dev gnuplot-nox
+)
+for extra in "$@"; do
+  case "$extra" in
+    fuzz) packages+=(clang libclang-rt-14-dev) ;;  # clang 14 with libFuzzer and its sanitizer runtimes
+    bench) packages+=(libbenchmark-dev python3 valgrind) ;;
+    *) echo "install-deps: unknown extra '$extra' (expected fuzz or bench)" >&2; exit 2 ;;
+  esac
+done
+
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "install-deps: everything needed is installed"
+  exit 0
+fi
 $SUDO apt-get update
-$SUDO apt-get install -y --no-install-recommends \
-  ca-certificates cmake ninja-build g++ pkg-config git \
-  libeigen3-dev libboost-dev libtomlplusplus-dev libcli11-dev libfmt-dev nlohmann-json3-dev \
-  doctest-dev libbenchmark-dev gnuplot-nox \
-  clang libclang-rt-14-dev   # tools/run-fuzz.sh: clang 14 with libFuzzer and its sanitizer runtimes
+$SUDO apt-get install -y --no-install-recommends "${missing[@]}"

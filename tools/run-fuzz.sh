@@ -20,7 +20,9 @@ jobs=${INDICIAL_JOBS:-$(nproc)}
 targets=("$@")
 [ ${#targets[@]} -gt 0 ] || targets=(fuzz_coef_file fuzz_run_csv fuzz_experiment)
 
-command -v clang++ >/dev/null || { echo "run-fuzz: clang++ not found (tools/install-deps.sh)" >&2; exit 2; }
+# clang 14 with libFuzzer: the fuzz extra of tools/install-deps.sh (installed only if missing).
+tools/install-deps.sh fuzz
+command -v clang++ >/dev/null || { echo "run-fuzz: clang++ not found (tools/install-deps.sh fuzz)" >&2; exit 2; }
 start=$(date +%s)
 cmake -S tests/fuzz -B "$build_dir" -G Ninja -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_BUILD_TYPE=None
 cmake --build "$build_dir" -j"$jobs" --target "${targets[@]}"

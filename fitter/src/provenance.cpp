@@ -96,6 +96,7 @@ std::string with_provenance_header(const std::string& coef_text, const Provenanc
   if (!p.command_line.empty()) text += "# command: " + one_line(p.command_line) + "\n";
   for (const InputDigest& d : p.inputs)
     text += "# input " + d.role + " sha256 " + d.sha256 + " " + one_line(d.path) + "\n";
+  text += "# units: every polynomial and knot of the model angle x is in rad; b and con in 1/s at airspeed_mps\n";
   text.append(coef_text, 0, at + 1);
   // Why recompute: the checksum covers every byte before its line, comments included.
   text += fmt::format("checksum {:08x}\n", crc32(text.data(), text.size()));

@@ -13,6 +13,7 @@
 
 #include "indicial/fitter/error.hpp"
 #include "indicial/coef_file.hpp"
+#include "indicial/fitter/tailless_model.hpp"
 #include "indicial/fitter/io.hpp"
 #include "spec_keys.hpp"
 
@@ -351,19 +352,6 @@ std::vector<double> add_measurement_noise(std::vector<SimulatedRun>& runs, doubl
 // ==========================================================================================
 namespace {
 
-template <class S>
-void set_poly(S& s, std::initializer_list<double> coefs) {
-  s.n_powers = 0;
-  for (double c : coefs) s.power_coef[s.n_powers++] = c;
-}
-template <class S>
-void add_knot(S& s, double knot_rad, int power, double coef) {
-  s.knot_rad[s.n_knots] = knot_rad;
-  s.knot_power[s.n_knots] = power;
-  s.knot_coef[s.n_knots] = coef;
-  ++s.n_knots;
-}
-
 // Report Table I (Example 1), the tailless aircraft; Model II when b1 depends on alpha.
 enum class TaillessB1 { constant_model_1, spline_model_2 };
 
@@ -374,30 +362,9 @@ SimulationCase tailless_case(TaillessB1 kind) {
   c.description = model2 ? "report Table I, Model II: b1(alpha) spline with 4 knots"
                          : "report Table I, Model I: b1 = 2.5 1/s";
   TruthModel& t = c.truth;
-  t.axis = Axis::pitch;
-  t.reference_length_m = 0.3765;             // l; with V below, l / V = 0.02131 s (Table I)
-  t.airspeed_mps = 0.3765 / 0.02131;
-  t.alpha0_rad = 0.0;
-  t.x_min_rad = 0.0;
-  t.x_max_rad = 70.0 * kDegToRad;
-  t.n_coefficients = 1;
-  auto& m = t.coefficients[0];
-  m.name[0] = 'C';
-  m.name[1] = 'm';
-  m.static_curve.kind = StaticKind::polynomial;
-  set_poly(m.static_curve.polynomial, {0.0, 0.42, 0.34, -1.0, 0.40});
-  set_poly(m.rotary, {-2.0, 0.0, 0.8});
-  set_poly(m.a, {0.0, 0.28, -3.2});
-  add_knot(m.a, 0.4363, 2, 8.0);
-  add_knot(m.a, 0.9599, 2, -7.4);
-  m.n_lags = 1;
-  set_poly(m.lags[0].b, {2.5});
-  if (model2) {
-    add_knot(m.lags[0].b, 0.349, 1, -5.73);
-    add_knot(m.lags[0].b, 0.5236, 1, 5.73);
-    add_knot(m.lags[0].b, 0.827, 1, 5.73);
-    add_knot(m.lags[0].b, 1.0472, 1, -5.73);
-  }
+  // Table I (tailless_model.hpp); V from the report's l / V = 0.02131 s exactly.
+  t = tailless_model_set<FitCapacity>(model2 ? TaillessModel::model_2 : TaillessModel::model_1,
+                                      tailless_reference_length_m / tailless_l_over_v_s);
   for (double f : {0.25, 0.5, 1.0}) {
     MotionSpec s;
     s.kind = MotionKind::sine;

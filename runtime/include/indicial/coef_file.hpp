@@ -6,7 +6,11 @@
 // file: human-readable, diffable, versioned and protected by a CRC-32. This header reads and
 // writes that file with no heap, no exceptions and no RTTI, so the same code runs inside a
 // flight simulator's real-time loop, in the `indicial` command line and in the tests. The
-// format is specified in docs/architecture.md ("The coefficient file").
+// format is specified in docs/architecture.md ("The coefficient file"). It is also the
+// runtime's text entry point: Predictor::load(text) and load_runtime_model(text) are defined
+// here, so that runtime.hpp (the step path, and everything a codegen-only firmware includes)
+// has no parser and no <charconv>. The parser is table-driven: the keys and their readers
+// are listed in detail::find_header_key and detail::find_block_key.
 //
 // Usage
 // -----
@@ -48,41 +52,14 @@
 #include <system_error>
 
 #include "indicial/model.hpp"
+#include "indicial/model_check.hpp"
+#include "indicial/runtime.hpp"
+
+// Defined so that a translation unit can prove it does not include the parser
+// (tests/test_codegen.cpp compiles one that must not).
+#define INDICIAL_COEF_FILE_HPP_INCLUDED 1
 
 namespace indicial {
-
-// Why a load failed (or ok). Each value says exactly what was wrong with the input.
-enum class LoadStatus : int {
-  ok = 0,
-  empty_input,          // no bytes, or only whitespace
-  null_argument,        // text == nullptr with length > 0, or out == nullptr
-  truncated,            // no (complete) checksum line, or a coefficient block never ended
-  checksum_mismatch,    // the CRC-32 of the bytes before `checksum` differs: corrupted
-  wrong_version,        // `indicial-coef N` with N != 1
-  over_capacity,        // more powers/knots/lags/table rows/coefficients than Cap allows
-  syntax_error,         // unknown or duplicate key, bad number, wrong token count, bad order
-  invalid_value,        // NaN/Inf, non-increasing table, lag 1 gain != 1, bad power,
-                        // non-positive length or airspeed, envelope min >= max, ...
-  unsupported_feature,  // no longer returned (was: nonzero delay_s before delay support)
-  unstable_lag,         // (runtime validation) b_j(x) <= 0 somewhere inside the envelope
-};
-
-inline constexpr const char* to_string(LoadStatus s) {
-  switch (s) {
-    case LoadStatus::ok: return "ok";
-    case LoadStatus::empty_input: return "empty_input";
-    case LoadStatus::null_argument: return "null_argument";
-    case LoadStatus::truncated: return "truncated";
-    case LoadStatus::checksum_mismatch: return "checksum_mismatch";
-    case LoadStatus::wrong_version: return "wrong_version";
-    case LoadStatus::over_capacity: return "over_capacity";
-    case LoadStatus::syntax_error: return "syntax_error";
-    case LoadStatus::invalid_value: return "invalid_value";
-    case LoadStatus::unsupported_feature: return "unsupported_feature";
-    case LoadStatus::unstable_lag: return "unstable_lag";
-  }
-  return "unknown_load_status";
-}
 
 enum class WriteStatus : int {
   ok = 0,
@@ -103,18 +80,8 @@ inline constexpr const char* to_string(WriteStatus s) {
   return "unknown_write_status";
 }
 
-// Where and why a load was refused. `reason` always points to a string literal (no heap);
-// `line` is 1-based, 0 when the problem is not on one line (e.g. a ModelSet built in code).
-struct ParseDiagnostic {
-  std::size_t line = 0;
-  const char* reason = "";
-};
-
 // The format version this header reads and writes.
 inline constexpr int coef_file_version = 1;
-// Highest power allowed for a plus-function knot term (x - k)_+^p: the report uses 1 and 2;
-// beyond 8 the term is numerically meaningless over an angle range of a few radians.
-inline constexpr int max_knot_power = 8;
 
 // ------------------------------------------------------------------------------------------
 // CRC-32 (IEEE 802.3, reflected polynomial 0xEDB88320, as zlib's crc32()).
@@ -145,151 +112,6 @@ inline std::uint32_t crc32(const char* data, std::size_t n, std::uint32_t crc = 
     crc = detail::crc32_table.entry[(crc ^ byte) & 0xFFu] ^ (crc >> 8);
   }
   return ~crc;
-}
-
-// ------------------------------------------------------------------------------------------
-// Structural validation shared by the parser, the writer and the runtime: counts within Cap,
-// finite values, positive length and airspeed, ordered envelope and table, valid powers and
-// names, lag 1's gain 1, delay finite and >= 0. (The runtime adds the b_j(x) > 0 check.)
-// ------------------------------------------------------------------------------------------
-namespace detail {
-
-inline bool valid_coefficient_name(const char* name, std::size_t capacity) {
-  std::size_t n = 0;
-  while (n < capacity && name[n] != '\0') {
-    const char ch = name[n];
-    const bool ok = (ch >= 'A' && ch <= 'Z') || (ch >= 'a' && ch <= 'z') ||
-                    (ch >= '0' && ch <= '9') || ch == '_';
-    if (!ok) return false;
-    ++n;
-  }
-  return n > 0 && n < capacity;  // non-empty and NUL-terminated inside the array
-}
-
-inline bool names_equal(const char* a, const char* b) {
-  std::size_t i = 0;
-  while (a[i] != '\0' && a[i] == b[i]) ++i;
-  return a[i] == b[i];
-}
-
-inline LoadStatus refuse(ParseDiagnostic* diag, std::size_t line, const char* reason,
-                         LoadStatus status) {
-  if (diag != nullptr) {
-    diag->line = line;
-    diag->reason = reason;
-  }
-  return status;
-}
-
-template <int P, int K>
-inline LoadStatus check_spline(const Spline<double, P, K>& s, const char** reason) {
-  if (s.n_powers < 0 || s.n_powers > P) {
-    *reason = "more polynomial powers than the capacity allows";
-    return LoadStatus::over_capacity;
-  }
-  if (s.n_knots < 0 || s.n_knots > K) {
-    *reason = "more knots than the capacity allows";
-    return LoadStatus::over_capacity;
-  }
-  for (int i = 0; i < s.n_powers; ++i) {
-    if (!std::isfinite(s.power_coef[i])) {
-      *reason = "polynomial coefficient is NaN or Inf";
-      return LoadStatus::invalid_value;
-    }
-  }
-  for (int j = 0; j < s.n_knots; ++j) {
-    if (!std::isfinite(s.knot_rad[j]) || !std::isfinite(s.knot_coef[j])) {
-      *reason = "knot position or coefficient is NaN or Inf";
-      return LoadStatus::invalid_value;
-    }
-    if (s.knot_power[j] < 0 || s.knot_power[j] > max_knot_power) {
-      *reason = "knot power must be an integer 0..8";
-      return LoadStatus::invalid_value;
-    }
-  }
-  return LoadStatus::ok;
-}
-
-}  // namespace detail
-
-template <class Cap>
-inline LoadStatus validate_model_set(const ModelSet<double, Cap>& m, ParseDiagnostic* diag) {
-  using detail::refuse;
-  const char* reason = "";
-  if (m.axis != Axis::pitch && m.axis != Axis::roll && m.axis != Axis::yaw)
-    return refuse(diag, 0, "axis must be pitch, roll or yaw", LoadStatus::invalid_value);
-  if (!std::isfinite(m.reference_length_m) || !(m.reference_length_m > 0.0))
-    return refuse(diag, 0, "reference_length_m must be finite and > 0", LoadStatus::invalid_value);
-  if (!std::isfinite(m.airspeed_mps) || !(m.airspeed_mps > 0.0))
-    return refuse(diag, 0, "airspeed_mps must be finite and > 0", LoadStatus::invalid_value);
-  if (!std::isfinite(m.alpha0_rad))
-    return refuse(diag, 0, "alpha0_rad is NaN or Inf", LoadStatus::invalid_value);
-  if (!std::isfinite(m.x_min_rad) || !std::isfinite(m.x_max_rad))
-    return refuse(diag, 0, "envelope_rad is NaN or Inf", LoadStatus::invalid_value);
-  if (!(m.x_min_rad < m.x_max_rad))
-    return refuse(diag, 0, "envelope_rad: min must be < max", LoadStatus::invalid_value);
-  if (m.n_coefficients > Cap::max_coefficients)
-    return refuse(diag, 0, "more coefficients than the capacity allows", LoadStatus::over_capacity);
-  if (m.n_coefficients < 1)
-    return refuse(diag, 0, "no coefficient block", LoadStatus::syntax_error);
-  for (int c = 0; c < m.n_coefficients; ++c) {
-    const CoefficientModel<double, Cap>& cm = m.coefficients[c];
-    if (!detail::valid_coefficient_name(cm.name, sizeof cm.name))
-      return refuse(diag, 0, "coefficient name must be 1..7 letters, digits or _",
-                    LoadStatus::syntax_error);
-    for (int d = 0; d < c; ++d) {
-      if (detail::names_equal(cm.name, m.coefficients[d].name))
-        return refuse(diag, 0, "coefficient name given twice", LoadStatus::invalid_value);
-    }
-    const auto& sc = cm.static_curve;
-    LoadStatus s = detail::check_spline(sc.polynomial, &reason);
-    if (s != LoadStatus::ok) return refuse(diag, 0, reason, s);
-    if (sc.kind == StaticKind::table) {
-      if (sc.n_table > Cap::max_table_points)
-        return refuse(diag, 0, "more static table rows than the capacity allows",
-                      LoadStatus::over_capacity);
-      if (sc.n_table < 2)
-        return refuse(diag, 0, "a static table needs at least 2 rows", LoadStatus::invalid_value);
-      if (sc.polynomial.n_powers != 0 || sc.polynomial.n_knots != 0)
-        return refuse(diag, 0, "static curve given both as polynomial and as table",
-                      LoadStatus::invalid_value);
-      for (int i = 0; i < sc.n_table; ++i) {
-        if (!std::isfinite(sc.table_x_rad[i]) || !std::isfinite(sc.table_value[i]))
-          return refuse(diag, 0, "static table value is NaN or Inf", LoadStatus::invalid_value);
-        if (i > 0 && !(sc.table_x_rad[i] > sc.table_x_rad[i - 1]))
-          return refuse(diag, 0, "static table x_rad must be strictly increasing",
-                        LoadStatus::invalid_value);
-      }
-    } else if (sc.kind != StaticKind::polynomial) {
-      return refuse(diag, 0, "unknown static curve kind", LoadStatus::invalid_value);
-    }
-    if ((s = detail::check_spline(cm.static_correction, &reason)) != LoadStatus::ok ||
-        (s = detail::check_spline(cm.rotary, &reason)) != LoadStatus::ok ||
-        (s = detail::check_spline(cm.a, &reason)) != LoadStatus::ok)
-      return refuse(diag, 0, reason, s);
-    if (cm.n_lags > Cap::max_lags)
-      return refuse(diag, 0, "more lag states than the capacity allows", LoadStatus::over_capacity);
-    if (cm.n_lags < 1)
-      return refuse(diag, 0, "at least one lag state is required", LoadStatus::invalid_value);
-    for (int j = 0; j < cm.n_lags; ++j) {
-      if ((s = detail::check_spline(cm.lags[j].b, &reason)) != LoadStatus::ok)
-        return refuse(diag, 0, reason, s);
-      if (!std::isfinite(cm.lags[j].gain))
-        return refuse(diag, 0, "lag gain is NaN or Inf", LoadStatus::invalid_value);
-    }
-    // Why: c_1 = 1 by definition (a(x) absorbs it); a different value would be silently
-    // ignored by advance_lags, so it is refused rather than dropped.
-    if (cm.lags[0].gain != 1.0)
-      return refuse(diag, 0, "lag 1's gain is 1 by definition", LoadStatus::invalid_value);
-    if (!std::isfinite(cm.con))
-      return refuse(diag, 0, "con is NaN or Inf", LoadStatus::invalid_value);
-    if (!std::isfinite(cm.delay_s))
-      return refuse(diag, 0, "delay_s is NaN or Inf", LoadStatus::invalid_value);
-    if (cm.delay_s < 0.0)
-      return refuse(diag, 0, "delay_s must be >= 0 (a delay, not a prediction)",
-                    LoadStatus::invalid_value);
-  }
-  return LoadStatus::ok;
 }
 
 // ------------------------------------------------------------------------------------------
@@ -498,335 +320,486 @@ enum SeenBit : unsigned {
   seen_lag_gain0 = 1u << 24,  // + j
 };
 
-}  // namespace detail
+// The outcome of reading one key's values: a status, its reason, and which single-occurrence
+// bit the key sets (0 for keys that may repeat).
+struct KeyRead {
+  LoadStatus status = LoadStatus::ok;
+  const char* reason = "";
+  unsigned once_bit = 0;
+};
+
+inline KeyRead key_read(LoadStatus s, const char* reason, unsigned once_bit) {
+  KeyRead r;
+  r.status = s;
+  r.reason = reason;
+  r.once_bit = once_bit;
+  return r;
+}
+
+// --- Header keys (before the first coefficient block) ------------------------------------
 
 template <class Cap>
-LoadStatus parse_coef_file(const char* text, std::size_t length, ModelSet<double, Cap>* out,
-                           ParseDiagnostic* diag) {
-  using namespace detail;
-  if (out == nullptr) return refuse(diag, 0, "no output model given", LoadStatus::null_argument);
-  if (length == 0) return refuse(diag, 0, "empty input", LoadStatus::empty_input);
-  if (text == nullptr)
-    return refuse(diag, 0, "null text with nonzero length", LoadStatus::null_argument);
-  {
-    std::size_t i = 0;
-    while (i < length && (text[i] == ' ' || text[i] == '\t' || text[i] == '\n' ||
-                          text[i] == '\r'))
-      ++i;
-    if (i == length) return refuse(diag, 1, "only whitespace", LoadStatus::empty_input);
-  }
+inline KeyRead read_axis(ModelSet<double, Cap>& m, Tokens& t) {
+  const char* vb = nullptr;
+  const char* ve = nullptr;
+  if (!t.next(&vb, &ve) || !t.at_end())
+    return key_read(LoadStatus::syntax_error, "axis needs one value", seen_axis);
+  if (token_is(vb, ve, "pitch")) m.axis = Axis::pitch;
+  else if (token_is(vb, ve, "roll")) m.axis = Axis::roll;
+  else if (token_is(vb, ve, "yaw")) m.axis = Axis::yaw;
+  else return key_read(LoadStatus::invalid_value, "axis must be pitch, roll or yaw", seen_axis);
+  return key_read(LoadStatus::ok, "", seen_axis);
+}
 
-  const char* b = nullptr;
-  const char* e = nullptr;
-  std::size_t start = 0;
+// One positive number (reference_length_m, airspeed_mps).
+inline KeyRead read_positive(Tokens& t, double* v, const char* not_positive, unsigned bit) {
   const char* reason = "";
+  const LoadStatus st = read_numbers(t, v, 1, &reason);
+  if (st != LoadStatus::ok) return key_read(st, reason, bit);
+  if (!(*v > 0.0)) return key_read(LoadStatus::invalid_value, not_positive, bit);
+  return key_read(LoadStatus::ok, "", bit);
+}
 
-  // 1. The version line: the first line that is not blank or a comment. Checked before the
-  //    checksum because another version may protect itself differently.
-  LineCursor cur{text, length};
-  for (;;) {
-    if (!cur.next(&b, &e, &start)) return refuse(diag, 1, "only comments", LoadStatus::empty_input);
-    if (!is_ignorable(b, e)) break;
-  }
-  {
-    Tokens t{b, e};
-    const char* kb = nullptr;
-    const char* ke = nullptr;
-    int version = 0;
-    t.next(&kb, &ke);
-    if (!token_is(kb, ke, "indicial-coef"))
-      return refuse(diag, cur.number, "the first line must be 'indicial-coef 1'",
-                    LoadStatus::syntax_error);
-    if (!t.next(&kb, &ke) || parse_int(kb, ke, &version, &reason) != LoadStatus::ok || !t.at_end())
-      return refuse(diag, cur.number, "bad version line", LoadStatus::syntax_error);
-    if (version != coef_file_version)
-      return refuse(diag, cur.number, "unsupported file version (this runtime reads version 1)",
-                    LoadStatus::wrong_version);
-  }
-  const std::size_t body_first_line = cur.number + 1;
-  const std::size_t body_start = cur.pos;
+template <class Cap>
+inline KeyRead read_length(ModelSet<double, Cap>& m, Tokens& t) {
+  return read_positive(t, &m.reference_length_m, "reference_length_m must be > 0", seen_length);
+}
 
-  // 2. The checksum line: the first line whose first token is `checksum`; only blank lines
-  //    may follow it.
-  std::size_t checksum_start = 0;
-  std::size_t checksum_line = 0;
-  std::uint32_t stored_crc = 0;
-  {
-    LineCursor scan = cur;
-    bool found = false;
-    while (scan.next(&b, &e, &start)) {
-      Tokens t{b, e};
-      const char* kb = nullptr;
-      const char* ke = nullptr;
-      if (!found) {
-        if (t.next(&kb, &ke) && token_is(kb, ke, "checksum")) {
-          found = true;
-          checksum_start = start;
-          checksum_line = scan.number;
-          const char* hb = nullptr;
-          const char* he = nullptr;
-          if (!t.next(&hb, &he))
-            return refuse(diag, checksum_line, "checksum line has no value (file truncated?)",
-                          LoadStatus::truncated);
-          int digits = 0;
-          for (const char* p = hb; p < he; ++p, ++digits) {
-            const char ch = *p;
-            unsigned v = 0;
-            if (ch >= '0' && ch <= '9') v = static_cast<unsigned>(ch - '0');
-            else if (ch >= 'a' && ch <= 'f') v = static_cast<unsigned>(ch - 'a' + 10);
-            else
-              return refuse(diag, checksum_line, "checksum must be 8 lowercase hex digits",
-                            LoadStatus::syntax_error);
-            if (digits >= 8)
-              return refuse(diag, checksum_line, "checksum must be 8 lowercase hex digits",
-                            LoadStatus::syntax_error);
-            stored_crc = (stored_crc << 4) | v;
-          }
-          // Why truncated and not syntax_error: a file cut inside its last line ends here.
-          if (digits < 8)
-            return refuse(diag, checksum_line, "checksum has fewer than 8 digits (file truncated?)",
-                          LoadStatus::truncated);
-          if (!t.at_end())
-            return refuse(diag, checksum_line, "extra text on the checksum line",
-                          LoadStatus::syntax_error);
-        }
-      } else if (t.next(&kb, &ke)) {
-        return refuse(diag, scan.number, "text after the checksum line", LoadStatus::syntax_error);
-      }
-    }
-    if (!found)
-      return refuse(diag, scan.number, "no checksum line (file truncated?)", LoadStatus::truncated);
-  }
-  if (crc32(text, checksum_start) != stored_crc)
-    return refuse(diag, checksum_line, "checksum mismatch: the file is corrupted",
-                  LoadStatus::checksum_mismatch);
+template <class Cap>
+inline KeyRead read_airspeed(ModelSet<double, Cap>& m, Tokens& t) {
+  return read_positive(t, &m.airspeed_mps, "airspeed_mps must be > 0", seen_airspeed);
+}
 
-  // 3. The body, between the version line and the checksum line.
+template <class Cap>
+inline KeyRead read_alpha0(ModelSet<double, Cap>& m, Tokens& t) {
+  const char* reason = "";
+  const LoadStatus st = read_numbers(t, &m.alpha0_rad, 1, &reason);
+  return key_read(st, reason, seen_alpha0);
+}
+
+template <class Cap>
+inline KeyRead read_envelope(ModelSet<double, Cap>& m, Tokens& t) {
+  double v[2] = {0.0, 0.0};
+  const char* reason = "";
+  const LoadStatus st = read_numbers(t, v, 2, &reason);
+  if (st != LoadStatus::ok) return key_read(st, reason, seen_envelope);
+  if (!(v[0] < v[1]))
+    return key_read(LoadStatus::invalid_value, "envelope_rad: min must be < max", seen_envelope);
+  m.x_min_rad = v[0];
+  m.x_max_rad = v[1];
+  return key_read(LoadStatus::ok, "", seen_envelope);
+}
+
+template <class Cap>
+struct HeaderKey {
+  const char* key;
+  KeyRead (*read)(ModelSet<double, Cap>&, Tokens&);
+};
+
+template <class Cap>
+inline const HeaderKey<Cap>* find_header_key(const char* b, const char* e) {
+  static const HeaderKey<Cap> keys[] = {
+      {"axis", &read_axis<Cap>},           {"reference_length_m", &read_length<Cap>},
+      {"airspeed_mps", &read_airspeed<Cap>}, {"alpha0_rad", &read_alpha0<Cap>},
+      {"envelope_rad", &read_envelope<Cap>}};
+  for (const HeaderKey<Cap>& k : keys)
+    if (token_is(b, e, k.key)) return &k;
+  return nullptr;
+}
+
+// --- Keys inside a coefficient block -------------------------------------------------------
+
+template <class Cap>
+using CoefSpline = typename CoefficientModel<double, Cap>::SplineT;
+
+// `<spline>_poly` and `<spline>_knot` of the correction, rotary and a(x) splines.
+template <class Cap, CoefSpline<Cap> CoefficientModel<double, Cap>::*Member, unsigned Bit>
+inline KeyRead read_member_poly(CoefficientModel<double, Cap>& cm, Tokens& t, int*) {
+  const char* reason = "";
+  const LoadStatus st = read_poly(t, &(cm.*Member), &reason);
+  return key_read(st, reason, Bit);
+}
+
+template <class Cap, CoefSpline<Cap> CoefficientModel<double, Cap>::*Member>
+inline KeyRead read_member_knot(CoefficientModel<double, Cap>& cm, Tokens& t, int*) {
+  const char* reason = "";
+  const LoadStatus st = read_knot(t, &(cm.*Member), &reason);
+  return key_read(st, reason, 0);
+}
+
+template <class Cap>
+inline KeyRead read_static_poly(CoefficientModel<double, Cap>& cm, Tokens& t, int*) {
+  if (cm.static_curve.kind == StaticKind::table)
+    return key_read(LoadStatus::invalid_value, "static curve given both as table and polynomial", 0);
+  const char* reason = "";
+  const LoadStatus st = read_poly(t, &cm.static_curve.polynomial, &reason);
+  return key_read(st, reason, seen_static_poly);
+}
+
+template <class Cap>
+inline KeyRead read_static_knot(CoefficientModel<double, Cap>& cm, Tokens& t, int*) {
+  if (cm.static_curve.kind == StaticKind::table)
+    return key_read(LoadStatus::invalid_value, "static curve given both as table and polynomial", 0);
+  const char* reason = "";
+  const LoadStatus st = read_knot(t, &cm.static_curve.polynomial, &reason);
+  return key_read(st, reason, 0);
+}
+
+template <class Cap>
+inline KeyRead read_table_point(CoefficientModel<double, Cap>& cm, Tokens& t, int*) {
+  auto& sc = cm.static_curve;
+  if (sc.polynomial.n_powers != 0 || sc.polynomial.n_knots != 0)
+    return key_read(LoadStatus::invalid_value, "static curve given both as polynomial and table", 0);
+  double v[2] = {0.0, 0.0};
+  const char* reason = "";
+  const LoadStatus st = read_numbers(t, v, 2, &reason);
+  if (st != LoadStatus::ok) return key_read(st, reason, 0);
+  if (sc.n_table >= Cap::max_table_points)
+    return key_read(LoadStatus::over_capacity, "more static table rows than the capacity allows", 0);
+  if (sc.n_table > 0 && !(v[0] > sc.table_x_rad[sc.n_table - 1]))
+    return key_read(LoadStatus::invalid_value, "static table x_rad must be strictly increasing", 0);
+  sc.kind = StaticKind::table;
+  sc.table_x_rad[sc.n_table] = v[0];
+  sc.table_value[sc.n_table] = v[1];
+  ++sc.n_table;
+  return key_read(LoadStatus::ok, "", 0);
+}
+
+// `lag_poly j ...`, `lag_knot j ...`, `lag_gain j c`: the lag index first (0-based to *lag).
+enum class LagItem : int { poly = 0, knot = 1, gain = 2 };
+
+template <class Cap, LagItem Item>
+inline KeyRead read_lag(CoefficientModel<double, Cap>& cm, Tokens& t, int* lag) {
+  const char* reason = "";
+  int j = 0;
+  LoadStatus st = read_lag_index<Cap>(t, &j, &reason);
+  if (st != LoadStatus::ok) return key_read(st, reason, 0);
+  *lag = j;
+  if (Item == LagItem::poly) {
+    st = read_poly(t, &cm.lags[j].b, &reason);
+    return key_read(st, reason, seen_lag_poly0 << j);
+  }
+  if (Item == LagItem::knot) {
+    st = read_knot(t, &cm.lags[j].b, &reason);
+    return key_read(st, reason, 0);
+  }
+  double g = 0.0;
+  st = read_numbers(t, &g, 1, &reason);
+  if (st != LoadStatus::ok) return key_read(st, reason, seen_lag_gain0 << j);
+  // Why: c_1 = 1 by definition (a(x) absorbs the first lag's amplitude).
+  if (j == 0 && g != 1.0)
+    return key_read(LoadStatus::invalid_value, "lag 1's gain is 1 by definition", seen_lag_gain0 << j);
+  cm.lags[j].gain = g;
+  return key_read(LoadStatus::ok, "", seen_lag_gain0 << j);
+}
+
+template <class Cap>
+inline KeyRead read_con(CoefficientModel<double, Cap>& cm, Tokens& t, int*) {
+  const char* reason = "";
+  const LoadStatus st = read_numbers(t, &cm.con, 1, &reason);
+  return key_read(st, reason, seen_con);
+}
+
+template <class Cap>
+inline KeyRead read_delay(CoefficientModel<double, Cap>& cm, Tokens& t, int*) {
+  const char* reason = "";
+  double d = 0.0;
+  const LoadStatus st = read_numbers(t, &d, 1, &reason);
+  if (st != LoadStatus::ok) return key_read(st, reason, seen_delay);
+  if (d < 0.0)
+    return key_read(LoadStatus::invalid_value, "delay_s must be >= 0 (a delay, not a prediction)",
+                    seen_delay);
+  cm.delay_s = d;
+  return key_read(LoadStatus::ok, "", seen_delay);
+}
+
+template <class Cap>
+struct BlockKey {
+  const char* key;
+  KeyRead (*read)(CoefficientModel<double, Cap>&, Tokens&, int* lag_index0);
+};
+
+template <class Cap>
+inline const BlockKey<Cap>* find_block_key(const char* b, const char* e) {
+  using CM = CoefficientModel<double, Cap>;
+  static const BlockKey<Cap> keys[] = {
+      {"static_poly", &read_static_poly<Cap>},
+      {"static_knot", &read_static_knot<Cap>},
+      {"static_table_point", &read_table_point<Cap>},
+      {"static_corr_poly", &read_member_poly<Cap, &CM::static_correction, seen_corr_poly>},
+      {"static_corr_knot", &read_member_knot<Cap, &CM::static_correction>},
+      {"rotary_poly", &read_member_poly<Cap, &CM::rotary, seen_rotary_poly>},
+      {"rotary_knot", &read_member_knot<Cap, &CM::rotary>},
+      {"a_poly", &read_member_poly<Cap, &CM::a, seen_a_poly>},
+      {"a_knot", &read_member_knot<Cap, &CM::a>},
+      {"lag_poly", &read_lag<Cap, LagItem::poly>},
+      {"lag_knot", &read_lag<Cap, LagItem::knot>},
+      {"lag_gain", &read_lag<Cap, LagItem::gain>},
+      {"con", &read_con<Cap>},
+      {"delay_s", &read_delay<Cap>}};
+  for (const BlockKey<Cap>& k : keys)
+    if (token_is(b, e, k.key)) return &k;
+  return nullptr;
+}
+
+// --- The body: header, then coefficient blocks ---------------------------------------------
+
+template <class Cap>
+struct BodyState {
   ModelSet<double, Cap> m{};
-  m.n_coefficients = 0;
-  LineCursor body{text, checksum_start};
-  body.pos = body_start;
-  body.number = body_first_line - 1;
   unsigned header_seen = 0;
   unsigned block_seen = 0;
   int max_lag_index0 = -1;
   CoefficientModel<double, Cap>* cm = nullptr;  // the open block, if any
   std::size_t block_line = 0;
+};
 
-  while (body.next(&b, &e, &start)) {
-    const std::size_t line = body.number;
-    if (is_ignorable(b, e)) continue;
+template <class Cap>
+inline LoadStatus parse_header_line(BodyState<Cap>& b, const HeaderKey<Cap>& key, Tokens& t,
+                                    std::size_t line, ParseDiagnostic* diag) {
+  if (b.cm != nullptr || b.m.n_coefficients > 0)
+    return refuse(diag, line, "header key after a coefficient block", LoadStatus::syntax_error);
+  const KeyRead r = key.read(b.m, t);
+  if (r.status != LoadStatus::ok) return refuse(diag, line, r.reason, r.status);
+  if (b.header_seen & r.once_bit) return refuse(diag, line, "key given twice", LoadStatus::syntax_error);
+  b.header_seen |= r.once_bit;
+  return LoadStatus::ok;
+}
+
+template <class Cap>
+inline LoadStatus open_block(BodyState<Cap>& b, Tokens& t, std::size_t line, ParseDiagnostic* diag) {
+  if (b.cm != nullptr)
+    return refuse(diag, line, "coefficient block opened inside another (missing end_coefficient)",
+                  LoadStatus::syntax_error);
+  static const struct { unsigned bit; const char* reason; } required[] = {
+      {seen_axis, "missing 'axis' before the first coefficient"},
+      {seen_length, "missing 'reference_length_m' before the first coefficient"},
+      {seen_airspeed, "missing 'airspeed_mps' before the first coefficient"},
+      {seen_alpha0, "missing 'alpha0_rad' before the first coefficient"},
+      {seen_envelope, "missing 'envelope_rad' before the first coefficient"}};
+  for (const auto& r : required)
+    if (!(b.header_seen & r.bit)) return refuse(diag, line, r.reason, LoadStatus::syntax_error);
+  if (b.m.n_coefficients >= Cap::max_coefficients)
+    return refuse(diag, line, "more coefficients than the capacity allows", LoadStatus::over_capacity);
+  const char* nb = nullptr;
+  const char* ne = nullptr;
+  if (!t.next(&nb, &ne) || !t.at_end())
+    return refuse(diag, line, "coefficient needs one name", LoadStatus::syntax_error);
+  CoefficientModel<double, Cap>* cm = &b.m.coefficients[b.m.n_coefficients];
+  b.cm = cm;
+  const std::size_t name_len = static_cast<std::size_t>(ne - nb);
+  if (name_len >= sizeof cm->name)
+    return refuse(diag, line, "coefficient name longer than 7 characters", LoadStatus::syntax_error);
+  for (std::size_t i = 0; i < name_len; ++i) cm->name[i] = nb[i];
+  cm->name[name_len] = '\0';
+  if (!valid_coefficient_name(cm->name, sizeof cm->name))
+    return refuse(diag, line, "coefficient name must be letters, digits or _", LoadStatus::syntax_error);
+  for (int d = 0; d < b.m.n_coefficients; ++d) {
+    if (names_equal(cm->name, b.m.coefficients[d].name))
+      return refuse(diag, line, "coefficient name given twice", LoadStatus::invalid_value);
+  }
+  b.block_seen = 0;
+  b.max_lag_index0 = -1;
+  b.block_line = line;
+  return LoadStatus::ok;
+}
+
+template <class Cap>
+inline LoadStatus close_block(BodyState<Cap>& b, Tokens& t, std::size_t line, ParseDiagnostic* diag) {
+  if (!t.at_end()) return refuse(diag, line, "extra text after end_coefficient", LoadStatus::syntax_error);
+  auto& sc = b.cm->static_curve;
+  b.cm->n_lags = b.max_lag_index0 < 0 ? 1 : b.max_lag_index0 + 1;
+  if (sc.kind == StaticKind::table) {
+    if (sc.n_table < 2)
+      return refuse(diag, line, "a static table needs at least 2 rows", LoadStatus::invalid_value);
+    prepare_static_table(sc);
+  }
+  ++b.m.n_coefficients;
+  b.cm = nullptr;
+  return LoadStatus::ok;
+}
+
+template <class Cap>
+inline LoadStatus parse_block_line(BodyState<Cap>& b, const BlockKey<Cap>& key, Tokens& t,
+                                   std::size_t line, ParseDiagnostic* diag) {
+  int lag = -1;
+  const KeyRead r = key.read(*b.cm, t, &lag);
+  if (lag > b.max_lag_index0) b.max_lag_index0 = lag;
+  if (r.status != LoadStatus::ok) return refuse(diag, line, r.reason, r.status);
+  if (r.once_bit != 0) {
+    if (b.block_seen & r.once_bit) return refuse(diag, line, "key given twice", LoadStatus::syntax_error);
+    b.block_seen |= r.once_bit;
+  }
+  return LoadStatus::ok;
+}
+
+// One non-blank body line: dispatched on its first token.
+template <class Cap>
+inline LoadStatus parse_body_line(BodyState<Cap>& b, Tokens& t, std::size_t line, ParseDiagnostic* diag) {
+  const char* kb = nullptr;
+  const char* ke = nullptr;
+  t.next(&kb, &ke);
+  if (const HeaderKey<Cap>* h = find_header_key<Cap>(kb, ke)) return parse_header_line(b, *h, t, line, diag);
+  if (token_is(kb, ke, "coefficient")) return open_block(b, t, line, diag);
+  if (b.cm == nullptr) {
+    if (token_is(kb, ke, "end_coefficient"))
+      return refuse(diag, line, "end_coefficient without a block", LoadStatus::syntax_error);
+    return refuse(diag, line, "unknown key", LoadStatus::syntax_error);
+  }
+  if (token_is(kb, ke, "end_coefficient")) return close_block(b, t, line, diag);
+  if (const BlockKey<Cap>* k = find_block_key<Cap>(kb, ke)) return parse_block_line(b, *k, t, line, diag);
+  return refuse(diag, line, "unknown key", LoadStatus::syntax_error);
+}
+
+// Where the body is and what protects it (steps 1 and 2 of parse_coef_file).
+struct Frame {
+  std::size_t body_first_line = 0;
+  std::size_t body_start = 0;
+  std::size_t checksum_start = 0;
+  std::size_t checksum_line = 0;
+};
+
+// Empty input, null pointers, only whitespace.
+inline LoadStatus check_input(const char* text, std::size_t length, const void* out,
+                              ParseDiagnostic* diag) {
+  if (out == nullptr) return refuse(diag, 0, "no output model given", LoadStatus::null_argument);
+  if (length == 0) return refuse(diag, 0, "empty input", LoadStatus::empty_input);
+  if (text == nullptr) return refuse(diag, 0, "null text with nonzero length", LoadStatus::null_argument);
+  std::size_t i = 0;
+  while (i < length && (text[i] == ' ' || text[i] == '\t' || text[i] == '\n' || text[i] == '\r')) ++i;
+  if (i == length) return refuse(diag, 1, "only whitespace", LoadStatus::empty_input);
+  return LoadStatus::ok;
+}
+
+// 1. The version line: the first line that is not blank or a comment. Checked before the
+//    checksum because another version may protect itself differently.
+inline LoadStatus read_version_line(LineCursor& cur, ParseDiagnostic* diag) {
+  const char* b = nullptr;
+  const char* e = nullptr;
+  std::size_t start = 0;
+  for (;;) {
+    if (!cur.next(&b, &e, &start)) return refuse(diag, 1, "only comments", LoadStatus::empty_input);
+    if (!is_ignorable(b, e)) break;
+  }
+  Tokens t{b, e};
+  const char* kb = nullptr;
+  const char* ke = nullptr;
+  const char* reason = "";
+  int version = 0;
+  t.next(&kb, &ke);
+  if (!token_is(kb, ke, "indicial-coef"))
+    return refuse(diag, cur.number, "the first line must be 'indicial-coef 1'", LoadStatus::syntax_error);
+  if (!t.next(&kb, &ke) || parse_int(kb, ke, &version, &reason) != LoadStatus::ok || !t.at_end())
+    return refuse(diag, cur.number, "bad version line", LoadStatus::syntax_error);
+  if (version != coef_file_version)
+    return refuse(diag, cur.number, "unsupported file version (this runtime reads version 1)",
+                  LoadStatus::wrong_version);
+  return LoadStatus::ok;
+}
+
+// The 8 lowercase hex digits of the checksum line.
+inline LoadStatus read_checksum_value(Tokens& t, std::size_t line, std::uint32_t* crc,
+                                      ParseDiagnostic* diag) {
+  const char* hb = nullptr;
+  const char* he = nullptr;
+  if (!t.next(&hb, &he))
+    return refuse(diag, line, "checksum line has no value (file truncated?)", LoadStatus::truncated);
+  int digits = 0;
+  for (const char* p = hb; p < he; ++p, ++digits) {
+    const char ch = *p;
+    unsigned v = 0;
+    if (ch >= '0' && ch <= '9') v = static_cast<unsigned>(ch - '0');
+    else if (ch >= 'a' && ch <= 'f') v = static_cast<unsigned>(ch - 'a' + 10);
+    else return refuse(diag, line, "checksum must be 8 lowercase hex digits", LoadStatus::syntax_error);
+    if (digits >= 8)
+      return refuse(diag, line, "checksum must be 8 lowercase hex digits", LoadStatus::syntax_error);
+    *crc = (*crc << 4) | v;
+  }
+  // Why truncated and not syntax_error: a file cut inside its last line ends here.
+  if (digits < 8)
+    return refuse(diag, line, "checksum has fewer than 8 digits (file truncated?)", LoadStatus::truncated);
+  if (!t.at_end()) return refuse(diag, line, "extra text on the checksum line", LoadStatus::syntax_error);
+  return LoadStatus::ok;
+}
+
+// 2. The checksum line: the first line whose first token is `checksum`; only blank lines may
+//    follow it. Then the CRC of every byte before it.
+inline LoadStatus find_checksum(const char* text, LineCursor scan, Frame* f, ParseDiagnostic* diag) {
+  const char* b = nullptr;
+  const char* e = nullptr;
+  std::size_t start = 0;
+  std::uint32_t stored_crc = 0;
+  bool found = false;
+  while (scan.next(&b, &e, &start)) {
     Tokens t{b, e};
     const char* kb = nullptr;
     const char* ke = nullptr;
-    t.next(&kb, &ke);
-    LoadStatus st = LoadStatus::ok;
-    reason = "";
-
-    // Header keys, before the first coefficient block.
-    const bool is_header_key = token_is(kb, ke, "axis") || token_is(kb, ke, "reference_length_m") ||
-                               token_is(kb, ke, "airspeed_mps") || token_is(kb, ke, "alpha0_rad") ||
-                               token_is(kb, ke, "envelope_rad");
-    if (is_header_key) {
-      if (cm != nullptr || m.n_coefficients > 0)
-        return refuse(diag, line, "header key after a coefficient block", LoadStatus::syntax_error);
-      unsigned bit = 0;
-      if (token_is(kb, ke, "axis")) {
-        bit = seen_axis;
-        const char* vb = nullptr;
-        const char* ve = nullptr;
-        if (!t.next(&vb, &ve) || !t.at_end())
-          return refuse(diag, line, "axis needs one value", LoadStatus::syntax_error);
-        if (token_is(vb, ve, "pitch")) m.axis = Axis::pitch;
-        else if (token_is(vb, ve, "roll")) m.axis = Axis::roll;
-        else if (token_is(vb, ve, "yaw")) m.axis = Axis::yaw;
-        else return refuse(diag, line, "axis must be pitch, roll or yaw", LoadStatus::invalid_value);
-      } else if (token_is(kb, ke, "reference_length_m")) {
-        bit = seen_length;
-        if ((st = read_numbers(t, &m.reference_length_m, 1, &reason)) != LoadStatus::ok)
-          return refuse(diag, line, reason, st);
-        if (!(m.reference_length_m > 0.0))
-          return refuse(diag, line, "reference_length_m must be > 0", LoadStatus::invalid_value);
-      } else if (token_is(kb, ke, "airspeed_mps")) {
-        bit = seen_airspeed;
-        if ((st = read_numbers(t, &m.airspeed_mps, 1, &reason)) != LoadStatus::ok)
-          return refuse(diag, line, reason, st);
-        if (!(m.airspeed_mps > 0.0))
-          return refuse(diag, line, "airspeed_mps must be > 0", LoadStatus::invalid_value);
-      } else if (token_is(kb, ke, "alpha0_rad")) {
-        bit = seen_alpha0;
-        if ((st = read_numbers(t, &m.alpha0_rad, 1, &reason)) != LoadStatus::ok)
-          return refuse(diag, line, reason, st);
-      } else {
-        bit = seen_envelope;
-        double v[2] = {0.0, 0.0};
-        if ((st = read_numbers(t, v, 2, &reason)) != LoadStatus::ok)
-          return refuse(diag, line, reason, st);
-        if (!(v[0] < v[1]))
-          return refuse(diag, line, "envelope_rad: min must be < max", LoadStatus::invalid_value);
-        m.x_min_rad = v[0];
-        m.x_max_rad = v[1];
+    if (!found) {
+      if (t.next(&kb, &ke) && token_is(kb, ke, "checksum")) {
+        found = true;
+        f->checksum_start = start;
+        f->checksum_line = scan.number;
+        const LoadStatus s = read_checksum_value(t, f->checksum_line, &stored_crc, diag);
+        if (s != LoadStatus::ok) return s;
       }
-      if (header_seen & bit) return refuse(diag, line, "key given twice", LoadStatus::syntax_error);
-      header_seen |= bit;
-      continue;
-    }
-
-    if (token_is(kb, ke, "coefficient")) {
-      if (cm != nullptr)
-        return refuse(diag, line, "coefficient block opened inside another (missing end_coefficient)",
-                      LoadStatus::syntax_error);
-      if (!(header_seen & seen_axis))
-        return refuse(diag, line, "missing 'axis' before the first coefficient", LoadStatus::syntax_error);
-      if (!(header_seen & seen_length))
-        return refuse(diag, line, "missing 'reference_length_m' before the first coefficient",
-                      LoadStatus::syntax_error);
-      if (!(header_seen & seen_airspeed))
-        return refuse(diag, line, "missing 'airspeed_mps' before the first coefficient",
-                      LoadStatus::syntax_error);
-      if (!(header_seen & seen_alpha0))
-        return refuse(diag, line, "missing 'alpha0_rad' before the first coefficient",
-                      LoadStatus::syntax_error);
-      if (!(header_seen & seen_envelope))
-        return refuse(diag, line, "missing 'envelope_rad' before the first coefficient",
-                      LoadStatus::syntax_error);
-      if (m.n_coefficients >= Cap::max_coefficients)
-        return refuse(diag, line, "more coefficients than the capacity allows",
-                      LoadStatus::over_capacity);
-      const char* nb = nullptr;
-      const char* ne = nullptr;
-      if (!t.next(&nb, &ne) || !t.at_end())
-        return refuse(diag, line, "coefficient needs one name", LoadStatus::syntax_error);
-      cm = &m.coefficients[m.n_coefficients];
-      const std::size_t name_len = static_cast<std::size_t>(ne - nb);
-      if (name_len >= sizeof cm->name)
-        return refuse(diag, line, "coefficient name longer than 7 characters", LoadStatus::syntax_error);
-      for (std::size_t i = 0; i < name_len; ++i) cm->name[i] = nb[i];
-      cm->name[name_len] = '\0';
-      if (!valid_coefficient_name(cm->name, sizeof cm->name))
-        return refuse(diag, line, "coefficient name must be letters, digits or _",
-                      LoadStatus::syntax_error);
-      for (int d = 0; d < m.n_coefficients; ++d) {
-        if (names_equal(cm->name, m.coefficients[d].name))
-          return refuse(diag, line, "coefficient name given twice", LoadStatus::invalid_value);
-      }
-      block_seen = 0;
-      max_lag_index0 = -1;
-      block_line = line;
-      continue;
-    }
-
-    if (cm == nullptr) {
-      if (token_is(kb, ke, "end_coefficient"))
-        return refuse(diag, line, "end_coefficient without a block", LoadStatus::syntax_error);
-      return refuse(diag, line, "unknown key", LoadStatus::syntax_error);
-    }
-
-    // Keys inside a coefficient block.
-    auto& sc = cm->static_curve;
-    unsigned once_bit = 0;
-    if (token_is(kb, ke, "end_coefficient")) {
-      if (!t.at_end()) return refuse(diag, line, "extra text after end_coefficient", LoadStatus::syntax_error);
-      cm->n_lags = max_lag_index0 < 0 ? 1 : max_lag_index0 + 1;
-      if (sc.kind == StaticKind::table) {
-        if (sc.n_table < 2)
-          return refuse(diag, line, "a static table needs at least 2 rows", LoadStatus::invalid_value);
-        prepare_static_table(sc);
-      }
-      ++m.n_coefficients;
-      cm = nullptr;
-      continue;
-    } else if (token_is(kb, ke, "static_poly")) {
-      once_bit = seen_static_poly;
-      if (sc.kind == StaticKind::table)
-        return refuse(diag, line, "static curve given both as table and polynomial", LoadStatus::invalid_value);
-      st = read_poly(t, &sc.polynomial, &reason);
-    } else if (token_is(kb, ke, "static_knot")) {
-      if (sc.kind == StaticKind::table)
-        return refuse(diag, line, "static curve given both as table and polynomial", LoadStatus::invalid_value);
-      st = read_knot(t, &sc.polynomial, &reason);
-    } else if (token_is(kb, ke, "static_table_point")) {
-      if (sc.polynomial.n_powers != 0 || sc.polynomial.n_knots != 0)
-        return refuse(diag, line, "static curve given both as polynomial and table", LoadStatus::invalid_value);
-      double v[2] = {0.0, 0.0};
-      if ((st = read_numbers(t, v, 2, &reason)) != LoadStatus::ok) return refuse(diag, line, reason, st);
-      if (sc.n_table >= Cap::max_table_points)
-        return refuse(diag, line, "more static table rows than the capacity allows",
-                      LoadStatus::over_capacity);
-      if (sc.n_table > 0 && !(v[0] > sc.table_x_rad[sc.n_table - 1]))
-        return refuse(diag, line, "static table x_rad must be strictly increasing",
-                      LoadStatus::invalid_value);
-      sc.kind = StaticKind::table;
-      sc.table_x_rad[sc.n_table] = v[0];
-      sc.table_value[sc.n_table] = v[1];
-      ++sc.n_table;
-    } else if (token_is(kb, ke, "static_corr_poly")) {
-      once_bit = seen_corr_poly;
-      st = read_poly(t, &cm->static_correction, &reason);
-    } else if (token_is(kb, ke, "static_corr_knot")) {
-      st = read_knot(t, &cm->static_correction, &reason);
-    } else if (token_is(kb, ke, "rotary_poly")) {
-      once_bit = seen_rotary_poly;
-      st = read_poly(t, &cm->rotary, &reason);
-    } else if (token_is(kb, ke, "rotary_knot")) {
-      st = read_knot(t, &cm->rotary, &reason);
-    } else if (token_is(kb, ke, "a_poly")) {
-      once_bit = seen_a_poly;
-      st = read_poly(t, &cm->a, &reason);
-    } else if (token_is(kb, ke, "a_knot")) {
-      st = read_knot(t, &cm->a, &reason);
-    } else if (token_is(kb, ke, "lag_poly") || token_is(kb, ke, "lag_knot") ||
-               token_is(kb, ke, "lag_gain")) {
-      const bool is_poly = token_is(kb, ke, "lag_poly");
-      const bool is_gain = token_is(kb, ke, "lag_gain");
-      int j = 0;
-      if ((st = read_lag_index<Cap>(t, &j, &reason)) != LoadStatus::ok) return refuse(diag, line, reason, st);
-      if (j > max_lag_index0) max_lag_index0 = j;
-      if (is_poly) {
-        once_bit = seen_lag_poly0 << j;
-        st = read_poly(t, &cm->lags[j].b, &reason);
-      } else if (is_gain) {
-        once_bit = seen_lag_gain0 << j;
-        double g = 0.0;
-        if ((st = read_numbers(t, &g, 1, &reason)) != LoadStatus::ok) return refuse(diag, line, reason, st);
-        // Why: c_1 = 1 by definition (a(x) absorbs the first lag's amplitude).
-        if (j == 0 && g != 1.0)
-          return refuse(diag, line, "lag 1's gain is 1 by definition", LoadStatus::invalid_value);
-        cm->lags[j].gain = g;
-      } else {
-        st = read_knot(t, &cm->lags[j].b, &reason);
-      }
-    } else if (token_is(kb, ke, "con")) {
-      once_bit = seen_con;
-      st = read_numbers(t, &cm->con, 1, &reason);
-    } else if (token_is(kb, ke, "delay_s")) {
-      once_bit = seen_delay;
-      double d = 0.0;
-      if ((st = read_numbers(t, &d, 1, &reason)) != LoadStatus::ok) return refuse(diag, line, reason, st);
-      if (d < 0.0)
-        return refuse(diag, line, "delay_s must be >= 0 (a delay, not a prediction)",
-                      LoadStatus::invalid_value);
-      cm->delay_s = d;
-    } else {
-      return refuse(diag, line, "unknown key", LoadStatus::syntax_error);
-    }
-    if (st != LoadStatus::ok) return refuse(diag, line, reason, st);
-    if (once_bit != 0) {
-      if (block_seen & once_bit) return refuse(diag, line, "key given twice", LoadStatus::syntax_error);
-      block_seen |= once_bit;
+    } else if (t.next(&kb, &ke)) {
+      return refuse(diag, scan.number, "text after the checksum line", LoadStatus::syntax_error);
     }
   }
-  if (cm != nullptr)
-    return refuse(diag, block_line, "coefficient block has no end_coefficient (file truncated?)",
-                  LoadStatus::truncated);
-  if (m.n_coefficients == 0)
-    return refuse(diag, checksum_line, "no coefficient block", LoadStatus::syntax_error);
+  if (!found) return refuse(diag, scan.number, "no checksum line (file truncated?)", LoadStatus::truncated);
+  if (crc32(text, f->checksum_start) != stored_crc)
+    return refuse(diag, f->checksum_line, "checksum mismatch: the file is corrupted",
+                  LoadStatus::checksum_mismatch);
+  return LoadStatus::ok;
+}
 
+// 3. The body, between the version line and the checksum line.
+template <class Cap>
+inline LoadStatus parse_body(const char* text, const Frame& f, BodyState<Cap>& b, ParseDiagnostic* diag) {
+  b.m.n_coefficients = 0;
+  LineCursor body{text, f.checksum_start};
+  body.pos = f.body_start;
+  body.number = f.body_first_line - 1;
+  const char* lb = nullptr;
+  const char* le = nullptr;
+  std::size_t start = 0;
+  while (body.next(&lb, &le, &start)) {
+    if (is_ignorable(lb, le)) continue;
+    Tokens t{lb, le};
+    const LoadStatus s = parse_body_line(b, t, body.number, diag);
+    if (s != LoadStatus::ok) return s;
+  }
+  if (b.cm != nullptr)
+    return refuse(diag, b.block_line, "coefficient block has no end_coefficient (file truncated?)",
+                  LoadStatus::truncated);
+  if (b.m.n_coefficients == 0) return refuse(diag, f.checksum_line, "no coefficient block", LoadStatus::syntax_error);
   // Belt and braces: the whole-model checks the writer and the runtime use.
   ParseDiagnostic whole;
-  const LoadStatus v = validate_model_set(m, &whole);
-  if (v != LoadStatus::ok) return refuse(diag, checksum_line, whole.reason, v);
-  *out = m;
+  const LoadStatus v = validate_model_set(b.m, &whole);
+  if (v != LoadStatus::ok) return refuse(diag, f.checksum_line, whole.reason, v);
+  return LoadStatus::ok;
+}
+
+}  // namespace detail
+
+// Parses and checks a coefficient file (docs/architecture.md); *out is written only on
+// success. Table-driven: the keys and their readers are in detail::find_header_key and
+// detail::find_block_key.
+template <class Cap>
+LoadStatus parse_coef_file(const char* text, std::size_t length, ModelSet<double, Cap>* out,
+                           ParseDiagnostic* diag) {
+  using namespace detail;
+  LoadStatus s = check_input(text, length, out, diag);
+  if (s != LoadStatus::ok) return s;
+  LineCursor cur{text, length};
+  if ((s = read_version_line(cur, diag)) != LoadStatus::ok) return s;
+  Frame f;
+  f.body_first_line = cur.number + 1;
+  f.body_start = cur.pos;
+  if ((s = find_checksum(text, cur, &f, diag)) != LoadStatus::ok) return s;
+  BodyState<Cap> b;
+  if ((s = parse_body(text, f, b, diag)) != LoadStatus::ok) return s;
+  *out = b.m;
   if (diag != nullptr) {
     diag->line = 0;
     diag->reason = "";
@@ -982,6 +955,29 @@ WriteStatus write_coef_file(const ModelSet<double, Cap>& m, char* buffer, std::s
   if (s.overflow) return WriteStatus::buffer_too_small;
   *length = static_cast<std::size_t>(s.p - buffer);
   return WriteStatus::ok;
+}
+
+// ------------------------------------------------------------------------------------------
+// Loading text into the runtime (runtime.hpp has no parser; these are its text entry points).
+// ------------------------------------------------------------------------------------------
+
+// Parses (no heap), validates and converts a coefficient file into a RuntimeModel; *out is
+// written only on success. About 28 KB of stack with DefaultCapacity (runtime.hpp warning 1).
+template <class Scalar, class Cap>
+LoadStatus load_runtime_model(const char* text, std::size_t length, RuntimeModel<Scalar, Cap>* out,
+                              ParseDiagnostic* diag = nullptr) {
+  ModelSet<double, Cap> parsed;
+  const LoadStatus s = parse_coef_file(text, length, &parsed, diag);
+  if (s != LoadStatus::ok) return s;
+  return make_runtime_model(parsed, out, diag);
+}
+
+template <class Scalar, class Cap>
+LoadStatus Predictor<Scalar, Cap>::load(const char* text, std::size_t length, ParseDiagnostic* diag) {
+  ModelSet<double, Cap> parsed;
+  const LoadStatus s = parse_coef_file(text, length, &parsed, diag);
+  if (s != LoadStatus::ok) return s;
+  return load(parsed, diag);
 }
 
 }  // namespace indicial

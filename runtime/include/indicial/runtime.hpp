@@ -2,15 +2,38 @@
 //
 // What it is for
 // --------------
-// A flight simulator (or a wind-tunnel controller) feeds the motion of the aircraft, one
-// sample at a time, and needs the aerodynamic coefficients at that sample, including the
-// unsteady (lag) part identified by the fitter. Predictor does that with a fixed-size state,
-// no heap, no exceptions and no RTTI; every call returns a status enum. The equations are
-// those of indicial/model.hpp (advance_lags, coefficient_output, steady_state): the runtime
+// A flight simulator (or a wind-tunnel controller, a Monte Carlo batch) feeds the motion of
+// the aircraft, one sample at a time, and needs the aerodynamic coefficients at that sample,
+// including the unsteady (lag) part identified by the fitter. This header does that with no
+// heap, no exceptions and no RTTI; every call returns a status enum. The equations are those
+// of indicial/model.hpp (advance_lags_between, coefficient_output, steady_state): the runtime
 // adds input checks, clamping and bookkeeping, never equations of its own.
+//
+// Two pieces, kept apart:
+//   * RuntimeModel<Scalar, Cap>: immutable (the validated ModelSet in Scalar plus a few
+//     per-model constants). Constexpr-constructible -- `indicial codegen` emits one that lives
+//     in read-only memory (flash) and is used in place -- and shared by any number of states.
+//   * State<Scalar, Cap>: per instance, only what changes (lag states, the previous sample's
+//     cached spline ends, the last airspeed's terms): 160 bytes for double and
+//     DefaultCapacity (up to 3 coefficients, 2 lags). DelayedState adds the history ring
+//     that a model with a delay needs (about 4 KB with DefaultCapacity).
+// The stateless core is reset(model, state, angle, airspeed) and
+// step(model, state, input, dt, out); step_batch steps N states of one model. Predictor is
+// the convenience of one instance: a model (its own copy, or a shared one by reference) and a
+// DelayedState behind member functions.
+//
+// Which header for what
+// ---------------------
+//   indicial/runtime.hpp      this file: models, states, step, Predictor (no parser, no
+//                             <charconv>): all a codegen-only firmware includes.
+//   indicial/coef_file.hpp    the coefficient-file parser and writer, Predictor::load(text)
+//                             and load_runtime_model(text): include it to load text.
+//   indicial/model_check.hpp  LoadStatus, ParseDiagnostic, validate_model_set (included here).
+//   indicial/indicial.h       the C99 interface (library indicial::c).
 //
 // Usage
 // -----
+//   // One instance, from a file's text (#include "indicial/coef_file.hpp" for load(text)):
 //   indicial::Predictor<> p;                                   // double, DefaultCapacity
 //   if (p.load(text, text_length) != indicial::LoadStatus::ok) { /* refuse to fly */ }
 //   p.reset(alpha_rad, airspeed_mps);                          // steady state at alpha
@@ -20,58 +43,63 @@
 //     indicial::StepStatus s = p.step(in, dt_s, &out);         // out.value[0] = CL, [1] = Cm
 //     if (s != indicial::StepStatus::ok && s != indicial::StepStatus::angle_clamped) { ... }
 //   }
-//   // or, with a header made by `indicial codegen model.coef --out model.hpp --name my_model`:
-//   p.load(my_model);                                          // no parsing at all
+//
+//   // Many instances of one generated model (`indicial codegen model.coef --out model.hpp
+//   // --name my_model`, namespace indicial_generated), the model never copied:
+//   #include "model.hpp"                                       // and runtime.hpp, nothing else
+//   using namespace indicial;
+//   if (check_runtime_model(indicial_generated::my_model) != LoadStatus::ok) { ... }  // once
+//   State<double, DefaultCapacity> s[64];
+//   for (auto& si : s) reset(indicial_generated::my_model, si, alpha_rad, airspeed_mps);
+//   double c[DefaultCapacity::max_coefficients];
+//   step(indicial_generated::my_model, s[0], MotionInput{alpha_rad, q_radps, v_mps}, dt_s, c);
 //
 // Inputs per axis: pitch: motion angle alpha, rate q; roll: phi, p; yaw: psi, r. The model
 // angle x is alpha in pitch and beta = asin(sin phi sin alpha0) (roll) or
-// beta = asin(-sin psi cos alpha0) (yaw), computed by indicial::model_angle.
+// beta = asin(-sin psi cos alpha0) (yaw), computed by indicial::model_angle_from_factor with
+// the factor kept in the RuntimeModel.
 //
 // Airspeed scaling: b_j(x) and con are rates in 1/s at the model's reference airspeed V_ref
 // (the file's airspeed_mps). At airspeed V they are multiplied by V / V_ref and the rotary
 // term uses l / V, so the model is a function of the non-dimensional time s = V t / l: at
 // another airspeed every time constant scales by V / l (twice the airspeed, half the time
-// constants). Example: the response at 2 V to a motion played twice as fast equals the
-// response at V (tests/test_runtime.cpp checks it). A delay (the file's delay_s, at V_ref)
-// is delay_s * V_ref / V at airspeed V, the airspeed of the current step.
+// constants). A delay (the file's delay_s, at V_ref) is delay_s * V_ref / V at airspeed V.
 //
 // Delayed forcing: a coefficient with delay_s > 0 drives its lag states with the angle
 // x(t - delay) instead of x(t) (model.hpp, delayed_angle: linear interpolation in time of the
-// stored samples). The predictor keeps a ring of the last Cap::max_delay_samples (time,
-// clamped model angle) samples for that, in the Snapshot (so snapshot/restore replays bit for
-// bit); reset() starts it "at rest at the reset angle since forever".
+// stored samples). A DelayedState keeps a ring of the last Cap::max_delay_samples (time,
+// clamped model angle) samples for that; reset() starts it "at rest at the reset angle since
+// forever". An undelayed model never touches the ring.
 //
 // What a step costs: the spline quantities at the previous sample (model.hpp's StepEnd: the
 // antiderivatives B_j(x0) of b_j and A(x0) of a) were computed by the previous step as its new
-// end, for the same spline at the same (clamped) angle; the predictor keeps them and evaluates
-// only the new end (advance_lags_between), which gives bit for bit what advance_lags gives.
-// They are a pure function of the Snapshot (x_prev_rad) and the model, so they are kept
-// beside it, not in it, and rebuilt by reset() and restore(). A delayed coefficient
-// recomputes A at the old end every step (x(t0 - d) moves when the airspeed, hence d,
-// changes). The airspeed ratios (V / V_ref, l / V, the delay at V) are recomputed only when
-// the airspeed changes.
+// end; the state keeps them and a step evaluates only the new end (advance_lags_between),
+// which gives bit for bit what advance_lags gives. A delayed coefficient recomputes A at the
+// old end every step. The airspeed ratios (V / V_ref, l / V, the delay at V) are recomputed
+// only when the airspeed changes. With Scalar = float every per-step operation is in float
+// (clamp, axis factor, airspeed ratios), except the delayed path's clock, which is double.
 //
 // Warnings
 // --------
-// 1. load() parses into a local ModelSet<double, Cap> and copies it in only when valid: the
-//    text overload keeps up to three ModelSets on the stack at once (parser's local, the
-//    parsed model, the Scalar conversion): sizeof(ModelSet<double, DefaultCapacity>) is
-//    9176 bytes with GCC 12 on x86-64, so about 28 KB.
-//    Load at initialisation, not from an interrupt. A refused load leaves the predictor as it
-//    was (old model, old state).
-// 2. After a successful load, step() refuses (StepStatus::not_reset) until reset() sets the
-//    steady state: the lag states have no meaningful initial value otherwise.
+// 1. A model is validated once: make_runtime_model / Predictor::load validate and convert;
+//    a RuntimeModel built elsewhere (codegen) must pass check_runtime_model before its first
+//    step (step() itself trusts the model). Loading from text keeps up to three ModelSets on
+//    the stack (about 28 KB with DefaultCapacity, double): load at initialisation, not from
+//    an interrupt. A refused load leaves the predictor as it was (old model, old state).
+// 2. After a load, step() refuses (StepStatus::not_reset) until reset() sets the steady
+//    state; a default-constructed State is "never reset" too.
 // 3. An angle outside the fitted envelope [x_min_rad, x_max_rad] is clamped to it and
 //    reported as StepStatus::angle_clamped; outputs are still produced (with the clamped
 //    angle; the rate is used as given). The unsteady forcing stops while clamped.
-// 4. Bad input (NaN, Inf, dt_s <= 0, dt_s > max_dt_s, airspeed <= 0) returns its own status
-//    and changes neither the state nor *out. If finite input would produce a non-finite
-//    output (absurd magnitudes, e.g. airspeed 1e-300), step() returns non_finite_result and
-//    also leaves everything untouched: NaN never comes out.
-// 5. Outputs::name points into the predictor's model; it stays valid until the next load().
-// 6. A Snapshot belongs to the model it was taken with; restoring it after loading another
-//    model gives meaningless (but finite) states. With DefaultCapacity and double it is
-//    4184 bytes (the delay history is 4 KB of it), so keep snapshots out of tight loops.
+// 4. Bad input (NaN, Inf, dt_s <= 0, dt_s > max_step_dt_s, airspeed <= 0) returns its own
+//    status and changes neither the state nor the outputs. If finite input would produce a
+//    non-finite output (absurd magnitudes, e.g. airspeed 1e-300), step() returns
+//    non_finite_result and also leaves everything untouched: NaN never comes out.
+// 5. Outputs::name points into the model; it stays valid until the next load(). A model
+//    used in place (Predictor::use, the free functions) must outlive its states' use of it.
+// 6. A state (Snapshot) belongs to the model it was reset with; stepping it with another
+//    model gives meaningless (but finite) states. A Predictor's Snapshot is a DelayedState
+//    (4.3 KB with DefaultCapacity and double): keep snapshots out of tight loops.
 // 7. A delay needs history: at a fixed step dt and airspeed V a delayed model needs
 //    2 + ceil(delay_s * V_ref / V / dt) samples (history_samples_needed(dt, V); 256 with
 //    DefaultCapacity serve 0.254 s at 1 kHz). Until the ring has wrapped after reset() any
@@ -79,8 +107,9 @@
 //    whose t - delay falls before the oldest kept sample returns
 //    StepStatus::delay_exceeds_history and changes nothing (choose a larger
 //    Capacity<..., MaxDelaySamples>, a larger dt, or check history_samples_needed at start).
-//    load() refuses (over_capacity) a delay_s that no step at V_ref could serve:
-//    delay_s > (MaxDelaySamples - 2) * max_dt_s.
+//    Loading refuses (over_capacity) a delay_s that no step at V_ref could serve:
+//    delay_s > (MaxDelaySamples - 2) * max_step_dt_s. Stepping a delayed model with a plain
+//    State returns StepStatus::delay_needs_history.
 #pragma once
 
 #include <cmath>
@@ -88,8 +117,8 @@
 #include <limits>
 #include <type_traits>
 
-#include "indicial/coef_file.hpp"
 #include "indicial/model.hpp"
+#include "indicial/model_check.hpp"
 
 namespace indicial {
 
@@ -108,6 +137,8 @@ enum class StepStatus : int {
   non_finite_result,     // finite but absurd input would give a non-finite output; refused
   delay_exceeds_history, // a delayed coefficient needs the angle further back than the
                          // history ring holds at this dt and airspeed (see warning 7)
+  delay_needs_history,   // a model with a delay stepped with a State (no ring): use a
+                         // DelayedState (or Predictor) for it
 };
 
 inline constexpr const char* to_string(StepStatus s) {
@@ -123,6 +154,7 @@ inline constexpr const char* to_string(StepStatus s) {
     case StepStatus::non_positive_airspeed: return "non_positive_airspeed";
     case StepStatus::non_finite_result: return "non_finite_result";
     case StepStatus::delay_exceeds_history: return "delay_exceeds_history";
+    case StepStatus::delay_needs_history: return "delay_needs_history";
   }
   return "unknown_step_status";
 }
@@ -135,8 +167,16 @@ struct MotionInput {
   double airspeed_mps = 0.0;
 };
 
-// Where the predictor is in its life: nothing loaded, loaded but not reset, running.
+// Where a predictor (or a State) is in its life: nothing loaded, loaded but not reset,
+// running. A State knows only loaded (never reset) and running.
 enum class PredictorPhase : int { empty = 0, loaded = 1, running = 2 };
+
+// Whether a model has a delayed coefficient (then it needs a DelayedState).
+enum class DelayUse : int { none = 0, delayed = 1 };
+
+// Largest accepted step. The update is stable for any dt, but a step over 1 s at a real-time
+// rate is almost certainly a unit error (milliseconds passed as seconds).
+inline constexpr double max_step_dt_s = 1.0;
 
 // Number of evenly spaced samples (plus every knot) at which validate_for_runtime checks
 // b_j(x) > 0 and finite values over the envelope.
@@ -148,15 +188,44 @@ struct is_capacity : std::false_type {};
 template <int P, int K, int L, int T, int C, int D>
 struct is_capacity<Capacity<P, K, L, T, C, D>> : std::true_type {};
 
-template <class Cap>
-inline bool model_values_finite(const CoefficientModel<double, Cap>& cm, double x) {
-  double y[Cap::max_lags] = {};
+template <class Scalar, class Cap>
+inline bool model_values_finite(const CoefficientModel<Scalar, Cap>& cm, Scalar x) {
+  Scalar y[Cap::max_lags] = {};
   for (int j = 0; j < cm.n_lags; ++j) {
     if (!std::isfinite(spline_value(cm.lags[j].b, x))) return false;
   }
-  return std::isfinite(coefficient_output(cm, x, 1.0, 1.0, y)) &&
-         std::isfinite(spline_value(cm.a, x)) &&
-         std::isfinite(spline_antiderivative(cm.a, x));
+  return std::isfinite(coefficient_output(cm, x, Scalar(1), Scalar(1), y)) &&
+         std::isfinite(spline_value(cm.a, x)) && std::isfinite(spline_antiderivative(cm.a, x));
+}
+
+template <class Scalar, class Cap>
+inline LoadStatus check_lags_decay(const CoefficientModel<Scalar, Cap>& cm, double lo, double hi,
+                                   ParseDiagnostic* diag) {
+  for (int i = 0; i <= validation_samples; ++i) {
+    const Scalar x = Scalar(lo + (hi - lo) * (static_cast<double>(i) / validation_samples));
+    if (!model_values_finite(cm, x))
+      return refuse(diag, 0, "model value is not finite inside the envelope",
+                    LoadStatus::invalid_value);
+    for (int j = 0; j < cm.n_lags; ++j) {
+      if (!(spline_value(cm.lags[j].b, x) > Scalar(0)))
+        return refuse(diag, 0, "b_j(x) <= 0 inside the envelope: the lag would not decay",
+                      LoadStatus::unstable_lag);
+    }
+  }
+  for (int j = 0; j < cm.n_lags; ++j) {
+    const auto& b = cm.lags[j].b;
+    for (int k = 0; k < b.n_knots; ++k) {
+      const double kx[2] = {std::nextafter(b.knot_rad[k], -HUGE_VAL),
+                            std::nextafter(b.knot_rad[k], HUGE_VAL)};
+      for (double x : kx) {
+        if (x < lo || x > hi) continue;
+        if (!(spline_value(b, Scalar(x)) > Scalar(0)))
+          return refuse(diag, 0, "b_j(x) <= 0 inside the envelope: the lag would not decay",
+                        LoadStatus::unstable_lag);
+      }
+    }
+  }
+  return LoadStatus::ok;
 }
 }  // namespace detail
 
@@ -165,50 +234,557 @@ inline bool model_values_finite(const CoefficientModel<double, Cap>& cm, double 
 // lag state decays: the model is stable) and finite outputs there. b_j is sampled at
 // validation_samples evenly spaced angles, at both envelope ends and just either side of each
 // of its knots inside the envelope (where a step or kink can put its minimum).
-template <class Cap>
-inline LoadStatus validate_for_runtime(const ModelSet<double, Cap>& m, ParseDiagnostic* diag) {
+template <class Scalar, class Cap>
+inline LoadStatus validate_for_runtime(const ModelSet<Scalar, Cap>& m, ParseDiagnostic* diag) {
   const LoadStatus s = validate_model_set(m, diag);
   if (s != LoadStatus::ok) return s;
-  const double lo = m.x_min_rad;
-  const double hi = m.x_max_rad;
   for (int c = 0; c < m.n_coefficients; ++c) {
-    const CoefficientModel<double, Cap>& cm = m.coefficients[c];
-    for (int i = 0; i <= validation_samples; ++i) {
-      const double x = lo + (hi - lo) * (static_cast<double>(i) / validation_samples);
-      if (!detail::model_values_finite(cm, x))
-        return detail::refuse(diag, 0, "model value is not finite inside the envelope",
-                              LoadStatus::invalid_value);
-      for (int j = 0; j < cm.n_lags; ++j) {
-        if (!(spline_value(cm.lags[j].b, x) > 0.0))
-          return detail::refuse(diag, 0, "b_j(x) <= 0 inside the envelope: the lag would not decay",
-                                LoadStatus::unstable_lag);
-      }
-    }
-    for (int j = 0; j < cm.n_lags; ++j) {
-      const auto& b = cm.lags[j].b;
-      for (int k = 0; k < b.n_knots; ++k) {
-        const double kx[2] = {std::nextafter(b.knot_rad[k], -HUGE_VAL),
-                              std::nextafter(b.knot_rad[k], HUGE_VAL)};
-        for (double x : kx) {
-          if (x < lo || x > hi) continue;
-          if (!(spline_value(b, x) > 0.0))
-            return detail::refuse(diag, 0,
-                                  "b_j(x) <= 0 inside the envelope: the lag would not decay",
-                                  LoadStatus::unstable_lag);
-        }
-      }
-    }
+    const LoadStatus d = detail::check_lags_decay(m.coefficients[c], m.x_min_rad, m.x_max_rad, diag);
+    if (d != LoadStatus::ok) return d;
   }
   return LoadStatus::ok;
 }
 
-// Where the delay history's record begins (Predictor::Snapshot::history_origin).
+// ------------------------------------------------------------------------------------------
+// The immutable model: a validated ModelSet in the step's scalar type plus the per-model
+// constants a step needs, so that a step does no double arithmetic for Scalar = float and no
+// trigonometry of alpha0. Constexpr-constructible (indicial codegen emits one), shareable by
+// any number of states, placeable in read-only memory. Build it with make_runtime_model (from
+// a ModelSet<double>) or, for a generated one, check it once with check_runtime_model.
+// ------------------------------------------------------------------------------------------
+template <class Scalar, class Cap>
+struct RuntimeModel {
+  ModelSet<Scalar, Cap> set;
+  Scalar x_min_rad = Scalar(0);     // the envelope, in Scalar (the step clamps in Scalar)
+  Scalar x_max_rad = Scalar(0);
+  Scalar angle_factor = Scalar(1);  // model_angle_factor(axis, alpha0_rad)
+  Scalar reference_length_m = Scalar(1);
+  Scalar airspeed_mps = Scalar(1);  // V_ref
+  DelayUse delay = DelayUse::none;
+};
+
+// The per-model constants of a RuntimeModel, derived from its set (the one definition, used
+// by make_runtime_model, check_runtime_model and indicial codegen).
+template <class Scalar, class Cap>
+inline void derive_step_constants(RuntimeModel<Scalar, Cap>* m) {
+  const ModelSet<Scalar, Cap>& s = m->set;
+  m->x_min_rad = Scalar(s.x_min_rad);
+  m->x_max_rad = Scalar(s.x_max_rad);
+  m->angle_factor = Scalar(model_angle_factor(s.axis, s.alpha0_rad));
+  m->reference_length_m = Scalar(s.reference_length_m);
+  m->airspeed_mps = Scalar(s.airspeed_mps);
+  m->delay = DelayUse::none;
+  for (int c = 0; c < s.n_coefficients; ++c)
+    if (s.coefficients[c].delay_s != Scalar(0)) m->delay = DelayUse::delayed;
+}
+
+namespace detail {
+template <class Scalar>
+inline bool fits(double v) {
+  return std::isfinite(static_cast<Scalar>(v)) || !std::isfinite(v);
+}
+
+template <class Scalar, int P, int K>
+inline bool convert_spline(const Spline<double, P, K>& in, Spline<Scalar, P, K>* out) {
+  out->n_powers = in.n_powers;
+  out->n_knots = in.n_knots;
+  bool ok = true;
+  for (int i = 0; i < P; ++i) {
+    out->power_coef[i] = static_cast<Scalar>(in.power_coef[i]);
+    ok = ok && fits<Scalar>(in.power_coef[i]);
+  }
+  for (int j = 0; j < (K > 0 ? K : 1); ++j) {
+    out->knot_rad[j] = in.knot_rad[j];
+    out->knot_power[j] = in.knot_power[j];
+    out->knot_coef[j] = static_cast<Scalar>(in.knot_coef[j]);
+    ok = ok && fits<Scalar>(in.knot_coef[j]);
+  }
+  return ok;
+}
+
+template <class Scalar, class Cap>
+inline bool convert_coefficient(const CoefficientModel<double, Cap>& a,
+                                CoefficientModel<Scalar, Cap>* out) {
+  CoefficientModel<Scalar, Cap>& b = *out;
+  for (std::size_t i = 0; i < sizeof a.name; ++i) b.name[i] = a.name[i];
+  b.static_curve.kind = a.static_curve.kind;
+  bool ok = convert_spline(a.static_curve.polynomial, &b.static_curve.polynomial);
+  b.static_curve.n_table = a.static_curve.n_table;
+  for (int i = 0; i < Cap::max_table_points; ++i) {
+    b.static_curve.table_x_rad[i] = a.static_curve.table_x_rad[i];
+    b.static_curve.table_value[i] = static_cast<Scalar>(a.static_curve.table_value[i]);
+    ok = ok && fits<Scalar>(a.static_curve.table_value[i]);
+  }
+  ok = convert_spline(a.static_correction, &b.static_correction) && ok;
+  ok = convert_spline(a.rotary, &b.rotary) && ok;
+  ok = convert_spline(a.a, &b.a) && ok;
+  b.n_lags = a.n_lags;
+  for (int j = 0; j < Cap::max_lags; ++j) {
+    ok = convert_spline(a.lags[j].b, &b.lags[j].b) && ok;
+    b.lags[j].gain = static_cast<Scalar>(a.lags[j].gain);
+    ok = ok && fits<Scalar>(a.lags[j].gain);
+  }
+  b.con = static_cast<Scalar>(a.con);
+  b.delay_s = static_cast<Scalar>(a.delay_s);
+  return ok && fits<Scalar>(a.con) && fits<Scalar>(a.delay_s);
+}
+
+// The ModelSet in Scalar, the natural-spline second derivatives of a static table recomputed
+// in Scalar by the one function that defines them (a hand-built model need not carry them).
+template <class Scalar, class Cap>
+inline bool convert_model_set(const ModelSet<double, Cap>& in, ModelSet<Scalar, Cap>* out) {
+  out->axis = in.axis;
+  out->reference_length_m = in.reference_length_m;
+  out->airspeed_mps = in.airspeed_mps;
+  out->alpha0_rad = in.alpha0_rad;
+  out->x_min_rad = in.x_min_rad;
+  out->x_max_rad = in.x_max_rad;
+  out->n_coefficients = in.n_coefficients;
+  bool ok = true;
+  for (int c = 0; c < Cap::max_coefficients; ++c) {
+    ok = convert_coefficient(in.coefficients[c], &out->coefficients[c]) && ok;
+    if (c < in.n_coefficients && out->coefficients[c].static_curve.kind == StaticKind::table)
+      prepare_static_table(out->coefficients[c].static_curve);
+  }
+  return ok;
+}
+
+template <class Scalar, class Cap>
+inline LoadStatus check_delay_capacity(const ModelSet<Scalar, Cap>& m, ParseDiagnostic* diag) {
+  for (int c = 0; c < m.n_coefficients; ++c) {
+    // Why: at the reference airspeed the ring serves (max_delay_samples - 2) steps of at
+    // most max_step_dt_s; a longer delay could never be served by any accepted step.
+    if (static_cast<double>(m.coefficients[c].delay_s) > (Cap::max_delay_samples - 2) * max_step_dt_s)
+      return refuse(diag, 0,
+                    "delay_s is longer than the runtime's delay history can hold even at "
+                    "max_dt_s (raise Capacity's MaxDelaySamples)",
+                    LoadStatus::over_capacity);
+  }
+  return LoadStatus::ok;
+}
+}  // namespace detail
+
+// Validates a model (validate_for_runtime, the delay against the history capacity), converts
+// it to Scalar and derives the step constants; *out is written only on success. Keeps one
+// RuntimeModel<Scalar, Cap> on the stack (about 9 KB for double and DefaultCapacity).
+template <class Scalar, class Cap>
+inline LoadStatus make_runtime_model(const ModelSet<double, Cap>& in, RuntimeModel<Scalar, Cap>* out,
+                                     ParseDiagnostic* diag = nullptr) {
+  static_assert(std::is_floating_point<Scalar>::value,
+                "RuntimeModel<Scalar, Cap>: Scalar must be float, double or long double");
+  static_assert(detail::is_capacity<Cap>::value, "Cap must be an indicial::Capacity<...>");
+  if (out == nullptr) return detail::refuse(diag, 0, "no output model given", LoadStatus::null_argument);
+  LoadStatus s = validate_for_runtime(in, diag);
+  if (s == LoadStatus::ok) s = detail::check_delay_capacity(in, diag);
+  if (s != LoadStatus::ok) return s;
+  RuntimeModel<Scalar, Cap> m{};
+  if (!detail::convert_model_set(in, &m.set))
+    return detail::refuse(diag, 0, "a model value does not fit the Scalar type",
+                          LoadStatus::invalid_value);
+  derive_step_constants(&m);
+  *out = m;
+  return LoadStatus::ok;
+}
+
+// Checks a RuntimeModel built elsewhere (a constexpr one from `indicial codegen`) once before
+// stepping it in place: the set passes validate_for_runtime and the delay capacity check, a
+// static table's second derivatives are the ones prepare_static_table gives, and the step
+// constants are derive_step_constants' (bit for bit). Nothing is copied except one static
+// curve at a time (about 1.5 KB of stack with DefaultCapacity).
+template <class Scalar, class Cap>
+inline LoadStatus check_runtime_model(const RuntimeModel<Scalar, Cap>& m,
+                                      ParseDiagnostic* diag = nullptr) {
+  LoadStatus s = validate_for_runtime(m.set, diag);
+  if (s == LoadStatus::ok) s = detail::check_delay_capacity(m.set, diag);
+  if (s != LoadStatus::ok) return s;
+  for (int c = 0; c < m.set.n_coefficients; ++c) {
+    const auto& curve = m.set.coefficients[c].static_curve;
+    if (curve.kind != StaticKind::table) continue;
+    auto prepared = curve;
+    prepare_static_table(prepared);
+    for (int i = 0; i < curve.n_table; ++i)
+      if (!(prepared.table_second_derivative[i] == curve.table_second_derivative[i]))
+        return detail::refuse(diag, 0, "static table second derivatives are not prepared",
+                              LoadStatus::invalid_value);
+  }
+  RuntimeModel<Scalar, Cap> derived{};
+  derived.set.axis = m.set.axis;
+  derived.set.alpha0_rad = m.set.alpha0_rad;
+  derived.set.x_min_rad = m.set.x_min_rad;
+  derived.set.x_max_rad = m.set.x_max_rad;
+  derived.set.reference_length_m = m.set.reference_length_m;
+  derived.set.airspeed_mps = m.set.airspeed_mps;
+  derived.set.n_coefficients = 0;  // the delay use is checked below, per coefficient
+  derive_step_constants(&derived);
+  DelayUse delay = DelayUse::none;
+  for (int c = 0; c < m.set.n_coefficients; ++c)
+    if (m.set.coefficients[c].delay_s != 0.0) delay = DelayUse::delayed;
+  if (!(derived.x_min_rad == m.x_min_rad && derived.x_max_rad == m.x_max_rad &&
+        derived.angle_factor == m.angle_factor &&
+        derived.reference_length_m == m.reference_length_m &&
+        derived.airspeed_mps == m.airspeed_mps && delay == m.delay))
+    return detail::refuse(diag, 0, "step constants differ from derive_step_constants",
+                          LoadStatus::invalid_value);
+  return LoadStatus::ok;
+}
+
+// ------------------------------------------------------------------------------------------
+// The per-instance state: only what changes. Plain data, no padding for double and float
+// (bytewise comparison is meaningful), copied whole by snapshot/restore.
+// ------------------------------------------------------------------------------------------
+namespace detail {
+// Number of int words that make a struct free of padding for double and float: the 4-byte
+// words (ints, and the Scalars when Scalar is float) must fill whole 8-byte units after the
+// 8-byte members. At least 1 (no zero-length arrays).
+template <class Scalar>
+constexpr int pad_ints(int scalar_count, int int_count) {
+  return (((sizeof(Scalar) == 4 ? scalar_count : 0) + int_count) % 2 == 0) ? 2 : 1;
+}
+}  // namespace detail
+
+template <class Scalar, class Cap>
+struct State {
+  static constexpr int scalar_count = Cap::max_coefficients * Cap::max_lags +
+                                      Cap::max_coefficients * (1 + Cap::max_lags) + 4;
+  Scalar y[Cap::max_coefficients][Cap::max_lags] = {};  // lag states
+  // The spline quantities at the previous sample, per coefficient (model.hpp's StepEnd): a
+  // pure function of x_prev_rad and the model, kept so that a step evaluates only its new end.
+  StepEnd<Scalar, Cap> end[Cap::max_coefficients] = {};
+  Scalar x_prev_rad = Scalar(0);  // the (clamped) model angle of the previous sample
+  // The airspeed terms of the last step (recomputed only when the airspeed changes).
+  Scalar airspeed_mps = Scalar(0);  // 0: none cached (steps accept only airspeeds > 0)
+  Scalar time_scale = Scalar(0);    // V / V_ref
+  Scalar l_over_v_s = Scalar(0);    // l / V
+  int phase = 0;  // PredictorPhase as int: loaded (never reset) or running
+  static constexpr int pad_count = detail::pad_ints<Scalar>(scalar_count, 1);
+  int reserved[pad_count] = {};  // keeps it free of padding
+};
+
+// Where the delay history's record begins (DelayedState::history_origin).
 enum class HistoryOrigin : int {
   rest_before_oldest = 0,  // nothing dropped since reset(): before the oldest sample the
                            // angle was the reset angle (at rest), so any delay is served
   samples_dropped = 1,     // the ring wrapped: angles older than the oldest sample are gone
 };
 
+// A State plus the delay ring of the last Cap::max_delay_samples (time, clamped model angle)
+// samples, for a model with a delayed coefficient. Times are double (model.hpp warning 5: a
+// delay is a small difference of large times), whatever Scalar is.
+template <class Scalar, class Cap>
+struct DelayedState : State<Scalar, Cap> {
+  static constexpr int history_capacity = Cap::max_delay_samples;
+  double time_s = 0.0;  // time of the newest sample, counted from reset() (t = 0)
+  double delay_airspeed_mps = 0.0;                       // airspeed of the cached delays
+  double delay_at_airspeed_s[Cap::max_coefficients] = {};  // each coefficient's delay there
+  // The ring: the last history_count samples, newest at slot history_newest, older ones at
+  // decreasing slots (modulo history_capacity). Unused slots are 0.
+  double history_time_s[Cap::max_delay_samples] = {};
+  Scalar history_x_rad[Cap::max_delay_samples] = {};
+  int history_newest = 0;  // slot of the newest sample
+  int history_count = 0;   // samples held: 1..history_capacity once running
+  int history_origin = 0;  // HistoryOrigin as int
+  static constexpr int history_pad_count = detail::pad_ints<Scalar>(Cap::max_delay_samples, 3);
+  int history_reserved[history_pad_count] = {};
+};
+
+namespace detail {
+template <class Scalar>
+struct Clamped {
+  Scalar x_rad;
+  StepStatus status;  // ok or angle_clamped
+};
+
+// Model angle from the motion angle, clamped to the envelope, all in Scalar.
+template <class Scalar, class Cap>
+inline Clamped<Scalar> clamp_model_angle(const RuntimeModel<Scalar, Cap>& m, double motion_angle_rad) {
+  Scalar x = model_angle_from_factor(m.set.axis, m.angle_factor, Scalar(motion_angle_rad));
+  // Why the clamp: the splines are fitted inside the envelope only; outside it a polynomial
+  // extrapolates without data behind it.
+  if (x < m.x_min_rad) return {m.x_min_rad, StepStatus::angle_clamped};
+  if (x > m.x_max_rad) return {m.x_max_rad, StepStatus::angle_clamped};
+  return {x, StepStatus::ok};
+}
+
+template <class Scalar>
+struct AirspeedTerms {
+  Scalar airspeed_mps;
+  Scalar time_scale;  // V / V_ref
+  Scalar l_over_v_s;  // l / V
+};
+
+// Why the exact comparison: the cached values are the same expressions of the same operand,
+// so reusing them for an equal airspeed is bit-identical; any other airspeed recomputes.
+template <class Scalar, class Cap>
+inline AirspeedTerms<Scalar> airspeed_terms(const RuntimeModel<Scalar, Cap>& m,
+                                            const State<Scalar, Cap>& s, double airspeed_mps) {
+  const Scalar v = Scalar(airspeed_mps);
+  if (v == s.airspeed_mps) return {v, s.time_scale, s.l_over_v_s};
+  return {v, v / m.airspeed_mps, m.reference_length_m / v};
+}
+
+// The checks every step makes before touching anything.
+inline StepStatus check_step_input(int phase, const MotionInput& in, double dt_s, const void* out) {
+  if (phase != static_cast<int>(PredictorPhase::running)) return StepStatus::not_reset;
+  if (out == nullptr) return StepStatus::null_output;
+  if (!std::isfinite(in.motion_angle_rad) || !std::isfinite(in.rate_radps) ||
+      !std::isfinite(in.airspeed_mps) || !std::isfinite(dt_s))
+    return StepStatus::non_finite_input;
+  if (!(dt_s > 0.0)) return StepStatus::non_positive_dt;
+  if (dt_s > max_step_dt_s) return StepStatus::dt_too_large;
+  if (!(in.airspeed_mps > 0.0)) return StepStatus::non_positive_airspeed;
+  return StepStatus::ok;
+}
+
+// The forcing angles of delayed coefficients at both ends of a step (x(t - d)).
+template <class Scalar, class Cap>
+struct DelayedForcing {
+  Scalar x0_rad[Cap::max_coefficients];
+  Scalar x1_rad[Cap::max_coefficients];
+};
+
+// Everything a step computes before its commit.
+template <class Scalar, class Cap>
+struct StepResult {
+  Scalar y[Cap::max_coefficients][Cap::max_lags];
+  StepEnd<Scalar, Cap> end[Cap::max_coefficients];
+  Scalar value[Cap::max_coefficients];
+};
+
+// The model equations over one step for every coefficient, on copies; non_finite_result if
+// any number is not finite. forcing == nullptr: no delay (the forcing angle is the angle).
+template <class Scalar, class Cap>
+inline StepStatus advance_coefficients(const RuntimeModel<Scalar, Cap>& m, const State<Scalar, Cap>& s,
+                                       Scalar x1, Scalar rate, Scalar dt_s,
+                                       const AirspeedTerms<Scalar>& v,
+                                       const DelayedForcing<Scalar, Cap>* forcing,
+                                       StepResult<Scalar, Cap>* r) {
+  for (int c = 0; c < m.set.n_coefficients; ++c) {
+    const CoefficientModel<Scalar, Cap>& cm = m.set.coefficients[c];
+    for (int j = 0; j < Cap::max_lags; ++j) r->y[c][j] = s.y[c][j];
+    StepGeometry<Scalar> g{s.x_prev_rad, x1, s.x_prev_rad, x1, dt_s, v.time_scale};
+    // The old end as the previous step (or reset) left it: B_j(x_prev) and, without a delay,
+    // A(x_prev) -- bit for bit what advance_lags would evaluate again.
+    const StepEnd<Scalar, Cap>* end0 = &s.end[c];
+    StepEnd<Scalar, Cap> delayed_end0;
+    // Why the branch: an undelayed coefficient uses the sample angles themselves; only a
+    // delayed one has forcing angles of its own, and recomputes A at the old end (x(t0 - d)
+    // moves when the airspeed, hence d, changes). B_j(x0) stays valid whatever the delay.
+    if (forcing != nullptr && cm.delay_s != Scalar(0)) {
+      g.forcing_x0_rad = forcing->x0_rad[c];
+      g.forcing_x1_rad = forcing->x1_rad[c];
+      delayed_end0 = *end0;
+      delayed_end0.forcing_antiderivative = spline_antiderivative(cm.a, g.forcing_x0_rad);
+      end0 = &delayed_end0;
+    }
+    evaluate_step_end(cm, g.x1_rad, g.forcing_x1_rad, &r->end[c]);
+    advance_lags_between(cm, g, *end0, r->end[c], r->y[c]);
+    r->value[c] = coefficient_output(cm, x1, rate, v.l_over_v_s, r->y[c]);
+    if (!std::isfinite(r->value[c])) return StepStatus::non_finite_result;
+    for (int j = 0; j < cm.n_lags; ++j)
+      if (!std::isfinite(r->y[c][j])) return StepStatus::non_finite_result;
+  }
+  return StepStatus::ok;
+}
+
+template <class Scalar, class Cap>
+inline void commit(const RuntimeModel<Scalar, Cap>& m, const StepResult<Scalar, Cap>& r, Scalar x1,
+                   const AirspeedTerms<Scalar>& v, State<Scalar, Cap>* s, Scalar* out) {
+  for (int c = 0; c < m.set.n_coefficients; ++c) {
+    for (int j = 0; j < Cap::max_lags; ++j) s->y[c][j] = r.y[c][j];
+    s->end[c] = r.end[c];
+    out[c] = r.value[c];
+  }
+  s->x_prev_rad = x1;
+  s->airspeed_mps = v.airspeed_mps;
+  s->time_scale = v.time_scale;
+  s->l_over_v_s = v.l_over_v_s;
+}
+
+// The delay history seen newest-first by indicial::delayed_angle (model.hpp): index 0 is the
+// pending new sample, index i >= 1 the ring's (i-1)-th newest. Reads only.
+template <class Scalar, class Cap>
+struct HistoryView {
+  const DelayedState<Scalar, Cap>* s;
+  double new_time_s;
+  Scalar new_x_rad;
+  int n;
+  int size() const { return n; }
+  int slot(int i) const {
+    const int k = s->history_newest - (i - 1);
+    return k < 0 ? k + Cap::max_delay_samples : k;
+  }
+  double time_s(int i) const { return i == 0 ? new_time_s : s->history_time_s[slot(i)]; }
+  Scalar x_rad(int i) const { return i == 0 ? new_x_rad : s->history_x_rad[slot(i)]; }
+};
+}  // namespace detail
+
+// ------------------------------------------------------------------------------------------
+// The stateless core: reset and step of one State against a shared model.
+// ------------------------------------------------------------------------------------------
+
+// Sets every lag state to the steady state at the given motion angle (x' = 0) and caches the
+// spline quantities there and the airspeed terms. Refused (nothing changed) on non-finite
+// input, airspeed <= 0, or a non-finite steady state.
+template <class Scalar, class Cap>
+inline StepStatus reset(const RuntimeModel<Scalar, Cap>& m, State<Scalar, Cap>& s,
+                        double motion_angle_rad, double airspeed_mps) {
+  if (!std::isfinite(motion_angle_rad) || !std::isfinite(airspeed_mps))
+    return StepStatus::non_finite_input;
+  if (!(airspeed_mps > 0.0)) return StepStatus::non_positive_airspeed;
+  const detail::Clamped<Scalar> clamp = detail::clamp_model_angle(m, motion_angle_rad);
+  State<Scalar, Cap> n{};
+  for (int c = 0; c < m.set.n_coefficients; ++c) {
+    const CoefficientModel<Scalar, Cap>& cm = m.set.coefficients[c];
+    steady_state(cm, clamp.x_rad, n.y[c]);
+    for (int j = 0; j < cm.n_lags; ++j)
+      if (!std::isfinite(n.y[c][j])) return StepStatus::non_finite_result;
+    // At rest the forcing angle is the model angle, delay or not.
+    evaluate_step_end(cm, clamp.x_rad, clamp.x_rad, &n.end[c]);
+  }
+  n.x_prev_rad = clamp.x_rad;
+  const detail::AirspeedTerms<Scalar> v = detail::airspeed_terms(m, n, airspeed_mps);
+  n.airspeed_mps = v.airspeed_mps;
+  n.time_scale = v.time_scale;
+  n.l_over_v_s = v.l_over_v_s;
+  n.phase = static_cast<int>(PredictorPhase::running);
+  s = n;
+  return clamp.status;
+}
+
+// A DelayedState's reset also sets its history to "at rest at that angle since forever":
+// one sample at t = 0, the other slots cleared, origin rest_before_oldest.
+template <class Scalar, class Cap>
+inline StepStatus reset(const RuntimeModel<Scalar, Cap>& m, DelayedState<Scalar, Cap>& s,
+                        double motion_angle_rad, double airspeed_mps) {
+  const StepStatus st = reset(m, static_cast<State<Scalar, Cap>&>(s), motion_angle_rad, airspeed_mps);
+  if (st != StepStatus::ok && st != StepStatus::angle_clamped) return st;
+  for (int i = 0; i < Cap::max_delay_samples; ++i) {
+    s.history_time_s[i] = 0.0;
+    s.history_x_rad[i] = Scalar(0);
+  }
+  s.time_s = 0.0;
+  s.delay_airspeed_mps = 0.0;
+  for (int c = 0; c < Cap::max_coefficients; ++c) s.delay_at_airspeed_s[c] = 0.0;
+  s.history_x_rad[0] = s.x_prev_rad;
+  s.history_newest = 0;
+  s.history_count = 1;
+  s.history_origin = static_cast<int>(HistoryOrigin::rest_before_oldest);
+  return st;
+}
+
+// Advances the lag states from the previous sample to this one (dt_s later) and writes the
+// m.set.n_coefficients coefficients at this sample to out[0..]. Anything but ok or
+// angle_clamped changes neither s nor out. A model with a delay needs a DelayedState.
+template <class Scalar, class Cap>
+inline StepStatus step(const RuntimeModel<Scalar, Cap>& m, State<Scalar, Cap>& s,
+                       const MotionInput& in, double dt_s, Scalar* out) {
+  const StepStatus checked = detail::check_step_input(s.phase, in, dt_s, out);
+  if (checked != StepStatus::ok) return checked;
+  if (m.delay != DelayUse::none) return StepStatus::delay_needs_history;
+  const detail::Clamped<Scalar> clamp = detail::clamp_model_angle(m, in.motion_angle_rad);
+  const detail::AirspeedTerms<Scalar> v = detail::airspeed_terms(m, s, in.airspeed_mps);
+  detail::StepResult<Scalar, Cap> r;
+  const StepStatus st = detail::advance_coefficients(m, s, clamp.x_rad, Scalar(in.rate_radps),
+                                                     Scalar(dt_s), v,
+                                                     static_cast<const detail::DelayedForcing<Scalar, Cap>*>(nullptr), &r);
+  if (st != StepStatus::ok) return st;
+  detail::commit(m, r, clamp.x_rad, v, &s, out);
+  return clamp.status;
+}
+
+namespace detail {
+// The delays at this airspeed (double, as delay_at_airspeed gives them), cached per airspeed.
+template <class Scalar, class Cap>
+inline void delays_at(const RuntimeModel<Scalar, Cap>& m, const DelayedState<Scalar, Cap>& s,
+                      double airspeed_mps, double* d) {
+  for (int c = 0; c < m.set.n_coefficients; ++c)
+    d[c] = airspeed_mps == s.delay_airspeed_mps
+               ? s.delay_at_airspeed_s[c]
+               : delay_at_airspeed(static_cast<double>(m.set.coefficients[c].delay_s),
+                                   m.set.airspeed_mps, airspeed_mps);
+}
+
+template <class Scalar, class Cap>
+inline void commit_history(double t1_s, Scalar x1, bool ring_full, DelayedState<Scalar, Cap>* s) {
+  const int slot = s->history_newest + 1 == Cap::max_delay_samples ? 0 : s->history_newest + 1;
+  s->history_time_s[slot] = t1_s;
+  s->history_x_rad[slot] = x1;
+  s->history_newest = slot;
+  if (ring_full) s->history_origin = static_cast<int>(HistoryOrigin::samples_dropped);
+  else ++s->history_count;
+  s->time_s = t1_s;
+}
+}  // namespace detail
+
+// The step of a DelayedState: an undelayed model steps exactly as with a State (the ring is
+// left alone); a delayed one drives each delayed coefficient with x(t - d) from the ring.
+template <class Scalar, class Cap>
+inline StepStatus step(const RuntimeModel<Scalar, Cap>& m, DelayedState<Scalar, Cap>& s,
+                       const MotionInput& in, double dt_s, Scalar* out) {
+  if (m.delay == DelayUse::none) return step(m, static_cast<State<Scalar, Cap>&>(s), in, dt_s, out);
+  const StepStatus checked = detail::check_step_input(s.phase, in, dt_s, out);
+  if (checked != StepStatus::ok) return checked;
+  const detail::Clamped<Scalar> clamp = detail::clamp_model_angle(m, in.motion_angle_rad);
+  const detail::AirspeedTerms<Scalar> v = detail::airspeed_terms(m, s, in.airspeed_mps);
+  double d_s[Cap::max_coefficients] = {};
+  detail::delays_at(m, s, in.airspeed_mps, d_s);
+  const double t0_s = s.time_s;
+  const double t1_s = t0_s + dt_s;
+  // The history as it will be after this step: the new sample on top of the ring (whose
+  // oldest sample drops out if the ring is full). Nothing is written until the commit.
+  const bool ring_full = s.history_count >= Cap::max_delay_samples;
+  const detail::HistoryView<Scalar, Cap> view{&s, t1_s, clamp.x_rad,
+                                              ring_full ? Cap::max_delay_samples : s.history_count + 1};
+  const bool rest_before_oldest =
+      !ring_full && s.history_origin == static_cast<int>(HistoryOrigin::rest_before_oldest);
+  detail::DelayedForcing<Scalar, Cap> forcing{};
+  for (int c = 0; c < m.set.n_coefficients; ++c) {
+    if (m.set.coefficients[c].delay_s == Scalar(0)) continue;
+    // Why: t0 - d before the oldest kept sample, with older samples already dropped, is an
+    // angle the runtime no longer knows; refuse rather than guess (runtime.hpp warning 7).
+    if (!rest_before_oldest && !(d_s[c] <= t0_s - view.time_s(view.size() - 1)))
+      return StepStatus::delay_exceeds_history;
+    forcing.x0_rad[c] = Scalar(delayed_angle(view, t0_s, d_s[c]));
+    forcing.x1_rad[c] = Scalar(delayed_angle(view, t1_s, d_s[c]));
+  }
+  detail::StepResult<Scalar, Cap> r;
+  const StepStatus st = detail::advance_coefficients(m, s, clamp.x_rad, Scalar(in.rate_radps),
+                                                     Scalar(dt_s), v, &forcing, &r);
+  if (st != StepStatus::ok) return st;
+  detail::commit(m, r, clamp.x_rad, v, &s, out);
+  detail::commit_history(t1_s, clamp.x_rad, ring_full, &s);
+  s.delay_airspeed_mps = in.airspeed_mps;
+  for (int c = 0; c < Cap::max_coefficients; ++c) s.delay_at_airspeed_s[c] = d_s[c];
+  return clamp.status;
+}
+
+// How many history samples a run at a fixed step dt_s and airspeed needs so that no step
+// returns delay_exceeds_history: 2 + ceil(d / dt_s) with d the longest delay of the model at
+// that airspeed (2 without a delay: the two samples of the step). Compare it with
+// Cap::max_delay_samples at initialisation. Conservative by one sample when d / dt_s is an
+// exact integer (accumulated sample times round either way). 0 when dt_s / airspeed_mps is
+// not finite and > 0; saturates at INT_MAX for absurd ratios.
+template <class Scalar, class Cap>
+inline int history_samples_needed(const RuntimeModel<Scalar, Cap>& m, double dt_s, double airspeed_mps) {
+  if (!std::isfinite(dt_s) || !(dt_s > 0.0) || !std::isfinite(airspeed_mps) || !(airspeed_mps > 0.0))
+    return 0;
+  double longest_s = 0.0;
+  for (int c = 0; c < m.set.n_coefficients; ++c) {
+    const double d = delay_at_airspeed(static_cast<double>(m.set.coefficients[c].delay_s),
+                                       m.set.airspeed_mps, airspeed_mps);
+    if (d > longest_s) longest_s = d;
+  }
+  const double steps = std::ceil(longest_s / dt_s * (1.0 + 1e-9));
+  // Why the saturation: the ratio may exceed int's range (tiny dt, tiny airspeed).
+  if (!(steps < static_cast<double>(std::numeric_limits<int>::max() - 2)))
+    return std::numeric_limits<int>::max();
+  return 2 + static_cast<int>(steps);
+}
+
+// ------------------------------------------------------------------------------------------
+// Predictor: the convenience of one instance -- a model (its own, loaded from text or a
+// ModelSet, or a shared one used in place) and a DelayedState, behind member functions.
+// ------------------------------------------------------------------------------------------
 template <class Scalar = double, class Cap = DefaultCapacity>
 class Predictor {
   static_assert(std::is_floating_point<Scalar>::value,
@@ -223,9 +799,7 @@ class Predictor {
   static constexpr int max_lags = Cap::max_lags;
   // Samples of (time, model angle) kept for delayed coefficients, the current one included.
   static constexpr int history_capacity = Cap::max_delay_samples;
-  // Largest accepted step. The update is stable for any dt, but a step over 1 s at a
-  // real-time rate is almost certainly a unit error (milliseconds passed as seconds).
-  static constexpr double max_dt_s = 1.0;
+  static constexpr double max_dt_s = max_step_dt_s;
 
   struct Outputs {
     int count = 0;                        // number of coefficients (1..max_coefficients)
@@ -233,384 +807,103 @@ class Predictor {
     const char* name[Cap::max_coefficients] = {};  // "CL", "Cm", ... in file order
   };
 
- private:
-  // Number of int words that make Snapshot free of padding for double and float: the
-  // 4-byte words (ints, and the Scalars when Scalar is float) must fill whole 8-byte units
-  // after the leading doubles. At least 1 (no zero-length arrays).
-  static constexpr int snapshot_scalar_count =
-      Cap::max_coefficients * Cap::max_lags + 1 + Cap::max_delay_samples;
-  static constexpr int snapshot_int_count = 4;  // phase, newest, count, origin
-  static constexpr int snapshot_four_byte_words =
-      (sizeof(Scalar) == 4 ? snapshot_scalar_count : 0) + snapshot_int_count;
-  static constexpr int snapshot_pad_ints = (snapshot_four_byte_words % 2 == 0) ? 2 : 1;
-
- public:
-  // The whole mutable state. Laid out without padding for double and float so that two
-  // snapshots can be compared bytewise (doubles first, then Scalars, then ints).
-  struct Snapshot {
-    double time_s = 0.0;  // time of the newest sample, counted from reset() (t = 0)
-    // The delay history: a ring of the last history_count samples, newest at slot
-    // history_newest, older ones at decreasing slots (modulo history_capacity). Unused slots
-    // are 0. Kept for every model (delayed or not) so that a snapshot is always complete.
-    double history_time_s[Cap::max_delay_samples] = {};
-    Scalar y[Cap::max_coefficients][Cap::max_lags] = {};  // lag states
-    Scalar x_prev_rad = Scalar(0);  // the (clamped) model angle of the previous sample
-    Scalar history_x_rad[Cap::max_delay_samples] = {};    // the (clamped) model angles
-    int phase = 0;                  // PredictorPhase as int
-    int history_newest = 0;         // slot of the newest sample
-    int history_count = 0;          // samples held: 1..history_capacity once running
-    int history_origin = 0;         // HistoryOrigin as int
-    int reserved[snapshot_pad_ints] = {};  // keeps the struct free of padding bytes
-  };
-
+  // The whole mutable state (lag states, cached step ends and airspeed terms, delay ring).
+  using Snapshot = DelayedState<Scalar, Cap>;
   using Model = ModelSet<Scalar, Cap>;
+  using Runtime = RuntimeModel<Scalar, Cap>;
 
   // Parses (no heap) and validates a coefficient file; on success replaces the model and
-  // leaves the predictor in PredictorPhase::loaded (reset() next).
-  LoadStatus load(const char* text, std::size_t length, ParseDiagnostic* diag = nullptr) {
-    ModelSet<double, Cap> parsed;
-    const LoadStatus s = parse_coef_file(text, length, &parsed, diag);
+  // leaves the predictor in PredictorPhase::loaded (reset() next). Defined in coef_file.hpp
+  // (the parser): include "indicial/coef_file.hpp" to call it.
+  LoadStatus load(const char* text, std::size_t length, ParseDiagnostic* diag = nullptr);
+
+  // Loads a model built in code (validated exactly like a file; the static table's spline is
+  // recomputed so a hand-built model need not prepare it) into the predictor's own storage.
+  LoadStatus load(const ModelSet<double, Cap>& model, ParseDiagnostic* diag = nullptr) {
+    const LoadStatus s = make_runtime_model(model, &own_, diag);
     if (s != LoadStatus::ok) return s;
-    return load(parsed, diag);
+    source_ = Source::owned;
+    external_ = nullptr;
+    state_ = Snapshot();
+    state_.phase = static_cast<int>(PredictorPhase::loaded);
+    return LoadStatus::ok;
   }
 
-  // Loads a model built in code or by `indicial codegen` (validated exactly like a file;
-  // the static table's spline is recomputed so a hand-built model need not prepare it).
-  LoadStatus load(const ModelSet<double, Cap>& model, ParseDiagnostic* diag = nullptr) {
-    const LoadStatus s = validate_for_runtime(model, diag);
+  // A generated model (`indicial codegen`) copied into the predictor (the old spelling; use()
+  // avoids the copy).
+  LoadStatus load(const RuntimeModel<double, Cap>& model, ParseDiagnostic* diag = nullptr) {
+    return load(model.set, diag);
+  }
+
+  // Uses a shared model in place (no copy): checked once by check_runtime_model; it must
+  // outlive the predictor's use of it (until the next load or use).
+  LoadStatus use(const Runtime& model, ParseDiagnostic* diag = nullptr) {
+    const LoadStatus s = check_runtime_model(model, diag);
     if (s != LoadStatus::ok) return s;
-    for (int c = 0; c < model.n_coefficients; ++c) {
-      // Why: at the reference airspeed the ring serves (history_capacity - 2) steps of at
-      // most max_dt_s; a longer delay could never be served by any accepted step.
-      if (model.coefficients[c].delay_s > (history_capacity - 2) * max_dt_s)
-        return detail::refuse(diag, 0,
-                              "delay_s is longer than the runtime's delay history can hold "
-                              "even at max_dt_s (raise Capacity's MaxDelaySamples)",
-                              LoadStatus::over_capacity);
-    }
-    Model converted;
-    if (!convert(model, &converted))
-      return detail::refuse(diag, 0, "a model value does not fit the Scalar type",
-                            LoadStatus::invalid_value);
-    model_ = converted;
-    state_ = Snapshot{};
+    source_ = Source::external;
+    external_ = &model;
+    state_ = Snapshot();
     state_.phase = static_cast<int>(PredictorPhase::loaded);
-    ends_ = Ends{};
-    airspeed_ = AirspeedTerms{};
     return LoadStatus::ok;
   }
 
   // Sets every lag state to the steady state at the given motion angle (x' = 0), and the
-  // delay history to "at rest at that angle since forever": one sample at t = 0, the other
-  // slots cleared, origin rest_before_oldest.
+  // delay history to "at rest at that angle since forever".
   StepStatus reset(double motion_angle_rad, double airspeed_mps) {
-    if (phase() == PredictorPhase::empty) return StepStatus::not_loaded;
-    if (!std::isfinite(motion_angle_rad) || !std::isfinite(airspeed_mps))
-      return StepStatus::non_finite_input;
-    if (!(airspeed_mps > 0.0)) return StepStatus::non_positive_airspeed;
-    ClampResult clamp = clamp_model_angle(motion_angle_rad);
-    Scalar y[Cap::max_coefficients][Cap::max_lags] = {};
-    for (int c = 0; c < model_.n_coefficients; ++c) {
-      steady_state(model_.coefficients[c], clamp.x_rad, y[c]);
-      for (int j = 0; j < model_.coefficients[c].n_lags; ++j) {
-        if (!std::isfinite(y[c][j])) return StepStatus::non_finite_result;
-      }
-    }
-    for (int c = 0; c < Cap::max_coefficients; ++c)
-      for (int j = 0; j < Cap::max_lags; ++j) state_.y[c][j] = y[c][j];
-    for (int i = 0; i < history_capacity; ++i) {
-      state_.history_time_s[i] = 0.0;
-      state_.history_x_rad[i] = Scalar(0);
-    }
-    state_.time_s = 0.0;
-    state_.history_x_rad[0] = clamp.x_rad;
-    state_.history_newest = 0;
-    state_.history_count = 1;
-    state_.history_origin = static_cast<int>(HistoryOrigin::rest_before_oldest);
-    state_.x_prev_rad = clamp.x_rad;
-    state_.phase = static_cast<int>(PredictorPhase::running);
-    // At rest the forcing angle is the model angle, delay or not (delayed_angle of a one-sample
-    // history is that sample).
-    evaluate_ends();
-    return clamp.clamped ? StepStatus::angle_clamped : StepStatus::ok;
+    if (source_ == Source::none) return StepStatus::not_loaded;
+    return indicial::reset(runtime(), state_, motion_angle_rad, airspeed_mps);
   }
 
   // Advances the lag states from the previous sample to this one (dt_s later) and writes the
   // coefficients at this sample to *out.
   StepStatus step(const MotionInput& in, double dt_s, Outputs* out) {
-    if (phase() == PredictorPhase::empty) return StepStatus::not_loaded;
-    if (phase() == PredictorPhase::loaded) return StepStatus::not_reset;
+    if (source_ == Source::none) return StepStatus::not_loaded;
+    if (state_.phase != static_cast<int>(PredictorPhase::running)) return StepStatus::not_reset;
     if (out == nullptr) return StepStatus::null_output;
-    if (!std::isfinite(in.motion_angle_rad) || !std::isfinite(in.rate_radps) ||
-        !std::isfinite(in.airspeed_mps) || !std::isfinite(dt_s))
-      return StepStatus::non_finite_input;
-    if (!(dt_s > 0.0)) return StepStatus::non_positive_dt;
-    if (dt_s > max_dt_s) return StepStatus::dt_too_large;
-    if (!(in.airspeed_mps > 0.0)) return StepStatus::non_positive_airspeed;
-
-    const ClampResult clamp = clamp_model_angle(in.motion_angle_rad);
-    const Scalar x1 = clamp.x_rad;
-    // The same divisions as ever, done once per airspeed (bit-identical: same operands).
-    const AirspeedTerms& v = airspeed_terms(in.airspeed_mps);
-    const Scalar time_scale = v.time_scale;
-    const Scalar l_over_v_s = v.l_over_v_s;
-    const Scalar rate = Scalar(in.rate_radps);
-    const double t0_s = state_.time_s;
-    const double t1_s = t0_s + dt_s;
-    // The history as it will be after this step: the new sample on top of the ring (whose
-    // oldest sample drops out if the ring is full). Nothing is written until the commit.
-    const bool ring_full = state_.history_count >= history_capacity;
-    const HistoryView view{&state_, t1_s, x1,
-                           ring_full ? history_capacity : state_.history_count + 1};
-    const bool rest_before_oldest =
-        !ring_full &&
-        state_.history_origin == static_cast<int>(HistoryOrigin::rest_before_oldest);
-
-    // Work on copies; commit only if every number is finite (warning 4).
-    Scalar y[Cap::max_coefficients][Cap::max_lags];
-    Ends new_ends;  // the spline quantities at this sample: the next step's old end
+    const Runtime& m = runtime();
     Outputs result;
-    result.count = model_.n_coefficients;
-    for (int c = 0; c < model_.n_coefficients; ++c) {
-      const CoefficientModel<Scalar, Cap>& cm = model_.coefficients[c];
-      for (int j = 0; j < Cap::max_lags; ++j) y[c][j] = state_.y[c][j];
-      StepGeometry<Scalar> g{state_.x_prev_rad, x1, state_.x_prev_rad, x1, Scalar(dt_s),
-                             time_scale};
-      // The old end as the previous step (or reset/restore) left it: B_j(x_prev) and, without
-      // a delay, A(x_prev) -- bit for bit what advance_lags would evaluate again.
-      const StepEnd<Scalar, Cap>* end0 = &ends_.end[c];
-      StepEnd<Scalar, Cap> delayed_end0;
-      // Why the branch: an undelayed coefficient uses the sample angles themselves, exactly
-      // as before delays existed (bit for bit); only a delayed one reads the history.
-      if (cm.delay_s != Scalar(0)) {
-        // Times in double (model.hpp warning 5): the delay at this airspeed, then x(t - d)
-        // at both ends of the step by the shared interpolation.
-        const double d_s = v.delay_s[c];
-        // Why: t0 - d before the oldest kept sample, with older samples already dropped, is
-        // an angle the runtime no longer knows; refuse rather than guess (warning 7). The
-        // comparison is delayed_angle's own (age of the oldest sample < delay).
-        if (!rest_before_oldest && !(d_s <= t0_s - view.time_s(view.size() - 1)))
-          return StepStatus::delay_exceeds_history;
-        g.forcing_x0_rad = Scalar(delayed_angle(view, t0_s, d_s));
-        g.forcing_x1_rad = Scalar(delayed_angle(view, t1_s, d_s));
-        // Why recomputed: x(t0 - d) is the previous step's x(t1 - d) only while d (i.e. the
-        // airspeed) is unchanged; evaluating A there every step is always exact. B_j(x0) stays
-        // valid: x0 is the previous clamped model angle whatever the delay.
-        delayed_end0 = *end0;
-        delayed_end0.forcing_antiderivative = spline_antiderivative(cm.a, g.forcing_x0_rad);
-        end0 = &delayed_end0;
-      }
-      evaluate_step_end(cm, g.x1_rad, g.forcing_x1_rad, &new_ends.end[c]);
-      advance_lags_between(cm, g, *end0, new_ends.end[c], y[c]);
-      result.value[c] = coefficient_output(cm, x1, rate, l_over_v_s, y[c]);
-      result.name[c] = cm.name;
-      if (!std::isfinite(result.value[c])) return StepStatus::non_finite_result;
-      for (int j = 0; j < cm.n_lags; ++j) {
-        if (!std::isfinite(y[c][j])) return StepStatus::non_finite_result;
-      }
-    }
-    // Commit.
-    for (int c = 0; c < model_.n_coefficients; ++c)
-      for (int j = 0; j < Cap::max_lags; ++j) state_.y[c][j] = y[c][j];
-    const int slot = state_.history_newest + 1 == history_capacity ? 0 : state_.history_newest + 1;
-    state_.history_time_s[slot] = t1_s;
-    state_.history_x_rad[slot] = x1;
-    state_.history_newest = slot;
-    if (ring_full) state_.history_origin = static_cast<int>(HistoryOrigin::samples_dropped);
-    else ++state_.history_count;
-    state_.time_s = t1_s;
-    state_.x_prev_rad = x1;
-    for (int c = 0; c < model_.n_coefficients; ++c) ends_.end[c] = new_ends.end[c];
+    const StepStatus s = indicial::step(m, state_, in, dt_s, result.value);
+    if (s != StepStatus::ok && s != StepStatus::angle_clamped) return s;
+    result.count = m.set.n_coefficients;
+    for (int c = 0; c < m.set.n_coefficients; ++c) result.name[c] = m.set.coefficients[c].name;
     *out = result;
-    return clamp.clamped ? StepStatus::angle_clamped : StepStatus::ok;
+    return s;
   }
 
-  // How many history samples a run at a fixed step dt_s and airspeed needs so that no step
-  // returns delay_exceeds_history: 2 + ceil(d / dt_s) with d the longest delay of the model
-  // at that airspeed (2 without a delay: the two samples of the step). Compare it with
-  // history_capacity at initialisation. Conservative by one sample when d / dt_s is an exact
-  // integer (accumulated sample times round either way). 0 when nothing is loaded or dt_s /
-  // airspeed_mps is not finite and > 0; saturates at INT_MAX for absurd ratios.
+  // See indicial::history_samples_needed; 0 when nothing is loaded.
   int history_samples_needed(double dt_s, double airspeed_mps) const {
-    if (phase() == PredictorPhase::empty) return 0;
-    if (!std::isfinite(dt_s) || !(dt_s > 0.0) || !std::isfinite(airspeed_mps) ||
-        !(airspeed_mps > 0.0))
-      return 0;
-    double longest_s = 0.0;
-    for (int c = 0; c < model_.n_coefficients; ++c) {
-      const double d = delay_at_airspeed(static_cast<double>(model_.coefficients[c].delay_s),
-                                         model_.airspeed_mps, airspeed_mps);
-      if (d > longest_s) longest_s = d;
-    }
-    const double steps = std::ceil(longest_s / dt_s * (1.0 + 1e-9));
-    // Why the saturation: the ratio may exceed int's range (tiny dt, tiny airspeed).
-    if (!(steps < static_cast<double>(std::numeric_limits<int>::max() - 2)))
-      return std::numeric_limits<int>::max();
-    return 2 + static_cast<int>(steps);
+    if (source_ == Source::none) return 0;
+    return indicial::history_samples_needed(runtime(), dt_s, airspeed_mps);
   }
 
   Snapshot snapshot() const { return state_; }
 
-  // Restores a snapshot of this predictor (same model). Ignored while nothing is loaded.
+  // Restores a snapshot of this predictor (same model). Ignored while nothing is loaded. The
+  // cached step ends and airspeed terms travel in the snapshot, so a restored predictor
+  // steps bit for bit like the one the snapshot was taken from.
   void restore(const Snapshot& s) {
-    if (phase() == PredictorPhase::empty) return;
+    if (source_ == Source::none) return;
     state_ = s;
     // A snapshot can never bring back the empty phase over a loaded model.
     if (state_.phase != static_cast<int>(PredictorPhase::running))
       state_.phase = static_cast<int>(PredictorPhase::loaded);
-    // The cached old end is a function of the restored x_prev_rad (see the essay): rebuilt,
-    // so a restored predictor steps bit for bit like the one the snapshot was taken from.
-    else
-      evaluate_ends();
   }
 
-  PredictorPhase phase() const { return static_cast<PredictorPhase>(state_.phase); }
-  const Model& model() const { return model_; }
-  Axis axis() const { return model_.axis; }
-  int coefficient_count() const { return model_.n_coefficients; }
+  PredictorPhase phase() const {
+    if (source_ == Source::none) return PredictorPhase::empty;
+    return static_cast<PredictorPhase>(state_.phase);
+  }
+  const Runtime& runtime() const { return external_ != nullptr ? *external_ : own_; }
+  const Model& model() const { return runtime().set; }
+  Axis axis() const { return runtime().set.axis; }
+  int coefficient_count() const { return source_ == Source::none ? 0 : runtime().set.n_coefficients; }
 
  private:
-  struct ClampResult {
-    Scalar x_rad;
-    bool clamped;
-  };
-
-  // The spline quantities at the previous sample, per coefficient (model.hpp's StepEnd).
-  struct Ends {
-    StepEnd<Scalar, Cap> end[Cap::max_coefficients];
-  };
-
-  // Per-airspeed constants of step(). airspeed_mps = 0 means "none cached": step() accepts
-  // only airspeeds > 0, so it never matches.
-  struct AirspeedTerms {
-    double airspeed_mps = 0.0;
-    Scalar time_scale = Scalar(0);  // V / V_ref
-    Scalar l_over_v_s = Scalar(0);  // l / V
-    double delay_s[Cap::max_coefficients] = {};  // each coefficient's delay at V
-  };
-
-  const AirspeedTerms& airspeed_terms(double airspeed_mps) {
-    // Why the exact comparison: the cached values are the same expressions of the same
-    // operand, so reusing them for an equal airspeed is bit-identical; any other airspeed
-    // recomputes.
-    if (airspeed_mps != airspeed_.airspeed_mps) {
-      airspeed_.airspeed_mps = airspeed_mps;
-      airspeed_.time_scale = Scalar(airspeed_mps / model_.airspeed_mps);
-      airspeed_.l_over_v_s = Scalar(model_.reference_length_m / airspeed_mps);
-      for (int c = 0; c < model_.n_coefficients; ++c)
-        airspeed_.delay_s[c] = delay_at_airspeed(static_cast<double>(model_.coefficients[c].delay_s),
-                                                 model_.airspeed_mps, airspeed_mps);
-    }
-    return airspeed_;
-  }
-
-  // The old end of the next step at the current x_prev_rad, the forcing angle taken equal to
-  // it (right for every undelayed coefficient; a delayed one recomputes its A each step).
-  void evaluate_ends() {
-    for (int c = 0; c < model_.n_coefficients; ++c)
-      evaluate_step_end(model_.coefficients[c], state_.x_prev_rad, state_.x_prev_rad,
-                        &ends_.end[c]);
-  }
-
-  // The delay history seen newest-first by indicial::delayed_angle (model.hpp): index 0 is
-  // the pending new sample, index i >= 1 the ring's (i-1)-th newest. Reads only.
-  struct HistoryView {
-    const Snapshot* s;
-    double new_time_s;
-    Scalar new_x_rad;
-    int n;
-    int size() const { return n; }
-    int slot(int i) const {
-      const int k = s->history_newest - (i - 1);
-      return k < 0 ? k + history_capacity : k;
-    }
-    double time_s(int i) const { return i == 0 ? new_time_s : s->history_time_s[slot(i)]; }
-    Scalar x_rad(int i) const { return i == 0 ? new_x_rad : s->history_x_rad[slot(i)]; }
-  };
-
-  // Model angle in double (the envelope is double), clamped, then converted to Scalar.
-  ClampResult clamp_model_angle(double motion_angle_rad) const {
-    double x = model_angle<double>(model_.axis, model_.alpha0_rad, motion_angle_rad);
-    bool clamped = false;
-    // Why the clamp: the splines are fitted inside the envelope only; outside it a polynomial
-    // extrapolates without data behind it.
-    if (x < model_.x_min_rad) {
-      x = model_.x_min_rad;
-      clamped = true;
-    } else if (x > model_.x_max_rad) {
-      x = model_.x_max_rad;
-      clamped = true;
-    }
-    return ClampResult{Scalar(x), clamped};
-  }
-
-  static bool fits(double v) {
-    return std::isfinite(static_cast<Scalar>(v)) || !std::isfinite(v);
-  }
-
-  template <int P, int K>
-  static bool convert_spline(const Spline<double, P, K>& in, Spline<Scalar, P, K>* out) {
-    out->n_powers = in.n_powers;
-    out->n_knots = in.n_knots;
-    bool ok = true;
-    for (int i = 0; i < P; ++i) {
-      out->power_coef[i] = static_cast<Scalar>(in.power_coef[i]);
-      ok = ok && fits(in.power_coef[i]);
-    }
-    for (int j = 0; j < (K > 0 ? K : 1); ++j) {
-      out->knot_rad[j] = in.knot_rad[j];
-      out->knot_power[j] = in.knot_power[j];
-      out->knot_coef[j] = static_cast<Scalar>(in.knot_coef[j]);
-      ok = ok && fits(in.knot_coef[j]);
-    }
-    return ok;
-  }
-
-  static bool convert(const ModelSet<double, Cap>& in, Model* out) {
-    out->axis = in.axis;
-    out->reference_length_m = in.reference_length_m;
-    out->airspeed_mps = in.airspeed_mps;
-    out->alpha0_rad = in.alpha0_rad;
-    out->x_min_rad = in.x_min_rad;
-    out->x_max_rad = in.x_max_rad;
-    out->n_coefficients = in.n_coefficients;
-    bool ok = true;
-    for (int c = 0; c < Cap::max_coefficients; ++c) {
-      const CoefficientModel<double, Cap>& a = in.coefficients[c];
-      CoefficientModel<Scalar, Cap>& b = out->coefficients[c];
-      for (std::size_t i = 0; i < sizeof a.name; ++i) b.name[i] = a.name[i];
-      b.static_curve.kind = a.static_curve.kind;
-      ok = convert_spline(a.static_curve.polynomial, &b.static_curve.polynomial) && ok;
-      b.static_curve.n_table = a.static_curve.n_table;
-      for (int i = 0; i < Cap::max_table_points; ++i) {
-        b.static_curve.table_x_rad[i] = a.static_curve.table_x_rad[i];
-        b.static_curve.table_value[i] = static_cast<Scalar>(a.static_curve.table_value[i]);
-        ok = ok && fits(a.static_curve.table_value[i]);
-      }
-      ok = convert_spline(a.static_correction, &b.static_correction) && ok;
-      ok = convert_spline(a.rotary, &b.rotary) && ok;
-      ok = convert_spline(a.a, &b.a) && ok;
-      b.n_lags = a.n_lags;
-      for (int j = 0; j < Cap::max_lags; ++j) {
-        ok = convert_spline(a.lags[j].b, &b.lags[j].b) && ok;
-        b.lags[j].gain = static_cast<Scalar>(a.lags[j].gain);
-        ok = ok && fits(a.lags[j].gain);
-      }
-      b.con = static_cast<Scalar>(a.con);
-      b.delay_s = static_cast<Scalar>(a.delay_s);
-      ok = ok && fits(a.con) && fits(a.delay_s);
-      // The natural-spline second derivatives, recomputed in Scalar by the one function that
-      // defines them (a hand-built or generated model need not carry them).
-      if (c < in.n_coefficients && b.static_curve.kind == StaticKind::table)
-        prepare_static_table(b.static_curve);
-    }
-    return ok;
-  }
-
-  Model model_{};
+  enum class Source : int { none = 0, owned = 1, external = 2 };
+  Runtime own_{};
+  const Runtime* external_ = nullptr;
+  Source source_ = Source::none;
   Snapshot state_{};
-  Ends ends_{};              // derived from state_ and model_ (rebuilt by reset, restore)
-  AirspeedTerms airspeed_{};  // derived from model_ and the last airspeed
 };
 
 }  // namespace indicial

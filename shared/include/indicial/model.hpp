@@ -272,18 +272,28 @@ struct ModelSet {
 // ------------------------------------------------------------------------------------------
 // Axis geometry (report eqs. 17 and 20).
 // ------------------------------------------------------------------------------------------
+// The model angle from a precomputed axis factor: x = asin(sin(motion) * factor) in roll and
+// yaw, x = motion in pitch. The factor (model_angle_factor) is sin(alpha0) in roll and
+// -cos(alpha0) in yaw; the runtime computes it once per model instead of once per step.
+inline double model_angle_factor(Axis axis, double alpha0_rad) {
+  return axis == Axis::roll ? std::sin(alpha0_rad) : axis == Axis::yaw ? -std::cos(alpha0_rad) : 1.0;
+}
+
+template <class Scalar>
+inline Scalar model_angle_from_factor(Axis axis, const Scalar& factor,
+                                      const Scalar& motion_angle_rad) {
+  using std::asin;
+  using std::sin;
+  if (axis == Axis::pitch) return motion_angle_rad;
+  return asin(sin(motion_angle_rad) * factor);
+}
+
 // The model angle x from the motion angle: alpha in pitch, beta from phi (roll) or psi (yaw).
+// (-sin(psi) cos(alpha0) is sin(psi) (-cos(alpha0)) bit for bit: negation is exact.)
 template <class Scalar>
 inline Scalar model_angle(Axis axis, double alpha0_rad, const Scalar& motion_angle_rad) {
-  using std::asin;
-  using std::cos;
-  using std::sin;
-  switch (axis) {
-    case Axis::pitch: return motion_angle_rad;
-    case Axis::roll: return asin(sin(motion_angle_rad) * Scalar(std::sin(alpha0_rad)));
-    case Axis::yaw: return asin(-sin(motion_angle_rad) * Scalar(std::cos(alpha0_rad)));
-  }
-  return motion_angle_rad;
+  return model_angle_from_factor(axis, Scalar(model_angle_factor(axis, alpha0_rad)),
+                                 motion_angle_rad);
 }
 
 // ------------------------------------------------------------------------------------------
@@ -498,21 +508,39 @@ inline void evaluate_step_end(const CoefficientModel<Scalar, Cap>& m, const X& x
 // The even spread costs O(dt^3) per step, so the method is second order
 // (tests/test_discretization.cpp measures it). It is unconditionally stable for b > 0 and
 // exact as b dt -> 0 (phi1 -> 1, no 0/0 branch).
+//
+// The update is split in two per lag so that a batch of instances (the runtime's step_batch)
+// can take exp(-z_j) of many instances at once between them: lag_exponent gives z_j,
+// lag_update applies the update given z_j and exp(-z_j). advance_lags_between is the two
+// with std::exp between, the one sequence every caller runs.
+template <class Scalar, class Cap>
+inline Scalar lag_exponent(const CoefficientModel<Scalar, Cap>& m, const StepGeometry<Scalar>& g,
+                           const StepEnd<Scalar, Cap>& end0, const StepEnd<Scalar, Cap>& end1,
+                           int j) {
+  const Scalar b_mean = interval_mean(m.lags[j].b, g.x0_rad, g.x1_rad, end0.b_antiderivative[j],
+                                      end1.b_antiderivative[j]);
+  return b_mean * (g.time_scale * g.dt_s);
+}
+
+template <class Scalar, class Cap>
+inline void lag_update(const CoefficientModel<Scalar, Cap>& m, const StepGeometry<Scalar>& g,
+                       const Scalar& forcing_integral, const Scalar& z, const Scalar& decay, int j,
+                       Scalar* y) {
+  Scalar drive = (j == 0) ? Scalar(-forcing_integral) : Scalar(-m.lags[j].gain * forcing_integral);
+  if (j == 0) drive = drive + m.con * (g.time_scale * g.dt_s);
+  y[j] = decay * y[j] + phi1(z, decay) * drive;
+}
+
 template <class Scalar, class Cap>
 inline void advance_lags_between(const CoefficientModel<Scalar, Cap>& m,
                                  const StepGeometry<Scalar>& g, const StepEnd<Scalar, Cap>& end0,
                                  const StepEnd<Scalar, Cap>& end1, Scalar* y) {
   using std::exp;
   const Scalar forcing_integral = end1.forcing_antiderivative - end0.forcing_antiderivative;
-  const Scalar time = g.time_scale * g.dt_s;
   for (int j = 0; j < m.n_lags; ++j) {
-    const Scalar b_mean = interval_mean(m.lags[j].b, g.x0_rad, g.x1_rad,
-                                        end0.b_antiderivative[j], end1.b_antiderivative[j]);
-    const Scalar z = b_mean * time;
+    const Scalar z = lag_exponent(m, g, end0, end1, j);
     const Scalar decay = exp(-z);
-    Scalar drive = (j == 0) ? Scalar(-forcing_integral) : Scalar(-m.lags[j].gain * forcing_integral);
-    if (j == 0) drive = drive + m.con * time;
-    y[j] = decay * y[j] + phi1(z, decay) * drive;
+    lag_update(m, g, forcing_integral, z, decay, j, y);
   }
 }
 

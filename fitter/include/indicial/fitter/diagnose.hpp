@@ -25,15 +25,23 @@
 //                      (no x^0: a constant offset equals con / b1 when b1 is constant, so it
 //                      is tested, and named, as `bias`)
 //   3. Score: the likelihood-ratio statistic LR = N ln(s0^2 / s1^2) (Gaussian residuals of
-//      unknown variance, N samples; s = s(v) of the base and the extended fit), against
-//      chi^2(dp), dp = the number of added ML parameters (Boost.Math), and Delta BIC =
-//      N ln(s1^2 / s0^2) + dp ln N. Multiplicity (Bonferroni): a candidate enters only if
-//      p < alpha / M, M = every candidate model fitted in that round, each scanned knot
-//      position counted (and the refinement positions of a winning knot), AND Delta BIC < 0.
-//   4. The most significant candidate (smallest p) is added, the model refitted (that fit IS
-//      the candidate's fit), and the round repeated until nothing is significant or
-//      max_steps. The verdict is the first step's effect ("none" without steps: the model is
-//      left as configured).
+//      unknown variance, N samples; s = s(v) of the base and the extended fit) divided by
+//      kappa = (1 + r1) / (1 - r1), r1 the lag-1 autocorrelation of the extended fit's
+//      residuals (colored residuals inflate LR by about kappa), against chi^2(dp), dp = the
+//      number of added ML parameters (Boost.Math); Delta BIC = -LR / kappa + dp ln(N / kappa).
+//      Multiplicity (Bonferroni): a first term counts only if p < alpha / M, M = every
+//      candidate model of the round (each scanned knot position counted, and 4 refinement
+//      positions per knot effect), AND Delta BIC < 0.
+//   4. Families, not single terms: every effect with a significant first term is grown into
+//      its best sub-model (stepwise inside the effect: further knots/powers of the same kind
+//      while each passes alpha / its scan and lowers BIC, up to max_family_terms); the
+//      sub-models are compared by BIC (one common N_eff) and the lowest is added as ONE step
+//      (several terms possible). Sub-models within indistinguishable_bic of it are named with
+//      it (DiagnoseStep::indistinguishable), the simplest is the step.
+//   5. Repeat until nothing is significant or max_steps; at max_steps one more round is tested
+//      and DiagnoseResult::stopped says whether an effect was still significant. The verdict
+//      is the first step's effect ("none" without steps: the model is left as configured).
+//      Final estimates whose bound exceeds their value are listed (ill_conditioned).
 //
 // Usage
 // -----
@@ -49,12 +57,12 @@
 //    (Davies' problem): the chi^2 p-value of one position is not the p-value of the best of
 //    many; the Bonferroni count over every scanned position is what keeps the false-positive
 //    rate at or below alpha per round (measured: tests/test_diagnose_null.cpp).
-// 2. LR assumes white Gaussian residuals. Colored measurement noise inflates LR; check the
-//    noise estimate against the final fit error (they agree when the model is complete and
-//    the noise white).
-// 3. Names can be ambiguous where the model cannot tell effects apart on the data (e.g. a
-//    delay and a lower b1 at a single frequency); the candidate table in report.md shows how
-//    close the runner-up was.
+// 2. LR assumes white Gaussian residuals; the kappa correction is exact for AR(1) noise and
+//    approximates other spectra by their lag-1 correlation. The noise estimate (second
+//    difference) assumes white noise and underestimates colored noise.
+// 3. Names can be ambiguous where the model cannot tell effects apart on the data (e.g. bias
+//    and a constant static offset with constant b1); such effects are named together with the
+//    experiment that separates them (EffectDescription::separated_by).
 // 4. When rotary.estimate = true, the two-stage fit's C_aq is frozen as the a priori C_aq for
 //    the diagnosis (its power terms; knot terms are kept as estimated correction terms).
 #pragma once
@@ -73,9 +81,24 @@
 
 namespace indicial {
 
+// The effects diagnose can name. Each has ONE entry in the registry (fitter/src/
+// diagnose_effects.cpp: name, description, how it is written to the model, its residual
+// signature, the experiment that separates it, its candidate generator); the count, --help
+// list and report descriptions come from there.
 enum class Effect { b1_alpha, a_alpha, rotary_alpha, bias, time_delay, second_lag, static_error };
-inline constexpr int effect_count = 7;
-const char* effect_name(Effect e);  // the contract's names: "b1_alpha", ...
+inline constexpr int effect_count = 7;  // the registry checks it has exactly this many entries
+
+struct EffectDescription {
+  Effect effect = Effect::bias;
+  const char* name = "";          // the contract's name: "b1_alpha", ...
+  const char* description = "";   // the disagreement it explains
+  const char* written_as = "";    // how it is written to the model (coefficient-file keys)
+  const char* signature = "";     // what it looks like in the residuals
+  const char* separated_by = "";  // the experiment that separates it from its look-alikes
+};
+const std::vector<EffectDescription>& effect_descriptions();  // one per Effect, enum order
+const char* effect_name(Effect e);
+std::string effect_names_list();  // "b1_alpha, a_alpha, ...", for --help and messages
 
 struct DiagnoseOptions {
   double alpha = 0.01;               // family-wise significance level per round
@@ -83,6 +106,8 @@ struct DiagnoseOptions {
   double knot_spacing_deg = 5.0;     // scan grid of knot positions (model angle x)
   double knot_margin_fraction = 0.1; // the grid stays this fraction of the range inside it
   int max_scan_knots = 16;           // the spacing widens when the range needs more
+  int max_family_terms = 4;          // terms one effect's sub-model may have (stepwise inside it)
+  double indistinguishable_bic = 6.0;  // families closer than this in BIC are named together
   FitOptions fit;                    // for every fit (start_values are set per candidate)
 };
 
@@ -90,7 +115,8 @@ struct DiagnoseOptions {
 enum class CandidateStatus {
   fitted,              // the extended model was fitted; statistic and p_value are valid
   fit_failed,          // fit_experiment threw (e.g. collinear terms) or did not converge
-  not_identifiable     // the extended fit's information matrix is rank deficient
+  not_identifiable,    // the extended fit's information matrix is rank deficient
+  refused_by_runtime   // the fitted model fails validate_for_runtime (e.g. b(x) <= 0)
 };
 const char* candidate_status_name(CandidateStatus s);
 
@@ -101,18 +127,49 @@ struct CandidateScore {
   CandidateStatus status = CandidateStatus::fitted;
   int added_parameters = 0; // dp
   double fit_error = 0.0;   // s(v) of the extended fit
-  double statistic = 0.0;   // LR = N ln(s0^2 / s1^2), >= 0
+  double statistic = 0.0;   // LR / kappa, kappa = correlation_factor: the test statistic, >= 0
+  double raw_statistic = 0.0;  // LR = N ln(s0^2 / s1^2) as for white residuals
+  double correlation_factor = 1.0;  // kappa = (1 + r1) / (1 - r1) of this fit's residuals, >= 1
   double p_value = 1.0;     // chi^2(dp) upper tail of LR
   double log10_p = 0.0;     // log10 p, finite even when p underflows (asymptotic tail)
-  double delta_bic = 0.0;   // BIC(extended) - BIC(base)
+  double delta_bic = 0.0;   // BIC(extended) - BIC(base) with N_eff = N / kappa
   std::string message;      // why it failed, when it did
 };
+
+// One effect's best sub-model in a round: its first term (the most significant of the scan),
+// then terms of the same effect added while they pay for themselves (stepwise in the family).
+struct FamilyResult {
+  Effect effect = Effect::bias;
+  std::vector<std::string> terms;   // in the order added
+  std::string detail;               // the terms for reports
+  int added_parameters = 0;
+  double fit_error = 0.0;
+  double delta_bic = 0.0;           // against the round's base, common N_eff (the comparison)
+  double log10_p = 0.0;             // of the whole sub-model (LR / kappa, chi^2(dp))
+};
+
+// The residual's signatures (issue 13 item 2), shares of the residual sum of squares:
+struct ResidualSignature {
+  double angle_only = 0.0;   // explained by a function of the angle alone (2 deg bins, all runs
+                             // and both stroke directions): a static error
+  double hysteresis = 0.0;   // further explained by the stroke direction within each angle bin
+                             // (up/down difference): an unsteady or delay error
+  double rate_in_phase = 0.0;  // explained by a per-run multiple of the rate (rotary, delay)
+  double constant = 0.0;     // explained by per-run constants (a bias: the same in every run)
+  std::vector<double> run_hysteresis;  // per run: RMS of (upstroke - downstroke) / 2 per bin
+  std::vector<double> run_rate_gain;   // per run: residual-on-rate regression coefficient
+  std::vector<double> run_mean;        // per run: mean residual
+  std::vector<double> run_rms_rate;    // per run: RMS rate (rad/s), to read growth with rate
+};
+ResidualSignature residual_signature(const std::vector<RunSeries>& runs);
 
 struct DiagnoseStep {
   int step = 0;                        // 1-based
   Effect effect = Effect::bias;
   std::string detail;
-  std::string term;
+  std::string term;                    // the terms added (one or several of the same effect)
+  std::vector<Effect> indistinguishable;  // other effects the data cannot tell from this one
+  double correlation_factor = 1.0;     // kappa of the new fit's residuals
   double statistic = 0.0;
   double p_value = 1.0;
   double log10_p = 0.0;
@@ -134,7 +191,11 @@ struct DiagnoseRound {
   double threshold = 0.0;
   std::vector<CandidateScore> candidates;
   int best = -1;                       // index into candidates of the smallest p (fitted)
-  bool added = false;                  // whether `best` became a step
+  bool added = false;                  // whether a family became a step
+  std::vector<FamilyResult> families;  // each significant effect's best sub-model
+  int winner = -1;                     // index into families of the step's effect
+  ResidualSignature signature;         // of the round's base residuals
+  bool check_only = false;             // the round after max_steps: tested, nothing added
 };
 
 struct NoiseEstimate {
@@ -142,7 +203,15 @@ struct NoiseEstimate {
   std::vector<double> run_sigma;       // per run
 };
 
+// Why the procedure stopped.
+enum class DiagnoseStop {
+  nothing_significant,  // the last round found no significant candidate
+  max_steps             // DiagnoseOptions::max_steps effects added and one still significant
+};
+const char* diagnose_stop_name(DiagnoseStop s);  // "nothing_significant", "max_steps"
+
 struct DiagnoseResult {
+  DiagnoseStop stopped = DiagnoseStop::nothing_significant;
   double initial_fit_error = 0.0;
   NoiseEstimate noise;                 // from the INITIAL fit's residuals
   NoiseEstimate final_noise;           // from the final fit's residuals
@@ -157,6 +226,8 @@ struct DiagnoseResult {
   double alpha = 0.01;
   double elapsed_s = 0.0;
   int fits_run = 0;                    // fit_experiment calls
+  std::string still_significant;       // stopped == max_steps: the effect still significant
+  std::vector<std::string> ill_conditioned;  // final parameters whose bound exceeds |value|
 };
 
 // The noise level of residual series (one per run) from their second differences:
@@ -177,6 +248,10 @@ DiagnoseResult diagnose_experiment(const Experiment& e, const DiagnoseOptions& o
 // candidate tables, the final model's parameters and the runtime check.
 nlohmann::json diagnosis_json(const DiagnoseResult& d, const Experiment& e,
                               const DiagnoseOptions& o, const RuntimeCheck* runtime);
+
+// One-line warnings about the result (diagnosis.json "warnings", stderr): stopped at max_steps
+// with an effect still significant; ill-conditioned final estimates.
+std::vector<std::string> diagnose_warnings(const DiagnoseResult& d);
 
 struct DiagnoseOutputs {
   std::filesystem::path dir;

@@ -14,16 +14,33 @@
 
 namespace indicial {
 
-// One run: uniform time grid, the motion angle (alpha, phi or psi), its body rate, and the
+// The time grid a run is declared to have (interface.md: "uniform step within 1e-6 relative
+// unless a run is declared otherwise"). The fitter needs a uniform grid (its smoothed y_E'
+// and the runs' dt); predict takes either, since the runtime steps with each sample's own dt
+// (a HIL or flight log with timestamp jitter, or a log with dropped samples).
+enum class TimeGrid { uniform, nonuniform };
+
+// Where a run's time came from: its time_s column, or a phase column (phase_rad | phase_deg of
+// one ensemble-averaged cycle) and the cycle's frequency: t = phase / (2 pi f).
+enum class TimeSource { time_column, phase_column };
+
+// One run: the time grid, the motion angle (alpha, phi or psi), its body rate, and the
 // measured coefficient. All angles in rad, rates in rad/s.
 struct Run {
   std::string path;                  // as named in the experiment (for messages and reports)
+  long experiment_line = 0;          // the line of its `runs` entry (0: not from an experiment)
   std::vector<double> time_s;
   std::vector<double> motion_angle_rad;   // alpha (pitch), phi (roll), psi (yaw)
   std::vector<double> rate_radps;         // q, p or r: from the file, or smoothed derivative
   bool rate_from_file = false;
   std::vector<double> coefficient;        // measured C_a
   bool periodic = false;                  // an ensemble-averaged cycle: periodic steady state
+  double airspeed_mps = 0.0;              // V of this run (load_experiment: the run's or the experiment's)
+  double frequency_hz = 0.0;              // the cycle's frequency; 0 when not given
+  TimeGrid time_grid = TimeGrid::uniform;
+  TimeSource time_source = TimeSource::time_column;
+  std::vector<std::string> notes;         // one-line notes of the reader (ignored columns, ...)
+  std::vector<std::string> warnings;      // plausible mistakes (radians in a degree column, ...)
   double dt_s() const { return time_s.size() > 1 ? time_s[1] - time_s[0] : 0.0; }
   std::size_t size() const { return time_s.size(); }
 };
@@ -102,6 +119,12 @@ struct Experiment {
   // The range of the model angle x over all samples of all runs (filled by load_experiment).
   double data_x_min_rad = 0.0;
   double data_x_max_rad = 0.0;
+  // One-line notes (what the readers did: ignored columns, snapped times) and warnings
+  // (plausible mistakes: radians in a degree column, a defaulted section, a run without
+  // motion), in the order found. The command line prints both on stderr; fit.json keeps the
+  // warnings.
+  std::vector<std::string> notes;
+  std::vector<std::string> warnings;
   double l_over_v_s() const { return reference_length_m / airspeed_mps; }
 };
 

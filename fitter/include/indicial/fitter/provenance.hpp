@@ -14,7 +14,8 @@
 //   model.coef                 `#` comment lines before the body (the coefficient format
 //                               allows comments; the checksum covers them, so it is
 //                               recomputed): `# indicial 0.1.0 (commit 3f2c...)`,
-//                               `# command: ...`, `# input experiment SHA256 PATH`, ...
+//                               `# command: ...`, `# input experiment SHA256 PATH`, ...,
+//                               `# units: ...` (x in rad for every polynomial and knot)
 //
 // Usage
 // -----

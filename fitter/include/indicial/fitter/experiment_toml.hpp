@@ -1,0 +1,95 @@
+// indicial/fitter/experiment_toml.hpp -- reading and writing experiment files (TOML).
+//
+// What it is for
+// --------------
+// load_experiment() turns an experiment file and every run CSV it names into a validated
+// Experiment (all angles in rad); write_experiment_toml() writes one back (the simulator's
+// cases). Both use the one table of enum names below, so a value the writer writes is always
+// one the reader reads.
+//
+// Usage
+// -----
+//   indicial::Experiment e = indicial::load_experiment("experiment.toml");  // runs included
+//   std::string text = indicial::write_experiment_toml(e, {"written by ..."});
+//
+// Keys: exactly those of interface.md plus the extensions documented in docs/formats.md:
+//   runs = ["a.csv", {file = "b.csv", periodic = true}]   entries are strings or tables
+//   [model] a_powers = [1, 2] / b1_powers = [0] (instead of *_degree), lags = 1
+//   [model] static_correction_degree|_powers|_knots_deg, rotary_correction_degree|_powers|
+//           _knots_deg, delay = "none"|"estimated", delay_start_s, further_lag_start =
+//           "estimated"|"at_rest"                          what diagnose adds (ModelConfig)
+//   [rotary] degree = 2, knots_deg = [...]               the candidate pool for estimate = true
+//   [rotary] prior_knots_deg, prior_knot_powers, prior_knot_coefficients   a priori knot terms
+//   [static] table = "static.csv"                          alpha_deg|alpha_rad (pitch) or
+//            beta_deg|beta_rad (roll, yaw) plus the coefficient column, strictly increasing
+//   alpha0_rad instead of alpha0_deg.
+//
+// Warnings
+// --------
+// 1. Unknown TOML keys are errors at every level (a misspelt key must never silently fall back
+//    to a default). A new key must be added to the reader in experiment_toml.cpp and to
+//    docs/formats.md.
+// 2. The model-angle range used to check knots and static tables is the range of
+//    x = model_angle(axis, alpha0, motion angle) over all samples of all runs; a knot must lie
+//    strictly inside it (a knot at or beyond the range has a term that is identically zero or
+//    identically a polynomial on the data, so it cannot be identified).
+#pragma once
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include "indicial/fitter/experiment.hpp"
+
+namespace indicial {
+
+// The name of an enum value in the experiment file. One table per enum, used by the reader
+// (which refuses any other string, listing these) and by the writer.
+template <class E>
+struct NamedValue {
+  const char* name;
+  E value;
+};
+inline constexpr std::array<NamedValue<Axis>, 3> axis_names{
+    {{"pitch", Axis::pitch}, {"roll", Axis::roll}, {"yaw", Axis::yaw}}};
+inline constexpr std::array<NamedValue<StructureMode>, 2> structure_mode_names{
+    {{"fixed", StructureMode::fixed}, {"stepwise", StructureMode::stepwise}}};
+inline constexpr std::array<NamedValue<DelayEstimation>, 2> delay_estimation_names{
+    {{"none", DelayEstimation::none}, {"estimated", DelayEstimation::estimated}}};
+inline constexpr std::array<NamedValue<LagStart>, 2> lag_start_names{
+    {{"estimated", LagStart::estimated}, {"at_rest", LagStart::at_rest}}};
+inline constexpr std::array<NamedValue<TimeGrid>, 2> time_grid_names{
+    {{"uniform", TimeGrid::uniform}, {"nonuniform", TimeGrid::nonuniform}}};
+
+inline constexpr const auto& names_of(Axis) { return axis_names; }
+inline constexpr const auto& names_of(StructureMode) { return structure_mode_names; }
+inline constexpr const auto& names_of(DelayEstimation) { return delay_estimation_names; }
+inline constexpr const auto& names_of(LagStart) { return lag_start_names; }
+inline constexpr const auto& names_of(TimeGrid) { return time_grid_names; }
+
+// The file's name of `value` (e.g. "stepwise").
+template <class E>
+constexpr const char* name_of(E value) {
+  for (const auto& nv : names_of(value))
+    if (nv.value == value) return nv.name;
+  return "?";
+}
+
+// Reads the experiment file and every run it names; validates everything (see the warnings).
+Experiment load_experiment(const std::string& toml_path);
+
+// Refuses (InputError naming the experiment file and the run's `runs` line) what the fitter
+// does not support yet: a run on a nonuniform time grid, a run whose airspeed differs from the
+// experiment's. Called by load_experiment. Delete it (and its call) when the fitter supports
+// both (issue 12).
+void refuse_unsupported_run_features(const Experiment& experiment);
+
+// An experiment file as text, for `experiment` with the run files named by runs[i].path
+// (relative to the experiment file) and runs[i].periodic. Knots are written in degrees,
+// polynomials as given. Writes a_degree / b1_degree when the powers are 0..n-1 and
+// a_powers / b1_powers otherwise. load_experiment(write_experiment_toml(e)) gives back e's
+// configuration (to the last bit for the polynomials, within 1 ulp for knots).
+std::string write_experiment_toml(const Experiment& experiment,
+                                  const std::vector<std::string>& comment_lines);
+
+}  // namespace indicial

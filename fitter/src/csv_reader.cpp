@@ -1,0 +1,744 @@
+// Run CSV and static-table reading. See indicial/fitter/csv_reader.hpp.
+#include "indicial/fitter/csv_reader.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cctype>
+#include <charconv>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <set>
+#include <string>
+#include <utility>
+
+#include "indicial/fitter/derivative.hpp"
+#include "indicial/fitter/error.hpp"
+#include "indicial/fitter/io.hpp"
+
+namespace indicial {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kDegToRad = kPi / 180.0;
+// Relative tolerance of the uniform-step check (interface.md).
+constexpr double kStepTolerance = 1e-6;
+
+// Strips spaces and '\r' (and tabs unless they separate the fields) from both ends.
+std::string trim(const std::string& s, char delimiter = ',') {
+  auto blank = [delimiter](char c) { return c == ' ' || c == '\r' || (c == '\t' && delimiter != '\t'); };
+  std::size_t b = 0, e = s.size();
+  while (b < e && blank(s[b])) ++b;
+  while (e > b && blank(s[e - 1])) --e;
+  return s.substr(b, e - b);
+}
+
+// Splits a line at `delimiter` outside double quotes; a quoted field loses its quotes ("" in
+// it is one quote), every field is trimmed.
+std::vector<std::string> split_fields(const std::string& line, char delimiter) {
+  std::vector<std::string> out;
+  std::string field;
+  bool quoted = false;
+  for (std::size_t i = 0; i < line.size(); ++i) {
+    const char c = line[i];
+    if (c == '"') {
+      if (quoted && i + 1 < line.size() && line[i + 1] == '"') {
+        field += '"';
+        ++i;
+      } else {
+        quoted = !quoted;
+      }
+    } else if (c == delimiter && !quoted) {
+      out.push_back(trim(field, delimiter));
+      field.clear();
+    } else {
+      field += c;
+    }
+  }
+  out.push_back(trim(field, delimiter));
+  return out;
+}
+
+// The delimiter of a header line: the most frequent of tab, ';' and ',' outside quotes
+// (',' when none occurs: a one-column file).
+char detect_delimiter(const std::string& header) {
+  int tabs = 0, semicolons = 0, commas = 0;
+  bool quoted = false;
+  for (char c : header) {
+    if (c == '"') quoted = !quoted;
+    if (quoted) continue;
+    tabs += c == '\t';
+    semicolons += c == ';';
+    commas += c == ',';
+  }
+  if (tabs > semicolons && tabs > commas) return '\t';
+  if (semicolons > commas) return ';';
+  return ',';
+}
+
+std::string delimiter_name(char d) {
+  return d == '\t' ? "tab" : d == ';' ? "semicolon" : "comma";
+}
+
+// Case-insensitive edit distance (Levenshtein), for "did you mean" hints.
+std::size_t edit_distance(const std::string& a, const std::string& b) {
+  auto lower = [](char c) { return static_cast<char>(std::tolower(static_cast<unsigned char>(c))); };
+  std::vector<std::size_t> prev(b.size() + 1), cur(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) prev[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    cur[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t sub = prev[j - 1] + (lower(a[i - 1]) == lower(b[j - 1]) ? 0 : 1);
+      cur[j] = std::min({prev[j] + 1, cur[j - 1] + 1, sub});
+    }
+    std::swap(prev, cur);
+  }
+  return prev[b.size()];
+}
+
+// Parses a whole cell as a finite double; on failure returns the problem text.
+bool parse_number(const std::string& cell, double& v, std::string& problem) {
+  if (cell.empty()) {
+    problem = "empty cell";
+    return false;
+  }
+  const char* first = cell.data();
+  const char* last = cell.data() + cell.size();
+  if (*first == '+') ++first;  // from_chars does not take a leading '+'
+  const auto res = std::from_chars(first, last, v);
+  if (res.ec == std::errc::result_out_of_range) {
+    problem = "number out of range '" + cell + "'";
+    return false;
+  }
+  if (res.ec != std::errc() || res.ptr != last) {
+    problem = "non-numeric value '" + cell + "'";
+    return false;
+  }
+  if (!std::isfinite(v)) {
+    problem = "NaN or Inf value '" + cell + "'";
+    return false;
+  }
+  return true;
+}
+
+// ---- column names -----------------------------------------------------------------------
+enum class Quantity { time, angle, rate };
+struct UnitChoice {
+  const char* suffix;
+  double to_si;  // factor to rad, rad/s or s
+};
+struct BaseName {
+  const char* base;
+  Quantity quantity;
+};
+constexpr std::array<BaseName, 10> kUnitBases = {{{"time", Quantity::time},
+                                                  {"phase", Quantity::angle},
+                                                  {"alpha", Quantity::angle},
+                                                  {"beta", Quantity::angle},
+                                                  {"phi", Quantity::angle},
+                                                  {"psi", Quantity::angle},
+                                                  {"theta", Quantity::angle},
+                                                  {"q", Quantity::rate},
+                                                  {"p", Quantity::rate},
+                                                  {"r", Quantity::rate}}};
+
+// Suffixes that name a unit of time, angle or angular rate. A column of one of our bases with
+// such a suffix that is not one we read (alpha_grad, q_dps, time_ms) is refused: its unit
+// must never be guessed. Any other suffix (q_pa, r_m, alpha_cmd_deg) is another quantity and
+// the column is ignored with a note.
+bool names_a_unit(std::string suffix) {
+  static const std::set<std::string> units = {
+      "s", "ms", "us", "ns", "sec", "secs", "second", "seconds", "min", "h", "hr",
+      "deg", "degs", "degree", "degrees", "rad", "rads", "radian", "radians", "grad", "gon",
+      "mrad", "urad", "arcmin", "arcsec", "rev", "revs", "turn", "turns", "cycle", "cycles",
+      "degps", "radps", "dps", "rps", "rpm", "hz", "deg/s", "rad/s", "degpersec", "radpersec",
+      "deg_s", "rad_s", "deg_per_s", "rad_per_s", "degsec", "radsec"};
+  for (char& c : suffix) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return units.count(suffix) > 0;
+}
+
+std::vector<UnitChoice> units_of(Quantity q) {
+  switch (q) {
+    case Quantity::time: return {{"s", 1.0}};
+    case Quantity::angle: return {{"deg", kDegToRad}, {"rad", 1.0}};
+    case Quantity::rate: return {{"degps", kDegToRad}, {"radps", 1.0}};
+  }
+  return {};
+}
+
+std::string unit_hint(const std::string& base, Quantity q) {
+  std::string hint;
+  for (const auto& u : units_of(q)) {
+    if (!hint.empty()) hint += " or ";
+    hint += base + "_" + u.suffix;
+  }
+  return hint;
+}
+
+const std::set<std::string>& coefficient_names() {
+  static const std::set<std::string> names = {"CL", "Cm", "CD", "CY", "Cl", "Cn"};
+  return names;
+}
+
+// What a header name is. unit: one of our bases with a unit we read (base and factor set);
+// known: a name we write or recognise but the reader may not need (coefficients, Cm_true,
+// y_true, Cm_pred); other: anything else (ignored with a note).
+enum class ColumnKind { unit, known, other };
+struct ParsedColumn {
+  ColumnKind kind = ColumnKind::other;
+  std::string base;
+  double to_si = 1.0;
+};
+
+ParsedColumn parse_column_name(const std::string& path, long line, const std::string& name) {
+  if (name.empty()) throw InputError(path, line, "empty column name in the header");
+  const std::size_t us = name.find('_');
+  const std::string base = name.substr(0, us);
+  for (const auto& b : kUnitBases) {
+    if (base != b.base) continue;
+    if (us == std::string::npos) {
+      throw InputError(path, line, "column '" + name + "' has no unit suffix (use " +
+                                       unit_hint(base, b.quantity) + ")");
+    }
+    const std::string suffix = name.substr(us + 1);
+    for (const auto& u : units_of(b.quantity)) {
+      if (suffix == u.suffix) return {ColumnKind::unit, base, u.to_si};
+    }
+    if (names_a_unit(suffix)) {
+      throw InputError(path, line, "column '" + name + "' has unknown unit suffix '_" + suffix +
+                                       "' (use " + unit_hint(base, b.quantity) + ")");
+    }
+    return {};
+  }
+  if (coefficient_names().count(base) || base == "y") return {ColumnKind::known, "", 1.0};
+  return {};
+}
+
+const char* motion_base(Axis axis) {
+  return axis == Axis::pitch ? "alpha" : axis == Axis::roll ? "phi" : "psi";
+}
+const char* rate_base(Axis axis) {
+  return axis == Axis::pitch ? "q" : axis == Axis::roll ? "p" : "r";
+}
+
+double median_of(std::vector<double> v) {
+  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
+}
+
+// ---- generic table-shaped CSV: header + numeric columns --------------------------------
+struct CsvTable {
+  std::vector<std::string> header;    // after [columns] renaming
+  std::vector<std::string> original;  // as in the file
+  long header_line = 0;
+  char delimiter = ',';
+  std::vector<std::vector<std::string>> rows;
+  std::vector<long> row_line;
+  bool decimal_comma = false;         // a cell was read with ',' as its decimal separator
+};
+
+// Reads the lines: BOM stripped, comments and blank lines skipped, fields split.
+CsvTable read_csv_lines(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path, 0, "cannot open file (does it exist?)");
+  CsvTable t;
+  std::string raw;
+  long line_no = 0;
+  bool any_byte = false;
+  while (std::getline(in, raw)) {
+    ++line_no;
+    // Why: Excel's "CSV UTF-8" starts the file with a byte-order mark.
+    if (line_no == 1 && raw.compare(0, 3, "\xEF\xBB\xBF") == 0) raw.erase(0, 3);
+    any_byte = true;
+    const std::string line = trim(raw);
+    // Why skip: '#' lines are comments by the contract; blank lines carry no data.
+    if (line.empty() || line[0] == '#') continue;
+    if (t.header.empty()) {
+      t.delimiter = detect_delimiter(line);
+      t.header = split_fields(trim(raw, t.delimiter), t.delimiter);
+      t.header_line = line_no;
+      continue;
+    }
+    std::vector<std::string> fields = split_fields(trim(raw, t.delimiter), t.delimiter);
+    if (fields.size() != t.header.size()) {
+      throw InputError(path, line_no, "expected " + std::to_string(t.header.size()) + " " +
+                                          delimiter_name(t.delimiter) +
+                                          "-separated fields as in the header, found " +
+                                          std::to_string(fields.size()));
+    }
+    t.rows.push_back(std::move(fields));
+    t.row_line.push_back(line_no);
+  }
+  if (in.bad()) throw InputError(path, 0, "read failed");
+  if (!any_byte) throw InputError(path, 0, "file is empty");
+  if (t.header.empty()) throw InputError(path, line_no, "no header row (only comments or blank lines)");
+  return t;
+}
+
+// Reads a CSV and renames the columns `columns` maps (our name -> the file's name).
+CsvTable read_csv_table(const std::string& path, const ColumnMap& columns) {
+  CsvTable t = read_csv_lines(path);
+  t.original = t.header;
+  for (const auto& [ours, theirs] : columns) {
+    for (auto& name : t.header)
+      if (name == theirs) name = ours;
+  }
+  std::set<std::string> seen;
+  for (const auto& name : t.header) {
+    if (!seen.insert(name).second) {
+      throw InputError(path, t.header_line, "duplicate column '" + name + "'");
+    }
+  }
+  if (t.rows.empty()) throw InputError(path, t.header_line, "header only: no data rows");
+  return t;
+}
+
+// "missing column 'Cm' (columns found: time_s, alpha_deg, cm; did you mean 'cm'? ...)".
+[[noreturn]] void missing_column(const std::string& path, const CsvTable& t, const std::string& what,
+                                 const std::vector<std::string>& wanted, const ColumnMap& columns) {
+  std::string found, nearest;
+  std::size_t best = 3;  // suggest only within 2 edits (case does not count)
+  for (const auto& name : t.original) {
+    found += (found.empty() ? "" : ", ") + name;
+    for (const auto& w : wanted) {
+      const std::size_t d = edit_distance(name, w);
+      if (d < best && d < w.size()) {
+        best = d;
+        nearest = name;
+      }
+    }
+  }
+  std::string msg = "missing column " + what + " (columns found: " + found + ")";
+  for (const auto& w : wanted) {
+    const auto m = columns.find(w);
+    if (m != columns.end()) msg += "; [columns] maps " + w + " to '" + m->second + "', not in this file";
+  }
+  if (!nearest.empty()) {
+    msg += "; did you mean '" + nearest + "'? (rename it, or map it in the experiment: [columns] " +
+           wanted.front() + " = \"" + nearest + "\")";
+  }
+  throw InputError(path, t.header_line, msg);
+}
+
+// Index of the column of `base` with a unit (e.g. alpha_deg or alpha_rad); -1 when absent.
+int find_unit_column(const std::string& path, const CsvTable& t, const std::string& base,
+                     double& to_si) {
+  int found = -1;
+  for (std::size_t c = 0; c < t.header.size(); ++c) {
+    const ParsedColumn pc = parse_column_name(path, t.header_line, t.header[c]);
+    if (pc.kind != ColumnKind::unit || pc.base != base) continue;
+    if (found >= 0) {
+      throw InputError(path, t.header_line, "both '" + t.header[static_cast<std::size_t>(found)] +
+                                                "' and '" + t.header[c] +
+                                                "' given; keep one");
+    }
+    found = static_cast<int>(c);
+    to_si = pc.to_si;
+  }
+  return found;
+}
+
+int find_plain_column(const CsvTable& t, const std::string& name) {
+  for (std::size_t c = 0; c < t.header.size(); ++c) {
+    if (t.header[c] == name) return static_cast<int>(c);
+  }
+  return -1;
+}
+
+// Why only with ';' or tab: in a comma-separated file a decimal comma would split the cell,
+// so '0,25' there is never a number; with the other delimiters a cell with one ',' and no
+// '.' is a decimal comma (the European spreadsheet default) and is read as such.
+std::string decimal_point(const std::string& cell, char delimiter, bool& used_comma) {
+  if (delimiter == ',' || cell.find('.') != std::string::npos) return cell;
+  const std::size_t comma = cell.find(',');
+  if (comma == std::string::npos || cell.find(',', comma + 1) != std::string::npos) return cell;
+  used_comma = true;
+  std::string out = cell;
+  out[comma] = '.';
+  return out;
+}
+
+std::vector<double> numeric_column(const std::string& path, CsvTable& t, int col, double factor) {
+  std::vector<double> out(t.rows.size());
+  const auto c = static_cast<std::size_t>(col);
+  for (std::size_t r = 0; r < t.rows.size(); ++r) {
+    double v = 0.0;
+    std::string problem;
+    if (!parse_number(decimal_point(t.rows[r][c], t.delimiter, t.decimal_comma), v, problem)) {
+      throw InputError(path, t.row_line[r], "column '" + t.header[c] + "': " + problem);
+    }
+    out[r] = v * factor;
+  }
+  return out;
+}
+
+// One-line notes on what the reader did beyond the canonical format: ignored columns, the
+// delimiter, decimal commas.
+std::vector<std::string> table_notes(const std::string& path, const CsvTable& t,
+                                     const std::vector<int>& used) {
+  std::vector<std::string> notes;
+  std::string ignored;
+  for (std::size_t c = 0; c < t.header.size(); ++c) {
+    if (std::find(used.begin(), used.end(), static_cast<int>(c)) != used.end()) continue;
+    if (parse_column_name(path, t.header_line, t.header[c]).kind != ColumnKind::other) continue;
+    ignored += (ignored.empty() ? "'" : ", '") + t.original[c] + "'";
+  }
+  if (!ignored.empty()) notes.push_back(path + ": ignored column(s) " + ignored + " (not a column indicial reads)");
+  if (t.delimiter != ',' || t.decimal_comma) {
+    notes.push_back(path + ": read as " + delimiter_name(t.delimiter) + "-separated" +
+                    (t.decimal_comma ? ", with ',' as the decimal separator" : ""));
+  }
+  return notes;
+}
+
+}  // namespace
+
+// ==========================================================================================
+// Run CSV
+// ==========================================================================================
+namespace {
+
+// How a number was printed: decimals after the point (exponent included: "1.5e-3" has 4)
+// and significant digits ("0.050" has 2).
+struct PrintedDigits {
+  int decimals = 0;
+  int significant = 0;
+};
+PrintedDigits printed_digits(const std::string& cell) {
+  std::size_t mantissa_end = cell.find_first_of("eE");
+  int exponent = 0;
+  if (mantissa_end != std::string::npos) exponent = std::atoi(cell.c_str() + mantissa_end + 1);
+  else mantissa_end = cell.size();
+  PrintedDigits d;
+  bool after_point = false, leading = true;
+  for (std::size_t i = 0; i < mantissa_end; ++i) {
+    const char ch = cell[i];
+    if (ch == '.' || ch == ',') after_point = true;
+    if (ch < '0' || ch > '9') continue;
+    if (after_point) ++d.decimals;
+    if (ch != '0') leading = false;
+    if (!leading) ++d.significant;
+  }
+  d.decimals -= exponent;
+  return d;
+}
+
+// The rounding each printed value of a column may carry: half a unit of its last digit, with
+// the column's printing read from its text. Fixed decimals when most cells have the most
+// decimals of any cell ("%.2f", or round(x, 2), which drops a trailing zero in a tenth of the
+// cells); significant digits when most nonzero cells have the most significant digits of any
+// cell ("%.9g"); both: the looser for each value; neither (a shortest-round-trip writer,
+// whose 0.09 is "0.09" and 0.06 is "0.060000000000000005"): 0, so only the 1e-6 relative
+// check applies. Why per column: one cell alone cannot tell "0.09" printed to two decimals
+// from 0.09 printed exactly.
+std::vector<double> print_tolerances(const std::vector<std::string>& cells, const std::vector<double>& values) {
+  std::vector<PrintedDigits> digits(cells.size());
+  int decimals = -400, significant = 0;
+  for (std::size_t i = 0; i < cells.size(); ++i) {
+    digits[i] = printed_digits(cells[i]);
+    decimals = std::max(decimals, digits[i].decimals);
+    significant = std::max(significant, digits[i].significant);
+  }
+  std::size_t at_decimals = 0, at_significant = 0, nonzero = 0;
+  for (std::size_t i = 0; i < cells.size(); ++i) {
+    at_decimals += digits[i].decimals == decimals;
+    nonzero += values[i] != 0.0;
+    at_significant += values[i] != 0.0 && digits[i].significant == significant;
+  }
+  const bool fixed_mode = 2 * at_decimals > cells.size();
+  const bool significant_mode = 2 * at_significant > nonzero;
+  std::vector<double> tol(cells.size(), 0.0);
+  for (std::size_t i = 0; i < cells.size(); ++i) {
+    const double v = std::abs(values[i]);
+    if (fixed_mode) tol[i] = 0.5 * std::pow(10.0, -decimals);
+    if (significant_mode && v > 0.0)
+      tol[i] = std::max(tol[i], 0.5 * std::pow(10.0, std::floor(std::log10(v)) - (significant - 1)));
+  }
+  return tol;
+}
+
+// Whether every |values[k] - (a + b k)| <= tol[k].
+bool on_grid(const std::vector<double>& values, const std::vector<double>& tol, double a, double b) {
+  for (std::size_t k = 0; k < values.size(); ++k)
+    if (std::abs(values[k] - (a + b * static_cast<double>(k))) > tol[k] * (1.0 + 1e-9)) return false;
+  return true;
+}
+
+// A uniform grid a + b k within every sample's tolerance, trying in turn: `preferred` (a phase
+// cycle's own grid: its first value and one cycle over its samples), the least-squares line
+// (closest to the truth when the rounding errors average out), and the line that minimises the
+// largest deviation relative to the tolerances. Why the last: the least-squares line can leave
+// a rounded end sample just outside its half unit although a grid within all of them exists;
+// the feasible set of (a, b) is convex, and for a given b the best a is the middle of an
+// interval, so a golden-section search over b decides it.
+bool fit_uniform_grid(const std::vector<double>& values, const std::vector<double>& tol,
+                      const double* preferred_step, double& a, double& b) {
+  const std::size_t n = values.size();
+  if (preferred_step && on_grid(values, tol, values.front(), *preferred_step)) {
+    a = values.front();
+    b = *preferred_step;
+    return true;
+  }
+  // Weighted by 1 / tol^2: a value printed to more digits says more about the grid.
+  double floor_tol = HUGE_VAL;
+  for (double t : tol)
+    if (t > 0.0) floor_tol = std::min(floor_tol, t);
+  if (floor_tol == HUGE_VAL) return false;
+  double sw = 0, sk = 0, sv = 0, skk = 0, skv = 0;
+  for (std::size_t k = 0; k < n; ++k) {
+    const double kd = static_cast<double>(k), w = 1.0 / std::pow(std::max(tol[k], floor_tol) / floor_tol, 2);
+    sw += w, sk += w * kd, sv += w * values[k], skk += w * kd * kd, skv += w * kd * values[k];
+  }
+  b = (sw * skv - sk * sv) / (sw * skk - sk * sk);
+  a = (sv - b * sk) / sw;
+  if (on_grid(values, tol, a, b)) return true;
+  auto spread = [&](double slope, double& mid) {
+    double lo = -HUGE_VAL, hi = HUGE_VAL;  // a must lie in [lo, hi]
+    for (std::size_t k = 0; k < n; ++k) {
+      lo = std::max(lo, values[k] - tol[k] - slope * static_cast<double>(k));
+      hi = std::min(hi, values[k] + tol[k] - slope * static_cast<double>(k));
+    }
+    mid = 0.5 * (lo + hi);
+    return lo - hi;  // <= 0: feasible
+  };
+  const double step = (values.back() - values.front()) / static_cast<double>(n - 1);
+  double x0 = step * 0.99, x1 = step * 1.01, mid = 0.0;
+  const double g = 0.5 * (std::sqrt(5.0) - 1.0);
+  for (int it = 0; it < 200; ++it) {
+    const double c = x1 - g * (x1 - x0), d = x0 + g * (x1 - x0);
+    if (spread(c, mid) < spread(d, mid)) x1 = d;
+    else x0 = c;
+  }
+  b = 0.5 * (x0 + x1);
+  spread(b, a);
+  return on_grid(values, tol, a, b);
+}
+
+// The columns a run uses.
+struct RunColumns {
+  int time = -1, phase = -1, angle = -1, rate = -1, coefficient = -1;
+  double time_factor = 1.0, phase_factor = 1.0, angle_factor = 1.0, rate_factor = 1.0;
+};
+
+RunColumns locate_run_columns(const std::string& path, const CsvTable& t, Axis axis,
+                              const std::string& coefficient, CoefficientPresence presence,
+                              const ColumnMap& columns) {
+  RunColumns rc;
+  // Validate every unit-bearing column name first, so a bad name is reported even if it is
+  // not one this axis needs.
+  for (const auto& name : t.header) (void)parse_column_name(path, t.header_line, name);
+  rc.time = find_unit_column(path, t, "time", rc.time_factor);
+  rc.phase = find_unit_column(path, t, "phase", rc.phase_factor);
+  if (rc.time >= 0 && rc.phase >= 0) {
+    throw InputError(path, t.header_line, "both '" + t.header[static_cast<std::size_t>(rc.time)] + "' and '" +
+                                              t.header[static_cast<std::size_t>(rc.phase)] +
+                                              "' given; keep one (a phase column replaces time)");
+  }
+  if (rc.time < 0 && rc.phase < 0)
+    missing_column(path, t, "'time_s' (or 'phase_rad' / 'phase_deg')", {"time_s", "phase_rad", "phase_deg"}, columns);
+  const std::string mb = motion_base(axis);
+  rc.angle = find_unit_column(path, t, mb, rc.angle_factor);
+  if (rc.angle < 0) {
+    missing_column(path, t, "'" + mb + "_deg' or '" + mb + "_rad' (the " + axis_name(axis) + " motion angle)",
+                   {mb + "_deg", mb + "_rad"}, columns);
+  }
+  rc.rate = find_unit_column(path, t, rate_base(axis), rc.rate_factor);
+  rc.coefficient = find_plain_column(t, coefficient);
+  if (rc.coefficient < 0 && presence == CoefficientPresence::required)
+    missing_column(path, t, "'" + coefficient + "'", {coefficient}, columns);
+  return rc;
+}
+
+// Run::time_s from the time column, or from the phase column and the cycle's frequency;
+// returns the per-sample print tolerance in s (the checks come after every column is parsed).
+std::vector<double> read_time(const std::string& path, CsvTable& t, const RunColumns& rc,
+                              double frequency_hz, Run& run) {
+  const bool phase = rc.phase >= 0;
+  const int col = phase ? rc.phase : rc.time;
+  const auto c = static_cast<std::size_t>(col);
+  const std::string& name = t.header[c];
+  run.time_source = phase ? TimeSource::phase_column : TimeSource::time_column;
+  double factor = rc.time_factor;
+  if (phase) {
+    if (!(frequency_hz > 0.0)) {
+      throw InputError(path, t.header_line, "column '" + name + "' needs the cycle's frequency: give "
+                                            "frequency_hz or reduced_frequency in the experiment's runs entry");
+    }
+    run.periodic = true;
+    run.frequency_hz = frequency_hz;
+    factor = rc.phase_factor / (2.0 * kPi * frequency_hz);
+  }
+  run.time_s = numeric_column(path, t, col, factor);
+  std::vector<std::string> cells(run.time_s.size());
+  for (std::size_t i = 0; i < cells.size(); ++i) cells[i] = t.rows[i][c];
+  const std::vector<double> raw = numeric_column(path, t, col, 1.0);
+  std::vector<double> tol = print_tolerances(cells, raw);
+  for (double& v : tol) v *= std::abs(factor);
+  return tol;
+}
+
+// A phase in [0, 2 pi) (or [0, 360)); strictly increasing time.
+void check_time_order(const std::string& path, const CsvTable& t, const RunColumns& rc, const Run& run) {
+  const bool phase = rc.phase >= 0;
+  const auto c = static_cast<std::size_t>(phase ? rc.phase : rc.time);
+  const std::string& name = t.header[c];
+  for (std::size_t i = 0; i < run.time_s.size(); ++i) {
+    const double phase_rad = run.time_s[i] * 2.0 * kPi * run.frequency_hz;
+    if (phase && !(phase_rad >= 0.0 && phase_rad < 2.0 * kPi * (1.0 - 1e-15))) {
+      throw InputError(path, t.row_line[i], "column '" + name + "': phase " + t.rows[i][c] + " is outside [0, " +
+                                                (rc.phase_factor == 1.0 ? "2 pi" : "360") + ")");
+    }
+    if (i > 0 && !(run.time_s[i] > run.time_s[i - 1])) {
+      throw InputError(path, t.row_line[i],
+                       std::string(run.time_s[i] == run.time_s[i - 1] ? "duplicate time: " : "") + name +
+                           " is not strictly increasing (" + t.rows[i][c] + " after " + t.rows[i - 1][c] + ")");
+    }
+  }
+}
+
+// Decides the run's grid (see csv_reader.hpp) and snaps a printed-uniform grid.
+void check_time_grid(const std::string& path, const CsvTable& t, const RunColumns& rc, TimeGrid declared,
+                     const std::vector<double>& tol, Run& run) {
+  const std::size_t n = run.time_s.size();
+  const auto c = static_cast<std::size_t>(rc.phase >= 0 ? rc.phase : rc.time);
+  std::vector<double> steps(n - 1);
+  for (std::size_t i = 1; i < n; ++i) steps[i - 1] = run.time_s[i] - run.time_s[i - 1];
+  // Why the median: one bad step must be reported at its own line, not shift a mean step so
+  // that every line looks wrong.
+  const double dt = median_of(steps);
+  // The step to report: the first whose deviation neither 1e-6 relative nor the printing of
+  // its two samples explains (a moved or dropped sample), else the largest one.
+  std::size_t bad = 0, largest = 0;
+  for (std::size_t i = 1; i < n; ++i) {
+    const double dev = std::abs(steps[i - 1] - dt);
+    if (dev <= kStepTolerance * dt) continue;
+    if (largest == 0 || dev > std::abs(steps[largest - 1] - dt)) largest = i;
+    if (bad == 0 && dev > tol[i] + tol[i - 1]) bad = i;
+  }
+  if (bad == 0) bad = largest;
+  run.time_grid = declared;
+  if (bad == 0 || declared == TimeGrid::nonuniform) return;
+  double a = 0.0, b = 0.0;
+  // A phase cycle of n samples: one cycle over n steps, 1 / (n f) s each.
+  const double cycle_step = rc.phase >= 0 ? 1.0 / (static_cast<double>(n) * run.frequency_hz) : 0.0;
+  if (fit_uniform_grid(run.time_s, tol, rc.phase >= 0 ? &cycle_step : nullptr, a, b)) {
+    double worst = 0.0;
+    for (std::size_t k = 0; k < n; ++k) {
+      const double snapped = a + b * static_cast<double>(k);
+      worst = std::max(worst, std::abs(run.time_s[k] - snapped));
+      run.time_s[k] = snapped;
+    }
+    run.notes.push_back(path + ": '" + t.header[c] + "' is uniform to its printed digits (max deviation " +
+                        format_double(worst) + " s): snapped to a step of " + format_double(b) + " s");
+    return;
+  }
+  if (rc.phase >= 0) {
+    run.time_grid = TimeGrid::nonuniform;
+    return;
+  }
+  throw InputError(path, t.row_line[bad],
+                   "non-uniform time step: " + format_double(steps[bad - 1]) + " s after " + t.rows[bad - 1][c] +
+                       ", the run's step is " + format_double(dt) +
+                       " s (allowed deviation 1e-6 relative or the printed digits; declare "
+                       "time_grid = \"nonuniform\" in the run's entry if the log is not uniform)");
+}
+
+// Why these limits: a motion whose largest |angle| is under 2.5 "deg" while it moves is almost
+// certainly radians (2.5 rad = 143 deg, 2.5 deg is a tiny motion for a tunnel run); an angle
+// beyond 2 pi "rad" is almost certainly degrees.
+void warn_angle_unit(const std::string& path, const std::string& column, double factor, Run& run) {
+  const auto [lo, hi] = std::minmax_element(run.motion_angle_rad.begin(), run.motion_angle_rad.end());
+  const double largest = std::max(std::abs(*lo), std::abs(*hi)) / factor;  // in the column's unit
+  if (*hi == *lo) return;  // no motion: load_experiment decides
+  if (factor != 1.0 && largest < 2.5) {
+    run.warnings.push_back(path + ": '" + column + "' never exceeds " + format_double(largest) +
+                           " in magnitude: it looks like radians in a degree column (name it " +
+                           column.substr(0, column.find('_')) + "_rad if so)");
+  } else if (factor == 1.0 && largest > 2.0 * kPi) {
+    run.warnings.push_back(path + ": '" + column + "' reaches " + format_double(largest) +
+                           ", beyond 2 pi: it looks like degrees in a radian column (name it " +
+                           column.substr(0, column.find('_')) + "_deg if so)");
+  }
+}
+
+}  // namespace
+
+Run read_run_csv(const std::string& path, Axis axis, const std::string& coefficient,
+                 CoefficientPresence presence, const RunCsvOptions& options) {
+  CsvTable t = read_csv_table(path, options.columns);
+  const RunColumns rc = locate_run_columns(path, t, axis, coefficient, presence, options.columns);
+  Run run;
+  run.path = path;
+  const std::vector<double> tol = read_time(path, t, rc, options.frequency_hz, run);
+  run.motion_angle_rad = numeric_column(path, t, rc.angle, rc.angle_factor);
+  if (rc.coefficient >= 0) run.coefficient = numeric_column(path, t, rc.coefficient, 1.0);
+  const std::size_t n = run.time_s.size();
+  if (n < static_cast<std::size_t>(min_run_samples)) {
+    throw InputError(path, t.row_line.back(),
+                     "only " + std::to_string(n) + " data rows; a run needs at least " +
+                         std::to_string(min_run_samples));
+  }
+  check_time_order(path, t, rc, run);
+  check_time_grid(path, t, rc, options.grid, tol, run);
+  if (rc.rate >= 0) {
+    run.rate_radps = numeric_column(path, t, rc.rate, rc.rate_factor);
+    run.rate_from_file = true;
+  } else if (run.time_grid == TimeGrid::nonuniform) {
+    run.rate_radps = smooth_derivative_nonuniform(run.time_s, run.motion_angle_rad,
+                                                  default_sg_half_window, default_sg_degree);
+  } else {
+    run.rate_radps = smooth_derivative(run.motion_angle_rad, run.time_s[1] - run.time_s[0],
+                                       default_sg_half_window, default_sg_degree);
+  }
+  warn_angle_unit(path, t.header[static_cast<std::size_t>(rc.angle)], rc.angle_factor, run);
+  std::vector<std::string> notes = table_notes(path, t, {rc.time, rc.phase, rc.angle, rc.rate, rc.coefficient});
+  run.notes.insert(run.notes.begin(), notes.begin(), notes.end());
+  return run;
+}
+
+Run read_run_csv(const std::string& path, Axis axis, const std::string& coefficient,
+                 CoefficientPresence presence, TimeGrid grid) {
+  RunCsvOptions options;
+  options.grid = grid;
+  return read_run_csv(path, axis, coefficient, presence, options);
+}
+
+// ==========================================================================================
+// Static table
+// ==========================================================================================
+void read_static_table(const std::string& path, Axis axis, const std::string& coefficient,
+                       StaticConfig& config, const ColumnMap& columns) {
+  CsvTable t = read_csv_table(path, columns);
+  for (const auto& name : t.header) (void)parse_column_name(path, t.header_line, name);
+  const std::string base = axis == Axis::pitch ? "alpha" : "beta";
+  double factor = 1.0;
+  const int x_col = find_unit_column(path, t, base, factor);
+  if (x_col < 0) {
+    missing_column(path, t, "'" + base + "_deg' or '" + base + "_rad' (the model angle of a " +
+                                axis_name(axis) + " static table)", {base + "_deg", base + "_rad"}, columns);
+  }
+  const int c_col = find_plain_column(t, coefficient);
+  if (c_col < 0) missing_column(path, t, "'" + coefficient + "'", {coefficient}, columns);
+  config.table_x_rad = numeric_column(path, t, x_col, factor);
+  config.table_value = numeric_column(path, t, c_col, 1.0);
+  if (config.table_x_rad.size() < 2) {
+    throw InputError(path, t.row_line.back(), "a static table needs at least 2 rows");
+  }
+  if (config.table_x_rad.size() > static_cast<std::size_t>(FitCapacity::max_table_points)) {
+    throw InputError(path, 0, "a static table may have at most " +
+                                  std::to_string(FitCapacity::max_table_points) + " rows");
+  }
+  for (std::size_t i = 1; i < config.table_x_rad.size(); ++i) {
+    if (!(config.table_x_rad[i] > config.table_x_rad[i - 1])) {
+      throw InputError(path, t.row_line[i], "the angle column is not strictly increasing (" +
+                                                t.rows[i][static_cast<std::size_t>(x_col)] +
+                                                " after " +
+                                                t.rows[i - 1][static_cast<std::size_t>(x_col)] + ")");
+    }
+  }
+  config.kind = StaticKind::table;
+  config.table_path = path;
+}
+
+}  // namespace indicial

@@ -1,0 +1,360 @@
+// diagnose_effects.cpp -- the effect registry of `indicial diagnose`: one table entry per
+// effect (name, what it explains, how it is written to the model, its residual signature, the
+// experiment that separates it from its look-alikes, and its candidate generator). The effect
+// count, the --help list and the report's descriptions all come from this table: a new effect
+// is one new entry (plus its Effect enumerator).
+#include <algorithm>
+#include <fmt/format.h>
+#include <stdexcept>
+
+#include "diagnose_internal.hpp"
+#include "fit_internal.hpp"
+
+namespace indicial {
+namespace diagnose_detail {
+
+namespace {
+
+using fit_detail::Term;
+
+int max_power(const std::vector<int>& p) {
+  int m = -1;
+  for (int i : p) m = std::max(m, i);
+  return m;
+}
+
+bool has_power(const std::vector<int>& p, int i) {
+  return std::find(p.begin(), p.end(), i) != p.end();
+}
+
+const char* family_knot_label(SplineFamily f) {
+  switch (f) {
+    case SplineFamily::b1: return "b1(x) knot (x - k)_+";
+    case SplineFamily::a: return "a(x) knot (x - k)_+^2";
+    case SplineFamily::rotary: return "C_aq(x) knot (x - k)_+";
+    default: return "dC_a(x) knot (x - k)_+^2";
+  }
+}
+
+CandidateSpec power_candidate(const ModelConfig& m, Effect effect, SplineFamily f, int power,
+                              const char* what) {
+  CandidateSpec c;
+  c.effect = effect;
+  c.config = m;
+  c.family = f;
+  SplineConfig& sp = family_spline(c.config, f);
+  sp.powers.push_back(power);
+  std::sort(sp.powers.begin(), sp.powers.end());
+  c.term = fmt::format("{} x^{}", what, power);
+  c.detail = fmt::format("{} x^{} term", what, power);
+  return c;
+}
+
+// A knot term at every grid knot not already in the spline (none once the spline is full).
+void add_grid_knots(const CandidateContext& ctx, Effect effect, SplineFamily f,
+                    std::vector<CandidateSpec>& out) {
+  const SplineConfig& sp = family_spline(ctx.model, f);
+  if (static_cast<int>(sp.knots_rad.size()) >= DefaultCapacity::max_knots) return;
+  for (double k : ctx.knot_grid)
+    if (!has_knot(sp.knots_rad, k, 0.5 * ctx.knot_spacing_rad))
+      out.push_back(knot_candidate(ctx.model, effect, f, k));
+}
+
+// ---- generators, one per effect ----------------------------------------------------------
+void gen_b1_alpha(const CandidateContext& ctx, std::vector<CandidateSpec>& out) {
+  const int p = max_power(ctx.model.b1.powers) + 1;
+  if (p < DefaultCapacity::max_powers)
+    out.push_back(power_candidate(ctx.model, Effect::b1_alpha, SplineFamily::b1, p, "b1(x)"));
+  add_grid_knots(ctx, Effect::b1_alpha, SplineFamily::b1, out);
+}
+
+void gen_a_alpha(const CandidateContext& ctx, std::vector<CandidateSpec>& out) {
+  const int p = max_power(ctx.model.a.powers) + 1;
+  if (p < DefaultCapacity::max_powers)
+    out.push_back(power_candidate(ctx.model, Effect::a_alpha, SplineFamily::a, p, "a(x)"));
+  add_grid_knots(ctx, Effect::a_alpha, SplineFamily::a, out);
+}
+
+// C_aq correction powers 0..max(a priori degree, 2) + 1, and knots.
+void gen_rotary_alpha(const CandidateContext& ctx, std::vector<CandidateSpec>& out) {
+  const int top = std::max(2, static_cast<int>(ctx.experiment.rotary.polynomial.size()) - 1) + 1;
+  for (int p = 0; p <= top && p < DefaultCapacity::max_powers; ++p)
+    if (!has_power(ctx.model.rotary_correction.powers, p))
+      out.push_back(power_candidate(ctx.model, Effect::rotary_alpha, SplineFamily::rotary, p, "C_aq(x)"));
+  add_grid_knots(ctx, Effect::rotary_alpha, SplineFamily::rotary, out);
+}
+
+void gen_bias(const CandidateContext& ctx, std::vector<CandidateSpec>& out) {
+  if (ctx.model.bias) return;
+  CandidateSpec c;
+  c.effect = Effect::bias;
+  c.config = ctx.model;
+  c.config.bias = true;
+  c.term = "con";
+  c.detail = "con";
+  out.push_back(c);
+}
+
+// Two starts, at 0 (nested: the right-hand sensitivity moves it) and 4 steps.
+void gen_time_delay(const CandidateContext& ctx, std::vector<CandidateSpec>& out) {
+  if (ctx.model.delay != DelayEstimation::none) return;
+  CandidateSpec c;
+  c.effect = Effect::time_delay;
+  c.config = ctx.model;
+  c.config.delay = DelayEstimation::estimated;
+  c.config.delay_start_s = 0.0;
+  c.term = "delay_s";
+  c.detail = "delay";
+  const double dt = ctx.experiment.runs.empty() ? 0.01 : ctx.experiment.runs.front().dt_s();
+  c.starts = {{{"delay_s", 0.0}}, {{"delay_s", 4.0 * dt}}};
+  out.push_back(c);
+}
+
+// b2 started slower, faster and much faster than b1; the second lag starts at rest
+// (docs/diagnose.md, design notes).
+void gen_second_lag(const CandidateContext& ctx, std::vector<CandidateSpec>& out) {
+  if (ctx.model.lags != 1 || DefaultCapacity::max_lags < 2 || FitCapacity::max_lags < 2) return;
+  double b1_0 = 1.0;
+  for (const ParameterEstimate& p : ctx.base.parameters)
+    if (p.name == "b1_0") b1_0 = std::abs(p.value);
+  if (!(b1_0 > 0.0)) b1_0 = 1.0;
+  CandidateSpec c;
+  c.effect = Effect::second_lag;
+  c.config = ctx.model;
+  c.config.lags = 2;
+  c.config.further_lag_start = LagStart::at_rest;
+  c.term = "b2_0, c2";
+  for (double f : {0.3, 4.0, 15.0}) c.starts.push_back({{"b2_0", f * b1_0}, {"c2", 0.1}});
+  out.push_back(c);
+}
+
+// x^1..x^3 and knots. No x^0: with constant b1 a constant offset IS con / b1 (structural_look_
+// alikes names both); with b1(x) a free x^0 plus further static terms mimics con / b1(x) and took
+// two-effect cases (b1_alpha + bias) from bias.
+void gen_static_error(const CandidateContext& ctx, std::vector<CandidateSpec>& out) {
+  for (int p = 1; p <= 3; ++p)
+    if (!has_power(ctx.model.static_correction.powers, p))
+      out.push_back(power_candidate(ctx.model, Effect::static_error, SplineFamily::static_correction, p,
+                                    "dC_a(x)"));
+  add_grid_knots(ctx, Effect::static_error, SplineFamily::static_correction, out);
+}
+
+// ---- parameter identity -------------------------------------------------------------------
+// Knots are renumbered when one is inserted (A{j}, B{j} ascending), so start values are carried
+// from fit to fit by what a parameter IS (kind, lag, power, knot), not by its name.
+std::string term_key(const Term& t) {
+  return fmt::format("{}:{}:{}:{:.12g}", static_cast<int>(t.kind), t.lag, t.power, t.knot_rad);
+}
+
+// (name, key) of every structural and output parameter of a configuration.
+std::vector<std::pair<std::string, std::string>> parameter_keys(const ModelConfig& m) {
+  const fit_detail::UnsteadyStructure s = fit_detail::structure_from_config(m);
+  std::vector<std::pair<std::string, std::string>> out;
+  for (const Term& t : fit_detail::structural_terms(s)) out.emplace_back(t.name, term_key(t));
+  for (const Term& t : fit_detail::rotary_terms(s.rotary)) out.emplace_back(t.name, term_key(t));
+  for (const Term& t : fit_detail::static_corr_terms(s.static_corr)) out.emplace_back(t.name, term_key(t));
+  return out;
+}
+
+}  // namespace
+
+// The table. Order = the Effect enum's.
+const std::vector<EffectEntry>& effect_registry() {
+  static const std::vector<EffectEntry> table = {
+      {{Effect::b1_alpha, "b1_alpha",
+        "the lag's decay rate b1 varies with the angle",
+        "b1(x) power or plus-function knot term (x - k)_+ (lag_poly / lag_knot 1)",
+        "hysteresis whose width and phase change along the angle range, at every frequency",
+        "oscillations about several mean angles at small amplitude (b1 then shows as a "
+        "different time constant at each mean)"},
+       SplineFamily::b1, gen_b1_alpha},
+      {{Effect::a_alpha, "a_alpha",
+        "the unsteady forcing a(x) lacks a term",
+        "a(x) power or knot term (x - k)_+^2 (a_poly / a_knot)",
+        "hysteresis growing with the rate, concentrated in part of the angle range",
+        "ramps at several rates through the suspected angle range"},
+       SplineFamily::a, gen_a_alpha},
+      {{Effect::rotary_alpha, "rotary_alpha",
+        "the rotary derivative C_aq(x) is wrong",
+        "a C_aq(x) correction, power or knot (x - k)_+, added to the a priori C_aq (rotary_poly / "
+        "rotary_knot)",
+        "a residual in phase with the rate, proportional to it, at every frequency",
+        "oscillations at several frequencies: the rotary term grows with frequency, the lag's "
+        "contribution saturates"},
+       SplineFamily::rotary, gen_rotary_alpha},
+      {{Effect::bias, "bias",
+        "a constant in the state equation (con)",
+        "con (state-equation constant)",
+        "a constant offset in every run",
+        "with constant b1, con / b1 equals a constant static offset: runs over an angle range where "
+        "b1 varies, or transients from a long hold (y known to be 0), separate them"},
+       SplineFamily::none, gen_bias},
+      {{Effect::time_delay, "time_delay",
+        "a pure delay of the unsteady forcing, x_f = x(t - delay)",
+        "delay_s",
+        "a phase lag growing with the frequency",
+        "oscillations at several frequencies or fast ramps: a delay's phase lag grows linearly "
+        "with frequency, a lower b1's saturates"},
+       SplineFamily::none, gen_time_delay},
+      {{Effect::second_lag, "second_lag",
+        "a second lag state with its own time constant",
+        "lag 2: lag_poly 2 b2_0, lag_gain 2 c2 (starting at rest)",
+        "a residual transient after every change of rate, with a time constant unlike b1's",
+        "ramp-and-hold runs: two time constants show in the decay after the hold starts"},
+       SplineFamily::none, gen_second_lag},
+      {{Effect::static_error, "static_error",
+        "the static curve C_a(x) is wrong",
+        "a static correction dC_a(x), powers x^1..x^3 or knots (x - k)_+^2 (static_corr_poly / "
+        "static_corr_knot)",
+        "a residual that depends on the angle alone: the same on upstroke and downstroke, at "
+        "every frequency",
+        "slow (quasi-static) sweeps or held angles: a static error remains, an unsteady one "
+        "vanishes"},
+       SplineFamily::static_correction, gen_static_error},
+  };
+  // Why: Effect values index this table (effect_entry); a missing or misplaced entry is a bug.
+  static const bool checked = [] {
+    if (table.size() != static_cast<std::size_t>(effect_count))
+      throw std::logic_error("diagnose effect registry: wrong number of entries");
+    for (std::size_t i = 0; i < table.size(); ++i)
+      if (static_cast<std::size_t>(table[i].description.effect) != i)
+        throw std::logic_error("diagnose effect registry: entries out of enum order");
+    return true;
+  }();
+  (void)checked;
+  return table;
+}
+
+const EffectEntry& effect_entry(Effect e) {
+  return effect_registry().at(static_cast<std::size_t>(e));
+}
+
+SplineConfig& family_spline(ModelConfig& m, SplineFamily f) {
+  switch (f) {
+    case SplineFamily::b1: return m.b1;
+    case SplineFamily::a: return m.a;
+    case SplineFamily::rotary: return m.rotary_correction;
+    default: return m.static_correction;
+  }
+}
+
+const SplineConfig& family_spline(const ModelConfig& m, SplineFamily f) {
+  return family_spline(const_cast<ModelConfig&>(m), f);  // read-only view of the same
+}
+
+bool has_knot(const std::vector<double>& knots, double k, double min_gap) {
+  for (double q : knots)
+    if (std::abs(q - k) < min_gap) return true;
+  return false;
+}
+
+CandidateSpec knot_candidate(const ModelConfig& m, Effect effect, SplineFamily f, double k) {
+  CandidateSpec c;
+  c.effect = effect;
+  c.config = m;
+  SplineConfig& sp = family_spline(c.config, f);
+  sp.knots_rad.push_back(k);
+  std::sort(sp.knots_rad.begin(), sp.knots_rad.end());
+  c.term = fmt::format("{} at {:.2f} deg", family_knot_label(f), k * kRadToDeg);
+  c.detail = fmt::format("knot {:.2f} deg", k * kRadToDeg);
+  c.family = f;
+  c.is_knot = true;
+  c.knot_rad = k;
+  return c;
+}
+
+std::vector<double> knot_grid(const Experiment& e, const DiagnoseOptions& o, double& spacing) {
+  const double lo = e.data_x_min_rad, hi = e.data_x_max_rad;
+  const double range = hi - lo;
+  std::vector<double> g;
+  spacing = std::max(1e-6, o.knot_spacing_deg * kDegToRad);
+  if (!(range > 0.0)) return g;
+  const double a = lo + o.knot_margin_fraction * range;
+  const double b = hi - o.knot_margin_fraction * range;
+  // Why the widening: a wide range at a fine spacing would multiply the fits and the
+  // Bonferroni count; past max_scan_knots the spacing grows instead.
+  if ((b - a) / spacing + 1.0 > o.max_scan_knots && o.max_scan_knots > 1)
+    spacing = (b - a) / (o.max_scan_knots - 1);
+  // Knots at multiples of the spacing (round degree values for the default grid).
+  for (double k = std::ceil(a / spacing - 1e-9) * spacing; k <= b + 1e-12; k += spacing) g.push_back(k);
+  return g;
+}
+
+std::vector<CandidateSpec> all_candidates(const CandidateContext& ctx) {
+  std::vector<CandidateSpec> out;
+  for (const EffectEntry& entry : effect_registry()) entry.generate(ctx, out);
+  return out;
+}
+
+std::map<std::string, double> keyed_estimates(const ModelConfig& m, const FitResult& r) {
+  std::map<std::string, double> by_name;
+  for (const ParameterEstimate& p : r.parameters) by_name[p.name] = p.value;
+  std::map<std::string, double> out;
+  for (const auto& [name, key] : parameter_keys(m)) {
+    const auto it = by_name.find(name);
+    if (it != by_name.end()) out[key] = it->second;
+  }
+  for (const ParameterEstimate& p : r.parameters)
+    if (p.name.rfind("y0_", 0) == 0) out[p.name] = p.value;
+  return out;
+}
+
+StartValues start_values_for(const ModelConfig& m, const std::map<std::string, double>& current,
+                             std::size_t n_runs, const StartValues& extra) {
+  StartValues sv;
+  for (const auto& [name, key] : parameter_keys(m)) {
+    const auto it = current.find(key);
+    if (it != current.end()) sv.emplace_back(name, it->second);
+  }
+  for (std::size_t r = 1; r <= n_runs; ++r) {
+    for (int j = 1; j <= m.lags; ++j) {
+      const std::string n = j == 1 ? fmt::format("y0_{}", r) : fmt::format("y0_{}_{}", r, j);
+      const auto it = current.find(n);
+      if (it != current.end()) sv.emplace_back(n, it->second);
+    }
+  }
+  for (const auto& e : extra) {
+    const auto it = std::find_if(sv.begin(), sv.end(), [&](const auto& s) { return s.first == e.first; });
+    if (it != sv.end())
+      it->second = e.second;
+    else
+      sv.push_back(e);
+  }
+  return sv;
+}
+
+std::vector<Effect> structural_look_alikes(Effect e, const ModelConfig& m) {
+  const bool b1_constant = m.b1.knots_rad.empty() && (m.b1.powers.empty() || max_power(m.b1.powers) == 0);
+  // Why: y' = -b1 y + con with constant b1 and a free initial state per run is y_hom + con / b1,
+  // exactly a constant static offset.
+  if (e == Effect::bias && b1_constant) return {Effect::static_error};
+  return {};
+}
+
+std::size_t total_samples(const Experiment& e) {
+  std::size_t n = 0;
+  for (const Run& r : e.runs) n += r.size();
+  return n;
+}
+
+}  // namespace diagnose_detail
+
+// ---- public views of the registry ---------------------------------------------------------
+const std::vector<EffectDescription>& effect_descriptions() {
+  static const std::vector<EffectDescription> d = [] {
+    std::vector<EffectDescription> v;
+    for (const auto& e : diagnose_detail::effect_registry()) v.push_back(e.description);
+    return v;
+  }();
+  return d;
+}
+
+const char* effect_name(Effect e) { return diagnose_detail::effect_entry(e).description.name; }
+
+std::string effect_names_list() {
+  std::string s;
+  for (const auto& e : diagnose_detail::effect_registry()) s += (s.empty() ? "" : ", ") + std::string(e.description.name);
+  return s;
+}
+
+}  // namespace indicial

@@ -1,0 +1,78 @@
+// diagnose_internal.hpp -- what diagnose.cpp (the algorithm), diagnose_effects.cpp (the effect
+// registry and its candidate generators) and diagnose_output.cpp (JSON, Markdown, gnuplot)
+// share. Not installed.
+#pragma once
+
+#include <cmath>
+#include <cstddef>
+#include <map>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "indicial/fitter/diagnose.hpp"
+
+namespace indicial::diagnose_detail {
+
+constexpr double kRadToDeg = 180.0 / M_PI;
+constexpr double kDegToRad = M_PI / 180.0;
+
+using StartValues = std::vector<std::pair<std::string, double>>;
+
+// The splines an effect may extend by a knot or a power.
+enum class SplineFamily { b1, a, rotary, static_correction, none };
+
+// One candidate model: the configuration and its start values (several starts: the best fit
+// is kept; the starts are one model, one test).
+struct CandidateSpec {
+  Effect effect = Effect::bias;
+  std::string term;    // what was added, e.g. "b1(x) knot (x - k)_+ at 30.00 deg"
+  std::string detail;  // for reports: "knot 30.00 deg"
+  ModelConfig config;
+  std::vector<StartValues> starts;  // extra start values (empty: one start, new terms at 0)
+  SplineFamily family = SplineFamily::none;
+  bool is_knot = false;
+  double knot_rad = 0.0;
+};
+
+// What a candidate generator sees.
+struct CandidateContext {
+  const Experiment& experiment;  // the working experiment
+  const ModelConfig& model;      // the model of the round
+  const FitResult& base;         // its fit
+  const std::vector<double>& knot_grid;
+  double knot_spacing_rad = 0.0;
+};
+
+using CandidateGenerator = void (*)(const CandidateContext&, std::vector<CandidateSpec>&);
+
+// The registry: one entry per effect, in the enum's order.
+struct EffectEntry {
+  EffectDescription description;
+  SplineFamily family;  // the spline a knot refinement extends (none: no knots)
+  CandidateGenerator generate;
+};
+const std::vector<EffectEntry>& effect_registry();
+const EffectEntry& effect_entry(Effect e);
+
+// Candidates.
+SplineConfig& family_spline(ModelConfig& m, SplineFamily f);
+const SplineConfig& family_spline(const ModelConfig& m, SplineFamily f);
+CandidateSpec knot_candidate(const ModelConfig& m, Effect effect, SplineFamily f, double knot_rad);
+bool has_knot(const std::vector<double>& knots, double k, double min_gap);
+std::vector<double> knot_grid(const Experiment& e, const DiagnoseOptions& o, double& spacing);
+// Every registered effect's candidates against the model of a round.
+std::vector<CandidateSpec> all_candidates(const CandidateContext& ctx);
+
+// Parameter identity: start values carried from fit to fit by what a parameter is.
+std::map<std::string, double> keyed_estimates(const ModelConfig& m, const FitResult& r);
+StartValues start_values_for(const ModelConfig& m, const std::map<std::string, double>& current,
+                             std::size_t n_runs, const StartValues& extra);
+
+std::size_t total_samples(const Experiment& e);
+
+// Effects that are the same model as `e` on ANY data, given the model `m` it extends (bias and
+// a constant static offset when b1 is constant); named with it in the step.
+std::vector<Effect> structural_look_alikes(Effect e, const ModelConfig& m);
+
+}  // namespace indicial::diagnose_detail

@@ -1,0 +1,680 @@
+// Experiment file (TOML) reading, section by section, and writing. See
+// indicial/fitter/experiment_toml.hpp.
+#include "indicial/fitter/experiment_toml.hpp"
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "indicial/coef_file.hpp"
+#include "indicial/fitter/csv_reader.hpp"
+#include "indicial/fitter/error.hpp"
+#include "indicial/fitter/io.hpp"
+#include "indicial/fitter/output.hpp"
+#include "toml_reader.hpp"
+
+namespace fs = std::filesystem;
+
+namespace indicial {
+namespace {
+
+using detail::kDegToRad;
+using detail::kRadToDeg;
+using detail::TomlReader;
+
+// The coefficient names a run CSV and an experiment may use.
+const std::set<std::string>& coefficient_names() {
+  static const std::set<std::string> names = {"CL", "Cm", "CD", "CY", "Cl", "Cn"};
+  return names;
+}
+
+// Degrees for messages: 6 significant digits (59.99999999999999 reads as 60).
+std::string deg_text(double rad) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.6g", rad * kRadToDeg);
+  return buf;
+}
+
+// A knot list's source, for range checks after the runs are read.
+struct KnotSource {
+  std::string key;
+  const std::vector<double>* knots_rad;
+  toml::source_region where;
+};
+
+// One entry of `runs`, before its file is read.
+struct RunEntry {
+  std::string file;
+  long line = 0;
+  std::optional<bool> periodic;      // as stated
+  RunCsvOptions csv;                 // grid and frequency (from frequency_hz or reduced_frequency)
+  bool frequency_given = false;
+  double airspeed_mps = 0.0;         // the run's V (default: the experiment's)
+};
+
+// A use of a runtime capacity found while reading, checked once the structure is known.
+struct CapacityUse {
+  std::string key;           // "model.a_knots_deg"
+  std::string what;          // "knots", "powers (x^0..x^n)", "rows", "lags"
+  int needed;
+  int limit;                 // indicial::DefaultCapacity's
+  toml::source_region where;
+  enum class Pool { none, model_stepwise, rotary_estimate } pool = Pool::none;  // a candidate pool
+};
+
+// What the section readers share: the reader, the file's directory, and the places to check
+// against the data once the runs are read.
+struct LoadContext {
+  const TomlReader& r;
+  fs::path base_dir;
+  std::vector<KnotSource> knot_sources;
+  toml::source_region static_where;
+  ColumnMap columns;
+  std::vector<CapacityUse> capacity;
+
+  std::string resolve(const std::string& file) const {
+    const fs::path p(file);
+    return (p.is_absolute() || base_dir.empty() ? p : base_dir / p).lexically_normal().string();
+  }
+  const toml::node& require(const toml::table& t, const std::string& key,
+                            const std::string& where) const {
+    const toml::node* n = t.get(key);
+    if (!n) {
+      throw InputError(r.file(), static_cast<long>(t.source().begin.line),
+                       "missing required key '" + where + key + "'");
+    }
+    return *n;
+  }
+};
+
+// Refuses bytes that the system toml++ (3.3.0, Debian 12) mishandles before it sees them:
+// a NUL byte anywhere, and a non-ASCII byte outside a string or comment, reach an assertion
+// and __builtin_unreachable in its whitespace classifier (upstream marzer/tomlplusplus #190,
+// #295, fixed by PR #305; found by tests/fuzz/fuzz_experiment.cpp). Non-ASCII text inside
+// quoted strings (a run file name) and comments stays allowed. Why a hand scan: no TOML
+// library on the machine is free of the bug, and the scan only needs to know where strings
+// and comments are, not the grammar.
+void refuse_bytes_toml_cannot_take(const std::string& text, const std::string& path) {
+  long line = 1;
+  enum class Where { code, comment, basic_string, literal_string } where = Where::code;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const unsigned char c = static_cast<unsigned char>(text[i]);
+    if (c == 0) throw InputError(path, line, "NUL byte in the file (is it a TOML text file?)");
+    if (c == '\n') {
+      ++line;
+      if (where == Where::comment) where = Where::code;
+      continue;
+    }
+    switch (where) {
+      case Where::code:
+        if (c == '#') where = Where::comment;
+        else if (c == '"') where = Where::basic_string;
+        else if (c == '\'') where = Where::literal_string;
+        else if (c >= 0x80) {
+          char hex[8];
+          std::snprintf(hex, sizeof hex, "0x%02X", static_cast<unsigned>(c));
+          throw InputError(path, line, std::string("non-ASCII byte ") + hex +
+                                           " outside a string or comment (keys and values must be ASCII)");
+        }
+        break;
+      case Where::comment: break;
+      case Where::basic_string:
+        if (c == '\\') ++i;  // an escaped character, e.g. \" does not end the string
+        else if (c == '"') where = Where::code;
+        break;
+      case Where::literal_string:
+        if (c == '\'') where = Where::code;
+        break;
+    }
+  }
+}
+
+
+toml::table parse_toml(const std::string& toml_path) {
+  const std::string text = read_text(toml_path);
+  refuse_bytes_toml_cannot_take(text, toml_path);
+  try {
+    return toml::parse(text, toml_path);
+  } catch (const toml::parse_error& e) {
+    throw InputError(toml_path, static_cast<long>(e.source().begin.line),
+                     "TOML syntax error: " + std::string(e.description()));
+  }
+}
+
+// axis, coefficient, reference_length_m, airspeed_mps, alpha0_*.
+void read_top_level(LoadContext& c, const toml::table& root, Experiment& e) {
+  const TomlReader& r = c.r;
+  e.axis = r.choice<Axis>(c.require(root, "axis", ""), "axis");
+
+  const toml::node& coef_node = c.require(root, "coefficient", "");
+  e.coefficient = r.string(coef_node, "coefficient");
+  if (coefficient_names().count(e.coefficient) == 0) {
+    r.fail(coef_node, "'coefficient' must be one of CL, Cm, CD, CY, Cl, Cn, found \"" +
+                          e.coefficient + "\"");
+  }
+
+  const toml::node& l_node = c.require(root, "reference_length_m", "");
+  e.reference_length_m = r.number(l_node, "reference_length_m");
+  if (!(e.reference_length_m > 0)) r.fail(l_node, "'reference_length_m' must be > 0");
+  const toml::node& v_node = c.require(root, "airspeed_mps", "");
+  e.airspeed_mps = r.number(v_node, "airspeed_mps");
+  if (!(e.airspeed_mps > 0)) r.fail(v_node, "'airspeed_mps' must be > 0");
+
+  const toml::node* a0deg = root.get("alpha0_deg");
+  const toml::node* a0rad = root.get("alpha0_rad");
+  if (a0deg && a0rad) r.fail(*a0rad, "give 'alpha0_deg' or 'alpha0_rad', not both");
+  if (a0deg) e.alpha0_rad = r.number(*a0deg, "alpha0_deg") * kDegToRad;
+  if (a0rad) e.alpha0_rad = r.number(*a0rad, "alpha0_rad");
+  if (e.axis != Axis::pitch && !a0deg && !a0rad) {
+    throw InputError(r.file(), 0, std::string("missing required key 'alpha0_deg' (the fixed "
+                                              "angle of attack of a ") +
+                                      axis_name(e.axis) + " experiment)");
+  }
+}
+
+// One table entry of `runs`: {file = ..., periodic, frequency_hz | reduced_frequency,
+// airspeed_mps, time_grid}.
+RunEntry read_run_table(const LoadContext& c, const toml::node& entry, const Experiment& e) {
+  const TomlReader& r = c.r;
+  const toml::table& t = *entry.as_table();
+  r.check_keys(t, {"file", "periodic", "frequency_hz", "reduced_frequency", "airspeed_mps", "time_grid"}, "runs.");
+  RunEntry re;
+  re.line = static_cast<long>(entry.source().begin.line);
+  const toml::node* f = t.get("file");
+  if (!f) r.fail(entry, "a run table needs 'file'");
+  re.file = r.string(*f, "runs.file");
+  if (const toml::node* n = t.get("periodic")) re.periodic = r.boolean(*n, "runs.periodic");
+  re.airspeed_mps = e.airspeed_mps;
+  if (const toml::node* n = t.get("airspeed_mps")) {
+    re.airspeed_mps = r.number(*n, "runs.airspeed_mps");
+    if (!(re.airspeed_mps > 0.0)) r.fail(*n, "'runs.airspeed_mps' must be > 0");
+  }
+  const toml::node* fh = t.get("frequency_hz");
+  const toml::node* k = t.get("reduced_frequency");
+  if (fh && k) r.fail(*k, "give 'runs.frequency_hz' or 'runs.reduced_frequency', not both");
+  if (fh) {
+    re.csv.frequency_hz = r.number(*fh, "runs.frequency_hz");
+    if (!(re.csv.frequency_hz > 0.0)) r.fail(*fh, "'runs.frequency_hz' must be > 0");
+  }
+  if (k) {
+    // k = 2 pi f l / V, with V the run's airspeed.
+    const double kv = r.number(*k, "runs.reduced_frequency");
+    if (!(kv > 0.0)) r.fail(*k, "'runs.reduced_frequency' must be > 0");
+    re.csv.frequency_hz = kv * re.airspeed_mps / (2.0 * 3.14159265358979323846 * e.reference_length_m);
+  }
+  re.frequency_given = fh || k;
+  if (const toml::node* n = t.get("time_grid")) re.csv.grid = r.choice<TimeGrid>(*n, "runs.time_grid");
+  return re;
+}
+
+// The `runs` array: strings or tables.
+std::vector<RunEntry> read_run_entries(LoadContext& c, const toml::table& root, const Experiment& e) {
+  const TomlReader& r = c.r;
+  const toml::node& runs_node = c.require(root, "runs", "");
+  const toml::array& runs = r.array(runs_node, "runs");
+  if (runs.empty()) r.fail(runs_node, "'runs' is empty: name at least one run CSV");
+  std::vector<RunEntry> entries;
+  for (const auto& entry : runs) {
+    if (entry.is_string()) {
+      RunEntry re;
+      re.file = *entry.value<std::string>();
+      re.line = static_cast<long>(entry.source().begin.line);
+      re.airspeed_mps = e.airspeed_mps;
+      entries.push_back(re);
+    } else if (entry.is_table()) {
+      entries.push_back(read_run_table(c, entry, e));
+    } else {
+      r.fail(entry, "wrong type: 'runs' entries must be strings or {file = ..., periodic = ...} "
+                    "tables, found " + TomlReader::type_name(entry));
+    }
+    entries.back().csv.columns = c.columns;
+  }
+  return entries;
+}
+
+// [columns]: our column name = the file's name.
+void read_columns_section(LoadContext& c, const toml::node* node) {
+  if (!node) return;
+  const TomlReader& r = c.r;
+  for (auto&& [key, value] : r.table(*node, "columns")) {
+    const std::string ours(key.str());
+    const std::string theirs = r.string(value, "columns." + ours);
+    if (theirs.empty()) r.fail(value, "'columns." + ours + "' is empty: name the file's column");
+    c.columns[ours] = theirs;
+  }
+}
+
+// [static]: polynomial or table.
+void read_static_section(LoadContext& c, const toml::table& root, Experiment& e) {
+  const TomlReader& r = c.r;
+  const toml::node& static_node = c.require(root, "static", "");
+  const toml::table& st = r.table(static_node, "static");
+  r.check_keys(st, {"polynomial", "table"}, "static.");
+  const toml::node* poly = st.get("polynomial");
+  const toml::node* table = st.get("table");
+  if (poly && table) r.fail(*table, "give 'static.polynomial' or 'static.table', not both");
+  if (!poly && !table) r.fail(static_node, "missing required key 'static.polynomial' or 'static.table'");
+  c.static_where = static_node.source();
+  if (poly) {
+    e.static_curve.kind = StaticKind::polynomial;
+    e.static_curve.polynomial = r.numbers(*poly, "static.polynomial");
+    c.capacity.push_back({"static.polynomial", "coefficients", static_cast<int>(e.static_curve.polynomial.size()),
+                          DefaultCapacity::max_powers, poly->source()});
+    if (e.static_curve.polynomial.size() > static_cast<std::size_t>(FitCapacity::max_powers)) {
+      r.fail(*poly, "'static.polynomial' has more than " +
+                        std::to_string(FitCapacity::max_powers) + " coefficients");
+    }
+  } else {
+    c.static_where = table->source();
+    const std::string tp = c.resolve(r.string(*table, "static.table"));
+    read_static_table(tp, e.axis, e.coefficient, e.static_curve, c.columns);
+    c.capacity.push_back({"static.table", "rows ('" + tp + "')", static_cast<int>(e.static_curve.table_x_rad.size()),
+                          DefaultCapacity::max_table_points, table->source()});
+  }
+}
+
+// [rotary] prior_knots_deg, prior_knot_powers, prior_knot_coefficients.
+void read_prior_knots(const TomlReader& r, const toml::table& rt, RotaryConfig& rotary,
+                      std::vector<CapacityUse>& c_capacity) {
+  const toml::node* k = rt.get("prior_knots_deg");
+  const toml::node* c = rt.get("prior_knot_coefficients");
+  if ((k == nullptr) != (c == nullptr))
+    r.fail(k ? *k : *c, "give both 'rotary.prior_knots_deg' and 'rotary.prior_knot_coefficients'");
+  const toml::node* pw = rt.get("prior_knot_powers");
+  if (pw && !k) r.fail(*pw, "'rotary.prior_knot_powers' needs 'rotary.prior_knots_deg'");
+  if (!k || !c) return;
+  // Not knots_deg(): a priori terms may repeat a knot with another power, and need not lie
+  // inside the data's range (they are known, not identified).
+  rotary.prior_knots_rad = r.numbers(*k, "rotary.prior_knots_deg");
+  c_capacity.push_back({"rotary.prior_knots_deg", "knot terms", static_cast<int>(rotary.prior_knots_rad.size()),
+                        DefaultCapacity::max_knots, k->source()});
+  for (double& v : rotary.prior_knots_rad) v *= kDegToRad;
+  rotary.prior_knot_coefficients = r.numbers(*c, "rotary.prior_knot_coefficients");
+  const std::size_t n = rotary.prior_knots_rad.size();
+  if (n > static_cast<std::size_t>(FitCapacity::max_knots))
+    r.fail(*k, "'rotary.prior_knots_deg' has more than " + std::to_string(FitCapacity::max_knots) + " terms");
+  rotary.prior_knot_powers.assign(n, 1);
+  if (pw) {
+    rotary.prior_knot_powers.clear();
+    for (const auto& entry : r.array(*pw, "rotary.prior_knot_powers")) {
+      const long p = r.integer(entry, "rotary.prior_knot_powers entry");
+      if (p < 0 || p > max_knot_power)
+        r.fail(entry, "'rotary.prior_knot_powers': power " + std::to_string(p) + " is outside 0.." +
+                          std::to_string(max_knot_power));
+      rotary.prior_knot_powers.push_back(static_cast<int>(p));
+    }
+    if (rotary.prior_knot_powers.size() != n)
+      r.fail(*pw, "'rotary.prior_knot_powers' has " + std::to_string(rotary.prior_knot_powers.size()) +
+                      " entries for " + std::to_string(n) + " terms in 'rotary.prior_knots_deg'");
+  }
+  if (rotary.prior_knot_coefficients.size() != n)
+    r.fail(*c, "'rotary.prior_knot_coefficients' has " +
+                   std::to_string(rotary.prior_knot_coefficients.size()) + " entries for " +
+                   std::to_string(n) + " terms in 'rotary.prior_knots_deg'");
+}
+
+// [rotary]: the a priori C_aq(x) and, with estimate = true, the candidate pool.
+void read_rotary_section(LoadContext& c, const toml::node* rot_node, RotaryConfig& rotary) {
+  const TomlReader& r = c.r;
+  if (!rot_node) {
+    rotary.candidates.powers = {0};
+    rotary.candidates.knot_power = 1;
+    return;
+  }
+  const toml::table& rt = r.table(*rot_node, "rotary");
+  r.check_keys(rt, {"polynomial", "estimate", "degree", "knots_deg", "prior_knots_deg",
+                    "prior_knot_powers", "prior_knot_coefficients"},
+               "rotary.");
+  read_prior_knots(r, rt, rotary, c.capacity);
+  if (const toml::node* n = rt.get("polynomial")) {
+    rotary.polynomial = r.numbers(*n, "rotary.polynomial");
+    c.capacity.push_back({"rotary.polynomial", "coefficients", static_cast<int>(rotary.polynomial.size()),
+                          DefaultCapacity::max_powers, n->source()});
+    if (rotary.polynomial.size() > static_cast<std::size_t>(FitCapacity::max_powers)) {
+      r.fail(*n, "'rotary.polynomial' has more than " + std::to_string(FitCapacity::max_powers) +
+                     " coefficients");
+    }
+  }
+  if (const toml::node* n = rt.get("estimate")) rotary.estimate = r.boolean(*n, "rotary.estimate");
+  rotary.candidates.knot_power = 1;
+  if (const toml::node* n = rt.get("degree")) {
+    rotary.candidates.powers = r.degree_powers(*n, "rotary.degree");
+    c.capacity.push_back({"rotary.degree", "powers (x^0..x^degree)", rotary.candidates.powers.back() + 1,
+                          DefaultCapacity::max_powers, n->source(), CapacityUse::Pool::rotary_estimate});
+  } else {
+    // Why this default: without a degree the pool is the a-priori polynomial's own powers
+    // (at least a constant), so estimate = true re-estimates the same shape.
+    const int d = std::max<int>(0, static_cast<int>(rotary.polynomial.size()) - 1);
+    for (int p = 0; p <= d; ++p) rotary.candidates.powers.push_back(p);
+  }
+  if (const toml::node* n = rt.get("knots_deg")) {
+    rotary.candidates.knots_rad = r.knots_deg(*n, "rotary.knots_deg");
+    c.knot_sources.push_back({"rotary.knots_deg", &rotary.candidates.knots_rad, n->source()});
+    c.capacity.push_back({"rotary.knots_deg", "knots", static_cast<int>(rotary.candidates.knots_rad.size()),
+                          DefaultCapacity::max_knots, n->source(), CapacityUse::Pool::rotary_estimate});
+  }
+  if (!rotary.estimate && (rt.get("degree") || rt.get("knots_deg"))) {
+    r.fail(*rot_node, "'rotary.degree' and 'rotary.knots_deg' are used only with "
+                      "rotary.estimate = true");
+  }
+}
+
+// [model] NAME_degree | NAME_powers and NAME_knots_deg of one spline.
+void read_spline_terms(LoadContext& c, const toml::table& mt, const std::string& name,
+                       SplineConfig& cfg) {
+  const TomlReader& r = c.r;
+  const toml::node* deg = mt.get(name + "_degree");
+  const toml::node* pw = mt.get(name + "_powers");
+  if (deg && pw) r.fail(*pw, "give 'model." + name + "_degree' or 'model." + name + "_powers', not both");
+  if (deg) cfg.powers = r.degree_powers(*deg, "model." + name + "_degree");
+  if (pw) cfg.powers = r.powers(*pw, "model." + name + "_powers");
+  // Why a and b1 only are pools: with structure = "stepwise" their terms are candidates; the
+  // corrections diagnose adds are always in the model.
+  const auto pool = name == "a" || name == "b1" ? CapacityUse::Pool::model_stepwise : CapacityUse::Pool::none;
+  if (deg || pw) {
+    c.capacity.push_back({"model." + name + (deg ? "_degree" : "_powers"), "powers (x^0..x^n)",
+                          cfg.powers.empty() ? 0 : cfg.powers.back() + 1, DefaultCapacity::max_powers,
+                          (deg ? deg : pw)->source(), pool});
+  }
+  if (const toml::node* k = mt.get(name + "_knots_deg")) {
+    cfg.knots_rad = r.knots_deg(*k, "model." + name + "_knots_deg");
+    c.knot_sources.push_back({"model." + name + "_knots_deg", &cfg.knots_rad, k->source()});
+    c.capacity.push_back({"model." + name + "_knots_deg", "knots", static_cast<int>(cfg.knots_rad.size()),
+                          DefaultCapacity::max_knots, k->source(), pool});
+  }
+}
+
+// [model]: the splines, the structure and what diagnose adds.
+void read_model_section(LoadContext& c, const toml::node* model_node, bool rotary_estimate,
+                        ModelConfig& model) {
+  const TomlReader& r = c.r;
+  if (!model_node) return;
+  const toml::table& mt = r.table(*model_node, "model");
+  r.check_keys(mt, {"a_degree", "a_powers", "a_knots_deg", "b1_degree", "b1_powers",
+                    "b1_knots_deg", "bias", "structure", "lags",
+                    // extensions (docs/formats.md): what `indicial diagnose` adds to a model
+                    "static_correction_degree", "static_correction_powers",
+                    "static_correction_knots_deg", "rotary_correction_degree",
+                    "rotary_correction_powers", "rotary_correction_knots_deg", "delay",
+                    "delay_start_s", "further_lag_start"},
+               "model.");
+  read_spline_terms(c, mt, "a", model.a);
+  read_spline_terms(c, mt, "b1", model.b1);
+  read_spline_terms(c, mt, "static_correction", model.static_correction);
+  read_spline_terms(c, mt, "rotary_correction", model.rotary_correction);
+  const bool rotary_correction =
+      !model.rotary_correction.powers.empty() || !model.rotary_correction.knots_rad.empty();
+  if (rotary_correction && rotary_estimate) {
+    // Why refused: with rotary.estimate the two-stage loop re-estimates the whole C_aq(x);
+    // a correction of the a priori C_aq on top of it would be the same terms twice.
+    r.fail(*model_node, "'model.rotary_correction_*' corrects the a priori C_aq(x); it cannot "
+                        "be combined with rotary.estimate = true");
+  }
+  if (const toml::node* n = mt.get("delay")) model.delay = r.choice<DelayEstimation>(*n, "model.delay");
+  if (const toml::node* n = mt.get("delay_start_s")) {
+    const double d = r.number(*n, "model.delay_start_s");
+    if (!(d >= 0.0 && d <= 1.0)) r.fail(*n, "'model.delay_start_s' must be in [0, 1] s");
+    if (model.delay != DelayEstimation::estimated)
+      r.fail(*n, "'model.delay_start_s' is used only with model.delay = \"estimated\"");
+    model.delay_start_s = d;
+  }
+  if (const toml::node* n = mt.get("further_lag_start"))
+    model.further_lag_start = r.choice<LagStart>(*n, "model.further_lag_start");
+  if (const toml::node* n = mt.get("bias")) model.bias = r.boolean(*n, "model.bias");
+  if (const toml::node* n = mt.get("structure")) model.structure = r.choice<StructureMode>(*n, "model.structure");
+  if (const toml::node* n = mt.get("lags")) {
+    const long lags = r.integer(*n, "model.lags");
+    if (lags < 1 || lags > FitCapacity::max_lags) {
+      r.fail(*n, "'model.lags' must be 1.." + std::to_string(FitCapacity::max_lags));
+    }
+    model.lags = static_cast<int>(lags);
+    c.capacity.push_back({"model.lags", "lags", model.lags, DefaultCapacity::max_lags, n->source()});
+  }
+}
+
+// Reads every run file and records the model angle's range over all of them.
+void read_runs(const LoadContext& c, const std::vector<RunEntry>& entries, Experiment& e) {
+  for (const auto& entry : entries) {
+    const std::string path = c.resolve(entry.file);
+    std::error_code ec;
+    if (!fs::exists(path, ec)) {
+      throw InputError(c.r.file(), entry.line, "run file '" + entry.file + "' not found (looked for " + path + ")");
+    }
+    Run run = read_run_csv(path, e.axis, e.coefficient, CoefficientPresence::required, entry.csv);
+    run.experiment_line = entry.line;
+    run.airspeed_mps = entry.airspeed_mps;
+    if (run.time_source == TimeSource::phase_column) {
+      if (entry.periodic == false)
+        throw InputError(c.r.file(), entry.line, "run '" + entry.file + "' has a phase column, so it is one periodic "
+                                                 "cycle: remove 'periodic = false'");
+    } else {
+      if (entry.frequency_given)
+        throw InputError(c.r.file(), entry.line, "run '" + entry.file + "' has a time column: 'frequency_hz' and "
+                                                 "'reduced_frequency' are only for a phase column");
+      run.periodic = entry.periodic.value_or(false);
+    }
+    e.notes.insert(e.notes.end(), run.notes.begin(), run.notes.end());
+    e.warnings.insert(e.warnings.end(), run.warnings.begin(), run.warnings.end());
+    e.runs.push_back(std::move(run));
+  }
+  bool first = true;
+  for (const auto& run : e.runs) {
+    for (double angle : run.motion_angle_rad) {
+      const double x = model_angle(e.axis, e.alpha0_rad, angle);
+      if (first || x < e.data_x_min_rad) e.data_x_min_rad = x;
+      if (first || x > e.data_x_max_rad) e.data_x_max_rad = x;
+      first = false;
+    }
+  }
+}
+
+// Knots strictly inside the data's angle range; the static table covering it.
+void check_against_data(const LoadContext& c, const Experiment& e) {
+  const double x_min = e.data_x_min_rad, x_max = e.data_x_max_rad;
+  const std::string xname = e.axis == Axis::pitch ? "alpha" : "beta";
+  for (const auto& ks : c.knot_sources) {
+    for (double k : *ks.knots_rad) {
+      // Why strictly inside: a knot at or beyond the range makes its term identically zero or
+      // a polynomial on the data, which cannot be identified separately.
+      if (!(k > x_min && k < x_max)) {
+        c.r.fail(ks.where, "'" + ks.key + "': knot " + deg_text(k) + " deg is outside the data's " +
+                               xname + " range [" + deg_text(x_min) + ", " + deg_text(x_max) + "] deg");
+      }
+    }
+  }
+  if (e.static_curve.kind == StaticKind::table) {
+    const double tmin = e.static_curve.table_x_rad.front();
+    const double tmax = e.static_curve.table_x_rad.back();
+    const double tol = 1e-9;  // rad: rounding of degree columns
+    if (tmin > x_min + tol || tmax < x_max - tol) {
+      c.r.fail(c.static_where, "the static table '" + e.static_curve.table_path + "' covers " + xname +
+                                   " [" + deg_text(tmin) + ", " + deg_text(tmax) + "] deg but the runs reach [" +
+                                   deg_text(x_min) + ", " + deg_text(x_max) + "] deg");
+    }
+  }
+}
+
+// Every runtime limit at input time, before fitting (issue 12 item 1): a model that exceeds
+// indicial::DefaultCapacity is refused; a stepwise candidate pool that exceeds it is only
+// warned about (the selected model is usually smaller; the fit reports if it is not).
+void check_runtime_capacity(const LoadContext& c, Experiment& e) {
+  for (const CapacityUse& u : c.capacity) {
+    if (u.needed <= u.limit) continue;
+    const bool pool = (u.pool == CapacityUse::Pool::model_stepwise && e.model.structure == StructureMode::stepwise) ||
+                      (u.pool == CapacityUse::Pool::rotary_estimate && e.rotary.estimate);
+    const std::string text = "'" + u.key + "' needs " + std::to_string(u.needed) + " " + u.what +
+                             "; the runtime (indicial::DefaultCapacity) holds at most " + std::to_string(u.limit);
+    if (!pool) c.r.fail(u.where, text);
+    e.warnings.push_back(c.r.file() + ":" + std::to_string(u.where.begin.line) + ": " + text +
+                         ": a candidate pool may exceed it, the selected model must not");
+  }
+}
+
+// Sections that were left out and so take their defaults.
+void warn_defaulted_sections(const TomlReader& r, const toml::node* rotary, const toml::node* model, Experiment& e) {
+  if (!rotary) {
+    e.warnings.push_back(r.file() + ": no [rotary] section: C_aq(x) = 0 assumed (the rate term is left out)");
+  }
+  if (!model) {
+    e.warnings.push_back(r.file() + ": no [model] section: the default a(x) = a0 + a1 x + a2 x^2, b1(x) = b1_0, "
+                                    "fixed structure");
+  }
+}
+
+// A run whose angle never moves has no unsteady response to fit. Why refuse only when no run
+// moves: a static run among moving ones still informs the fit (its y0, the bias), but with no
+// motion at all a(x) and b1(x) cannot be identified.
+void check_motion(const TomlReader& r, Experiment& e) {
+  std::size_t moving = 0;
+  for (const Run& run : e.runs) {
+    const auto [lo, hi] = std::minmax_element(run.motion_angle_rad.begin(), run.motion_angle_rad.end());
+    if (*hi - *lo > 1e-9) {
+      ++moving;
+      continue;
+    }
+    e.warnings.push_back(run.path + ": the motion angle never moves (constant " + deg_text(*lo) +
+                         " deg): the run has no unsteady response to fit");
+  }
+  if (moving == 0) {
+    throw InputError(r.file(), e.runs.front().experiment_line,
+                     "no run moves: the motion angle is constant in every run, so a(x) and b1(x) cannot be "
+                     "identified");
+  }
+}
+
+}  // namespace
+
+void refuse_unsupported_run_features(const Experiment& e) {
+  for (const Run& run : e.runs) {
+    if (run.time_grid == TimeGrid::nonuniform) {
+      throw InputError(e.path, run.experiment_line,
+                       "run '" + run.path + "' is on a nonuniform time grid: fit and diagnose do not "
+                       "support that yet (predict --time-grid nonuniform does)");
+    }
+    if (run.airspeed_mps != e.airspeed_mps) {
+      throw InputError(e.path, run.experiment_line,
+                       "run '" + run.path + "' has airspeed_mps " + format_double(run.airspeed_mps) +
+                           " but the experiment " + format_double(e.airspeed_mps) +
+                           ": fit and diagnose do not support runs at another airspeed yet");
+    }
+  }
+}
+
+Experiment load_experiment(const std::string& toml_path) {
+  const toml::table root = parse_toml(toml_path);
+  const TomlReader r(toml_path);
+  r.check_keys(root, {"axis", "coefficient", "reference_length_m", "airspeed_mps", "alpha0_deg",
+                      "alpha0_rad", "runs", "static", "rotary", "model", "columns"},
+               "");
+  LoadContext c{r, fs::path(toml_path).parent_path(), {}, root.source()};
+  Experiment e;
+  e.path = toml_path;
+  read_top_level(c, root, e);
+  read_columns_section(c, root.get("columns"));
+  const std::vector<RunEntry> entries = read_run_entries(c, root, e);
+  read_static_section(c, root, e);
+  read_rotary_section(c, root.get("rotary"), e.rotary);
+  read_model_section(c, root.get("model"), e.rotary.estimate, e.model);
+  read_runs(c, entries, e);
+  check_against_data(c, e);
+  check_runtime_capacity(c, e);
+  check_motion(r, e);
+  warn_defaulted_sections(r, root.get("rotary"), root.get("model"), e);
+  refuse_unsupported_run_features(e);
+  return e;
+}
+
+// ==========================================================================================
+// Writer
+// ==========================================================================================
+namespace {
+std::string toml_string(const std::string& s) {
+  std::string out = "\"";
+  for (char ch : s) {
+    if (ch == '"' || ch == '\\') out += '\\';
+    out += ch;
+  }
+  return out + "\"";
+}
+std::string number_list(const std::vector<double>& v, double factor) {
+  std::string out = "[";
+  for (std::size_t i = 0; i < v.size(); ++i) out += (i ? ", " : "") + format_double(v[i] * factor);
+  return out + "]";
+}
+std::string power_terms(const std::string& name, const std::vector<int>& powers) {
+  bool contiguous = !powers.empty();
+  for (std::size_t i = 0; i < powers.size(); ++i) contiguous = contiguous && powers[i] == static_cast<int>(i);
+  if (contiguous) return name + "_degree = " + std::to_string(powers.size() - 1) + "\n";
+  std::string out = name + "_powers = [";
+  for (std::size_t i = 0; i < powers.size(); ++i) out += (i ? ", " : "") + std::to_string(powers[i]);
+  return out + "]\n";
+}
+}  // namespace
+
+std::string write_experiment_toml(const Experiment& e, const std::vector<std::string>& comment_lines) {
+  std::string out;
+  for (const auto& c : comment_lines) out += "# " + c + "\n";
+  out += std::string("axis = \"") + name_of(e.axis) + "\"\n";
+  out += "coefficient = " + toml_string(e.coefficient) + "\n";
+  out += "reference_length_m = " + format_double(e.reference_length_m) + "\n";
+  out += "airspeed_mps = " + format_double(e.airspeed_mps) + "\n";
+  if (e.axis != Axis::pitch) out += "alpha0_deg = " + format_double(e.alpha0_rad * kRadToDeg) + "\n";
+  out += "runs = [";
+  for (std::size_t i = 0; i < e.runs.size(); ++i) {
+    out += i ? ", " : "";
+    if (e.runs[i].periodic) out += "{file = " + toml_string(e.runs[i].path) + ", periodic = true}";
+    else out += toml_string(e.runs[i].path);
+  }
+  out += "]\n\n[static]\n";
+  if (e.static_curve.kind == StaticKind::polynomial) {
+    out += "polynomial = " + number_list(e.static_curve.polynomial, 1.0) + "  # x^0, x^1, ... with x in rad\n";
+  } else {
+    out += "table = " + toml_string(e.static_curve.table_path) + "\n";
+  }
+  out += "\n[rotary]\npolynomial = " + number_list(e.rotary.polynomial, 1.0) + "  # x^0, x^1, ... with x in rad\n";
+  if (!e.rotary.prior_knots_rad.empty()) {
+    out += "prior_knots_deg = " + number_list(e.rotary.prior_knots_rad, kRadToDeg) + "\n";
+    bool all_linear = true;
+    for (int p : e.rotary.prior_knot_powers) all_linear = all_linear && p == 1;
+    if (!all_linear) {
+      out += "prior_knot_powers = [";
+      for (std::size_t i = 0; i < e.rotary.prior_knot_powers.size(); ++i)
+        out += (i ? ", " : "") + std::to_string(e.rotary.prior_knot_powers[i]);
+      out += "]\n";
+    }
+    out += "prior_knot_coefficients = " + number_list(e.rotary.prior_knot_coefficients, 1.0) + "\n";
+  }
+  out += std::string("estimate = ") + (e.rotary.estimate ? "true" : "false") + "\n";
+  if (e.rotary.estimate) {
+    const auto& p = e.rotary.candidates.powers;
+    out += "degree = " + std::to_string(p.empty() ? 0 : p.back()) + "\n";
+    out += "knots_deg = " + number_list(e.rotary.candidates.knots_rad, kRadToDeg) + "\n";
+  }
+  out += "\n[model]\n";
+  out += power_terms("a", e.model.a.powers);
+  out += "a_knots_deg = " + number_list(e.model.a.knots_rad, kRadToDeg) + "\n";
+  out += power_terms("b1", e.model.b1.powers);
+  out += "b1_knots_deg = " + number_list(e.model.b1.knots_rad, kRadToDeg) + "\n";
+  out += std::string("bias = ") + (e.model.bias ? "true" : "false") + "\n";
+  out += std::string("structure = \"") + name_of(e.model.structure) + "\"\n";
+  if (e.model.lags != 1) out += "lags = " + std::to_string(e.model.lags) + "\n";
+  // The extensions, only when used (a file without them reads back the same defaults).
+  for (const auto& [name, cfg] : {std::pair<const char*, const SplineConfig*>{"static_correction", &e.model.static_correction},
+                                  std::pair<const char*, const SplineConfig*>{"rotary_correction", &e.model.rotary_correction}}) {
+    if (!cfg->powers.empty()) out += power_terms(name, cfg->powers);
+    if (!cfg->knots_rad.empty())
+      out += std::string(name) + "_knots_deg = " + number_list(cfg->knots_rad, kRadToDeg) + "\n";
+  }
+  if (e.model.delay == DelayEstimation::estimated) {
+    out += std::string("delay = \"") + name_of(e.model.delay) + "\"\n";
+    if (e.model.delay_start_s != 0.0) out += "delay_start_s = " + format_double(e.model.delay_start_s) + "\n";
+  }
+  if (e.model.further_lag_start == LagStart::at_rest) out += std::string("further_lag_start = \"") + name_of(e.model.further_lag_start) + "\"\n";
+  return out;
+}
+}  // namespace indicial
+

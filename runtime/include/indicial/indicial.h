@@ -1,0 +1,118 @@
+/* indicial/indicial.h -- the C99 interface of the indicial runtime (library indicial::c).
+ *
+ * What it is for
+ * --------------
+ * Simulink S-functions, FMUs, Python ctypes and Fortran (OpenFAST) call C, not C++ templates.
+ * This header exposes the runtime (runtime.hpp: RuntimeModel<double, DefaultCapacity>, its
+ * State / DelayedState and the stateless step) with plain types. No heap: the caller provides
+ * the storage of the model and of every state, sized by the functions below. No exceptions
+ * cross it; every call returns a status.
+ *
+ * Usage
+ * -----
+ *   double* model = malloc(indicial_model_bytes());          (or a static double array)
+ *   char error[128];
+ *   if (indicial_model_load(model, text, text_length, error, sizeof error) != 0) { puts(error); }
+ *   void* state = malloc(indicial_state_bytes(model));
+ *   indicial_reset(model, state, alpha_rad, airspeed_mps);
+ *   double out[3];                                            (indicial_model_outputs(model))
+ *   int s = indicial_step(model, state, alpha_rad, q_radps, airspeed_mps, dt_s, out);
+ *   if (s < 0) fprintf(stderr, "%s\n", indicial_status_string(s));
+ *   ... out[0] is indicial_model_output_name(model, 0) ("CL"), out[1] the next ("Cm") ...
+ *
+ * Statuses: 0 ok; positive: a warning, the step was done (INDICIAL_ANGLE_CLAMPED); negative:
+ * an error, nothing was changed (neither the model, the state nor out). Load errors are
+ * -(100 + the C++ LoadStatus), step errors -(the C++ StepStatus); the values are listed below
+ * and never renumbered.
+ *
+ * Warnings
+ * --------
+ * 1. Storage must be aligned for a double (malloc, or an array of double); misaligned storage
+ *    is refused (INDICIAL_ERROR_MISALIGNED). A model's storage may be shared by any number of
+ *    states and threads once loaded (it is read-only after the load).
+ * 2. indicial_state_bytes depends on the model: a model with a delay needs the delay history
+ *    (about 4.3 KB); without, about 160 bytes. Size states after loading the model.
+ * 3. A state must be written by indicial_reset before its first step (a zeroed state answers
+ *    INDICIAL_ERROR_NOT_RESET; uninitialised memory is undefined), and belongs to the model it
+ *    was reset with.
+ * 4. indicial_model_load keeps about 28 KB on the stack (the parser's and the validated model):
+ *    load at initialisation, not from an interrupt.
+ * 5. Angles in rad, rates in rad/s, airspeed in m/s, time in s. Inputs per axis as in the C++
+ *    runtime: pitch alpha, q; roll phi, p; yaw psi, r.
+ */
+#ifndef INDICIAL_INDICIAL_H
+#define INDICIAL_INDICIAL_H
+
+#include <stddef.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Status values (returned by every function that returns int, except indicial_model_outputs). */
+#define INDICIAL_OK 0
+#define INDICIAL_ANGLE_CLAMPED 1                 /* done; the model angle was clamped */
+#define INDICIAL_ERROR_NOT_LOADED (-2)           /* the model storage holds no loaded model */
+#define INDICIAL_ERROR_NOT_RESET (-3)            /* the state was never reset */
+#define INDICIAL_ERROR_NULL_OUTPUT (-4)          /* out == NULL */
+#define INDICIAL_ERROR_NON_FINITE_INPUT (-5)     /* an input is NaN or Inf */
+#define INDICIAL_ERROR_NON_POSITIVE_DT (-6)      /* dt_s <= 0 */
+#define INDICIAL_ERROR_DT_TOO_LARGE (-7)         /* dt_s > 1 s */
+#define INDICIAL_ERROR_NON_POSITIVE_AIRSPEED (-8)
+#define INDICIAL_ERROR_NON_FINITE_RESULT (-9)    /* absurd input would give NaN/Inf: refused */
+#define INDICIAL_ERROR_DELAY_EXCEEDS_HISTORY (-10)
+#define INDICIAL_ERROR_DELAY_NEEDS_HISTORY (-11)
+#define INDICIAL_ERROR_EMPTY_INPUT (-101)        /* load: no bytes, or only whitespace */
+#define INDICIAL_ERROR_NULL_ARGUMENT (-102)      /* a required pointer is NULL */
+#define INDICIAL_ERROR_TRUNCATED (-103)
+#define INDICIAL_ERROR_CHECKSUM_MISMATCH (-104)
+#define INDICIAL_ERROR_WRONG_VERSION (-105)
+#define INDICIAL_ERROR_OVER_CAPACITY (-106)
+#define INDICIAL_ERROR_SYNTAX (-107)
+#define INDICIAL_ERROR_INVALID_VALUE (-108)
+#define INDICIAL_ERROR_UNSUPPORTED_FEATURE (-109)
+#define INDICIAL_ERROR_UNSTABLE_LAG (-110)
+#define INDICIAL_ERROR_MISALIGNED (-200)         /* model or state storage not double-aligned */
+
+/* Bytes of storage for one model (the same for every model). */
+size_t indicial_model_bytes(void);
+
+/* Parses and validates a coefficient file's text into *model. 0 = ok; on error the model
+ * storage is unchanged and, if error != NULL, error holds "line N: reason (status)"
+ * (NUL-terminated, cut to error_length). */
+int indicial_model_load(void* model, const char* text, size_t length, char* error,
+                        size_t error_length);
+
+/* Number of coefficients the model outputs (1..3), or a negative status. */
+int indicial_model_outputs(const void* model);
+
+/* Name of output i ("CL", "Cm", ...), or NULL if i is out of range or nothing is loaded. */
+const char* indicial_model_output_name(const void* model, int i);
+
+/* Bytes of storage for one state of this model (0 if nothing is loaded). */
+size_t indicial_state_bytes(const void* model);
+
+/* Steady state at the motion angle; must precede the first step of a state. */
+int indicial_reset(const void* model, void* state, double angle_rad, double airspeed_mps);
+
+/* One step of dt_s to this sample; out receives indicial_model_outputs(model) values. */
+int indicial_step(const void* model, void* state, double angle_rad, double rate_radps,
+                  double airspeed_mps, double dt_s, double* out);
+
+/* n instances of one model: states are n consecutive states of indicial_state_bytes(model)
+ * bytes each, as indicial_reset writes them; out receives n rows of
+ * indicial_model_outputs(model) values. Returns the first error of any instance (that
+ * instance unchanged, the others stepped), else INDICIAL_ANGLE_CLAMPED if any was clamped,
+ * else 0. */
+int indicial_step_batch(const void* model, void* states, size_t n, const double* angle_rad,
+                        const double* rate_radps, const double* airspeed_mps, double dt_s,
+                        double* out);
+
+/* "ok", "angle_clamped", "checksum_mismatch", ...: a static string for any status. */
+const char* indicial_status_string(int status);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* INDICIAL_INDICIAL_H */

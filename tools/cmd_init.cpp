@@ -1,0 +1,226 @@
+// `indicial init`: a commented template experiment file.
+//
+//   indicial init FILE.toml [--case NAME] [--force]
+//
+// Every experiment key appears in FILE.toml with its unit, default and meaning as comments
+// (the keys not set are there too, commented out). The values are a built-in case's (default
+// tailless-model-1, the report's Example 1): `indicial simulate --case NAME --out DIR` writes
+// that case's run files, so `init --case NAME DIR/mine.toml` then `fit DIR/mine.toml` works
+// as it stands. The values are written by the experiment writer (write_experiment_toml), so
+// the template reads back exactly; this file only adds the documentation around them.
+// docs/formats.md is the same documentation in prose.
+#include <cstdio>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "command.hpp"
+#include "indicial/fitter/error.hpp"
+#include "indicial/fitter/io.hpp"
+#include "indicial/fitter/output.hpp"
+#include "indicial/fitter/simulate.hpp"
+
+namespace {
+
+struct KeyDoc {
+  const char* section;  // "" (top level), "static", "rotary", "model"
+  const char* key;
+  const char* doc;      // unit, default and meaning; lines separated by '\n'
+  const char* example;  // the commented-out line written when the key is not set
+};
+
+// The documentation of every experiment key, in file order.
+const std::vector<KeyDoc>& key_docs() {
+  static const std::vector<KeyDoc> docs = {
+      {"", "axis", "pitch | roll | yaw (required). The motion: pitch oscillation (model angle x = alpha),\n"
+                   "roll (x = beta = asin(sin phi sin alpha0)) or yaw (x = beta = asin(-sin psi cos alpha0)).",
+       "axis = \"pitch\""},
+      {"", "coefficient", "the run CSV column to model (required): CL, Cm, CD, CY, Cl or Cn (dimensionless).",
+       "coefficient = \"Cm\""},
+      {"", "reference_length_m", "l in m, > 0 (required): the length of the rotary term (l/V) C_aq(x) rate:\n"
+                                 "mean chord / 2 in pitch, span / 2 in roll and yaw.",
+       "reference_length_m = 0.3765"},
+      {"", "airspeed_mps", "V in m/s, > 0 (required): the tunnel airspeed. b1(x) and con are in 1/s at this airspeed.",
+       "airspeed_mps = 17.667762"},
+      {"", "alpha0_deg", "deg: the fixed angle of attack of a roll or yaw experiment (required there, unused in\n"
+                         "pitch). alpha0_rad = ... gives it in rad instead.",
+       "alpha0_deg = 30.0"},
+      {"", "runs", "the run CSV files (required, at least one), relative to this file. Columns: time_s, the\n"
+                   "angle (alpha_deg|alpha_rad, phi_..., psi_...), optional rate (q_degps|q_radps, p_..., r_...),\n"
+                   "the coefficient. An entry may be {file = \"run.csv\", periodic = true}: an ensemble-averaged\n"
+                   "cycle, fitted in its periodic steady state (no y0 parameter).",
+       "runs = [\"run1.csv\", \"run2.csv\"]"},
+      {"static", "polynomial", "the static curve C_a(x) = c0 + c1 x + c2 x^2 + ...: coefficients of x^0, x^1, ...\n"
+                               "with x = alpha (pitch) or beta (roll, yaw) in RAD. Give polynomial or table (one is required).",
+       "polynomial = [0.0, 0.42, 0.34, -1.0, 0.40]"},
+      {"static", "table", "instead of polynomial: a CSV with columns alpha_deg (or beta_deg, or _rad) and the\n"
+                          "coefficient, angles strictly increasing and covering the data; natural cubic spline.",
+       "table = \"static.csv\""},
+      {"rotary", "polynomial", "the a priori rotary derivative C_aq(x): coefficients of x^0, x^1, ... with x in RAD;\n"
+                               "multiplies (l/V) rate, rate in rad/s. Default [] (C_aq = 0; so does a missing [rotary]).",
+       "polynomial = [-2.0, 0.0, 0.8]"},
+      {"rotary", "prior_knots_deg", "a priori knot terms c_j (x - k_j)_+^p_j of C_aq(x): knots k_j in deg (one entry per\n"
+                                    "term; known, not identified). Default [].",
+       "prior_knots_deg = [20.0]"},
+      {"rotary", "prior_knot_powers", "the powers p_j of those terms (integers 0..8). Default 1 each.",
+       "prior_knot_powers = [1]"},
+      {"rotary", "prior_knot_coefficients", "the coefficients c_j of those terms (x in rad). Required with prior_knots_deg.",
+       "prior_knot_coefficients = [-3.0]"},
+      {"rotary", "estimate", "true: re-estimate C_aq(x) by the two-stage loop (report eqs. 25-26), starting from\n"
+                             "the a priori C_aq. Default false.",
+       "estimate = false"},
+      {"rotary", "degree", "with estimate = true: candidate powers x^0..x^degree of C_aq(x). Default: the powers\n"
+                           "of the a priori polynomial.",
+       "degree = 2"},
+      {"rotary", "knots_deg", "with estimate = true: candidate plus-function knots (x - k)_+ of C_aq(x), deg. Default [].",
+       "knots_deg = []"},
+      {"model", "a_degree", "a(x) = sum_i a_i x^i (i = 0..a_degree) + sum_j A_j (x - k_j)_+^2, x in rad,\n"
+                            "dimensionless. Default 2.",
+       "a_degree = 2"},
+      {"model", "a_powers", "instead of a_degree: exactly these powers, e.g. [1, 2] (a(x) without a0, as in the\n"
+                            "report's Tables II-IV).",
+       "a_powers = [1, 2]"},
+      {"model", "a_knots_deg", "the knots k_j of a(x), deg, strictly increasing, strictly inside the data's angle\n"
+                               "range. Default [].",
+       "a_knots_deg = [25.0, 55.0]"},
+      {"model", "b1_degree", "b1(x) = sum_i b1_i x^i + sum_j B_j (x - k_j)_+, in 1/s at airspeed_mps (x in rad).\n"
+                             "Default 0 (a constant).",
+       "b1_degree = 0"},
+      {"model", "b1_powers", "instead of b1_degree: exactly these powers.", "b1_powers = [0, 1]"},
+      {"model", "b1_knots_deg", "the knots k_j of b1(x), deg. Default [].", "b1_knots_deg = []"},
+      {"model", "bias", "true: estimate a constant con (1/s) in the state equation (report Table V). Default false.",
+       "bias = false"},
+      {"model", "structure", "fixed: estimate the terms above; stepwise: they are a candidate pool and stepwise\n"
+                             "regression picks the structure. Default \"fixed\".",
+       "structure = \"fixed\""},
+      {"model", "lags", "number of lag states y_j, 1 or more: 2 adds a second lag with its own decay b2(x)\n"
+                        "(parameters b2_i) and gain c2. Default 1.",
+       "lags = 1"},
+      {"model", "static_correction_degree", "an angle-only correction dC_a(x) of the static curve: powers\n"
+                                            "0..degree (static_correction_powers = [...] for exact powers), x in rad.\n"
+                                            "Default none. Estimated in the output-error step only.",
+       "static_correction_degree = 1"},
+      {"model", "static_correction_knots_deg", "knots (x - k)_+^2 of dC_a(x), deg. Default [].",
+       "static_correction_knots_deg = []"},
+      {"model", "rotary_correction_degree", "C_aq(x) terms ADDED to the a priori C_aq: powers 0..degree\n"
+                                            "(rotary_correction_powers = [...] for exact powers). Not with\n"
+                                            "rotary.estimate = true. Default none.",
+       "rotary_correction_degree = 0"},
+      {"model", "rotary_correction_knots_deg", "knots (x - k)_+ of that correction, deg. Default [].",
+       "rotary_correction_knots_deg = []"},
+      {"model", "delay", "\"none\" or \"estimated\": a pure delay of the unsteady forcing, x_f = x(t - delay_s),\n"
+                         "delay_s in s at airspeed_mps. Default \"none\".",
+       "delay = \"none\""},
+      {"model", "delay_start_s", "with delay = \"estimated\": its start value in s, 0..1. Default 0.",
+       "delay_start_s = 0.05"},
+      {"model", "further_lag_start", "with lags >= 2: \"estimated\" (each run's lags 2.. start from an estimated\n"
+                                     "state) or \"at_rest\" (from 0). Default \"estimated\".",
+       "further_lag_start = \"estimated\""},
+  };
+  return docs;
+}
+
+std::string commented(const std::string& doc) {
+  std::string out;
+  std::istringstream in(doc);
+  for (std::string line; std::getline(in, line);) out += "# " + line + "\n";
+  return out;
+}
+
+// The key a "key = value" line sets, "" for anything else. The alternative spellings
+// (alpha0_rad, *_powers) are documented under their primary key.
+std::string key_of(const std::string& line) {
+  const std::size_t eq = line.find(" = ");
+  if (line.empty() || line[0] == '#' || line[0] == '[' || eq == std::string::npos) return "";
+  std::string key = line.substr(0, eq);
+  if (key == "alpha0_rad") return "alpha0_deg";
+  for (const std::string spline : {"static_correction", "rotary_correction"})
+    if (key == spline + "_powers") return spline + "_degree";
+  return key;
+}
+
+const KeyDoc* find_doc(const std::string& section, const std::string& key) {
+  for (const KeyDoc& d : key_docs())
+    if (section == d.section && key == d.key) return &d;
+  return nullptr;
+}
+
+// Commented-out examples of the documented keys of `section` that `present` does not set.
+std::string absent_keys(const std::string& section, const std::vector<std::string>& present) {
+  std::string out;
+  for (const KeyDoc& d : key_docs()) {
+    if (section != d.section) continue;
+    bool set = false;
+    for (const std::string& k : present) set = set || k == d.key;
+    if (!set) out += commented(d.doc) + "# " + d.example + "\n";
+  }
+  return out;
+}
+
+// write_experiment_toml's text with every key documented (see the file comment).
+std::string annotated_template(const indicial::Experiment& e, const std::vector<std::string>& header) {
+  const std::string plain = indicial::write_experiment_toml(e, {});
+  std::string out;
+  for (const std::string& h : header) out += "# " + h + "\n";
+  out += "\n";
+  std::string section;
+  std::vector<std::string> present;
+  std::istringstream in(plain);
+  auto close_section = [&] { out += absent_keys(section, present); };
+  for (std::string line; std::getline(in, line);) {
+    if (!line.empty() && line[0] == '[') {
+      close_section();
+      section = line.substr(1, line.find(']') - 1);
+      present.clear();
+      out += "\n" + line + "\n";
+      continue;
+    }
+    if (line.empty()) continue;
+    const std::string key = key_of(line);
+    if (!key.empty()) {
+      present.push_back(key);
+      if (const KeyDoc* d = find_doc(section, key)) out += commented(d->doc);
+    }
+    out += line + "\n";
+  }
+  close_section();
+  return out;
+}
+
+struct InitOptions {
+  std::string path;
+  std::string case_name = "tailless-model-1";
+  bool force = false;
+};
+
+void run_init(const InitOptions& o) {
+  using namespace indicial;
+  const SimulationCase& c = find_simulation_case(o.case_name);
+  const std::vector<std::string> header = {
+      "indicial experiment file (TOML), written by `" + tools::invocation() + "`.",
+      "Every key is listed with its unit, default and meaning; keys not set are commented out.",
+      "The full reference is docs/formats.md. Angles in keys ending _deg are degrees; every",
+      "polynomial's x is the model angle in RADIANS.",
+      "Values: the built-in case " + c.name + " (" + c.description + ").",
+      "Its run files are made by: indicial simulate --case " + c.name + " --out DIR (then put this file in DIR).",
+  };
+  const std::string text = annotated_template(c.experiment, header);
+  write_file_atomically(o.path, text, o.force ? Overwrite::replace : Overwrite::refuse);
+  std::printf("init: wrote %s (values of the case %s)\n", o.path.c_str(), c.name.c_str());
+}
+
+const indicial::tools::RegisterCommand register_init([](CLI::App& app) {
+  auto opt = std::make_shared<InitOptions>();
+  CLI::App* sub = app.add_subcommand(
+      "init",
+      "Write a commented template experiment file: every key with its unit, default and meaning.\n"
+      "The values are a built-in case's (--case, default tailless-model-1; list: `indicial simulate\n"
+      "--list`), whose run files `indicial simulate --case NAME --out DIR` writes.");
+  sub->add_option("FILE", opt->path, "the experiment file to write (.toml)")->required();
+  sub->add_option("--case", opt->case_name, "built-in case whose values fill the template (default tailless-model-1)");
+  sub->add_flag("--force", opt->force, "replace an existing FILE");
+  sub->callback([opt]() { run_init(*opt); });
+});
+
+}  // namespace
