@@ -47,7 +47,6 @@ void run_diagnose(const DiagnoseCliOptions& o) {
   clock.stage("reading the experiment and its runs", [&] { e = load_experiment(o.experiment); });
   ReportOptions ro;
   ro.warnings = tools::experiment_warnings(e);
-  for (const std::string& w : runtime_limit_warnings(e)) ro.warnings.push_back(w);
   tools::print_warnings(ro.warnings);
   const Overwrite overwrite = o.force ? Overwrite::replace : Overwrite::refuse;
   { OutputDir probe(o.out, overwrite); }  // refuse a non-empty DIR before the long part
@@ -97,10 +96,8 @@ const indicial::tools::RegisterCommand register_diagnose([](CLI::App& app) {
           ") by a\n"
           "likelihood-ratio test with a Bonferroni guard and BIC, add the most significant, repeat.\n"
       "Writes DIR/diagnosis.json, DIR/model.coef (final model), DIR/report.md and DIR/plots/.\n"
-      "Exit status: 0 done (any verdict, 'none' included); 1 bad input, or a final model the
-"
-      "runtime refuses (one line, nothing written); 6 stopped at --max-steps with an effect still
-"
+      "Exit status: 0 done (any verdict, 'none' included); 1 bad input, or a final model the\n"
+      "runtime refuses (one line, nothing written); 6 stopped at --max-steps with an effect still\n"
       "significant (outputs written).");
   sub->add_option("experiment", opt->experiment, "experiment file (TOML)")->required();
   sub->add_option("--out", opt->out, "output directory (refused if not empty, unless --force)")->required();

@@ -67,7 +67,6 @@ void run_fit(const FitCliOptions& o) {
   ReportOptions ro;
   for (const std::string& n : e.notes) std::fprintf(stderr, "indicial: note: %s\n", n.c_str());
   ro.warnings = tools::experiment_warnings(e);
-  for (const std::string& w : runtime_limit_warnings(e)) ro.warnings.push_back(w);
   print_warnings(ro.warnings);
   // Refuse a non-empty DIR before the (possibly long) fit, not after it.
   const Overwrite overwrite = o.force ? Overwrite::replace : Overwrite::refuse;
