@@ -93,6 +93,31 @@ TEST_CASE("Monte Carlo, Model II, SNR 40, 200 seeds: empirical std / mean CR bou
   check_cr_bounds("tailless-model-2", 2001, 13);
 }
 
+// Issue 12, Done-when: on AR(1) colored noise (phi 0.8) the colored-residual bound predicts the
+// scatter of the estimates, and the white Cramer-Rao bound does not. The full tables (both
+// models, turbulence too) are in docs/validation-realistic.md (tools/validate-realistic.sh).
+TEST_CASE("Monte Carlo, AR(1) noise phi 0.8: std / colored bound in [0.8, 1.25]; white bounds 2-4x too small") {
+  indicial::MonteCarloOptions o;
+  o.case_name = "tailless-model-1";
+  o.seeds = kSeeds;
+  o.first_seed = 5001;
+  o.snr = 40.0;
+  o.noise = indicial::parse_noise_spec("ar1:phi=0.8");
+  o.threads = 2;
+  const indicial::MonteCarloResult r = indicial::run_monte_carlo(o);
+  MESSAGE(indicial::monte_carlo_markdown(r));
+  CHECK(r.fitted == kSeeds);
+  if (kStatistics == Statistics::skipped) return;
+  for (const auto& p : r.parameters) {
+    CAPTURE(p.name);
+    CHECK(p.ratio_colored >= 0.8);
+    CHECK(p.ratio_colored <= 1.25);
+    // sqrt((1 + phi) / (1 - phi)) = 3 is the inflation of a mean's std under AR(1) noise.
+    CHECK(p.ratio > 2.0);
+    CHECK(p.ratio < 4.0);
+  }
+}
+
 TEST_CASE("results do not depend on the thread count") {
   indicial::MonteCarloOptions o;
   o.seeds = 6;

@@ -116,7 +116,7 @@ TEST_CASE("runtime limits: the feasibility predicate is the runtime's b_j(x) > 0
   CHECK_FALSE(indicial::lag_decay_positive(nan_model.coefficients[0], 0.0, 1.0));
 }
 
-TEST_CASE("runtime limits: a 70-row static table fits only the fitter's capacity, and is flagged at input") {
+TEST_CASE("runtime limits: a 70-row static table fits only the fitter's capacity") {
   indicial::TruthModel m = indicial::find_simulation_case("tailless-model-1").truth;
   auto& s = m.coefficients[0].static_curve;
   s.kind = indicial::StaticKind::table;
@@ -130,19 +130,6 @@ TEST_CASE("runtime limits: a 70-row static table fits only the fitter's capacity
   CHECK(a.capacity == indicial::RuntimeCapacity::fit_capacity_only);
   CHECK(a.reason.find("FitCapacity") != std::string::npos);
 
-  indicial::Experiment e;
-  e.path = "exp.toml";
-  e.static_curve.kind = indicial::StaticKind::table;
-  e.static_curve.table_path = "polar.csv";
-  e.static_curve.table_x_rad.assign(70, 0.0);
-  const std::vector<std::string> w = indicial::runtime_limit_warnings(e);
-  REQUIRE(w.size() == 1);
-  CHECK(w[0].rfind("polar.csv: the static table has 70 rows; the default runtime (Predictor<>) holds 64", 0) == 0);
-  e.static_curve.table_x_rad.assign(64, 0.0);
-  e.model.b1.knots_rad.assign(9, 0.1);
-  const std::vector<std::string> w2 = indicial::runtime_limit_warnings(e);
-  REQUIRE(w2.size() == 1);
-  CHECK(w2[0].find("b1(x) has 9 knots; the default runtime holds 8") != std::string::npos);
 }
 
 TEST_CASE("runtime limits: predict with a refused model names the file, not 'model'") {

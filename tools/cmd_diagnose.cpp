@@ -50,7 +50,6 @@ void run_diagnose(const DiagnoseCliOptions& o) {
   ReportOptions ro;
   tools::print_notes(e.notes);
   ro.warnings = e.warnings;
-  for (const std::string& w : runtime_limit_warnings(e)) ro.warnings.push_back(w);
   tools::print_warnings(ro.warnings);
   const Overwrite overwrite = o.force ? Overwrite::replace : Overwrite::refuse;
   { OutputDir probe(o.out, overwrite); }  // refuse a non-empty DIR before the long part

@@ -69,17 +69,15 @@ indicial::FitOptions checked_fit_options(const FitCliOptions& o) {
   return fo;
 }
 
-// Notes and warnings of the experiments, each line once (several coefficients share runs), with
-// the runtime-limit warnings of each; returns the warnings for fit.json.
+// Notes and warnings of the experiments, each line once (several coefficients share runs);
+// returns the warnings for fit.json.
 std::vector<std::string> input_messages(const std::vector<indicial::Experiment>& es) {
   std::set<std::string> seen;
   std::vector<std::string> notes, warnings;
   for (const auto& e : es) {
     for (const std::string& n : e.notes)
       if (seen.insert(n).second) notes.push_back(n);
-    std::vector<std::string> w = e.warnings;
-    for (const std::string& x : indicial::runtime_limit_warnings(e)) w.push_back(x);
-    for (const std::string& x : w)
+    for (const std::string& x : e.warnings)
       if (seen.insert(x).second) warnings.push_back(x);
   }
   indicial::tools::print_notes(notes);

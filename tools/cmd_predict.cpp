@@ -1,7 +1,8 @@
 // `indicial predict`: run a model on the motion of a run CSV with the embedded runtime.
 //
 //   indicial predict MODEL.coef DATA.csv --out FILE.csv [--plot FILE.png] [--metrics FILE.json]
-//                    [--airspeed-mps V] [--time-grid uniform|nonuniform] [--periodic] [--force]
+//                    [--airspeed-mps V] [--time-grid uniform|nonuniform] [--periodic]
+//                    [--frequency-hz F | --reduced-frequency K] [--force]
 //
 // Writes time_s, the angle column as given, <c>_pred, <c>_quasi_steady and the measured <c>
 // where DATA.csv has it; where measured, prints the metrics (RMS, max, Theil's inequality
@@ -32,6 +33,8 @@ struct PredictOptions {
   indicial::TimeGrid grid = indicial::TimeGrid::uniform;
   bool force = false;
   bool periodic = false;
+  double frequency_hz = 0.0;       // for a phase column
+  double reduced_frequency = 0.0;  // or k = 2 pi f l / V
 };
 
 std::string default_metrics_path(const std::string& out) {
@@ -53,15 +56,25 @@ void run_predict(const PredictOptions& o) {
   const double airspeed = o.airspeed_mps > 0.0 ? o.airspeed_mps : model->airspeed_mps;
 
   // One read per coefficient: the measured column is optional for each.
+  RunCsvOptions read;
+  read.grid = o.grid;
+  if (o.frequency_hz < 0.0 || o.reduced_frequency < 0.0 || (o.frequency_hz > 0.0 && o.reduced_frequency > 0.0))
+    throw InputError("--frequency-hz", 0, "give one of --frequency-hz and --reduced-frequency, > 0");
+  // k = 2 pi f l / V with the model's reference length and the run's airspeed.
+  read.frequency_hz = o.reduced_frequency > 0.0
+                          ? o.reduced_frequency * airspeed / (2.0 * 3.14159265358979323846 * model->reference_length_m)
+                          : o.frequency_hz;
   std::vector<Run> runs;
   for (int c = 0; c < model->n_coefficients; ++c)
     runs.push_back(read_run_csv(o.data_path, model->axis, model->coefficients[c].name,
-                                CoefficientPresence::optional, o.grid));
+                                CoefficientPresence::optional, read));
   const Run& run = runs.front();
+  // A phase column is one ensemble-averaged cycle: periodic whether or not --periodic is given.
+  const bool periodic = o.periodic || run.time_source == TimeSource::phase_column;
   const std::string angle_column = motion_column_name(o.data_path, model->axis);
 
   require_runtime_accepts(*model, o.model_path, ModelFile::read);  // a refused model names the file
-  Prediction p = o.periodic ? predict_periodic(*model, run.time_s, run.motion_angle_rad, run.rate_radps, airspeed,
+  Prediction p = periodic ? predict_periodic(*model, run.time_s, run.motion_angle_rad, run.rate_radps, airspeed,
                                                o.model_path)
                             : predict_motion(*model, run.time_s, run.motion_angle_rad, run.rate_radps, airspeed,
                                              o.model_path);
@@ -82,7 +95,7 @@ void run_predict(const PredictOptions& o) {
         throw InputError(f, 0, "exists; use --force to replace it");
   }
   std::vector<std::string> comments = {"indicial predict " + o.model_path + " " + o.data_path,
-                                       o.periodic ? "predicted with the runtime (indicial::Predictor): the "
+                                       periodic ? "predicted with the runtime (indicial::Predictor): the "
                                                     "cycle's periodic steady state"
                                                   : "predicted with the runtime (indicial::Predictor), reset "
                                                     "to the steady state at the first sample"};
@@ -130,6 +143,11 @@ const indicial::tools::RegisterCommand register_predict([](CLI::App& app) {
                 "DATA is one cycle of a periodic motion (an ensemble-averaged cycle): predict its periodic "
                 "steady state (the cycle closes on its last sample if it repeats the first angle, else "
                 "with one more mean step back to the first)");
+  sub->add_option("--frequency-hz", opt->frequency_hz,
+                  "the cycle's frequency, for a DATA file with a phase_rad/phase_deg column (then --periodic "
+                  "is implied)");
+  sub->add_option("--reduced-frequency", opt->reduced_frequency,
+                  "or its reduced frequency k = 2 pi f l / V (l: the model's reference length, V: the airspeed)");
   sub->add_flag("--force", opt->force, "replace existing outputs");
   sub->callback([opt]() { run_predict(*opt); });
 });

@@ -80,7 +80,7 @@ std / CR is the empirical std over the white Cramer-Rao bound (wrong under color
 about sqrt((1 + phi) / (1 - phi)) = 3 for an AR(1) mean), std / colored over the
 colored-residual bound (the sandwich covariance with the residual autocorrelation); the
 issue's acceptance band for the latter is [0.8, 1.25]. The ctest check is
-`tests/test_montecarlo_colored.cpp` (Model I, AR(1) phi 0.8, seeds 5001-5200).
+`tests/test_montecarlo.cpp` "Monte Carlo, AR(1) noise phi 0.8" (Model I, seeds 5001-5200).
 
 ### Model I, AR(1) phi 0.8
 

@@ -2,12 +2,11 @@
 // indicial/fitter/simulate.hpp ("Measurement noise").
 #include <cmath>
 #include <complex>
-#include <map>
-#include <sstream>
 
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/io.hpp"
 #include "indicial/fitter/simulate.hpp"
+#include "spec_keys.hpp"
 
 namespace indicial {
 namespace {
@@ -37,63 +36,31 @@ double ar2_variance(const Ar2& r) {
   return (1.0 - r.a2) / ((1.0 + r.a2) * ((1.0 - r.a2) * (1.0 - r.a2) - r.a1 * r.a1));
 }
 
-double parse_number(const std::string& key, const std::string& text) {
-  std::size_t used = 0;
-  double v = 0.0;
-  try {
-    v = std::stod(text, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (text.empty() || used != text.size() || !std::isfinite(v))
-    throw InputError("--noise", 0, "'" + key + "' needs a finite number, found '" + text + "'");
-  return v;
-}
-
 }  // namespace
 
 NoiseModel parse_noise_spec(const std::string& spec) {
   const std::size_t colon = spec.find(':');
   const std::string kind = spec.substr(0, colon);
-  std::map<std::string, double> kv;
-  if (colon != std::string::npos) {
-    std::stringstream ss(spec.substr(colon + 1));
-    std::string item;
-    while (std::getline(ss, item, ',')) {
-      const std::size_t eq = item.find('=');
-      if (eq == std::string::npos)
-        throw InputError("--noise", 0, "expected key=value, found '" + item + "'");
-      kv[item.substr(0, eq)] = parse_number(item.substr(0, eq), item.substr(eq + 1));
-    }
-  }
-  auto take = [&](const std::string& key, bool required, double fallback) {
-    const auto it = kv.find(key);
-    if (it == kv.end()) {
-      if (required) throw InputError("--noise", 0, kind + " noise needs '" + key + "'");
-      return fallback;
-    }
-    const double v = it->second;
-    kv.erase(it);
-    return v;
-  };
+  detail::SpecKeys kv("--noise", kind + " noise", colon == std::string::npos ? "" : spec.substr(colon + 1));
+  using Need = detail::SpecKeys::Need;
   NoiseModel n;
   if (kind == "white") {
     n.kind = NoiseKind::white;
   } else if (kind == "ar1") {
     n.kind = NoiseKind::ar1;
-    n.phi = take("phi", true, 0.0);
+    n.phi = kv.take("phi", Need::required);
     if (!(std::fabs(n.phi) < 1.0)) throw InputError("--noise", 0, "ar1 'phi' must be in (-1, 1)");
   } else if (kind == "turbulence") {
     n.kind = NoiseKind::turbulence;
-    n.cutoff_hz = take("cutoff_hz", true, 0.0);
-    n.zeta = take("zeta", false, 0.7);
+    n.cutoff_hz = kv.take("cutoff_hz", Need::required);
+    n.zeta = kv.take("zeta", Need::optional, 0.7);
     if (!(n.cutoff_hz > 0.0)) throw InputError("--noise", 0, "turbulence 'cutoff_hz' must be > 0");
     if (!(n.zeta > 0.0)) throw InputError("--noise", 0, "turbulence 'zeta' must be > 0");
   } else {
     throw InputError("--noise", 0,
                      "unknown noise '" + kind + "' (white, ar1:phi=P, turbulence:cutoff_hz=F[,zeta=Z])");
   }
-  if (!kv.empty()) throw InputError("--noise", 0, "unknown key '" + kv.begin()->first + "' in " + kind + " noise");
+  kv.require_all_taken();
   return n;
 }
 

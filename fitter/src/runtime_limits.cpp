@@ -4,7 +4,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <fmt/format.h>
 #include <memory>
 
 #include "indicial/fitter/error.hpp"
@@ -85,35 +84,6 @@ bool lag_decay_positive(const CoefficientModel<double, FitCapacity>& m, double x
   for (int j = 0; j < m.n_lags; ++j)
     if (!(min_lag_decay(m, j, x_min_rad, x_max_rad) > 0.0)) return false;
   return true;
-}
-
-std::vector<std::string> runtime_limit_warnings(const Experiment& e) {
-  std::vector<std::string> out;
-  using Cap = DefaultCapacity;
-  if (e.static_curve.kind == StaticKind::table &&
-      e.static_curve.table_x_rad.size() > static_cast<std::size_t>(Cap::max_table_points))
-    out.push_back(fmt::format("{}: the static table has {} rows; the default runtime (Predictor<>) holds {} "
-                              "(static_table_point limit): thin the table or use Predictor<double, FitCapacity>",
-                              e.static_curve.table_path, e.static_curve.table_x_rad.size(), Cap::max_table_points));
-  auto spline = [&](const char* name, const SplineConfig& s) {
-    int powers = 0;
-    for (int p : s.powers) powers = std::max(powers, p + 1);
-    if (powers > Cap::max_powers)
-      out.push_back(fmt::format("{}: {}(x) uses powers up to x^{}; the default runtime holds x^0..x^{} "
-                                "(max_powers {})", e.path, name, powers - 1, Cap::max_powers - 1, Cap::max_powers));
-    if (s.knots_rad.size() > static_cast<std::size_t>(Cap::max_knots))
-      out.push_back(fmt::format("{}: {}(x) has {} knots{}; the default runtime holds {} (max_knots)", e.path, name,
-                                s.knots_rad.size(),
-                                e.model.structure == StructureMode::stepwise ? " in its candidate pool" : "",
-                                Cap::max_knots));
-  };
-  spline("a", e.model.a);
-  spline("b1", e.model.b1);
-  if (e.rotary.estimate) spline("C_aq", e.rotary.candidates);
-  if (e.model.lags > Cap::max_lags)
-    out.push_back(fmt::format("{}: [model] lags = {}; the default runtime holds {} (max_lags)", e.path,
-                              e.model.lags, Cap::max_lags));
-  return out;
 }
 
 }  // namespace indicial

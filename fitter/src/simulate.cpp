@@ -15,6 +15,7 @@
 #include "indicial/coef_file.hpp"
 #include "indicial/fitter/tailless_model.hpp"
 #include "indicial/fitter/io.hpp"
+#include "spec_keys.hpp"
 
 namespace indicial {
 namespace {
@@ -124,20 +125,6 @@ void model_angle_and_rate(Axis axis, double alpha0_rad, double angle, double rat
   }
 }
 
-double parse_spec_number(const std::string& key, const std::string& value) {
-  double v = 0.0;
-  std::size_t used = 0;
-  try {
-    v = std::stod(value, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used != value.size() || value.empty() || !std::isfinite(v)) {
-    throw InputError("--motion", 0, "'" + key + "' needs a finite number, found '" + value + "'");
-  }
-  return v;
-}
-
 }  // namespace
 
 // ==========================================================================================
@@ -160,34 +147,19 @@ MotionSpec parse_motion_spec(const std::string& spec, Axis axis) {
     m.source = rest;
     return m;
   }
-  std::map<std::string, double> kv;
-  std::stringstream ss(rest);
-  std::string item;
-  while (std::getline(ss, item, ',')) {
-    const std::size_t eq = item.find('=');
-    if (eq == std::string::npos) throw InputError("--motion", 0, "expected key=value, found '" + item + "'");
-    const std::string key = item.substr(0, eq);
-    if (kv.count(key)) throw InputError("--motion", 0, "key '" + key + "' given twice");
-    kv[key] = parse_spec_number(key, item.substr(eq + 1));
-  }
+  detail::SpecKeys kv("--motion", kind + " motion", rest);
+  using Need = detail::SpecKeys::Need;
   auto take = [&](const std::string& key, bool required, double fallback) {
-    auto it = kv.find(key);
-    if (it == kv.end()) {
-      if (required) throw InputError("--motion", 0, kind + " motion needs '" + key + "'");
-      return fallback;
-    }
-    const double v = it->second;
-    kv.erase(it);
-    return v;
+    return kv.take(key, required ? Need::required : Need::optional, fallback);
   };
   if (kind == "sine") {
     m.kind = MotionKind::sine;
-    const bool has_alpha0 = kv.count("alpha0_deg") > 0;
+    const bool has_alpha0 = kv.has("alpha0_deg");
     if (has_alpha0 && axis != Axis::pitch) {
       throw InputError("--motion", 0, "in roll and yaw the sine's mean is 'mean_deg' (alpha0 is "
                                       "the model's fixed angle of attack)");
     }
-    if (has_alpha0 && kv.count("mean_deg")) {
+    if (has_alpha0 && kv.has("mean_deg")) {
       throw InputError("--motion", 0, "give 'alpha0_deg' or 'mean_deg', not both");
     }
     m.mean_rad = (has_alpha0 ? take("alpha0_deg", true, 0) : take("mean_deg", true, 0)) * kDegToRad;
@@ -212,7 +184,7 @@ MotionSpec parse_motion_spec(const std::string& spec, Axis axis) {
   } else {
     throw InputError("--motion", 0, "unknown motion kind '" + kind + "' (sine, ramp or csv)");
   }
-  if (!kv.empty()) throw InputError("--motion", 0, "unknown key '" + kv.begin()->first + "' in " + kind + " motion");
+  kv.require_all_taken();
   if (!(m.dt_s > 0)) throw InputError("--motion", 0, "'dt_s' must be > 0");
   return m;
 }

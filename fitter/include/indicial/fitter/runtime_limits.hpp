@@ -5,13 +5,12 @@
 // A fitted model is only useful if the embedded runtime loads it. These checks run the
 // runtime's OWN validation (runtime.hpp validate_for_runtime: structure, finite values,
 // capacities, b_j(x) > 0 over the envelope; Predictor::load's delay limit) on a model before
-// any command writes it, and check an experiment against the runtime's capacities before a
-// fit starts, so that a limit is found at input time, not after a long fit.
+// any command writes it. (The runtime's capacities are checked at input time, before a fit,
+// by load_experiment: experiment_toml.cpp check_runtime_capacity.) min_lag_decay is the
+// feasibility predicate of the constrained output-error fit.
 //
 // Usage
 // -----
-//   for (const std::string& w : indicial::runtime_limit_warnings(experiment))
-//     std::fprintf(stderr, "indicial: warning: %s\n", w.c_str());
 //   const FitResult r = fit_experiment(experiment, options);
 //   indicial::require_runtime_accepts(r.model, out_dir + "/model.coef", indicial::ModelFile::to_write);
 //
@@ -29,7 +28,6 @@
 #include <vector>
 
 #include "indicial/coef_file.hpp"
-#include "indicial/fitter/experiment.hpp"
 #include "indicial/model.hpp"
 
 namespace indicial {
@@ -66,10 +64,5 @@ double min_lag_decay(const CoefficientModel<double, FitCapacity>& m, int lag, do
 // Whether every lag of m decays everywhere on that grid (min_lag_decay > 0 for every lag):
 // the feasibility predicate of the constrained output-error fit.
 bool lag_decay_positive(const CoefficientModel<double, FitCapacity>& m, double x_min_rad, double x_max_rad);
-
-// Input-time checks of an experiment against the default runtime's capacities (static table
-// rows, spline terms of a fixed structure, candidate pools of a stepwise one): one line per
-// problem naming the file and the limit. Empty when everything fits Predictor<>.
-std::vector<std::string> runtime_limit_warnings(const Experiment& e);
 
 }  // namespace indicial
