@@ -283,8 +283,15 @@ void run_stream(const Set& model, const char* label, long n_steps, std::uint64_t
       if (!same_outputs<P>(out_before, out)) fail("non_finite_result changed *out");
       continue;
     }
-    const double x = indicial::model_angle<double>(model.axis, model.alpha0_rad, g.in.motion_angle_rad);
-    const bool outside = x < model.x_min_rad || x > model.x_max_rad;
+    // In the predictor's Scalar, as the runtime clamps (a float predictor rounds the angle to
+    // float first: an angle within float rounding of the envelope's end is at that end).
+    // (An angle beyond Scalar's range is taken in double in roll and yaw, as the runtime does.)
+    const Scalar motion = Scalar(g.in.motion_angle_rad);
+    const Scalar x = std::isfinite(motion) || model.axis == indicial::Axis::pitch
+                         ? indicial::model_angle_from_factor(
+                               model.axis, Scalar(indicial::model_angle_factor(model.axis, model.alpha0_rad)), motion)
+                         : Scalar(indicial::model_angle<double>(model.axis, model.alpha0_rad, g.in.motion_angle_rad));
+    const bool outside = x < Scalar(model.x_min_rad) || x > Scalar(model.x_max_rad);
     if (s != (outside ? StepStatus::angle_clamped : StepStatus::ok)) {
       fail(std::string("good input answered ") + indicial::to_string(s) + (outside ? " (outside)" : " (inside)"));
       continue;

@@ -427,22 +427,17 @@ inline KeyRead read_member_knot(CoefficientModel<double, Cap>& cm, Tokens& t, in
   return key_read(st, reason, 0);
 }
 
-template <class Cap>
-inline KeyRead read_static_poly(CoefficientModel<double, Cap>& cm, Tokens& t, int*) {
-  if (cm.static_curve.kind == StaticKind::table)
-    return key_read(LoadStatus::invalid_value, "static curve given both as table and polynomial", 0);
-  const char* reason = "";
-  const LoadStatus st = read_poly(t, &cm.static_curve.polynomial, &reason);
-  return key_read(st, reason, seen_static_poly);
-}
+// `static_poly` and `static_knot`: refused once the static curve is a table.
+enum class SplineItem : int { poly = 0, knot = 1 };
 
-template <class Cap>
-inline KeyRead read_static_knot(CoefficientModel<double, Cap>& cm, Tokens& t, int*) {
+template <class Cap, SplineItem Item>
+inline KeyRead read_static_spline(CoefficientModel<double, Cap>& cm, Tokens& t, int*) {
   if (cm.static_curve.kind == StaticKind::table)
     return key_read(LoadStatus::invalid_value, "static curve given both as table and polynomial", 0);
   const char* reason = "";
-  const LoadStatus st = read_knot(t, &cm.static_curve.polynomial, &reason);
-  return key_read(st, reason, 0);
+  const LoadStatus st = Item == SplineItem::poly ? read_poly(t, &cm.static_curve.polynomial, &reason)
+                                                 : read_knot(t, &cm.static_curve.polynomial, &reason);
+  return key_read(st, reason, Item == SplineItem::poly ? seen_static_poly : 0u);
 }
 
 template <class Cap>
@@ -523,8 +518,8 @@ template <class Cap>
 inline const BlockKey<Cap>* find_block_key(const char* b, const char* e) {
   using CM = CoefficientModel<double, Cap>;
   static const BlockKey<Cap> keys[] = {
-      {"static_poly", &read_static_poly<Cap>},
-      {"static_knot", &read_static_knot<Cap>},
+      {"static_poly", &read_static_spline<Cap, SplineItem::poly>},
+      {"static_knot", &read_static_spline<Cap, SplineItem::knot>},
       {"static_table_point", &read_table_point<Cap>},
       {"static_corr_poly", &read_member_poly<Cap, &CM::static_correction, seen_corr_poly>},
       {"static_corr_knot", &read_member_knot<Cap, &CM::static_correction>},
