@@ -49,7 +49,9 @@ const std::vector<KeyDoc>& key_docs() {
       {"", "runs", "the run CSV files (required, at least one), relative to this file. Columns: time_s, the\n"
                    "angle (alpha_deg|alpha_rad, phi_..., psi_...), optional rate (q_degps|q_radps, p_..., r_...),\n"
                    "the coefficient. An entry may be {file = \"run.csv\", periodic = true}: an ensemble-averaged\n"
-                   "cycle, fitted in its periodic steady state (no y0 parameter).",
+                   "cycle, fitted in its periodic steady state (no y0 parameter). Other run-table keys:\n"
+                   "frequency_hz or reduced_frequency (a phase-column run's cycle), airspeed_mps (default the\n"
+                   "experiment's), time_grid = \"uniform\" (default) or \"nonuniform\".",
        "runs = [\"run1.csv\", \"run2.csv\"]"},
       {"static", "polynomial", "the static curve C_a(x) = c0 + c1 x + c2 x^2 + ...: coefficients of x^0, x^1, ...\n"
                                "with x = alpha (pitch) or beta (roll, yaw) in RAD. Give polynomial or table (one is required).",
@@ -114,6 +116,9 @@ const std::vector<KeyDoc>& key_docs() {
        "delay = \"none\""},
       {"model", "delay_start_s", "with delay = \"estimated\": its start value in s, 0..1. Default 0.",
        "delay_start_s = 0.05"},
+      {"columns", "alpha_deg", "[columns] (optional) maps the files' column names to ours, for every run and the\n"
+                               "static table: our name (with its unit) = the file's name. Default: none (our names).",
+       "alpha_deg = \"AoA\""},
       {"model", "further_lag_start", "with lags >= 2: \"estimated\" (each run's lags 2.. start from an estimated\n"
                                      "state) or \"at_rest\" (from 0). Default \"estimated\".",
        "further_lag_start = \"estimated\""},
@@ -185,6 +190,11 @@ std::string annotated_template(const indicial::Experiment& e, const std::vector<
     out += line + "\n";
   }
   close_section();
+  // Why: the writer emits [columns] only when the experiment maps columns.
+  if (plain.find("\n[columns]\n") == std::string::npos) {
+    const KeyDoc* d = find_doc("columns", "alpha_deg");
+    out += "\n" + commented(d->doc) + "# [columns]\n# " + d->example + "\n";
+  }
   return out;
 }
 
