@@ -786,6 +786,13 @@ TEST_CASE("a 128-sample cycle with phase rounded to 0.01 rad is uniform, snapped
   for (std::size_t k = 0; k < r.size(); ++k) CHECK(r.time_s[k] == doctest::Approx(static_cast<double>(k) / 256.0).epsilon(1e-9));
   CHECK(r.dt_s() == doctest::Approx(1 / 256.0).epsilon(1e-9));
   CHECK(any_note_has(e.notes, "cycle128.csv: 'phase_rad' is uniform to its printed digits"));
+  // The writer writes the run keys back; the file reads back the same run.
+  const std::string text = indicial::write_experiment_toml(e, {});
+  CHECK(text.find("frequency_hz = 2}") != std::string::npos);
+  const indicial::Experiment back = indicial::load_experiment(write_exp("cycle_back.toml", text));
+  CHECK(back.runs[0].frequency_hz == 2.0);
+  CHECK(back.runs[0].time_s == r.time_s);
+  CHECK(back.runs[0].periodic);
   CHECK_FALSE(e.runs[1].periodic);
   CHECK(e.runs[1].time_source == indicial::TimeSource::time_column);
   CHECK(e.runs[1].frequency_hz == 0.0);

@@ -710,6 +710,20 @@ std::string power_terms(const std::string& name, const std::vector<int>& powers)
   for (std::size_t i = 0; i < powers.size(); ++i) out += (i ? ", " : "") + std::to_string(powers[i]);
   return out + "]\n";
 }
+// A `runs` entry: the bare file name, or a table with the keys that differ from the defaults.
+// A phase-column run is periodic by its file (periodic is then implied, not written).
+std::string run_entry(const Run& run, double experiment_airspeed_mps) {
+  std::string keys;
+  if (run.time_source == TimeSource::phase_column && run.frequency_hz > 0.0)
+    keys += ", frequency_hz = " + format_double(run.frequency_hz);
+  else if (run.periodic)
+    keys += ", periodic = true";
+  if (run.airspeed_mps > 0.0 && run.airspeed_mps != experiment_airspeed_mps)
+    keys += ", airspeed_mps = " + format_double(run.airspeed_mps);
+  if (run.time_grid == TimeGrid::nonuniform) keys += std::string(", time_grid = \"") + name_of(run.time_grid) + "\"";
+  return keys.empty() ? toml_string(run.path) : "{file = " + toml_string(run.path) + keys + "}";
+}
+
 }  // namespace
 
 std::string write_experiment_toml(const Experiment& e, const std::vector<std::string>& comment_lines) {
@@ -723,8 +737,7 @@ std::string write_experiment_toml(const Experiment& e, const std::vector<std::st
   out += "runs = [";
   for (std::size_t i = 0; i < e.runs.size(); ++i) {
     out += i ? ", " : "";
-    if (e.runs[i].periodic) out += "{file = " + toml_string(e.runs[i].path) + ", periodic = true}";
-    else out += toml_string(e.runs[i].path);
+    out += run_entry(e.runs[i], e.airspeed_mps);
   }
   out += "]\n\n[static]\n";
   if (e.static_curve.kind == StaticKind::polynomial) {

@@ -35,7 +35,8 @@ struct Run {
   bool rate_from_file = false;
   std::vector<double> coefficient;        // measured C_a
   bool periodic = false;                  // an ensemble-averaged cycle: periodic steady state
-  double airspeed_mps = 0.0;              // V of this run (load_experiment: the run's or the experiment's)
+  double airspeed_mps = 0.0;              // V of this run; load_experiment fills it (the run's or the
+                                          // experiment's); 0 in a Run built in code: use Experiment's
   double frequency_hz = 0.0;              // the cycle's frequency; 0 when not given
   TimeGrid time_grid = TimeGrid::uniform;
   TimeSource time_source = TimeSource::time_column;
@@ -121,8 +122,8 @@ struct Experiment {
   double data_x_max_rad = 0.0;
   // One-line notes (what the readers did: ignored columns, snapped times) and warnings
   // (plausible mistakes: radians in a degree column, a defaulted section, a run without
-  // motion), in the order found. The command line prints both on stderr; fit.json keeps the
-  // warnings.
+  // motion), in the order found. The command line prints both on stderr (fit.json is to keep
+  // the warnings: issue 14's CLI side).
   std::vector<std::string> notes;
   std::vector<std::string> warnings;
   double l_over_v_s() const { return reference_length_m / airspeed_mps; }

@@ -92,7 +92,8 @@ std::vector<Experiment> load_experiments(const std::string& toml_path);
 void refuse_unsupported_run_features(const Experiment& experiment);
 
 // An experiment file as text, for `experiment` with the run files named by runs[i].path
-// (relative to the experiment file) and runs[i].periodic. Knots are written in degrees,
+// (relative to the experiment file), runs[i].periodic and, where they differ from the
+// defaults, frequency_hz (a phase-column run), airspeed_mps and time_grid. Knots are written in degrees,
 // polynomials as given. Writes a_degree / b1_degree when the powers are 0..n-1 and
 // a_powers / b1_powers otherwise. load_experiment(write_experiment_toml(e)) gives back e's
 // configuration (to the last bit for the polynomials, within 1 ulp for knots).
