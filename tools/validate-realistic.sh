@@ -17,6 +17,7 @@ doc=docs/validation-realistic.md
 
 "$exe" validate-realistic --out "$tmp/constant.md" >/dev/null
 "$exe" validate-realistic --b1-knots-deg 14 --out "$tmp/knot.md" >/dev/null
+"$exe" validate-realistic --snr 5 --b1-degree 3 --out "$tmp/cubic.md" >/dev/null
 "$exe" montecarlo --case tailless-model-1 --seeds 200 --first-seed 1001 --noise ar1:phi=0.8 --out "$tmp/mc1" >/dev/null 2>&1
 "$exe" montecarlo --case tailless-model-2 --seeds 200 --first-seed 2001 --noise ar1:phi=0.8 --out "$tmp/mc2" >/dev/null 2>&1
 "$exe" montecarlo --case tailless-model-1 --seeds 200 --first-seed 3001 \
@@ -71,6 +72,34 @@ TEXT
 
 TEXT
   tail -n +1 "$tmp/knot.md"
+  cat <<'TEXT'
+## Positive decay rates by construction: the constrained fit
+
+The output-error Levenberg-Marquardt fit takes a trial step only to a model whose every
+b_j(x) is positive on the envelope (the model-angle range of the data, which is the envelope
+written into model.coef); a step to any other model is rejected like a cost increase (the LM's
+feasibility predicate, `fit_output_error.cpp`). The check is `min_lag_decay`
+(`fitter/include/indicial/fitter/runtime_limits.hpp`): b_j at the runtime's own validation
+points (4097 evenly spaced angles, the envelope ends, and either side of every knot), so a
+model the fit accepts is one `validate_for_runtime` accepts; for the default b(x) (knot power
+1, degree <= 1: piecewise linear) the minimum is at an end or a knot, which are checked, so it
+is exact over the continuum too. Where the equation-error start is infeasible, the start is
+projected: b_j_0 is raised until min b_j(x) is a tenth of max |b_j(x)| on the envelope, and
+the fit's message says so ("start projected: b1_0 raised from ... to ..."). Why a
+bounded/projected step and not a reparameterisation (b = exp(.)): b_j(x) is a spline with
+plus-function knots whose coefficients are the contract's parameters (b1_0, B1, ...) and
+whose bounds are reported; a reparameterisation would change both, and positivity of a
+spline is not a bound on any one coefficient. If a fit still ends outside what the runtime
+accepts (e.g. a non-finite value), `fit`/`diagnose` exit 1 naming DIR/model.coef, nothing
+written.
+
+The cost of the constraint, measured: on the campaign at SNR 5 with a cubic b1(x) (the
+case where, unconstrained, the Cm fit ended with b1(x) <= 0 and the runtime refused it), the
+constrained fit ends at a feasible model the runtime loads, but at a poor local minimum on
+the feasible set's boundary:
+
+TEXT
+  tail -n +1 "$tmp/cubic.md"
   cat <<'TEXT'
 ## Monte Carlo on colored noise
 

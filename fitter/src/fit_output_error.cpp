@@ -28,6 +28,7 @@
 #include "fit_internal.hpp"
 #include "fit_levenberg_marquardt.hpp"
 #include "indicial/fitter/error.hpp"
+#include "indicial/fitter/runtime_limits.hpp"
 
 namespace indicial::fit_detail {
 
@@ -363,6 +364,93 @@ void estimate_covariance(const OutputErrorProblem& problem, const FitOptions& o,
   }
 }
 
+// Why the start values cannot be propagated, naming the values and what to do (issue 12: an
+// exit 4 must say which start value failed). Checks, in order: a non-finite start value, a
+// lag decay rate not positive on the envelope (the b_j terms' start values), the first run
+// without a periodic steady state or with a non-finite output.
+std::string start_failure_message(const ParameterLayout& L, const OutputErrorData& d, const Eigen::VectorXd& theta,
+                                  double lo, double hi) {
+  const std::string what_to_do =
+      "; nothing estimated. What to do: start from a constant b1 (b1_degree = 0, no b1 knots), fewer a(x) "
+      "terms, or --stepwise-refinement output_error";
+  const std::vector<std::string> names = L.names();
+  for (Eigen::Index k = 0; k < theta.size(); ++k)
+    if (!std::isfinite(theta(k)))
+      return fmt::format("the start value {} = {} is not finite (the equation-error regression failed){}",
+                         names[static_cast<std::size_t>(k)], theta(k), what_to_do);
+  const CoefficientModel<double, Cap> m = model_at(L, theta, d.known);
+  for (int j = 0; j < m.n_lags; ++j) {
+    const double lowest = min_lag_decay(m, j, lo, hi);
+    if (lowest > 0.0) continue;
+    std::string terms;
+    for (std::size_t k = 0; k < names.size(); ++k) {
+      const ParamId& id = L.ids()[k];
+      if ((id.kind == ParamKind::b_power || id.kind == ParamKind::b_knot) && id.lag == j)
+        terms += fmt::format("{}{} = {:.6g}", terms.empty() ? "" : ", ", names[k], theta(static_cast<Eigen::Index>(k)));
+    }
+    return fmt::format("the start values give b{}(x) <= 0 on the envelope (min {:.6g}; start values {}): the lag "
+                       "does not decay, so the model cannot be propagated{}",
+                       j + 1, lowest, terms, what_to_do);
+  }
+  const DelayTerm delay = L.structure().delay;
+  for (std::size_t ri = 0; ri < d.runs.size(); ++ri) {
+    const PreparedRun& r = d.runs[ri];
+    double y[Cap::max_lags] = {};
+    if (L.y0_offset(ri) < 0 && !periodic_state(m, r, delay, y))
+      return fmt::format("the start values give no periodic steady state for run '{}' (the lag does not decay over "
+                         "its cycle){}", r.path, what_to_do);
+  }
+  return "the start values give a model with a non-finite output (a start value too large: see the equation "
+         "error's estimates in fit.json)" + what_to_do;
+}
+
+// The envelope the fitted model is written with: the model-angle range of the data (as
+// base_model_set sets it).
+std::pair<double, double> data_envelope(const std::vector<PreparedRun>& runs) {
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  for (const PreparedRun& r : runs)
+    for (double x : r.x) {
+      lo = std::min(lo, x);
+      hi = std::max(hi, x);
+    }
+  return {lo, hi};
+}
+
+// Projects an infeasible start onto the feasible set: for every lag whose b_j(x) is not
+// positive everywhere on the envelope, its constant term b_j_0 is raised until the minimum is
+// a tenth of max |b_j| on the envelope (1 1/s if that is 0). Why the constant term: it moves
+// b_j(x) uniformly, the smallest change that restores b_j > 0 without reshaping the spline.
+// Returns what was done (empty when nothing), or why a lag could not be projected (no
+// constant term in the structure).
+std::string project_start(const ParameterLayout& L, const OutputErrorData& d, double lo, double hi,
+                          Eigen::VectorXd& theta) {
+  std::string said;
+  const CoefficientModel<double, Cap> m = model_at(L, theta, d.known);
+  for (int j = 0; j < m.n_lags; ++j) {
+    const double lowest = min_lag_decay(m, j, lo, hi);
+    if (lowest > 0.0) continue;
+    ParamId c0;
+    c0.kind = ParamKind::b_power;
+    c0.lag = j;
+    c0.power = 0;
+    const int k = L.find(c0);
+    if (k < 0 || !std::isfinite(lowest)) {
+      said += fmt::format("{}the start has b{}(x) <= 0 on the envelope and no b{}_0 term to raise", said.empty() ? "" : "; ",
+                          j + 1, j + 1);
+      continue;
+    }
+    double largest = 0.0;
+    for (int i = 0; i <= 64; ++i) largest = std::max(largest, std::fabs(spline_value(m.lags[j].b, lo + (hi - lo) * i / 64.0)));
+    const double floor = largest > 0.0 ? 0.1 * largest : 1.0;
+    const double before = theta(k);
+    theta(k) += floor - lowest;
+    said += fmt::format("{}start projected: b{}_0 raised from {:.6g} to {:.6g} (the equation-error start had "
+                        "min b{}(x) = {:.6g} <= 0 on the envelope)",
+                        said.empty() ? "" : "; ", j + 1, before, theta(k), j + 1, lowest);
+  }
+  return said;
+}
+
 }  // namespace
 
 CoefficientModel<double, Cap> model_at(const ParameterLayout& L, const Eigen::VectorXd& theta,
@@ -390,13 +478,21 @@ MLResult fit_output_error(const UnsteadyStructure& s, const OutputErrorData& d,
                           const FeasibilityPredicate& feasible) {
   check_capacity(s, d.context_file);
   const ParameterLayout L(s, d.runs);
-  OutputErrorProblem problem(L, d, feasible);
+  // Positive decay rates by construction (issue 12): a trial step to a model with b_j(x) <= 0
+  // anywhere on the envelope (the runtime's own validation grid: runtime_limits.hpp
+  // min_lag_decay) is rejected like a cost increase; an infeasible start is projected first.
+  const auto [lo, hi] = data_envelope(d.runs);
+  const FeasibilityPredicate decaying = [&](const CoefficientModel<double, Cap>& m) {
+    return lag_decay_positive(m, lo, hi) && (!feasible || feasible(m));
+  };
+  OutputErrorProblem problem(L, d, decaying);
   check_sizes(L, theta0, static_cast<std::size_t>(problem.num_residuals()), d.context_file);
   MLResult res;
   res.structure = s;
   res.ids = L.ids();
   res.names = L.names();
   res.theta = theta0;
+  const std::string projected = project_start(L, d, lo, hi, res.theta);
   LevenbergMarquardt solver(problem);
   const LevenbergMarquardtSummary lm = solver.Solve(solver_options(o), res.theta);
   OutputErrorSummary& sum = res.summary;
@@ -409,13 +505,14 @@ MLResult fit_output_error(const UnsteadyStructure& s, const OutputErrorData& d,
   sum.message = lm.message;
   sum.boundary = lm.boundary;
   sum.infeasible_trials = lm.infeasible_trials;
+  if (!projected.empty()) sum.message = projected + (sum.message.empty() ? "" : "; " + sum.message);
   const Eigen::Index P = L.size();
   res.cov_white = Eigen::MatrixXd::Constant(P, P, std::numeric_limits<double>::quiet_NaN());
   res.cov_colored = res.cov_white;
   res.identifiability.assign(static_cast<std::size_t>(P), Identifiability::identified);
   if (!std::isfinite(lm.cost)) {
-    sum.message = "the start values give a model that cannot be propagated (non-finite output "
-                  "or no periodic steady state); nothing estimated";
+    sum.message = start_failure_message(L, d, res.theta, lo, hi);
+    if (!projected.empty()) sum.message = projected + "; " + sum.message;
     sum.fit_error = std::numeric_limits<double>::quiet_NaN();
     for (auto& id : res.identifiability) id = Identifiability::not_identifiable;
     return res;
