@@ -145,7 +145,7 @@ const LongData& long_data(bool model2, std::size_t n) {
 
 // Seconds of fit_output_error with exactly `iterations` iterations (tests disabled).
 double time_ml(const indicial::fit_detail::UnsteadyStructure& s,
-               const std::vector<indicial::fit_detail::PreparedRun>& runs,
+               const indicial::fit_detail::OutputErrorData& data,
                const Eigen::VectorXd& theta0, int iterations, int* done) {
   indicial::FitOptions o;
   o.max_iterations = iterations;
@@ -153,7 +153,7 @@ double time_ml(const indicial::fit_detail::UnsteadyStructure& s,
   o.step_tolerance = 0.0;
   const auto t0 = Clock::now();
   indicial::fit_detail::MLResult r =
-      indicial::fit_detail::fit_output_error(s, runs, theta0, o, "bench");
+      indicial::fit_detail::fit_output_error(s, data, theta0, o);
   const double t = seconds_since(t0);
   *done = r.summary.iterations;
   benchmark::DoNotOptimize(r.theta.data());
@@ -169,10 +169,11 @@ void run_ml_iteration(benchmark::State& state, const indicial::Experiment& e) {
   indicial::FitOptions o;
   const indicial::EquationErrorResult ee =
       fd::run_equation_error(runs, pool, indicial::StructureMode::fixed, o, e.path, s);
-  const int n_y0 = fd::n_initial_states(s, runs);
-  Eigen::VectorXd theta0 = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(ee.parameters.size()) + n_y0);
-  for (std::size_t i = 0; i < ee.parameters.size(); ++i)
-    theta0[static_cast<Eigen::Index>(i)] = ee.parameters[i].value;
+  const fd::ParameterLayout layout(s, runs);
+  Eigen::VectorXd theta0 = Eigen::VectorXd::Zero(layout.size());
+  for (const indicial::ParameterEstimate& p : ee.parameters) theta0[layout.find(p.id)] = p.value;
+  const std::string context = "bench";
+  const fd::OutputErrorData data{runs, base.coefficients[0], e.l_over_v_s(), context};
   std::size_t n = 0;
   for (const auto& r : runs) n += r.t.size();
   // Why the minimum over repeats: the per-iteration time is a difference of two totals, and
@@ -183,8 +184,8 @@ void run_ml_iteration(benchmark::State& state, const indicial::Experiment& e) {
   for (auto _ : state) {
     double t0 = 1e300, t1 = 1e300;
     for (int k = 0; k < repeats; ++k) {
-      t0 = std::min(t0, time_ml(s, runs, theta0, 0, &done0));
-      t1 = std::min(t1, time_ml(s, runs, theta0, 1, &done1));
+      t0 = std::min(t0, time_ml(s, data, theta0, 0, &done0));
+      t1 = std::min(t1, time_ml(s, data, theta0, 1, &done1));
     }
     state.SetIterationTime(t1 - t0);
   }
