@@ -145,7 +145,7 @@ const LongData& long_data(bool model2, std::size_t n) {
 
 // Seconds of fit_output_error with exactly `iterations` iterations (tests disabled).
 double time_ml(const indicial::fit_detail::UnsteadyStructure& s,
-               const indicial::fit_detail::OutputErrorData& d,
+               const indicial::fit_detail::OutputErrorData& data,
                const Eigen::VectorXd& theta0, int iterations, int* done) {
   indicial::FitOptions o;
   o.max_iterations = iterations;
@@ -153,7 +153,7 @@ double time_ml(const indicial::fit_detail::UnsteadyStructure& s,
   o.step_tolerance = 0.0;
   const auto t0 = Clock::now();
   indicial::fit_detail::MLResult r =
-      indicial::fit_detail::fit_output_error(s, d, theta0, o);
+      indicial::fit_detail::fit_output_error(s, data, theta0, o);
   const double t = seconds_since(t0);
   *done = r.summary.iterations;
   benchmark::DoNotOptimize(r.theta.data());
@@ -170,10 +170,10 @@ void run_ml_iteration(benchmark::State& state, const indicial::Experiment& e) {
   const indicial::EquationErrorResult ee =
       fd::run_equation_error(runs, pool, indicial::StructureMode::fixed, o, e.path, s);
   const fd::ParameterLayout layout(s, runs);
-  const fd::OutputErrorData data{runs, base.coefficients[0], e.l_over_v_s(), e.path};
   Eigen::VectorXd theta0 = Eigen::VectorXd::Zero(layout.size());
-  for (std::size_t i = 0; i < ee.parameters.size(); ++i)
-    theta0[static_cast<Eigen::Index>(i)] = ee.parameters[i].value;
+  for (const indicial::ParameterEstimate& p : ee.parameters) theta0[layout.find(p.id)] = p.value;
+  const std::string context = "bench";
+  const fd::OutputErrorData data{runs, base.coefficients[0], e.l_over_v_s(), context};
   std::size_t n = 0;
   for (const auto& r : runs) n += r.t.size();
   // Why the minimum over repeats: the per-iteration time is a difference of two totals, and

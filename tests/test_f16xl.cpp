@@ -18,10 +18,11 @@
 #include "indicial/fitter/montecarlo.hpp"
 #include "indicial/fitter/predict.hpp"
 #include "indicial/fitter/simulate.hpp"
+#include "test_support.hpp"
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using indicial::testing::kPi;
 constexpr double kDeg = kPi / 180.0;
 constexpr double kSnr = 20.0;  // fitting data; the held-out data get the same noise sigma
 

@@ -18,10 +18,11 @@
 #include "indicial/fitter/predict.hpp"
 #include "indicial/fitter/simulate.hpp"
 #include "indicial/runtime.hpp"
+#include "test_support.hpp"
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using indicial::testing::kPi;
 constexpr double kDeg = kPi / 180.0;
 
 // First harmonic of the runtime's response to m = m0 + d sin(w t): C - C0 = d (Re H sin + Im H cos).
@@ -125,9 +126,8 @@ TEST_CASE("freqresp: roll and yaw linearise in the motion angle (eqs. 17 and 20)
 
 TEST_CASE("freqresp: CLI writes the table and the plot and refuses bad input") {
   namespace fs = std::filesystem;
-  const fs::path dir = fs::temp_directory_path() / ("indicial_freqresp_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
+  const indicial::testing::TempDir tmp("test-freqresp");
+  const fs::path& dir = tmp.path;
   const std::string exe = INDICIAL_EXE;
   const std::string coef = (dir / "m.coef").string();
   {
@@ -155,5 +155,4 @@ TEST_CASE("freqresp: CLI writes the table and the plot and refuses bad input") {
   CHECK(std::system(bad1.c_str()) != 0);
   const std::string bad2 = exe + " freqresp " + coef + " --alpha0-deg 20 --k-list 0.1,x > /dev/null 2>&1";
   CHECK(std::system(bad2.c_str()) != 0);
-  fs::remove_all(dir);
 }

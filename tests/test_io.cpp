@@ -18,6 +18,7 @@
 #include "indicial/fitter/fit.hpp"
 #include "indicial/fitter/io.hpp"
 #include "indicial/fitter/simulate.hpp"
+#include "test_support.hpp"
 
 namespace fs = std::filesystem;
 
@@ -30,17 +31,11 @@ namespace fs = std::filesystem;
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
-fs::path fresh_dir() {
-  std::string tmpl = (fs::temp_directory_path() / "indicial-test-io-XXXXXX").string();
-  REQUIRE(::mkdtemp(tmpl.data()) != nullptr);
-  return fs::path(tmpl);
-}
+using indicial::testing::kPi;
 
 const fs::path& dir() {
-  static const fs::path d = fresh_dir();
-  return d;
+  static const indicial::testing::TempDir d("test-io");
+  return d.path;
 }
 
 std::string write(const std::string& name, const std::string& text) {

@@ -12,10 +12,11 @@
 #include "indicial/fitter/montecarlo.hpp"
 #include "indicial/fitter/predict.hpp"
 #include "indicial/fitter/simulate.hpp"
+#include "test_support.hpp"
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using indicial::testing::kPi;
 constexpr double kDeg = kPi / 180.0;
 
 void end_to_end(const std::string& case_name, double second_amplitude_deg) {

@@ -20,21 +20,18 @@
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/io.hpp"
 #include "indicial/fitter/simulate.hpp"
+#include "test_support.hpp"
 
 namespace fs = std::filesystem;
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using indicial::testing::kPi;
 constexpr double kDeg = kPi / 180.0;
 
 const fs::path& dir() {
-  static const fs::path d = [] {
-    std::string tmpl = (fs::temp_directory_path() / "indicial-test-simulate-XXXXXX").string();
-    REQUIRE(::mkdtemp(tmpl.data()) != nullptr);
-    return fs::path(tmpl);
-  }();
-  return d;
+  static const indicial::testing::TempDir d("test-simulate");
+  return d.path;
 }
 
 int run_cli(const std::string& args, std::string* err = nullptr) {

@@ -25,10 +25,11 @@
 #include "indicial/fitter/fit.hpp"
 #include "indicial/fitter/freqresp.hpp"
 #include "indicial/fitter/simulate.hpp"
+#include "test_support.hpp"
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using indicial::testing::kPi;
 constexpr double kDeg = kPi / 180.0;
 constexpr double kAirspeed = 10.0;   // m/s
 constexpr double kChord = 0.5;       // m; l = c / 2

@@ -237,10 +237,10 @@ UnsteadyStructure structure_from_config(const ModelConfig& m) {
   s.b = {spline_terms(m.b1)};
   s.con = m.bias ? Bias::present : Bias::absent;
   for (int k = 1; k < std::max(1, m.lags); ++k) {
-    SplineTerms b;
-    b.powers = {0};  // why: further lags start as constant time constants (Model I-like)
-    b.knot_power = 1;
-    s.b.push_back(b);
+    const auto j = static_cast<std::size_t>(k - 1);
+    // Why the default: a further lag without its own b_k(x) is a constant time constant.
+    s.b.push_back(j < m.further_lag_b.size() ? spline_terms(m.further_lag_b[j])
+                                             : SplineTerms{{0}, {}, 1});
   }
   // Diagnose's extensions (experiment.hpp): ML-only terms.
   s.static_corr = spline_terms(m.static_correction);

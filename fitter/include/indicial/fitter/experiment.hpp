@@ -90,6 +90,10 @@ struct ModelConfig {
   bool bias = false;
   StructureMode structure = StructureMode::fixed;
   int lags = 1;                      // extension: number of lag states (>= 1)
+  // b_k(x) of lags k = 2..lags: further_lag_b[k - 2] (extension; TOML keys b{k}_degree or
+  // b{k}_powers, and b{k}_knots_deg, as b1's). A lag without an entry has a constant b_k
+  // (powers {0}), the default. Knot power 1 unless given.
+  std::vector<SplineConfig> further_lag_b;
   // Extensions used by `indicial diagnose` ([model] keys: docs/formats.md). All are estimated
   // in the maximum-likelihood output-error step only (the equation error does not see them);
   // they start at 0 (delay: delay_start_s) unless FitOptions::start_values names them.
