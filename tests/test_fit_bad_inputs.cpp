@@ -60,10 +60,23 @@ TEST_CASE("linearly dependent regressors are refused, naming the terms") {
 
 TEST_CASE("ML divergence is reported, not thrown") {
   FitOptions o;
-  o.start_values = {{"b1_0", -60.0}};  // exp(60 * 12 s) overflows: the model cannot be propagated
+  o.start_values = {{"a1", 1e308}};  // the forcing overflows: the model cannot be propagated
   const FitResult r = fit_experiment(model1(), o);
+  INFO(r.output_error.message);
   CHECK(r.output_error.termination == Termination::diverged);
-  CHECK(r.output_error.message.find("cannot be propagated") != std::string::npos);
+  CHECK(r.output_error.message.find("non-finite output") != std::string::npos);
+  CHECK(r.output_error.message.find("What to do") != std::string::npos);
+}
+
+TEST_CASE("a start with a negative decay rate is projected onto positive decay, and said") {
+  FitOptions o;
+  o.start_values = {{"b1_0", -60.0}};  // y' = +60 y: no decay (before issue 12: a divergence)
+  const FitResult r = fit_experiment(model1(), o);
+  INFO(r.output_error.message);
+  CHECK(r.output_error.termination == Termination::converged);
+  CHECK(r.output_error.message.find("start projected: b1_0 raised from -60") != std::string::npos);
+  for (const ParameterEstimate& p : r.parameters)
+    if (p.name == "b1_0") CHECK(std::abs(p.value - 2.5) < 5.0 * p.cr_bound);  // Model I's b1 = 2.5
 }
 
 TEST_CASE("an iteration limit is reported with the best estimate kept") {

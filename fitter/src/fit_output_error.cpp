@@ -518,6 +518,9 @@ MLResult fit_output_error(const UnsteadyStructure& s, const OutputErrorData& d,
     return res;
   }
   estimate_covariance(problem, o, res);
+  // The covariance step words the final message; a projected start must stay in it.
+  if (!projected.empty() && res.summary.message.find(projected) == std::string::npos)
+    res.summary.message = projected + "; " + res.summary.message;
   return res;
 }
 
