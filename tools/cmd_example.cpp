@@ -14,8 +14,8 @@
 //              constant b1 (the modelling error the table demonstrates)
 //   Table IV   Model I data at SNR 40 with C_mq = -1.4 fixed, then with the two-stage loop
 //              re-estimating C_mq(alpha) (candidates 1, alpha, alpha^2) from -1.4
-// The report's numbers are quoted from its tables (with the A_1 misprint corrected, see
-// ../shared/reference/klein-murphy-unsteady-parameters.md); the truth comes from the simulated
+// The report's numbers are quoted from its tables (Klein & Murphy, NASA 1998; its Table II
+// SNR-40 A_1 bound misprints 0.044 as 0.44, corrected here); the truth comes from the simulated
 // case's model. Exit status 2 if the runtime replay disagrees with the fitter by more than 1e-9.
 #include <cmath>
 #include <cstdio>

@@ -1,6 +1,6 @@
 // indicial/fitter/experiment.hpp -- tunnel runs and the experiment file, in memory.
 //
-// load_experiment() reads the TOML experiment file (keys in ../shared/reference/interface.md,
+// load_experiment() reads the TOML experiment file (keys in docs/formats.md,
 // documented with our extensions in docs/formats.md) and every run CSV it names, validates
 // them, and returns an Experiment whose angles are all in radians. Everything downstream
 // (equation error, output error, diagnose, predict) works on these structures only.

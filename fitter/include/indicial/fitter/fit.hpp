@@ -35,7 +35,7 @@
 //   for (const auto& p : r.parameters) fmt::print("{} {} ({})\n", p.name, p.value, p.cr_bound);
 //   // r.model is a ModelSet ready for write_coef_file (runtime/include/indicial/coef_file.hpp).
 //
-// Parameter names (../shared/reference/interface.md): a{i} for a(x)'s x^i term, A{j} for its
+// Parameter names (docs/formats.md, fit.json): a{i} for a(x)'s x^i term, A{j} for its
 // knot terms (j from 1, knots ascending), b1_{i} and B{j} for b1(x), con, Caq_{i} for the
 // estimated rotary polynomial and CaqK{j} for its knot terms, y0_{r} for run r's initial state
 // (r from 1, lag 1), y0_{r}_{k} for lag k >= 2, b{k}_{i}, B{k}_{j} and c{k} for lag k >= 2; with the

@@ -3,7 +3,7 @@
 // What it is for
 // --------------
 // A FitResult (fit.hpp) is turned into the three outputs of the user-facing contract
-// (../shared/reference/interface.md):
+// (docs/formats.md, fit.json):
 //
 //   fit.json    the contract fields (converged, iterations, fit_error, parameters with name,
 //               value, cr_bound, cr_bound_colored; two_stage when rotary.estimate), extended
