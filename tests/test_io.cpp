@@ -869,8 +869,11 @@ TEST_CASE("phase cycles and run conditions: every wrong combination names the li
             "cycle_jitter.csv' is on a nonuniform time grid: fit and diagnose do not support that yet");
   CHECK_HAS(exp_error("c8.toml", cycle_experiment(R"({file = "run_f0.50.csv", time_grid = "nonuniform"})")),
             "is on a nonuniform time grid");
-  CHECK_HAS(exp_error("c9.toml", cycle_experiment(R"({file = "cycle64.csv", frequency_hz = 1.0, airspeed_mps = 30.0})")),
-            "has airspeed_mps 30 but the experiment 17.667762: fit and diagnose do not support runs at another airspeed yet");
+  // A run at another airspeed is read with it (fit and diagnose scale by V / V_ref, issue 12).
+  const indicial::Experiment e9 = indicial::load_experiment(
+      write_exp("c9.toml", cycle_experiment(R"({file = "cycle64.csv", frequency_hz = 1.0, airspeed_mps = 30.0})")));
+  CHECK(e9.runs.at(0).airspeed_mps == 30.0);
+  CHECK(e9.airspeed_mps == 17.667762);
   // The jittered cycle itself is read, as nonuniform.
   const indicial::Run rj = indicial::read_run_csv((runs_dir() / "cycle_jitter.csv").string(), indicial::Axis::pitch,
                                                   "Cm", indicial::CoefficientPresence::required,

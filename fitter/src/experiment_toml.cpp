@@ -613,12 +613,6 @@ void refuse_unsupported_run_features(const Experiment& e) {
                        "run '" + run.path + "' is on a nonuniform time grid: fit and diagnose do not "
                        "support that yet (predict --time-grid nonuniform does)");
     }
-    if (run.airspeed_mps != e.airspeed_mps) {
-      throw InputError(e.path, run.experiment_line,
-                       "run '" + run.path + "' has airspeed_mps " + format_double(run.airspeed_mps) +
-                           " but the experiment " + format_double(e.airspeed_mps) +
-                           ": fit and diagnose do not support runs at another airspeed yet");
-    }
   }
 }
 

@@ -16,9 +16,9 @@
 namespace indicial::fit_detail {
 
 // ------------------------------------------------------------------------------------------
-std::vector<double> sg_derivative(const std::vector<double>& v, double dt_s, int half_window,
-                                  int order) {
-  return smooth_derivative(v, dt_s, half_window, order);
+std::vector<double> y_e_derivative(const PreparedRun& r, int half_window, int order) {
+  if (r.time_grid == TimeGrid::uniform) return smooth_derivative(r.y_e, r.dt_s, half_window, order);
+  return smooth_derivative_nonuniform(r.t, r.y_e, half_window, order);
 }
 
 std::vector<PreparedRun> prepare_runs(const Experiment& e, const ModelSet<double, Cap>& base) {
@@ -30,7 +30,14 @@ std::vector<PreparedRun> prepare_runs(const Experiment& e, const ModelSet<double
     PreparedRun p;
     p.path = r.path;
     p.dt_s = r.dt_s();
+    p.time_grid = r.time_grid;
     p.periodic = r.periodic;
+    // A Run built in code has airspeed 0: the experiment's (load_experiment fills it).
+    p.airspeed_mps = r.airspeed_mps > 0.0 ? r.airspeed_mps : e.airspeed_mps;
+    p.reference_airspeed_mps = e.airspeed_mps;
+    // The runtime's expressions (runtime.hpp airspeed_terms): V / V_ref and l / V.
+    p.time_scale = p.airspeed_mps / e.airspeed_mps;
+    p.l_over_v_s = e.reference_length_m / p.airspeed_mps;
     const std::size_t n = r.size();
     if (r.coefficient.size() != n || r.motion_angle_rad.size() != n || r.rate_radps.size() != n)
       throw InputError(r.path, 0, "run has columns of different lengths");
@@ -52,17 +59,17 @@ std::vector<PreparedRun> prepare_runs(const Experiment& e, const ModelSet<double
     }
     out.push_back(std::move(p));
   }
-  update_rotary(out, cm.rotary, e.l_over_v_s());
+  update_rotary(out, cm.rotary);
   return out;
 }
 
-void update_rotary(std::vector<PreparedRun>& runs, const SplineD& rotary, double l_over_v_s) {
+void update_rotary(std::vector<PreparedRun>& runs, const SplineD& rotary) {
   for (PreparedRun& p : runs) {
     const std::size_t n = p.x.size();
     p.rotary_value.resize(n);
     p.y_e.resize(n);
     for (std::size_t i = 0; i < n; ++i) {
-      p.rotary_value[i] = l_over_v_s * spline_value(rotary, p.x[i]) * p.rate[i];
+      p.rotary_value[i] = p.l_over_v_s * spline_value(rotary, p.x[i]) * p.rate[i];
       p.y_e[i] = p.coef[i] - p.static_value[i] - p.rotary_value[i];  // eq. 12
     }
   }

@@ -30,14 +30,16 @@ std::vector<ParamId> ee_terms(const UnsteadyStructure& s) {
   return out;
 }
 
-// The regressor of term t at sample i of eq. 22 (smoothed-difference form).
+// The regressor of term t at sample i of eq. 22 (smoothed-difference form). b1 and con are
+// rates at V_ref: on a run at V they act times time_scale = V / V_ref (model.hpp warning 2;
+// exactly 1 at V_ref).
 double regressor(const ParamId& t, const PreparedRun& r, std::size_t i) {
   switch (t.kind) {
     case ParamKind::a_power:
     case ParamKind::a_knot: return -basis_value<double>(term_basis(t), r.x[i]) * r.xdot[i];
     case ParamKind::b_power:
-    case ParamKind::b_knot: return -basis_value<double>(term_basis(t), r.x[i]) * r.y_e[i];
-    default: return 1.0;  // con
+    case ParamKind::b_knot: return -basis_value<double>(term_basis(t), r.x[i]) * r.y_e[i] * r.time_scale;
+    default: return r.time_scale;  // con
   }
 }
 
@@ -48,8 +50,9 @@ double modulated_regressor(const ParamId& t, const PreparedRun& r, std::size_t i
     case ParamKind::a_power:
     case ParamKind::a_knot: return w * dphi * basis_antiderivative<double>(term_basis(t), r.x[i]);
     case ParamKind::b_power:
-    case ParamKind::b_knot: return -w * phi * basis_value<double>(term_basis(t), r.x[i]) * r.y_e[i];
-    default: return w * phi;  // con
+    case ParamKind::b_knot:
+      return -w * phi * basis_value<double>(term_basis(t), r.x[i]) * r.y_e[i] * r.time_scale;
+    default: return w * phi * r.time_scale;  // con
   }
 }
 
@@ -65,8 +68,7 @@ void smoothed_rows(const PreparedRun& r, const std::vector<ParamId>& terms, cons
   if (n < need)
     throw InputError(r.path, 0, fmt::format("run has {} samples; the Savitzky-Golay "
                                             "derivative of y_E needs at least {}", n, need));
-  const std::vector<double> ydot =
-      sg_derivative(r.y_e, r.dt_s, o.derivative_half_window, o.derivative_order);
+  const std::vector<double> ydot = y_e_derivative(r, o.derivative_half_window, o.derivative_order);
   for (std::size_t i = 0; i < n; ++i) {
     std::vector<double> row(terms.size());
     for (std::size_t j = 0; j < terms.size(); ++j) row[j] = regressor(terms[j], r, i);
@@ -74,6 +76,33 @@ void smoothed_rows(const PreparedRun& r, const std::vector<ParamId>& terms, cons
     zs.push_back(ydot[i]);
   }
 }
+
+// The modulating function phi(t) = sin^2(pi (t - t0) / T) over m samples from s0, its
+// derivative and the trapezoid weights of the integrals, on the run's actual times. On a
+// uniform grid they do not depend on s0 and are those of tau = k dt, T = (m - 1) dt.
+struct ModulatingWindow {
+  std::vector<double> phi, dphi, w;
+  explicit ModulatingWindow(std::size_t m) : phi(m), dphi(m), w(m) {}
+  void place(const PreparedRun& r, std::size_t s0) {
+    const std::size_t m = phi.size();
+    const bool uniform = r.time_grid == TimeGrid::uniform;
+    const double T = uniform ? static_cast<double>(m - 1) * r.dt_s : r.t[s0 + m - 1] - r.t[s0];
+    for (std::size_t k = 0; k < m; ++k) {
+      const double tau = uniform ? static_cast<double>(k) * r.dt_s : r.t[s0 + k] - r.t[s0];
+      const double sn = std::sin(M_PI * tau / T);
+      phi[k] = sn * sn;
+      dphi[k] = (M_PI / T) * std::sin(2.0 * M_PI * tau / T);
+      // Trapezoid weights: half the steps either side (phi and phi' vanish at the ends).
+      if (uniform) {
+        w[k] = (k == 0 || k + 1 == m) ? 0.5 * r.dt_s : r.dt_s;
+      } else {
+        const double before = k > 0 ? r.t[s0 + k] - r.t[s0 + k - 1] : 0.0;
+        const double after = k + 1 < m ? r.t[s0 + k + 1] - r.t[s0 + k] : 0.0;
+        w[k] = 0.5 * (before + after);
+      }
+    }
+  }
+};
 
 // Rows of the modulating-function form for one run: one per window position.
 void modulated_rows(const PreparedRun& r, const std::vector<ParamId>& terms, const FitOptions& o,
@@ -83,24 +112,17 @@ void modulated_rows(const PreparedRun& r, const std::vector<ParamId>& terms, con
   const std::size_t m =
       std::min<std::size_t>(n, static_cast<std::size_t>(std::max(5, o.modulating_window)));
   const std::size_t shift = static_cast<std::size_t>(std::max(1, o.modulating_shift));
-  const double T = static_cast<double>(m - 1) * r.dt_s;
-  std::vector<double> phi(m), dphi(m);
-  for (std::size_t k = 0; k < m; ++k) {
-    const double tau = static_cast<double>(k) * r.dt_s;
-    const double sn = std::sin(M_PI * tau / T);
-    phi[k] = sn * sn;
-    dphi[k] = (M_PI / T) * std::sin(2.0 * M_PI * tau / T);
-  }
-  // Trapezoid weights (phi and phi' vanish at the ends except phi' = 0 exactly there too).
-  auto w = [&](std::size_t k) { return (k == 0 || k + 1 == m) ? 0.5 * r.dt_s : r.dt_s; };
+  ModulatingWindow win(m);
+  if (r.time_grid == TimeGrid::uniform) win.place(r, 0);  // the same at every position
   for (std::size_t s0 = 0; s0 + m <= n; s0 += shift) {
+    if (r.time_grid == TimeGrid::nonuniform) win.place(r, s0);
     std::vector<double> row(terms.size(), 0.0);
     double z = 0.0;
     for (std::size_t k = 0; k < m; ++k) {
       const std::size_t i = s0 + k;
-      z += -w(k) * dphi[k] * r.y_e[i];
+      z += -win.w[k] * win.dphi[k] * r.y_e[i];
       for (std::size_t j = 0; j < terms.size(); ++j)
-        row[j] += modulated_regressor(terms[j], r, i, w(k), phi[k], dphi[k]);
+        row[j] += modulated_regressor(terms[j], r, i, win.w[k], win.phi[k], win.dphi[k]);
     }
     rows.push_back(std::move(row));
     zs.push_back(z);

@@ -171,22 +171,50 @@ void ParameterLayout::build_unsteady(const S* structural, CoefficientModel<S, Ca
 // ------------------------------------------------------------------------------------------
 // Prepared runs.
 // ------------------------------------------------------------------------------------------
+// A run as every fit step sees it. Its airspeed and time grid are the run's own (issue 12):
+//  * airspeed: b_j(x), con (1/s) and the delay (s) of the model are at the experiment's
+//    reference airspeed; on this run they act at time_scale = V / V_ref (StepGeometry's
+//    time_scale; the delay through model.hpp's delay_at_airspeed) and the rotary term carries
+//    l_over_v_s = l / V -- the runtime's and the simulator's own scaling, the same model.hpp
+//    expressions. At V = V_ref the factors are exactly 1 and l / V_ref, so nothing moves.
+//  * time grid: on a uniform grid every step is dt_s (one value, t[1] - t[0], as always); on a
+//    nonuniform grid (declared, or a phase column with jitter: csv_reader.hpp) each step is
+//    t[k+1] - t[k] and derivatives are taken on the actual times (step_s, y_e_derivative).
 struct PreparedRun {
   std::string path;
   double dt_s = 0.0;
+  TimeGrid time_grid = TimeGrid::uniform;
   bool periodic = false;
+  double airspeed_mps = 0.0;            // V of this run (> 0)
+  double reference_airspeed_mps = 0.0;  // V_ref, the model's airspeed_mps
+  double time_scale = 1.0;              // V / V_ref
+  double l_over_v_s = 0.0;              // l / V: the rotary term's time scale on this run
   std::vector<double> t, x, xdot, rate, coef;
   std::vector<double> static_value;  // C_a(x) (+ correction)
   std::vector<double> rotary_value;  // (l/V) C_aq(x) rate
   std::vector<double> y_e;           // eq. 12
+  // The step from sample k to k + 1 (k + 1 < size).
+  double step_s(std::size_t k) const { return time_grid == TimeGrid::uniform ? dt_s : t[k + 1] - t[k]; }
+  // The step that closes an open periodic cycle (last sample back to the first): dt_s, or the
+  // mean step on a nonuniform grid (as predict_periodic does).
+  double wrap_step_s() const {
+    return time_grid == TimeGrid::uniform ? dt_s
+                                          : (t.back() - t.front()) / static_cast<double>(t.size() - 1);
+  }
+  // The model's delay (s at V_ref) on this run: delay_at_airspeed, model.hpp.
+  template <class S>
+  S delay_here(const S& delay_s) const {
+    return delay_at_airspeed(delay_s, reference_airspeed_mps, airspeed_mps);
+  }
 };
 
 std::vector<PreparedRun> prepare_runs(const Experiment& e, const ModelSet<double, Cap>& base);
-void update_rotary(std::vector<PreparedRun>& runs, const SplineD& rotary, double l_over_v_s);
+// Recomputes rotary_value and y_e (eq. 12) with C_aq = rotary, at each run's own l / V.
+void update_rotary(std::vector<PreparedRun>& runs, const SplineD& rotary);
+// The derivative of a run's y_E (eq. 22's left side): Savitzky-Golay on a uniform grid, the
+// same local polynomial on the actual times on a nonuniform one (derivative.hpp).
+std::vector<double> y_e_derivative(const PreparedRun& r, int half_window, int order);
 
-// Savitzky-Golay derivative (delegates to io.hpp's smooth_derivative).
-std::vector<double> sg_derivative(const std::vector<double>& v, double dt_s, int half_window,
-                                  int order);
 
 // ------------------------------------------------------------------------------------------
 // Linear algebra helpers.
@@ -255,7 +283,6 @@ EquationErrorResult run_equation_error(const std::vector<PreparedRun>& runs,
 struct OutputErrorData {
   const std::vector<PreparedRun>& runs;
   const CoefficientModel<double, Cap>& known;
-  double l_over_v_s = 0.0;  // l / V of the experiment (the rotary term's time scale)
   const std::string& context_file;
 };
 

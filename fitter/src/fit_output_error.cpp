@@ -58,33 +58,36 @@ void check_capacity(const UnsteadyStructure& s, const std::string& file) {
 // x(t_k - delay) through the shared indicial::delayed_angle (linear interpolation in time over
 // the run's samples, the first sample's angle before them), whose derivative with respect to
 // the delay an autodiff S carries into the sensitivities.
+// The delay is the model's (s at V_ref) at the run's airspeed (PreparedRun::delay_here).
 template <class S>
 struct Forcing {
   const PreparedRun& r;
-  const S* delay = nullptr;  // null: no delay
+  DelayTerm kind = DelayTerm::absent;
+  S delay{};  // the delay on this run, when kind is estimated
   ArrayHistory<double> h{};
-  Forcing(const PreparedRun& run, const CoefficientModel<S, Cap>& m, DelayTerm d) : r(run) {
+  Forcing(const PreparedRun& run, const CoefficientModel<S, Cap>& m, DelayTerm d) : r(run), kind(d) {
     if (d == DelayTerm::estimated) {
-      delay = &m.delay_s;
+      delay = run.delay_here(m.delay_s);
       h = ArrayHistory<double>{run.t.data(), run.x.data(), static_cast<int>(run.x.size())};
     }
   }
   S at(std::size_t k) const {
     // Why the branch: without a delay the forcing angle is the sample itself (no search).
-    if (!delay) return S(r.x[k]);
-    return delayed_angle(h, r.t[k], *delay);
+    if (kind == DelayTerm::absent) return S(r.x[k]);
+    return delayed_angle(h, r.t[k], delay);
   }
   // The spline ends at sample k. Why the branch: without a delay both angles are data, passed
   // as plain doubles so that an autodiff S does no derivative work on them (same values, see
   // indicial::spline_antiderivative).
   void ends_at(const CoefficientModel<S, Cap>& m, std::size_t k, StepEnd<S, Cap>* end) const {
-    if (!delay) evaluate_step_end(m, r.x[k], r.x[k], end);
+    if (kind == DelayTerm::absent) evaluate_step_end(m, r.x[k], r.x[k], end);
     else evaluate_step_end(m, r.x[k], at(k), end);
   }
 };
 
 // Whether the run's last sample repeats the first (a closed cycle) -- then the cycle closes at
-// the last sample; otherwise one more step of dt from the last sample back to the first.
+// the last sample; otherwise one more step (PreparedRun::wrap_step_s) from the last sample back
+// to the first.
 bool closes_on_last_sample(const PreparedRun& r) {
   return std::abs(r.x.back() - r.x.front()) <= 1e-9;
 }
@@ -110,7 +113,8 @@ bool periodic_state(const CoefficientModel<S, Cap>& m, const PreparedRun& r, Del
     const std::size_t k1 = (k + 1 == n) ? 0 : k + 1;
     // With a delay the cycle's start uses the first sample's angle before it (delayed_angle's
     // rule), not the previous cycle's end: a small approximation for periodic runs.
-    const StepGeometry<S> g{S(r.x[k]), S(r.x[k1]), f.at(k), f.at(k1), S(r.dt_s), S(1)};
+    const double dt_s = k + 1 == n ? r.wrap_step_s() : r.step_s(k);
+    const StepGeometry<S> g{S(r.x[k]), S(r.x[k1]), f.at(k), f.at(k1), S(dt_s), S(r.time_scale)};
     f.ends_at(m, k1, &end1);
     advance_lags_between(m, g, end0, end1, ya);
     advance_lags_between(m, g, end0, end1, yb);
@@ -140,7 +144,7 @@ void propagate(const CoefficientModel<S, Cap>& m, const PreparedRun& r, DelayTer
   f.ends_at(m, 0, &end0);
   for (std::size_t k = 0; k + 1 < r.x.size(); ++k) {
     const S xf1 = f.at(k + 1);
-    const StepGeometry<S> g{S(r.x[k]), S(r.x[k + 1]), xf0, xf1, S(r.dt_s), S(1)};
+    const StepGeometry<S> g{S(r.x[k]), S(r.x[k + 1]), xf0, xf1, S(r.step_s(k)), S(r.time_scale)};
     f.ends_at(m, k + 1, &end1);
     advance_lags_between(m, g, end0, end1, y);
     end0 = end1;
@@ -221,7 +225,7 @@ bool OutputErrorProblem::evaluate(const Eigen::VectorXd& theta, Eigen::VectorXd&
     if (y_model) (*y_model)[ri].resize(r.x.size());
     propagate(m, r, delay, y, [&](std::size_t i, const double* yi) {
       v(base + static_cast<Eigen::Index>(i)) =
-          r.coef[i] - coefficient_output(m, r.x[i], r.rate[i], d_.l_over_v_s, yi);
+          r.coef[i] - coefficient_output(m, r.x[i], r.rate[i], r.l_over_v_s, yi);
       if (y_model) (*y_model)[ri][i] = lag_sum(yi, m.n_lags);
     });
   }
@@ -277,12 +281,12 @@ bool OutputErrorProblem::jacobian_n(const Eigen::VectorXd& theta, Eigen::VectorX
       ADN sum = yi[0];
       for (int j = 1; j < m.n_lags; ++j) sum = sum + yi[j];
       for (int j = 0; j < m.n_lags; ++j) y_value[j] = yi[j].value();
-      v(row) = r.coef[i] - coefficient_output(md, r.x[i], r.rate[i], d_.l_over_v_s, y_value);
+      v(row) = r.coef[i] - coefficient_output(md, r.x[i], r.rate[i], r.l_over_v_s, y_value);
       const auto& d = sum.derivatives();
       for (int k = 0; k < ns; ++k) J(row, k) = -d(k);
       for (int k = out.begin; k < out.end; ++k)
         J(row, k) = -coefficient_output(unit_models_[static_cast<std::size_t>(k - out.begin)],
-                                        r.x[i], r.rate[i], d_.l_over_v_s, zero_state);
+                                        r.x[i], r.rate[i], r.l_over_v_s, zero_state);
       if (off >= 0)
         for (int j = 0; j < L_.y0_per_run(); ++j) J(row, off + j) = -d(ns + j);
     });

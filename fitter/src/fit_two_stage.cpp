@@ -117,7 +117,7 @@ struct RotaryStage {
 };
 
 RotaryStage rotary_stage(const std::vector<PreparedRun>& runs, const MLResult& ml,
-                         const SplineTerms& pool, double l_over_v, const FitOptions& o,
+                         const SplineTerms& pool, const FitOptions& o,
                          const std::string& file) {
   const std::vector<ParamId> terms = rotary_terms(pool);
   std::vector<CoefficientModel<double, Cap>> unit;
@@ -139,7 +139,7 @@ RotaryStage rotary_stage(const std::vector<PreparedRun>& runs, const MLResult& m
       z(row) = r.coef[i] - r.static_value[i] - ml.y_model[ri][i];  // eq. 25
       for (std::size_t j = 0; j < terms.size(); ++j)
         X(row, static_cast<Eigen::Index>(j)) =
-            coefficient_output(unit[j], r.x[i], r.rate[i], l_over_v, zero_state);
+            coefficient_output(unit[j], r.x[i], r.rate[i], r.l_over_v_s, zero_state);
     }
     starts.push_back(static_cast<std::size_t>(row));
   }
@@ -174,12 +174,11 @@ struct FitContext {
   const Experiment& e;
   const FitOptions& o;
   CoefficientModel<double, Cap> base;  // static curve, the a priori C_aq
-  double l_over_v = 0.0;
   MLResult fit(const UnsteadyStructure& s, const std::vector<PreparedRun>& runs,
                const SplineD& rotary, const Eigen::VectorXd& theta0) const {
     CoefficientModel<double, Cap> known = base;
     known.rotary = rotary;
-    return fit_output_error(s, OutputErrorData{runs, known, l_over_v, e.path}, theta0, o);
+    return fit_output_error(s, OutputErrorData{runs, known, e.path}, theta0, o);
   }
 };
 
@@ -225,7 +224,7 @@ TwoStageTrial joint_trial(const FitContext& c, const UnsteadyStructure& s,
   const ParameterLayout::Range out = ParameterLayout(sr, runs).output();
   for (int k = out.begin; k < out.end; ++k) t.rotary_params.push_back(t.ml.estimate(k));
   t.rotary = rotary_spline(rpool, t.rotary_params);
-  update_rotary(t.runs, t.rotary, c.l_over_v);
+  update_rotary(t.runs, t.rotary);
   return t;
 }
 
@@ -235,7 +234,7 @@ TwoStageTrial regression_trial(const FitContext& c, const UnsteadyStructure& s,
                                const RotaryStage& st) {
   TwoStageTrial t;
   t.runs = runs;
-  update_rotary(t.runs, st.rotary, c.l_over_v);
+  update_rotary(t.runs, st.rotary);
   t.ml = c.fit(s, t.runs, st.rotary, ml.theta);
   t.rotary = st.rotary;
   t.rotary_params = st.params;
@@ -266,7 +265,7 @@ struct Estimate {
 void two_stage_loop(const FitContext& c, Estimate& est, std::vector<TwoStageIteration>& log) {
   const SplineTerms rpool = rotary_pool(c.e);
   for (int it = 1; it <= c.o.max_two_stage_iterations; ++it) {
-    const RotaryStage st = rotary_stage(est.runs, est.ml, rpool, c.l_over_v, c.o, c.e.path);
+    const RotaryStage st = rotary_stage(est.runs, est.ml, rpool, c.o, c.e.path);
     TwoStageTrial t = c.o.rotary_refinement == RotaryRefinement::joint_ml
                           ? joint_trial(c, est.s, est.runs, est.ml, rpool, st)
                           : regression_trial(c, est.s, est.runs, est.ml, st);
@@ -335,8 +334,7 @@ CoefficientModel<double, Cap> final_model(const Estimate& est,
   return cm;
 }
 
-std::vector<RunSeries> run_series(const Estimate& est, const CoefficientModel<double, Cap>& cm,
-                                  double l_over_v) {
+std::vector<RunSeries> run_series(const Estimate& est, const CoefficientModel<double, Cap>& cm) {
   const UnsteadyStructure& s = est.ml.structure;
   // Diagnose's extensions (correcting rotary terms, static correction) are part of the
   // quasi-steady curve and of y_E (eq. 12).
@@ -362,7 +360,7 @@ std::vector<RunSeries> run_series(const Estimate& est, const CoefficientModel<do
     for (std::size_t i = 0; i < n; ++i) {
       rs.quasi_steady[i] = r.static_value[i] + r.rotary_value[i];
       if (extended) {
-        rs.quasi_steady[i] = quasi_steady_output(cm, r.x[i], r.rate[i], l_over_v);
+        rs.quasi_steady[i] = quasi_steady_output(cm, r.x[i], r.rate[i], r.l_over_v_s);
         rs.y_measured[i] = r.coef[i] - rs.quasi_steady[i];
       }
       rs.model[i] = rs.quasi_steady[i] + rs.y_model[i];
@@ -380,7 +378,7 @@ FitResult fit_experiment(const Experiment& e, const FitOptions& o) {
   check_experiment(e);
   FitResult res;
   ModelSet<double, Cap> model = base_model_set(e);
-  const FitContext c{e, o, model.coefficients[0], e.l_over_v_s()};
+  const FitContext c{e, o, model.coefficients[0]};
   Estimate est;
   est.runs = prepare_runs(e, model);
   est.rotary = c.base.rotary;
@@ -395,7 +393,7 @@ FitResult fit_experiment(const Experiment& e, const FitOptions& o) {
   est.ml = c.fit(est.s, est.runs, est.rotary, theta0);
   if (e.model.structure == StructureMode::stepwise &&
       o.stepwise_refinement == StepwiseRefinement::output_error && std::isfinite(est.ml.summary.cost)) {
-    const OutputErrorData d{est.runs, c.base, c.l_over_v, e.path};
+    const OutputErrorData d{est.runs, c.base, e.path};
     est.ml = refine_structure_output_error(pool, d, std::move(est.ml), o, &res.output_error_stepwise);
     est.s = est.ml.structure;
   }
@@ -410,7 +408,7 @@ FitResult fit_experiment(const Experiment& e, const FitOptions& o) {
   res.output_error = est.ml.summary;
   res.fit_error = est.ml.summary.fit_error;
   assemble_parameters(est, res);
-  res.runs = run_series(est, cm, c.l_over_v);
+  res.runs = run_series(est, cm);
   res.elapsed_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
   return res;

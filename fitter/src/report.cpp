@@ -121,13 +121,15 @@ void replay_with(Predictor<double, Cap>& p, const FitResult& r, const Experiment
                       ": initial state not recoverable, not replayed";
       continue;
     }
-    p.reset(run.motion_angle_rad[0], e.airspeed_mps);
+    // The run's own airspeed (0 in a Run built in code: the experiment's), as the fit used it.
+    const double airspeed_mps = run.airspeed_mps > 0.0 ? run.airspeed_mps : e.airspeed_mps;
+    p.reset(run.motion_angle_rad[0], airspeed_mps);
     auto snap = p.snapshot();
     for (int j = 0; j < n_lags; ++j) snap.y[0][j] = y0[j];
     p.restore(snap);
     typename Predictor<double, Cap>::Outputs out;
     for (std::size_t k = 1; k < run.size(); ++k) {
-      const MotionInput in{run.motion_angle_rad[k], run.rate_radps[k], e.airspeed_mps};
+      const MotionInput in{run.motion_angle_rad[k], run.rate_radps[k], airspeed_mps};
       const StepStatus st = p.step(in, run.time_s[k] - run.time_s[k - 1], &out);
       if (st != StepStatus::ok && st != StepStatus::angle_clamped) {
         ++check.steps_not_ok;
