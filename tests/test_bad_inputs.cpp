@@ -446,18 +446,6 @@ TEST_CASE("runs: a phase column without its frequency, with periodic = false; a 
                      "are only for a phase column");
 }
 
-TEST_CASE("runs: what fit does not support yet is refused at input (nonuniform grid, another airspeed)") {
-  expect_fit_refusal(cycle_csv(0.03), with_runs(R"({file = "run.csv", frequency_hz = 1.0})"),
-                     "experiment.toml:5: run '{DIR}/run.csv' is on a nonuniform time grid: fit and diagnose do not "
-                     "support that yet (predict --time-grid nonuniform does)");
-  expect_fit_refusal(good_run_csv(), with_runs(R"({file = "run.csv", time_grid = "nonuniform"})"),
-                     "experiment.toml:5: run '{DIR}/run.csv' is on a nonuniform time grid: fit and diagnose do not "
-                     "support that yet (predict --time-grid nonuniform does)");
-  expect_fit_refusal(cycle_csv(), with_runs(R"({file = "run.csv", frequency_hz = 1.0, airspeed_mps = 30.0})"),
-                     "experiment.toml:5: run '{DIR}/run.csv' has airspeed_mps 30 but the experiment 17.667762: fit "
-                     "and diagnose do not support runs at another airspeed yet");
-}
-
 TEST_CASE("a missing run file names the experiment's line") {
   expect_fit_refusal(good_run_csv(), with_runs(R"("run.csv", "nope.csv")"),
                      "experiment.toml:5: run file 'nope.csv' not found (looked for {DIR}/nope.csv)");

@@ -862,13 +862,14 @@ TEST_CASE("phase cycles and run conditions: every wrong combination names the li
             "c5.toml:6: 'runs.frequency_hz' must be > 0");
   CHECK_HAS(exp_error("c6.toml", cycle_experiment(R"({file = "cycle64.csv", frequency_hz = 1.0, time_grid = "jittery"})")),
             "c6.toml:6: 'runs.time_grid' must be \"uniform\" or \"nonuniform\", found \"jittery\"");
-  // What the fitter does not support yet (refuse_unsupported_run_features).
-  CHECK_HAS(exp_error("c7.toml", cycle_experiment(R"({file = "cycle_jitter.csv", frequency_hz = 1.0})")),
-            "c7.toml:6: run '");
-  CHECK_HAS(exp_error("c7b.toml", cycle_experiment(R"({file = "cycle_jitter.csv", frequency_hz = 1.0})")),
-            "cycle_jitter.csv' is on a nonuniform time grid: fit and diagnose do not support that yet");
-  CHECK_HAS(exp_error("c8.toml", cycle_experiment(R"({file = "run_f0.50.csv", time_grid = "nonuniform"})")),
-            "is on a nonuniform time grid");
+  // A jittered phase column and a declared nonuniform run are read as nonuniform (fit and
+  // diagnose step each sample's own dt, issue 12).
+  const indicial::Experiment e7 = indicial::load_experiment(
+      write_exp("c7.toml", cycle_experiment(R"({file = "cycle_jitter.csv", frequency_hz = 1.0})")));
+  CHECK(e7.runs.at(0).time_grid == indicial::TimeGrid::nonuniform);
+  const indicial::Experiment e8 = indicial::load_experiment(
+      write_exp("c8.toml", cycle_experiment(R"({file = "run_f0.50.csv", time_grid = "nonuniform"})")));
+  CHECK(e8.runs.at(0).time_grid == indicial::TimeGrid::nonuniform);
   // A run at another airspeed is read with it (fit and diagnose scale by V / V_ref, issue 12).
   const indicial::Experiment e9 = indicial::load_experiment(
       write_exp("c9.toml", cycle_experiment(R"({file = "cycle64.csv", frequency_hz = 1.0, airspeed_mps = 30.0})")));

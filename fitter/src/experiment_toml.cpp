@@ -604,19 +604,7 @@ void check_motion(const TomlReader& r, Experiment& e) {
   }
 }
 
-}  // namespace
 
-void refuse_unsupported_run_features(const Experiment& e) {
-  for (const Run& run : e.runs) {
-    if (run.time_grid == TimeGrid::nonuniform) {
-      throw InputError(e.path, run.experiment_line,
-                       "run '" + run.path + "' is on a nonuniform time grid: fit and diagnose do not "
-                       "support that yet (predict --time-grid nonuniform does)");
-    }
-  }
-}
-
-namespace {
 
 // One coefficient's experiment from the parsed file (see load_experiments).
 Experiment load_one(const std::string& toml_path, const toml::table& root, const std::string& coefficient,
@@ -638,7 +626,6 @@ Experiment load_one(const std::string& toml_path, const toml::table& root, const
   check_runtime_capacity(c, e);
   check_motion(r, e);
   warn_defaulted_sections(r, rotary, model, e);
-  refuse_unsupported_run_features(e);
   return e;
 }
 

@@ -85,12 +85,6 @@ Experiment load_experiment(const std::string& toml_path, const std::string& coef
 // docs/formats.md) and the same runs, in the order of `coefficients`.
 std::vector<Experiment> load_experiments(const std::string& toml_path);
 
-// Refuses (InputError naming the experiment file and the run's `runs` line) what the fitter
-// does not support yet: a run on a nonuniform time grid, a run whose airspeed differs from the
-// experiment's. Called by load_experiment. Delete it (and its call) when the fitter supports
-// both (issue 12).
-void refuse_unsupported_run_features(const Experiment& experiment);
-
 // An experiment file as text, for `experiment` with the run files named by runs[i].path
 // (relative to the experiment file), runs[i].periodic and, where they differ from the
 // defaults, frequency_hz (a phase-column run), airspeed_mps and time_grid. Knots are written in degrees,
