@@ -107,7 +107,7 @@ TEST_CASE("dynamic stall: simulate --case dynamic-stall writes the agreed phase-
   const indicial::testing::CliRun r =
       indicial::testing::run_indicial("simulate --case dynamic-stall --snr 20 --out '" + (dir / "out").string() + "'", dir);
   REQUIRE(r.exit_code == 0);
-  const std::string csv = indicial::testing::slurp(dir / "out" / "a8_k0.040_v30.csv");
+  const std::string csv = indicial::testing::slurp(dir / "out" / "a8_k0.040_v25.csv");
   CHECK(csv.find("\nphase_rad,alpha_deg,q_degps,CL,Cm,") != std::string::npos);
   CHECK(csv.find("time_s") == std::string::npos);
   // Phases rounded to 0.01 rad: every phase value has at most 2 decimals.
@@ -123,7 +123,7 @@ TEST_CASE("dynamic stall: simulate --case dynamic-stall writes the agreed phase-
   }
   CHECK(rows == 128);
   const std::string toml = indicial::testing::slurp(dir / "out" / "experiment-CL.toml");
-  CHECK(toml.find("{file = \"a8_k0.040_v30.csv\", reduced_frequency = 0.04, airspeed_mps = 30}") != std::string::npos);
+  CHECK(toml.find("{file = \"a8_k0.040_v25.csv\", reduced_frequency = 0.04, airspeed_mps = 25}") != std::string::npos);
   CHECK(toml.find("table = \"static.csv\"") != std::string::npos);
   CHECK(fs::exists(dir / "out" / "experiment-Cm.toml"));
   CHECK(fs::exists(dir / "out" / "cycles.csv"));

@@ -182,12 +182,15 @@ const Campaign& default_campaign() {
   static const Campaign campaign = [] {
     Campaign c;
     const double ks[] = {0.02, 0.04, 0.06, 0.08, 0.10, 0.12, 0.15};
-    // Hold-out airspeeds cycle through 25, 35, 30 m/s so predictions cross airspeeds.
+    // Hold-out airspeeds cycle through 25, 35, 30 m/s so predictions cross airspeeds; the fit
+    // cycles are at 25, 30 and 35 m/s too (k = 0.04, 0.08, 0.12), so the fit itself sees runs
+    // at several airspeeds (the runs table's airspeed_mps, issue 12).
     const double speeds[] = {25.0, 35.0, 30.0};
     int next_speed = 0;
     for (double k : ks) {
-      const bool fit = k == 0.04 || k == 0.08 || k == 0.12;
-      c.cycles.push_back(cycle(8.0, k, fit ? 30.0 : speeds[next_speed++ % 3],
+      const double fit_speed = k == 0.04 ? 25.0 : k == 0.08 ? 30.0 : k == 0.12 ? 35.0 : 0.0;
+      const bool fit = fit_speed > 0.0;
+      c.cycles.push_back(cycle(8.0, k, fit ? fit_speed : speeds[next_speed++ % 3],
                                fit ? CycleRole::fit : CycleRole::holdout));
     }
     for (double k : ks) c.cycles.push_back(cycle(6.0, k, speeds[next_speed++ % 3], CycleRole::holdout));
@@ -276,6 +279,7 @@ Experiment campaign_experiment(const Campaign& c, const std::vector<PhaseAverage
     r.rate_from_file = true;
     r.coefficient = coefficient == "CL" ? cy.lift : cy.moment;
     r.periodic = true;
+    r.airspeed_mps = cy.cycle.airspeed_mps;
     for (double x : cy.alpha_rad) {
       lo = std::min(lo, x);
       hi = std::max(hi, x);

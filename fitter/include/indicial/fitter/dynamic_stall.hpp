@@ -111,9 +111,9 @@ struct Campaign {
   double frequency_hz(const PitchCycle& c) const;
 };
 
-// 14 cycles about 12 deg: amplitude 8 deg at k = 0.02 .. 0.15 (7 cycles; k = 0.04, 0.08, 0.12
-// at 30 m/s are the fit cycles) and amplitude 6 deg at the same k; hold-out cycles at 25, 30
-// and 35 m/s.
+// 14 cycles about 12 deg: amplitude 8 deg at k = 0.02 .. 0.15 (7 cycles; k = 0.04 at 25 m/s,
+// 0.08 at 30 m/s and 0.12 at 35 m/s are the fit cycles) and amplitude 6 deg at the same k;
+// hold-out cycles at 25, 30 and 35 m/s.
 const Campaign& default_campaign();
 
 // The static separation point f0(alpha) (Leishman-Beddoes' exponential fit).
@@ -156,7 +156,8 @@ Experiment campaign_experiment_config(const Campaign& c, const std::string& coef
 
 // An in-memory Experiment of the cycles with the given role, as the phase-averaged reader
 // would build it: time = phase / (2 pi f) on the uniform grid, periodic runs, the measured
-// coefficient. (All fit cycles of the default campaign are at the reference airspeed.)
+// coefficient and each cycle's airspeed (the fit cycles of the default campaign are at 25, 30
+// and 35 m/s; V_ref is 30 m/s).
 Experiment campaign_experiment(const Campaign& c, const std::vector<PhaseAveragedCycle>& cycles,
                                const std::string& coefficient, CycleRole role);
 

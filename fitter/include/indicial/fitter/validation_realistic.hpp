@@ -5,7 +5,7 @@
 // --------------
 // The dynamic-stall campaign (dynamic_stall.hpp: truth outside the model class, colored
 // noise, phase-averaged cycles) is fitted on its three fit cycles (one amplitude, three
-// reduced frequencies, the reference airspeed), per coefficient, exactly as `indicial fit`
+// reduced frequencies at three airspeeds), per coefficient, exactly as `indicial fit`
 // would fit the written files; every hold-out cycle (other frequencies, another amplitude,
 // other airspeeds) is then predicted with the runtime at its periodic steady state
 // (predict_periodic) and scored against the measured (noisy, averaged) cycle, for the full
