@@ -173,7 +173,7 @@ void run_ml_iteration(benchmark::State& state, const indicial::Experiment& e) {
   Eigen::VectorXd theta0 = Eigen::VectorXd::Zero(layout.size());
   for (const indicial::ParameterEstimate& p : ee.parameters) theta0[layout.find(p.id)] = p.value;
   const std::string context = "bench";
-  const fd::OutputErrorData data{runs, base.coefficients[0], e.l_over_v_s(), context};
+  const fd::OutputErrorData data{runs, base.coefficients[0], context};
   std::size_t n = 0;
   for (const auto& r : runs) n += r.t.size();
   // Why the minimum over repeats: the per-iteration time is a difference of two totals, and

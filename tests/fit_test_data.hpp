@@ -55,4 +55,32 @@ inline Experiment simulated_experiment(const std::string& case_name, double snr,
   return e;
 }
 
+// The estimate named `name` in a fit's parameters, or null.
+inline const ParameterEstimate* find_estimate(const FitResult& r, const std::string& name) {
+  for (const auto& p : r.parameters)
+    if (p.name == name) return &p;
+  return nullptr;
+}
+
+// Samples [first, end) of a simulated run (coefficient 0), times shifted to start at 0: e.g.
+// the last, settled cycle of a long oscillation (the reference integration starts from rest).
+inline SimulatedRun tail_of(const SimulatedRun& r, std::size_t first) {
+  auto cut = [first](const std::vector<double>& v) {
+    return std::vector<double>(v.begin() + static_cast<std::ptrdiff_t>(first), v.end());
+  };
+  SimulatedRun out;
+  out.time_s = cut(r.time_s);
+  const double t0 = out.time_s.front();
+  for (double& t : out.time_s) t -= t0;
+  out.motion_angle_rad = cut(r.motion_angle_rad);
+  out.rate_radps = cut(r.rate_radps);
+  out.x_rad = cut(r.x_rad);
+  out.xdot_radps = cut(r.xdot_radps);
+  out.lag_states = {{cut(r.lag_states[0][0])}};
+  out.y_true = {cut(r.y_true[0])};
+  out.coefficient_true = {cut(r.coefficient_true[0])};
+  out.coefficient_measured = {cut(r.coefficient_measured[0])};
+  return out;
+}
+
 }  // namespace indicial::testing

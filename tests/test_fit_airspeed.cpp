@@ -18,15 +18,12 @@
 #include "indicial/fitter/report.hpp"
 #include "indicial/fitter/simulate.hpp"
 
+#include "fit_test_data.hpp"
+
 using namespace indicial;
+using indicial::testing::find_estimate;
 
 namespace {
-
-const ParameterEstimate* find(const FitResult& r, const std::string& name) {
-  for (const auto& p : r.parameters)
-    if (p.name == name) return &p;
-  return nullptr;
-}
 
 struct AirspeedData {
   Experiment experiment;
@@ -69,7 +66,7 @@ TEST_CASE("runs at 0.7, 1.0 and 1.4 V_ref: Model II recovered within 3 bounds, r
   const FitResult fit = fit_experiment(d.experiment, FitOptions{});
   CHECK(fit.output_error.termination == Termination::converged);
   for (const auto& t : kModel2Truth) {
-    const ParameterEstimate* p = find(fit, t.name);
+    const ParameterEstimate* p = find_estimate(fit, t.name);
     REQUIRE(p != nullptr);
     INFO(t.name << " = " << p->value << " (" << p->cr_bound << "), truth " << t.value);
     CHECK(std::abs(p->value - t.value) < 3.0 * p->cr_bound);
@@ -96,7 +93,7 @@ TEST_CASE("runs at several airspeeds: the per-run fit beats one that takes every
   // Not a near tie: the wrong time scale leaves a model error several times the noise.
   CHECK(wrong.fit_error > 1.5 * d.sigma);
   // And the wrong fit's b1_0 is off the truth by many of its bounds (it absorbs the scaling).
-  const ParameterEstimate* b = find(wrong, "b1_0");
+  const ParameterEstimate* b = find_estimate(wrong, "b1_0");
   REQUIRE(b != nullptr);
   CHECK(std::abs(b->value - 2.5) > 3.0 * b->cr_bound);
 }
@@ -146,8 +143,8 @@ TEST_CASE("dynamic stall, truth outside the model class: fit cycles at 25/30/35 
     Experiment wrong = em;
     for (Run& r : wrong.runs) r.airspeed_mps = wrong.airspeed_mps;
     const FitResult fw = fit_experiment(wrong, FitOptions{});
-    const ParameterEstimate* b_right = find(fs, "b1_0");
-    const ParameterEstimate* b_wrong = find(fw, "b1_0");
+    const ParameterEstimate* b_right = find_estimate(fs, "b1_0");
+    const ParameterEstimate* b_wrong = find_estimate(fw, "b1_0");
     REQUIRE(b_right != nullptr);
     REQUIRE(b_wrong != nullptr);
     MESSAGE(coef << ": b1_0 " << b_right->value << " (" << b_right->cr_bound << "); all runs taken at V_ref: "
@@ -155,4 +152,44 @@ TEST_CASE("dynamic stall, truth outside the model class: fit cycles at 25/30/35 
     CHECK(fw.fit_error > 1.02 * fs.fit_error);
     CHECK(std::abs(b_wrong->value - b_right->value) > b_right->cr_bound);
   }
+}
+
+TEST_CASE("a delayed forcing at several airspeeds: delay_s (at V_ref) recovered, the runtime replays it") {
+  // Model I with a 0.03 s delay at V_ref: on a run at V the forcing lags by 0.03 V_ref / V
+  // (0.043 s at 0.7 V_ref, 0.021 s at 1.4 V_ref), in the reference simulator as in the fit.
+  const SimulationCase& c = find_simulation_case("tailless-model-1");
+  TruthModel truth = c.truth;
+  truth.coefficients[0].delay_s = 0.03;
+  const std::vector<double> factors = {0.7, 1.0, 1.4};
+  std::vector<SimulatedRun> runs;
+  for (std::size_t i = 0; i < c.motions.size(); ++i) {
+    MotionSpec m = c.motions[i];
+    m.airspeed_mps = factors[i] * truth.airspeed_mps;
+    m.freq_hz *= factors[i];
+    m.dt_s /= factors[i];
+    runs.push_back(simulate_reference(truth, m));
+  }
+  const double sigma = add_measurement_noise(runs, 40.0, 7004u).at(0);
+  Experiment e = experiment_from_simulation(c, runs);
+  e.path = "delay-airspeed.toml";
+  for (std::size_t i = 0; i < factors.size(); ++i) e.runs[i].airspeed_mps = factors[i] * truth.airspeed_mps;
+  e.model.delay = DelayEstimation::estimated;
+  e.model.delay_start_s = 0.01;
+  const FitResult fit = fit_experiment(e, FitOptions{});
+  CHECK(fit.output_error.termination == Termination::converged);
+  const struct {
+    const char* name;
+    double value;
+  } truth_values[] = {{"delay_s", 0.03}, {"b1_0", 2.5}, {"a1", 0.28}, {"a2", -3.2}, {"A1", 8.0}, {"A2", -7.4}};
+  for (const auto& t : truth_values) {
+    const ParameterEstimate* p = find_estimate(fit, t.name);
+    REQUIRE(p != nullptr);
+    INFO(t.name << " = " << p->value << " (" << p->cr_bound << "), truth " << t.value);
+    CHECK(std::abs(p->value - t.value) < 3.0 * p->cr_bound);
+  }
+  INFO("s(v) " << fit.fit_error << ", noise " << sigma);
+  CHECK(std::abs(fit.fit_error / sigma - 1.0) < 0.1);
+  const RuntimeCheck rc = replay_in_runtime(fit, e, model_coef_text(fit, "delay fit"));
+  CHECK(rc.steps_not_ok == 0);
+  CHECK(rc.max_abs_difference < 1e-9);
 }

@@ -17,15 +17,12 @@
 #include "indicial/fitter/report.hpp"
 #include "indicial/fitter/simulate.hpp"
 
+#include "fit_test_data.hpp"
+
 using namespace indicial;
+using indicial::testing::find_estimate;
 
 namespace {
-
-const ParameterEstimate* find(const FitResult& r, const std::string& name) {
-  for (const auto& p : r.parameters)
-    if (p.name == name) return &p;
-  return nullptr;
-}
 
 // Model II's runs, sampled at k dt + u_k with u_k uniform in [-jitter dt, jitter dt] (k > 0;
 // 0: the uniform grid), SNR 40 white noise from `seed`.
@@ -48,25 +45,6 @@ Experiment simulated_jittered(double jitter, std::uint64_t seed, double* sigma) 
   return e;
 }
 
-// The last `count` samples of a simulated run (coefficient 0), times shifted to start at 0.
-SimulatedRun last_samples(const SimulatedRun& r, std::size_t count) {
-  const auto first = static_cast<std::ptrdiff_t>(r.time_s.size() - count);
-  auto cut = [first](const std::vector<double>& v) { return std::vector<double>(v.begin() + first, v.end()); };
-  SimulatedRun out;
-  out.time_s = cut(r.time_s);
-  const double t0 = out.time_s.front();
-  for (double& t : out.time_s) t -= t0;
-  out.motion_angle_rad = cut(r.motion_angle_rad);
-  out.rate_radps = cut(r.rate_radps);
-  out.x_rad = cut(r.x_rad);
-  out.xdot_radps = cut(r.xdot_radps);
-  out.lag_states = {{cut(r.lag_states[0][0])}};
-  out.y_true = {cut(r.y_true[0])};
-  out.coefficient_true = {cut(r.coefficient_true[0])};
-  out.coefficient_measured = {cut(r.coefficient_measured[0])};
-  return out;
-}
-
 const char* const kModel2Names[] = {"b1_0", "B1", "B2", "B3", "B4", "a0", "a1", "a2", "A1", "A2"};
 const double kModel2Truth[] = {2.5, -5.73, 5.73, 5.73, -5.73, 0.0, 0.28, -3.2, 8.0, -7.4};
 
@@ -83,8 +61,8 @@ TEST_CASE("jittered times (+-30% of the step): Model II within 3 bounds, and wit
     const FitResult fu = fit_experiment(eu, o);
     CHECK(fj.output_error.termination == Termination::converged);
     for (std::size_t i = 0; i < std::size(kModel2Names); ++i) {
-      const ParameterEstimate* pj = find(fj, kModel2Names[i]);
-      const ParameterEstimate* pu = find(fu, kModel2Names[i]);
+      const ParameterEstimate* pj = find_estimate(fj, kModel2Names[i]);
+      const ParameterEstimate* pu = find_estimate(fu, kModel2Names[i]);
       REQUIRE(pj != nullptr);
       REQUIRE(pu != nullptr);
       INFO(kModel2Names[i] << ": jittered " << pj->value << " (" << pj->cr_bound << "), uniform " << pu->value
@@ -136,7 +114,7 @@ TEST_CASE("a periodic cycle on jittered times: the periodic state steps with eac
     for (int k = 0; k < before; ++k) m.output_times_s.push_back(k * m.dt_s);
     for (int k = 0; k <= per_cycle; ++k)
       m.output_times_s.push_back(t0 + k * m.dt_s + (k == 0 || k == per_cycle ? 0.0 : u(rng)));
-    cycles.push_back(last_samples(simulate_reference(c.truth, m), static_cast<std::size_t>(per_cycle) + 1));
+    cycles.push_back(indicial::testing::tail_of(simulate_reference(c.truth, m), static_cast<std::size_t>(before)));
     REQUIRE(std::abs(cycles.back().y_true[0].back() - cycles.back().y_true[0].front()) < 1e-7);
   }
   const double sigma = add_measurement_noise(cycles, 40.0, 8003u).at(0);
@@ -151,7 +129,7 @@ TEST_CASE("a periodic cycle on jittered times: the periodic state steps with eac
   CHECK(fit.output_error.termination == Termination::converged);
   for (std::size_t i = 0; i < std::size(kModel2Names); ++i) {
     if (std::string(kModel2Names[i]) == "a0") continue;
-    const ParameterEstimate* p = find(fit, kModel2Names[i]);
+    const ParameterEstimate* p = find_estimate(fit, kModel2Names[i]);
     REQUIRE(p != nullptr);
     INFO(kModel2Names[i] << " = " << p->value << " (" << p->cr_bound << "), truth " << kModel2Truth[i]);
     CHECK(std::abs(p->value - kModel2Truth[i]) < 3.0 * p->cr_bound);

@@ -15,37 +15,10 @@
 #include "indicial/fitter/montecarlo.hpp"
 #include "indicial/fitter/simulate.hpp"
 
+#include "fit_test_data.hpp"
+
 using namespace indicial;
-
-namespace {
-
-// Samples [first, end) of a simulated run (coefficient 0), times shifted to start at 0.
-SimulatedRun tail_of(const SimulatedRun& r, std::size_t first) {
-  auto cut = [first](const std::vector<double>& v) {
-    return std::vector<double>(v.begin() + static_cast<std::ptrdiff_t>(first), v.end());
-  };
-  SimulatedRun out;
-  out.time_s = cut(r.time_s);
-  const double t0 = out.time_s.front();
-  for (double& t : out.time_s) t -= t0;
-  out.motion_angle_rad = cut(r.motion_angle_rad);
-  out.rate_radps = cut(r.rate_radps);
-  out.x_rad = cut(r.x_rad);
-  out.xdot_radps = cut(r.xdot_radps);
-  out.lag_states = {{cut(r.lag_states[0][0])}};
-  out.y_true = {cut(r.y_true[0])};
-  out.coefficient_true = {cut(r.coefficient_true[0])};
-  out.coefficient_measured = {cut(r.coefficient_measured[0])};
-  return out;
-}
-
-const ParameterEstimate* find(const FitResult& r, const std::string& name) {
-  for (const auto& p : r.parameters)
-    if (p.name == name) return &p;
-  return nullptr;
-}
-
-}  // namespace
+using indicial::testing::tail_of;
 
 TEST_CASE("periodic runs: the last settled cycle of each run, no y0, recovers Model II and its state") {
   const SimulationCase& c = find_simulation_case("tailless-model-2");
@@ -79,7 +52,7 @@ TEST_CASE("periodic runs: the last settled cycle of each run, no y0, recovers Mo
       {"b1_0", 2.5}, {"B1", -5.73}, {"B2", 5.73}, {"B3", 5.73}, {"B4", -5.73},
       {"a1", 0.28},  {"a2", -3.2},  {"A1", 8.0},  {"A2", -7.4}};
   for (const auto& t : truth) {
-    const ParameterEstimate* p = find(fit, t.name);
+    const ParameterEstimate* p = indicial::testing::find_estimate(fit, t.name);
     REQUIRE(p != nullptr);
     INFO(t.name << " = " << p->value << " (" << p->cr_bound << "), truth " << t.value);
     CHECK(std::abs(p->value - t.value) < 3.0 * p->cr_bound);
