@@ -66,6 +66,8 @@ indicial::FitOptions checked_fit_options(const FitCliOptions& o) {
   if (!(fo.f_to_enter > 0.0) || !(fo.f_to_remove > 0.0) || fo.f_to_remove > fo.f_to_enter)
     throw InputError("--f-to-enter", 0, "need F to enter >= F to remove > 0");
   if (fo.max_iterations < 1) throw InputError("--max-iterations", 0, "must be at least 1");
+  if (!(fo.fallback_r_squared >= 0.0 && fo.fallback_r_squared <= 1.0))
+    throw InputError("--fallback-r-squared", 0, "must be in [0, 1]");
   return fo;
 }
 
@@ -151,6 +153,7 @@ indicial::ReportOptions report_options(const FitCliOptions& o, const indicial::E
 std::vector<std::string> checked_fit(const indicial::FitResult& r, const indicial::Experiment& e,
                                      const std::string& coef_path) {
   using namespace indicial;
+  if (!r.stepwise_fallback.empty()) tools::print_notes({e.path + ": " + r.stepwise_fallback});
   const RuntimeAcceptance accepted = require_runtime_accepts(r.model, coef_path, ModelFile::to_write);
   std::vector<std::string> after_fit = fit_warnings(r, e);
   if (accepted.capacity == RuntimeCapacity::fit_capacity_only) after_fit.push_back(coef_path + ": " + accepted.reason);
@@ -259,6 +262,21 @@ const indicial::tools::RegisterCommand register_fit([](CLI::App& app) {
       ->transform(CLI::CheckedTransformer(std::map<std::string, indicial::StepwiseRefinement>{
           {"none", indicial::StepwiseRefinement::none},
           {"output_error", indicial::StepwiseRefinement::output_error}}));
+  sub->add_option("--stepwise-significance", opt->fit.stepwise_significance,
+                  "stepwise F tests: colored (default: each partial F corrected by the term's colored-residual "
+                  "variance; unchanged on white residuals) or white (the textbook F, which accepts nearly every "
+                  "term on autocorrelated residuals)")
+      ->transform(CLI::CheckedTransformer(std::map<std::string, indicial::StepwiseSignificance>{
+          {"colored", indicial::StepwiseSignificance::colored_residuals},
+          {"white", indicial::StepwiseSignificance::white_residuals}}));
+  sub->add_option("--stepwise-fallback", opt->fit.stepwise_fallback,
+                  "stepwise: automatic (default: when the equation-error regression selects no term or its "
+                  "R^2 < --fallback-r-squared, the output-error stepwise selects the structure; a note on stderr "
+                  "and fit.json's stepwise_fallback say why) or off")
+      ->transform(CLI::CheckedTransformer(std::map<std::string, indicial::StepwiseFallback>{
+          {"automatic", indicial::StepwiseFallback::automatic}, {"off", indicial::StepwiseFallback::off}}));
+  sub->add_option("--fallback-r-squared", opt->fit.fallback_r_squared,
+                  "stepwise: the equation-error R^2 below which the fallback runs (default 0.5)");
   sub->add_option("--max-iterations", opt->fit.max_iterations, "output-error iteration limit (default 50)");
   sub->add_option("--state-derivative", opt->state_derivative,
                   "equation error's y_E': smoothed (Savitzky-Golay, default) or modulating (ref. 12)");
