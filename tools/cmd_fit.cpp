@@ -276,7 +276,7 @@ const indicial::tools::RegisterCommand register_fit([](CLI::App& app) {
       ->transform(CLI::CheckedTransformer(std::map<std::string, indicial::StepwiseFallback>{
           {"automatic", indicial::StepwiseFallback::automatic}, {"off", indicial::StepwiseFallback::off}}));
   sub->add_option("--fallback-r-squared", opt->fit.fallback_r_squared,
-                  "stepwise: the equation-error R^2 below which the fallback runs (default 0.5)");
+                  "stepwise: the equation-error R^2 below which the fallback runs (default 0.9)");
   sub->add_option("--max-iterations", opt->fit.max_iterations, "output-error iteration limit (default 50)");
   sub->add_option("--state-derivative", opt->state_derivative,
                   "equation error's y_E': smoothed (Savitzky-Golay, default) or modulating (ref. 12)");
