@@ -114,3 +114,28 @@ TEST_CASE("fallback: indicial fit says so on stderr and in fit.json") {
   CHECK(off.err.find("selected no term") != std::string::npos);
   CHECK(!std::filesystem::exists(tmp.path / "off" / "fit.json"));
 }
+
+// Exit 4, "cannot be propagated" (issue 12, item 2): the message names the start value that
+// fails and what to do; --start-value gives one by name.
+TEST_CASE("exit 4: the start value that cannot be propagated is named, with what to do") {
+  indicial::testing::TempDir tmp("start-value");
+  const std::string experiment =
+      (std::filesystem::path(INDICIAL_SOURCE_DIR) / "tests" / "golden" / "model1" / "experiment.toml").string();
+  const std::string fit = "fit '" + experiment + "' --no-plots --quiet --out '" + tmp.path.string();
+  // a1 = 1e308: the forcing a(x) x' overflows, so the lag state is not finite.
+  const indicial::testing::CliRun r = indicial::testing::run_indicial(fit + "/big' --start-value a1=1e308", tmp.path);
+  INFO(r.err);
+  CHECK(r.exit_code == 4);
+  CHECK(r.err.find("the start value a1 = 1e+308 gives a model with a non-finite output") != std::string::npos);
+  CHECK(r.err.find("What to do: give that start value (fit --start-value NAME=VALUE)") != std::string::npos);
+  CHECK(r.err.find("--stepwise-refinement output_error") != std::string::npos);
+  CHECK(r.err.find("check the angle and rate units") != std::string::npos);
+  // A sensible start value by name is taken (the fit converges from it).
+  const indicial::testing::CliRun ok = indicial::testing::run_indicial(fit + "/ok' --start-value b1_0=3", tmp.path);
+  INFO(ok.err);
+  CHECK(ok.exit_code == 0);
+  // Malformed: one line naming the option, exit 1.
+  const indicial::testing::CliRun bad = indicial::testing::run_indicial(fit + "/bad' --start-value a1", tmp.path);
+  CHECK(bad.exit_code == 1);
+  CHECK(bad.err.find("--start-value: expected NAME=VALUE") != std::string::npos);
+}
