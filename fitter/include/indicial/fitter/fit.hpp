@@ -12,7 +12,10 @@
 //      -(x-k)_+^2 x' and 1 (con), solved by SVD with a relative singular-value cut-off; white and
 //      colored-residual covariances. With structure = "stepwise" the configured terms are a
 //      candidate pool and stepwise regression (partial F to enter / remove, stop at the minimum
-//      predicted squared error) picks the structure.
+//      predicted squared error) picks the structure. Every stepwise F is corrected for colored
+//      residuals by default (StepwiseSignificance); when the regression selects nothing or its
+//      R^2 is below fallback_r_squared, the output-error stepwise of step 3 picks the structure
+//      instead (StepwiseFallback; FitResult::stepwise_fallback says why).
 //   3. Maximum-likelihood output error (eqs. 23-24) started from the equation-error estimates:
 //      unknowns are the a(x), b1(x), con (and further-lag) coefficients and one initial state
 //      per run (periodic runs: the periodic steady state, no parameter); the state is propagated
