@@ -422,6 +422,8 @@ FitResult fit_experiment(const Experiment& e, const FitOptions& o) {
     const OutputErrorData d{est.runs, c.base, c.l_over_v, e.path};
     est.ml = refine_structure_output_error(pool, d, std::move(est.ml), o, &res.output_error_stepwise);
     est.s = est.ml.structure;
+  } else if (!res.stepwise_fallback.empty()) {
+    res.stepwise_fallback += "; NOT run: the start values cannot be propagated (see the output error's message)";
   }
 
   // 4. Two-stage loop.
