@@ -21,6 +21,7 @@
 //      be identified are named (bounds null in fit.json)
 // With several coefficients (`coefficients = ["CL", "Cm"]`) each is fitted into DIR/<name>/, the
 // models are merged into DIR/model.coef, and the status is the first non-zero one of them.
+#include <cmath>
 #include <cstdio>
 #include <map>
 #include <memory>
@@ -48,6 +49,7 @@ struct FitCliOptions {
   bool quiet = false;
   std::string gnuplot = "gnuplot";
   std::string state_derivative = "smoothed";
+  std::vector<std::string> start_values;  // NAME=VALUE
   indicial::FitOptions fit;
 };
 
@@ -66,6 +68,21 @@ indicial::FitOptions checked_fit_options(const FitCliOptions& o) {
   if (!(fo.f_to_enter > 0.0) || !(fo.f_to_remove > 0.0) || fo.f_to_remove > fo.f_to_enter)
     throw InputError("--f-to-enter", 0, "need F to enter >= F to remove > 0");
   if (fo.max_iterations < 1) throw InputError("--max-iterations", 0, "must be at least 1");
+  for (const std::string& sv : o.start_values) {
+    const std::size_t eq = sv.find('=');
+    std::size_t used = 0;
+    double value = 0.0;
+    try {
+      if (eq != std::string::npos && eq > 0) value = std::stod(sv.substr(eq + 1), &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (eq == std::string::npos || eq == 0 || used == 0 || used != sv.size() - eq - 1 || !std::isfinite(value))
+      throw InputError("--start-value", 0, "expected NAME=VALUE with a finite number (e.g. b1_0=3), found '" + sv + "'");
+    fo.start_values.emplace_back(sv.substr(0, eq), value);
+  }
+  if (!(fo.fallback_r_squared >= 0.0 && fo.fallback_r_squared <= 1.0))
+    throw InputError("--fallback-r-squared", 0, "must be in [0, 1]");
   return fo;
 }
 
@@ -151,6 +168,7 @@ indicial::ReportOptions report_options(const FitCliOptions& o, const indicial::E
 std::vector<std::string> checked_fit(const indicial::FitResult& r, const indicial::Experiment& e,
                                      const std::string& coef_path) {
   using namespace indicial;
+  if (!r.stepwise_fallback.empty()) tools::print_notes({e.path + ": " + r.stepwise_fallback});
   const RuntimeAcceptance accepted = require_runtime_accepts(r.model, coef_path, ModelFile::to_write);
   std::vector<std::string> after_fit = fit_warnings(r, e);
   if (accepted.capacity == RuntimeCapacity::fit_capacity_only) after_fit.push_back(coef_path + ": " + accepted.reason);
@@ -259,6 +277,24 @@ const indicial::tools::RegisterCommand register_fit([](CLI::App& app) {
       ->transform(CLI::CheckedTransformer(std::map<std::string, indicial::StepwiseRefinement>{
           {"none", indicial::StepwiseRefinement::none},
           {"output_error", indicial::StepwiseRefinement::output_error}}));
+  sub->add_option("--stepwise-significance", opt->fit.stepwise_significance,
+                  "stepwise F tests: colored (default: each partial F corrected by the term's colored-residual "
+                  "variance; unchanged on white residuals) or white (the textbook F, which accepts nearly every "
+                  "term on autocorrelated residuals)")
+      ->transform(CLI::CheckedTransformer(std::map<std::string, indicial::StepwiseSignificance>{
+          {"colored", indicial::StepwiseSignificance::colored_residuals},
+          {"white", indicial::StepwiseSignificance::white_residuals}}));
+  sub->add_option("--stepwise-fallback", opt->fit.stepwise_fallback,
+                  "stepwise: automatic (default: when the equation-error regression selects no term or its "
+                  "R^2 < --fallback-r-squared, the output-error stepwise selects the structure; a note on stderr "
+                  "and fit.json's stepwise_fallback say why) or off")
+      ->transform(CLI::CheckedTransformer(std::map<std::string, indicial::StepwiseFallback>{
+          {"automatic", indicial::StepwiseFallback::automatic}, {"off", indicial::StepwiseFallback::off}}));
+  sub->add_option("--fallback-r-squared", opt->fit.fallback_r_squared,
+                  "stepwise: the equation-error R^2 below which the fallback runs (default 0.9)");
+  sub->add_option("--start-value", opt->start_values,
+                  "NAME=VALUE: the output-error start value of a parameter instead of the equation error's "
+                  "(repeatable; names as in fit.json: a1, A2, b1_0, y0_1, ...)");
   sub->add_option("--max-iterations", opt->fit.max_iterations, "output-error iteration limit (default 50)");
   sub->add_option("--state-derivative", opt->state_derivative,
                   "equation error's y_E': smoothed (Savitzky-Golay, default) or modulating (ref. 12)");

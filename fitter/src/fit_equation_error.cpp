@@ -168,7 +168,11 @@ EquationErrorResult run_equation_error(const std::vector<PreparedRun>& runs,
   std::vector<int> chosen(static_cast<std::size_t>(prob.X.cols()));
   for (std::size_t k = 0; k < chosen.size(); ++k) chosen[k] = static_cast<int>(k);
   if (mode == StructureMode::stepwise) {
-    chosen = stepwise_select(prob.X, prob.z, prob.names, o, res.stepwise);
+    chosen = stepwise_select(prob.X, prob.z, prob.starts, prob.names, o, res.stepwise);
+    // Nothing selected: the output-error fallback (fit_two_stage.cpp) starts from the lowest
+    // a(x) and b1(x) terms; without it there is nothing to estimate.
+    if (chosen.empty() && o.stepwise_fallback == StepwiseFallback::automatic)
+      chosen = fallback_start_columns(prob.terms);
     if (chosen.empty())
       throw InputError(context_file, 0,
                        "stepwise regression selected no term: the data show no unsteady effect "

@@ -245,11 +245,19 @@ LinearFit least_squares(const Eigen::MatrixXd& X, const Eigen::VectorXd& z,
                         const std::vector<std::string>& names, const FitOptions& o,
                         const std::string& context_file);
 
-// Stepwise regression over the columns of X (see fit_stepwise.cpp). Returns the selected
-// column indices (pool order) and fills the log.
+// Stepwise regression over the columns of X (see fit_stepwise.cpp); `starts` are the
+// segment (run) starts plus the end, for the residual autocorrelation of the colored-residual
+// significance. Returns the selected column indices (pool order) and fills the log.
 std::vector<int> stepwise_select(const Eigen::MatrixXd& X, const Eigen::VectorXd& z,
+                                 const std::vector<std::size_t>& starts,
                                  const std::vector<std::string>& names, const FitOptions& o,
                                  StepwiseResult& log);
+
+// The columns a stepwise fit starts the output-error fallback from when the regression
+// selected nothing (fit_stepwise_output_error.cpp): the lowest-order a(x) term and the
+// lowest-order b1(x) term of the pool, column indices into `terms`. Empty when the pool has
+// no a(x) or no b1(x) term.
+std::vector<int> fallback_start_columns(const std::vector<ParamId>& terms);
 
 // Throws InputError if a column is identically zero (names the term).
 void refuse_zero_columns(const Eigen::MatrixXd& X, const std::vector<std::string>& names,

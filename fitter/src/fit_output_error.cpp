@@ -375,8 +375,9 @@ void estimate_covariance(const OutputErrorProblem& problem, const FitOptions& o,
 std::string start_failure_message(const ParameterLayout& L, const OutputErrorData& d, const Eigen::VectorXd& theta,
                                   double lo, double hi) {
   const std::string what_to_do =
-      "; nothing estimated. What to do: start from a constant b1 (b1_degree = 0, no b1 knots), fewer a(x) "
-      "terms, or --stepwise-refinement output_error";
+      "; nothing estimated. What to do: give that start value (fit --start-value NAME=VALUE), start from a "
+      "constant b1 (b1_degree = 0, no b1 knots), fewer a(x) terms, or --stepwise-refinement output_error; check "
+      "the angle and rate units and columns";
   const std::vector<std::string> names = L.names();
   for (Eigen::Index k = 0; k < theta.size(); ++k)
     if (!std::isfinite(theta(k)))
@@ -403,6 +404,19 @@ std::string start_failure_message(const ParameterLayout& L, const OutputErrorDat
     if (L.y0_offset(ri) < 0 && !periodic_state(m, r, delay, y))
       return fmt::format("the start values give no periodic steady state for run '{}' (the lag does not decay over "
                          "its cycle){}", r.path, what_to_do);
+  }
+  // Which start value: the first whose reset to 0 alone gives a finite output.
+  const FeasibilityPredicate any;
+  const OutputErrorProblem problem(L, d, any);
+  Eigen::VectorXd v;
+  for (Eigen::Index k = 0; k < theta.size(); ++k) {
+    if (theta(k) == 0.0) continue;
+    Eigen::VectorXd t = theta;
+    t(k) = 0.0;
+    if (problem.evaluate(t, v, nullptr))
+      return fmt::format("the start value {} = {:.6g} gives a model with a non-finite output (too large: see the "
+                         "equation error's estimates in fit.json){}",
+                         names[static_cast<std::size_t>(k)], theta(k), what_to_do);
   }
   return "the start values give a model with a non-finite output (a start value too large: see the equation "
          "error's estimates in fit.json)" + what_to_do;

@@ -4,6 +4,15 @@
 // finally kept is the one with the minimum predicted squared error
 //   PSE = SSE / N + sigma_max^2 * p / N,   sigma_max^2 = sum (z - mean z)^2 / N.
 // Written by hand: no library we use does stepwise regression.
+//
+// Colored residuals (issue 12, item 4). The partial F of one term is its t statistic squared,
+// estimate^2 / (s^2 (X'X)^-1_jj), which assumes white residuals; with residuals correlated
+// over many samples (tunnel data, AR(1) noise) the true variance of the estimate is larger
+// and F accepts nearly every candidate. With StepwiseSignificance::colored_residuals (the
+// default) each F is multiplied by var_white / var_colored of the term's estimate in the fit
+// that holds it, var_colored being Morelli & Klein's sandwich (fit_common.cpp's
+// colored_middle, the lags by choose_correlation_lag): F_c = estimate^2 / var_colored. When
+// the residuals show no significant autocorrelation (lag window 0) F is left bit-identical.
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
 
@@ -51,9 +60,48 @@ double independent_part(const Eigen::MatrixXd& G, const std::vector<int>& set, i
   return G(j, j) - gj.dot(Eigen::LDLT<Eigen::MatrixXd>(Gs).solve(gj));
 }
 
+// var_white / var_colored of every estimate of the least-squares fit of z on the columns
+// `set` of the unit-norm columns Xs (Gram matrix G, c = Xs'z): the factor that turns each
+// term's white partial F into the colored one. All 1 when the residuals are white (lag 0) or
+// the white test is asked for.
+Eigen::VectorXd colored_factors(const Eigen::MatrixXd& Xs, const Eigen::MatrixXd& G,
+                                const Eigen::VectorXd& c, const Eigen::VectorXd& z,
+                                const std::vector<int>& set, const std::vector<std::size_t>& starts,
+                                const FitOptions& o) {
+  const auto k = static_cast<Eigen::Index>(set.size());
+  Eigen::VectorXd factor = Eigen::VectorXd::Ones(k);
+  if (o.stepwise_significance == StepwiseSignificance::white_residuals || k == 0) return factor;
+  Eigen::MatrixXd Gs(k, k), Xset(Xs.rows(), k);
+  Eigen::VectorXd cs(k);
+  for (Eigen::Index i = 0; i < k; ++i) {
+    const int ci = set[static_cast<std::size_t>(i)];
+    cs(i) = c(ci);
+    Xset.col(i) = Xs.col(ci);
+    for (Eigen::Index j = 0; j < k; ++j) Gs(i, j) = G(ci, set[static_cast<std::size_t>(j)]);
+  }
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(Gs);
+  const Eigen::VectorXd residual = z - Xset * ldlt.solve(cs);
+  const int lag = choose_correlation_lag(residual, starts, o);
+  if (lag == 0) return factor;
+  const Eigen::MatrixXd Ginv = ldlt.solve(Eigen::MatrixXd::Identity(k, k));
+  const double n = static_cast<double>(Xs.rows());
+  const double s2 = residual.squaredNorm() / (n - static_cast<double>(k));
+  for (Eigen::Index i = 0; i < k; ++i) {
+    // var_colored of estimate i is w' M w, w = (X'X)^-1 e_i, M the sandwich's middle; as
+    // colored_middle of the single column X w (n x lag work, not n x k^2 x lag). Scaled by
+    // N / (N - k) like s^2, as least_squares does.
+    const Eigen::MatrixXd u = Xset * Ginv.col(i);
+    const double var_c = colored_middle(u, residual, starts, lag)(0, 0) * n / (n - static_cast<double>(k));
+    const double var_w = s2 * Ginv(i, i);
+    if (var_c > 0.0 && var_w > 0.0) factor(i) = var_w / var_c;
+  }
+  return factor;
+}
+
 }  // namespace
 
 std::vector<int> stepwise_select(const Eigen::MatrixXd& X, const Eigen::VectorXd& z,
+                                 const std::vector<std::size_t>& starts,
                                  const std::vector<std::string>& names, const FitOptions& o,
                                  StepwiseResult& log) {
   const Eigen::Index n = X.rows();
@@ -89,17 +137,21 @@ std::vector<int> stepwise_select(const Eigen::MatrixXd& X, const Eigen::VectorXd
   auto backward = [&](int protect) {
     while (in.size() >= 2) {
       int worst = -1;
-      double worst_f = std::numeric_limits<double>::max(), worst_sse = sse;
+      double worst_f = std::numeric_limits<double>::max(), worst_sse = sse, worst_white = worst_f;
       const double dof = nd - static_cast<double>(in.size());
-      for (int t : in) {
+      const Eigen::VectorXd factor = colored_factors(Xs, G, c, z, in, starts, o);
+      for (std::size_t ti = 0; ti < in.size(); ++ti) {
+        const int t = in[ti];
         if (t == protect) continue;
         std::vector<int> trial;
         for (int u : in)
           if (u != t) trial.push_back(u);
         const double s0 = subset_sse(G, c, zz, trial);
-        const double f = sse > 0.0 ? (s0 - sse) / (sse / dof) : std::numeric_limits<double>::max();
+        const double f_white = sse > 0.0 ? (s0 - sse) / (sse / dof) : std::numeric_limits<double>::max();
+        const double f = f_white * factor(static_cast<Eigen::Index>(ti));
         if (f < worst_f) {
           worst_f = f;
+          worst_white = f_white;
           worst = t;
           worst_sse = s0;
         }
@@ -112,6 +164,7 @@ std::vector<int> stepwise_select(const Eigen::MatrixXd& X, const Eigen::VectorXd
       s.term = names[static_cast<std::size_t>(worst)];
       s.action = StepwiseAction::removed;
       s.partial_f = worst_f;
+      s.partial_f_white = worst_white;
       s.r_squared = r2_of(sse);
       s.pse = pse_of(sse, in.size());
       s.n_terms = static_cast<int>(in.size());
@@ -125,7 +178,7 @@ std::vector<int> stepwise_select(const Eigen::MatrixXd& X, const Eigen::VectorXd
   for (int step = 0; step < max_steps; ++step) {
     // Forward: the candidate with the largest partial F.
     int best_j = -1;
-    double best_f = -1.0, best_sse = sse;
+    double best_f = -1.0, best_sse = sse, best_white = best_f;
     for (int j = 0; j < pool; ++j) {
       if (std::find(in.begin(), in.end(), j) != in.end()) continue;
       // Why: a column (numerically) in the span of the entered ones adds nothing but
@@ -136,9 +189,12 @@ std::vector<int> stepwise_select(const Eigen::MatrixXd& X, const Eigen::VectorXd
       const double s1 = subset_sse(G, c, zz, trial);
       const double dof = nd - static_cast<double>(trial.size());
       if (dof <= 0.0) continue;
-      const double f = s1 > 0.0 ? (sse - s1) / (s1 / dof) : std::numeric_limits<double>::max();
+      const double f_white = s1 > 0.0 ? (sse - s1) / (s1 / dof) : std::numeric_limits<double>::max();
+      // The candidate is the last column of `trial`.
+      const double f = f_white * colored_factors(Xs, G, c, z, trial, starts, o)(static_cast<Eigen::Index>(in.size()));
       if (f > best_f) {
         best_f = f;
+        best_white = f_white;
         best_j = j;
         best_sse = s1;
       }
@@ -153,6 +209,7 @@ std::vector<int> stepwise_select(const Eigen::MatrixXd& X, const Eigen::VectorXd
       s.term = names[static_cast<std::size_t>(best_j)];
       s.action = StepwiseAction::entered;
       s.partial_f = best_f;
+      s.partial_f_white = best_white;
       s.r_squared = r2_of(sse);
       s.pse = pse_of(sse, in.size());
       s.n_terms = static_cast<int>(in.size());

@@ -14,7 +14,11 @@
 //     leaves if F < f_to_remove (an unidentifiable term leaves first), and the model is
 //     refitted;
 // until neither happens (each term moves -- enters or leaves -- at most four times, so it
-// ends). A trial fit the fitter refuses (InputError, e.g. more parameters than samples) is
+// ends). Both F are t statistics squared of the term's estimate; with colored residuals
+// (StepwiseSignificance::colored_residuals, the default) each is multiplied by
+// var_white / var_colored of that estimate, the colored-residual (sandwich) bound of the fit
+// holding the term, so F = estimate^2 / colored variance (fit_stepwise.cpp explains why); the
+// log keeps the white F beside it. A trial fit the fitter refuses (InputError, e.g. more parameters than samples) is
 // skipped, not fatal: the refinement only ever moves between fits that succeeded.
 #include <algorithm>
 #include <cmath>
@@ -83,9 +87,19 @@ MLResult fit_terms(const UnsteadyStructure& pool, const std::vector<ParamId>& id
 
 double sse(const MLResult& m) { return 2.0 * m.summary.cost; }
 
+// var_white / var_colored of estimate i of m: 1 when the residuals are white (no significant
+// lag), the white test is asked for, or a variance is not finite.
+double colored_factor(const MLResult& m, std::size_t i, const FitOptions& o) {
+  if (o.stepwise_significance == StepwiseSignificance::white_residuals || m.summary.correlation_lag == 0) return 1.0;
+  const auto k = static_cast<Eigen::Index>(i);
+  const double w = m.cov_white(k, k), c = m.cov_colored(k, k);
+  return std::isfinite(w) && std::isfinite(c) && w > 0.0 && c > 0.0 ? w / c : 1.0;
+}
+
 struct Move {
   ParamId term;
-  double f = 0.0;
+  double f = 0.0;        // as judged
+  double f_white = 0.0;  // white-residual F
   MLResult fit;
 };
 
@@ -112,15 +126,19 @@ Move best_entry(const UnsteadyStructure& pool, const OutputErrorData& d, const M
     }
     const double p1 = static_cast<double>(trial.theta.size());
     if (!std::isfinite(trial.summary.cost) || !(n > p1)) continue;
-    const double f = (sse(ml) - sse(trial)) / (sse(trial) / (n - p1));
-    if (f > best.f) best = Move{c, f, std::move(trial)};
+    const double f_white = (sse(ml) - sse(trial)) / (sse(trial) / (n - p1));
+    const auto at = std::find(trial.ids.begin(), trial.ids.end(), c);
+    const double f = at == trial.ids.end()
+                         ? f_white
+                         : f_white * colored_factor(trial, static_cast<std::size_t>(at - trial.ids.begin()), o);
+    if (f > best.f) best = Move{c, f, f_white, std::move(trial)};
   }
   return best;
 }
 
 // The weakest term by its Wald F (an unidentifiable one first), among those whose removal
 // leaves an a(x) and a b1(x) term; f = +inf when there is none.
-Move weakest_term(const UnsteadyStructure& pool, const MLResult& ml,
+Move weakest_term(const UnsteadyStructure& pool, const MLResult& ml, const FitOptions& o,
                   const std::map<ParamId, int>& moves) {
   const std::vector<ParamId> current = pool_terms_of(pool, ml.structure);
   Move worst;
@@ -138,18 +156,43 @@ Move weakest_term(const UnsteadyStructure& pool, const MLResult& ml,
     const double sd = std::sqrt(ml.cov_white(k, k));
     // Why 0 for an unidentifiable term: the data cannot tell it from the others, so it is
     // the first to go.
-    const double f = (ml.identifiability[i] == Identifiability::identified && sd > 0.0)
-                         ? (ml.theta(k) / sd) * (ml.theta(k) / sd)
-                         : 0.0;
+    const double f_white = (ml.identifiability[i] == Identifiability::identified && sd > 0.0)
+                               ? (ml.theta(k) / sd) * (ml.theta(k) / sd)
+                               : 0.0;
+    const double f = f_white * colored_factor(ml, i, o);
     if (f < worst.f) {
       worst.term = term;
       worst.f = f;
+      worst.f_white = f_white;
     }
   }
   return worst;
 }
 
 }  // namespace
+
+std::vector<int> fallback_start_columns(const std::vector<ParamId>& terms) {
+  // Why the lowest order: a constant a and b1 (or the first power / knot the pool offers) is
+  // the simplest model with one lag; the output-error stepwise adds what the data support.
+  int a = -1, b1 = -1;
+  auto lower = [&](int current, std::size_t j) {
+    if (current < 0) return true;
+    const ParamId& x = terms[j];
+    const ParamId& y = terms[static_cast<std::size_t>(current)];
+    const bool x_power = x.kind == ParamKind::a_power || x.kind == ParamKind::b_power;
+    const bool y_power = y.kind == ParamKind::a_power || y.kind == ParamKind::b_power;
+    if (x_power != y_power) return x_power;  // a power before any knot
+    return x_power ? x.power < y.power : x.knot_rad < y.knot_rad;
+  };
+  for (std::size_t j = 0; j < terms.size(); ++j) {
+    const ParamId& t = terms[j];
+    if ((t.kind == ParamKind::a_power || t.kind == ParamKind::a_knot) && lower(a, j)) a = static_cast<int>(j);
+    const bool is_b1 = (t.kind == ParamKind::b_power || t.kind == ParamKind::b_knot) && t.lag == 0;
+    if (is_b1 && lower(b1, j)) b1 = static_cast<int>(j);
+  }
+  if (a < 0 || b1 < 0) return {};
+  return a < b1 ? std::vector<int>{a, b1} : std::vector<int>{b1, a};
+}
 
 MLResult refine_structure_output_error(const UnsteadyStructure& pool, const OutputErrorData& d,
                                        MLResult ml, const FitOptions& o,
@@ -161,12 +204,12 @@ MLResult refine_structure_output_error(const UnsteadyStructure& pool, const Outp
     Move in = best_entry(pool, d, ml, o, moves);
     if (in.f > o.f_to_enter) {  // -inf when no trial fit succeeded
       log->steps.push_back({OutputErrorStepwiseStep::Action::entered, parameter_name(in.term),
-                            in.f, sse(ml), sse(in.fit)});
+                            in.f, in.f_white, sse(ml), sse(in.fit)});
       ++moves[in.term];
       ml = std::move(in.fit);
       changed = true;
     }
-    const Move out = weakest_term(pool, ml, moves);
+    const Move out = weakest_term(pool, ml, o, moves);
     if (out.f < o.f_to_remove) {  // +inf when no term may leave
       std::vector<ParamId> rest = pool_terms_of(pool, ml.structure);
       rest.erase(std::find(rest.begin(), rest.end(), out.term));
@@ -179,7 +222,7 @@ MLResult refine_structure_output_error(const UnsteadyStructure& pool, const Outp
       }
       if (fitted && std::isfinite(refit.summary.cost)) {
         log->steps.push_back({OutputErrorStepwiseStep::Action::removed, parameter_name(out.term),
-                              out.f, sse(ml), sse(refit)});
+                              out.f, out.f_white, sse(ml), sse(refit)});
         ++moves[out.term];
         ml = std::move(refit);
         changed = true;

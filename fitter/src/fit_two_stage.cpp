@@ -76,6 +76,28 @@ Eigen::VectorXd start_values(const ParameterLayout& L, const std::vector<Prepare
   return th;
 }
 
+// Why a stepwise fit falls back to the output-error stepwise (FitOptions::stepwise_fallback);
+// empty when it does not. The rule: the regression selected no term, or its R^2 is below
+// fallback_r_squared (the equation error explains little of y_E': a smoothed derivative of
+// strongly colored or phase-averaged data, or dynamics outside the model class), so its
+// selection and start values are not to be trusted, while the output error, which needs no
+// derivative of the data, still is.
+std::string fallback_reason(const Experiment& e, const FitOptions& o, const EquationErrorResult& ee) {
+  if (e.model.structure != StructureMode::stepwise || o.stepwise_fallback == StepwiseFallback::off ||
+      o.stepwise_refinement == StepwiseRefinement::output_error)
+    return "";
+  if (ee.stepwise.selected.empty())
+    return fmt::format("the equation-error stepwise selected no term (F to enter {}); the output-error stepwise "
+                       "selected the structure, starting from {}",
+                       o.f_to_enter, ee.parameters.size() == 2 ? ee.parameters[0].name + " and " + ee.parameters[1].name
+                                                               : std::string("the lowest a(x) and b1(x) terms"));
+  if (ee.r_squared < o.fallback_r_squared)
+    return fmt::format("the equation-error regression explains little (R^2 = {:.3g} < {}); the output-error "
+                       "stepwise selected the structure, starting from the regression's",
+                       ee.r_squared, o.fallback_r_squared);
+  return "";
+}
+
 // ------------------------------------------------------------------------------------------
 // The two-stage loop (eqs. 25-26).
 // ------------------------------------------------------------------------------------------
@@ -145,7 +167,7 @@ RotaryStage rotary_stage(const std::vector<PreparedRun>& runs, const MLResult& m
   }
   refuse_zero_columns(X, names, file);
   RotaryStage st;
-  const std::vector<int> idx = stepwise_select(X, z, names, o, st.stepwise);
+  const std::vector<int> idx = stepwise_select(X, z, starts, names, o, st.stepwise);
   if (!idx.empty()) {
     Eigen::MatrixXd Xs(X.rows(), static_cast<Eigen::Index>(idx.size()));
     std::vector<std::string> chosen;
@@ -391,11 +413,15 @@ FitResult fit_experiment(const Experiment& e, const FitOptions& o) {
   const Eigen::VectorXd theta0 =
       start_values(ParameterLayout(est.s, est.runs), est.runs, res.equation_error.parameters, e, o);
   est.ml = c.fit(est.s, est.runs, est.rotary, theta0);
-  if (e.model.structure == StructureMode::stepwise &&
-      o.stepwise_refinement == StepwiseRefinement::output_error && std::isfinite(est.ml.summary.cost)) {
+  res.stepwise_fallback = fallback_reason(e, o, res.equation_error);
+  const bool refine = e.model.structure == StructureMode::stepwise &&
+                      (o.stepwise_refinement == StepwiseRefinement::output_error || !res.stepwise_fallback.empty());
+  if (refine && std::isfinite(est.ml.summary.cost)) {
     const OutputErrorData d{est.runs, c.base, e.path};
     est.ml = refine_structure_output_error(pool, d, std::move(est.ml), o, &res.output_error_stepwise);
     est.s = est.ml.structure;
+  } else if (!res.stepwise_fallback.empty()) {
+    res.stepwise_fallback += "; NOT run: the start values cannot be propagated (see the output error's message)";
   }
 
   // 4. Two-stage loop.

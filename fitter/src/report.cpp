@@ -228,6 +228,7 @@ nlohmann::json stepwise_json(const StepwiseResult& s) {
                           {"term", st.term},
                           {"action", st.action == StepwiseAction::entered ? "entered" : "removed"},
                           {"partial_f", finite_or_null(st.partial_f)},
+                          {"partial_f_white", finite_or_null(st.partial_f_white)},
                           {"r_squared", finite_or_null(st.r_squared)},
                           {"pse", finite_or_null(st.pse)},
                           {"n_terms", st.n_terms}});
@@ -323,14 +324,20 @@ nlohmann::json fit_json(const FitResult& r, const Experiment& e, const FitOption
       steps.push_back({{"action", st.action == OutputErrorStepwiseStep::Action::entered ? "entered" : "removed"},
                        {"term", st.term},
                        {"f", finite_or_null(st.f)},
+                       {"f_white", finite_or_null(st.f_white)},
                        {"sse_before", finite_or_null(st.sse_before)},
                        {"sse_after", finite_or_null(st.sse_after)}});
     j["output_error_stepwise"] = {{"steps", steps}, {"selected", r.output_error_stepwise.selected}};
   }
+  if (!r.stepwise_fallback.empty()) j["stepwise_fallback"] = r.stepwise_fallback;
   j["options"] = {{"f_to_enter", o.f_to_enter},
                   {"f_to_remove", o.f_to_remove},
                   {"stepwise_refinement",
                    o.stepwise_refinement == StepwiseRefinement::output_error ? "output_error" : "none"},
+                  {"stepwise_significance",
+                   o.stepwise_significance == StepwiseSignificance::white_residuals ? "white" : "colored"},
+                  {"stepwise_fallback", o.stepwise_fallback == StepwiseFallback::off ? "off" : "automatic"},
+                  {"fallback_r_squared", o.fallback_r_squared},
                   {"max_iterations", o.max_iterations},
                   {"cost_tolerance", o.cost_tolerance},
                   {"step_tolerance", o.step_tolerance},

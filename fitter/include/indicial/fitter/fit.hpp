@@ -12,7 +12,10 @@
 //      -(x-k)_+^2 x' and 1 (con), solved by SVD with a relative singular-value cut-off; white and
 //      colored-residual covariances. With structure = "stepwise" the configured terms are a
 //      candidate pool and stepwise regression (partial F to enter / remove, stop at the minimum
-//      predicted squared error) picks the structure.
+//      predicted squared error) picks the structure. Every stepwise F is corrected for colored
+//      residuals by default (StepwiseSignificance); when the regression selects nothing or its
+//      R^2 is below fallback_r_squared, the output-error stepwise of step 3 picks the structure
+//      instead (StepwiseFallback; FitResult::stepwise_fallback says why).
 //   3. Maximum-likelihood output error (eqs. 23-24) started from the equation-error estimates:
 //      unknowns are the a(x), b1(x), con (and further-lag) coefficients and one initial state
 //      per run (periodic runs: the periodic steady state, no parameter); the state is propagated
@@ -105,12 +108,33 @@ enum class StepwiseRefinement {
                  // partial F of the ML fit to enter, Wald F to leave, same F_in / F_out
 };
 
+// How the stepwise F tests (equation-error and output-error, and the two-stage loop's C_aq
+// regression) judge significance (docs/validation.md, "Stepwise under colored residuals").
+enum class StepwiseSignificance {
+  colored_residuals,  // a term's partial F is scaled by var_white / var_colored of its estimate
+                      // (the sandwich covariance of the fit with the term in, lags chosen by
+                      // colored_lag_rule): F_c = estimate^2 / colored variance. White residuals
+                      // (no significant lag) leave F exactly as it was.
+  white_residuals     // the textbook partial F (Klein & Morelli), which assumes white residuals
+};
+
+// Whether a stepwise fit whose equation-error regression explains little is finished by the
+// output-error stepwise instead (docs/validation.md, "Output-error fallback").
+enum class StepwiseFallback {
+  automatic,  // when the regression selected no term, or its R^2 < fallback_r_squared: the
+              // output-error stepwise (as StepwiseRefinement::output_error) runs, and
+              // FitResult::stepwise_fallback says why
+  off         // never: the regression's selection is kept (no term selected is an InputError)
+};
+
 // One step of the output-error refinement.
 struct OutputErrorStepwiseStep {
   enum class Action { entered, removed };
   Action action = Action::entered;
   std::string term;
-  double f = 0.0;           // partial F of the ML fit (entered) or Wald F (removed)
+  double f = 0.0;           // partial F of the ML fit (entered) or Wald F (removed), as
+                            // judged (colored-corrected unless StepwiseSignificance::white)
+  double f_white = 0.0;     // the same with white residuals
   double sse_before = 0.0;  // sum of squared output errors before and after the step
   double sse_after = 0.0;
 };
@@ -129,6 +153,12 @@ struct FitOptions {
   double f_to_enter = 4.0;
   double f_to_remove = 4.0;
   StepwiseRefinement stepwise_refinement = StepwiseRefinement::none;
+  StepwiseSignificance stepwise_significance = StepwiseSignificance::colored_residuals;
+  StepwiseFallback stepwise_fallback = StepwiseFallback::automatic;
+  // The equation-error R^2 below which a stepwise fit falls back to the output-error stepwise.
+  // Measured: 0.96-0.99 on the simulator's tailless and F-16XL cases (tests/golden/), 0.69-0.80
+  // on the dynamic-stall generator's cycles, 0.09-0.17 on the tunnel data of issue 12.
+  double fallback_r_squared = 0.9;
   // Output error: Gauss-Newton / Levenberg-Marquardt iterations (accepted or rejected steps).
   int max_iterations = 50;
   // Convergence: relative cost change below cost_tolerance AND every parameter change below
@@ -225,7 +255,9 @@ struct StepwiseStep {
   int step = 0;              // 1-based
   std::string term;          // parameter name the term carries (a1, A2, b1_0, con, Caq_2, ...)
   StepwiseAction action = StepwiseAction::entered;
-  double partial_f = 0.0;    // partial F of the term at this step
+  double partial_f = 0.0;    // partial F of the term at this step, as judged (with
+                             // StepwiseSignificance::colored_residuals: corrected)
+  double partial_f_white = 0.0;  // the textbook (white-residual) partial F
   double r_squared = 0.0;    // R^2 after the step
   double pse = 0.0;          // predicted squared error after the step
   int n_terms = 0;           // terms in the model after the step
@@ -335,6 +367,9 @@ struct FitResult {
   OutputErrorSummary output_error;             // the final ML run
   std::vector<TwoStageIteration> two_stage;    // empty unless rotary.estimate
   OutputErrorStepwiseResult output_error_stepwise;  // with StepwiseRefinement::output_error
+                                                    // or after a fallback
+  std::string stepwise_fallback;               // why the output-error stepwise replaced the
+                                               // regression's selection; empty: it did not
   double fit_error = 0.0;                      // s(v) of the final model
   double elapsed_s = 0.0;                      // wall time of fit_experiment
 };
