@@ -83,7 +83,10 @@ TEST_CASE("fallback: low R^2 -- the output-error stepwise beats the regression's
 }
 
 // The CLI: one note line on stderr, fit.json's stepwise_fallback and options, exit 0, and
-// --stepwise-fallback off restores the regression's verdict (exit 1, nothing written).
+// --stepwise-fallback off restores the regression's selection (no note, no output-error
+// stepwise). The CLI's files carry the fit cycles at 25, 30 and 35 m/s and phase columns
+// rounded to their printed digits; on these data the regression selects terms but explains
+// little (R^2 0.70 < 0.9), so the fallback's reason is the low R^2.
 TEST_CASE("fallback: indicial fit says so on stderr and in fit.json") {
   indicial::testing::TempDir tmp("fallback");
   const std::string exe_dir = tmp.path.string();
@@ -103,16 +106,20 @@ TEST_CASE("fallback: indicial fit says so on stderr and in fit.json") {
   INFO(on.err);
   CHECK(on.exit_code == 0);
   CHECK(on.err.find("indicial: note: ") != std::string::npos);
-  CHECK(on.err.find("stepwise-Cm.toml: the equation-error stepwise selected no term") != std::string::npos);
+  CHECK(on.err.find("stepwise-Cm.toml: the equation-error regression explains little (R^2 = ") != std::string::npos);
   const nlohmann::json j = nlohmann::json::parse(indicial::testing::slurp(tmp.path / "on" / "fit.json"));
-  CHECK(j.at("stepwise_fallback").get<std::string>().find("selected no term") != std::string::npos);
+  CHECK(j.at("stepwise_fallback").get<std::string>().find("explains little") != std::string::npos);
   CHECK(j.at("options").at("stepwise_fallback") == "automatic");
   CHECK(j.at("output_error_stepwise").at("selected").size() >= 3);
   const indicial::testing::CliRun off =
       indicial::testing::run_indicial(fit + "/off' --stepwise-fallback off", tmp.path);
-  CHECK(off.exit_code == 1);
-  CHECK(off.err.find("selected no term") != std::string::npos);
-  CHECK(!std::filesystem::exists(tmp.path / "off" / "fit.json"));
+  INFO(off.err);
+  CHECK(off.exit_code == 0);
+  CHECK(off.err.find("explains little") == std::string::npos);
+  const nlohmann::json k = nlohmann::json::parse(indicial::testing::slurp(tmp.path / "off" / "fit.json"));
+  CHECK(k.at("options").at("stepwise_fallback") == "off");
+  CHECK(!k.contains("stepwise_fallback"));  // written only when the fallback ran
+  CHECK(!k.contains("output_error_stepwise"));
 }
 
 // Exit 4, "cannot be propagated" (issue 12, item 2): the message names the start value that
