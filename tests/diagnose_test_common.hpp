@@ -59,10 +59,15 @@ inline void check_effect_on_model_1(const std::string& effect) {
     check_single_effect("tailless-model-1", effect, hidden_effect(effect), seed);
 }
 
-// The final model's estimate of parameter `name` (NaN when the model has none).
-inline double final_estimate(const DiagnoseResult& d, const std::string& name) {
+// The final model's estimate of the (non-knot) parameter of `kind`, `lag`, `power` (NaN when
+// the model has none): b2_0 is {b_power, 1, 0}, c2 {gain, 1}, delay_s {delay}.
+inline double final_estimate(const DiagnoseResult& d, ParamKind kind, int lag = 0, int power = 0) {
+  ParamId id;
+  id.kind = kind;
+  id.lag = lag;
+  id.power = power;
   for (const ParameterEstimate& p : d.fits.back().parameters)
-    if (p.name == name) return p.value;
+    if (p.id == id) return p.value;
   return std::nan("");
 }
 

@@ -15,8 +15,6 @@ namespace diagnose_detail {
 
 namespace {
 
-using Term = ParamId;  // issue 11: fit_detail's terms are ParamIds now
-
 int max_power(const std::vector<int>& p) {
   int m = -1;
   for (int i : p) m = std::max(m, i);
