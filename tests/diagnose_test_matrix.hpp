@@ -81,6 +81,9 @@ struct MatrixRow {
   int steps = 0;
   double seconds = 0.0;
   bool first_right = false;
+  // Not first_right, but the expected effect is named with the first as indistinguishable on
+  // these data (DiagnoseStep::indistinguishable, with the experiment that separates them).
+  bool first_tied = false;
 };
 
 // The base simulation case of a coefficient, with the motions of `motion`. C_L: f16xl-like-CL
@@ -216,6 +219,9 @@ inline MatrixRow run_matrix_case(const MatrixCase& mc, const DiagnoseOptions& o 
   row.steps = static_cast<int>(d.steps.size());
   row.stopped = diagnose_stop_name(d.stopped);
   row.first_right = expected_matches(mc.expected, row.first);
+  if (!row.first_right && !d.steps.empty())
+    for (Effect twin : d.steps.front().indistinguishable)
+      row.first_tied = row.first_tied || expected_matches(mc.expected, effect_name(twin));
   return row;
 }
 
@@ -252,7 +258,8 @@ inline std::vector<MatrixCase> diagnose_matrix(bool quick) {
 inline std::string matrix_row_markdown(const MatrixRow& r) {
   return fmt::format("| {} | {} | {} | {} | {} | {} | {} | {} | {:.2f} | {:.3f} | {} | {} | {:.1f} |\n",
                      r.c.coefficient, r.c.truth, r.c.magnitude, matrix_motion_name(r.c.motion),
-                     matrix_noise_name(r.c.noise), r.c.seed, r.first, r.first_right ? "yes" : "**no**",
+                     matrix_noise_name(r.c.noise), r.c.seed, r.first,
+                     r.first_right ? "yes" : r.first_tied ? "tied" : "**no**",
                      r.initial_over_sigma, r.final_over_sigma, r.steps, r.stopped, r.seconds);
 }
 

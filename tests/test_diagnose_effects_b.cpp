@@ -16,9 +16,7 @@ TEST_CASE("diagnose names a hidden C_mq(alpha) term: rotary_alpha") { check_effe
 TEST_CASE("diagnose names a hidden state-equation constant: bias") {
   for (std::uint64_t seed : test_seeds({101u, 102u, 103u})) {
     const DiagnoseResult d = check_single_effect("tailless-model-1", "bias", hidden_effect("bias"), seed);
-    double con = 0.0;
-    for (const ParameterEstimate& p : d.fits.back().parameters)
-      if (p.name == "con") con = p.value;
-    CHECK(con == doctest::Approx(0.025).epsilon(0.1));
+    // scale(0): relative to the value (doctest's default scale 1 would pass any con in +-0.1).
+    CHECK(final_estimate(d, ParamKind::con) == doctest::Approx(0.025).epsilon(0.1).scale(0.0));
   }
 }

@@ -63,7 +63,7 @@ TEST_CASE("diagnose matrix: every effect x motion x size x noise x coefficient" 
   std::ofstream out(out_path);
   REQUIRE(out.good());
   out << matrix_header_markdown() << std::flush;
-  int effect_cases = 0, first_right = 0, within = 0, null_cases = 0, null_clean = 0;
+  int effect_cases = 0, first_right = 0, first_tied = 0, within = 0, null_cases = 0, null_clean = 0;
   std::vector<double> times;
   const std::vector<MatrixCase> cases = diagnose_matrix(quick);
   for (std::size_t i = static_cast<std::size_t>(shard); i < cases.size(); i += static_cast<std::size_t>(shards)) {
@@ -78,15 +78,17 @@ TEST_CASE("diagnose matrix: every effect x motion x size x noise x coefficient" 
     } else {
       ++effect_cases;
       first_right += r.first_right ? 1 : 0;
+      first_tied += r.first_tied ? 1 : 0;
       within += std::abs(r.final_over_sigma - 1.0) <= 0.15 ? 1 : 0;
     }
   }
   std::sort(times.begin(), times.end());
   out << fmt::format(
-      "\nSummary ({}): first named effect right in {} of {} effect cases; final fit error within 15 % "
+      "\nSummary ({}): first named effect right in {} of {} effect cases ({} more named as "
+      "indistinguishable from the first); final fit error within 15 % "
       "of the noise level in {} of {}; no effect named in {} of {} null cases (colored noise); "
       "diagnose time median {:.1f} s, max {:.1f} s.\n",
-      quick ? "quick" : "full", first_right, effect_cases, within, effect_cases, null_clean, null_cases,
+      quick ? "quick" : "full", first_right, effect_cases, first_tied, within, effect_cases, null_clean, null_cases,
       times.empty() ? 0.0 : times[times.size() / 2], times.empty() ? 0.0 : times.back());
 }
 

@@ -71,6 +71,28 @@ TEST_CASE("diagnose names bias with its structural twin, a constant static offse
   CHECK(std::find(tied.begin(), tied.end(), Effect::static_error) != tied.end());
 }
 
+TEST_CASE("diagnose names a small fast second lag on ramps together with its look-alike, a rotary term") {
+  // b2 = 20 1/s (0.05 s) at half size under AR(1) 0.8 noise: on ramps its response is nearly
+  // proportional to the rate, the 0.05 s it continues after a ramp ends is within the noise's
+  // correlation time, and the two families' BIC differ by less than indistinguishable_bic.
+  const MatrixRow r = run_matrix_case({"Cm", "second_lag", "second_lag", 0.5, MatrixMotion::ramps, MatrixNoise::ar1, 1104});
+  MESSAGE(matrix_row_markdown(r));
+  CHECK((r.first_right || r.first_tied));
+  const DiagnoseResult d =
+      diagnose_case({"Cm", "second_lag", "second_lag", 0.5, MatrixMotion::ramps, MatrixNoise::ar1, 1104}, {});
+  REQUIRE(!d.steps.empty());
+  // The other is named, with the experiment that separates each (report.md prints the same).
+  const nlohmann::json step = diagnosis_json(d, d.experiment, DiagnoseOptions{}, nullptr)["steps"][0];
+  const std::string other = d.verdict == "second_lag" ? "rotary_alpha" : "second_lag";
+  const auto& names = step["indistinguishable"];
+  const auto it = std::find(names.begin(), names.end(), other);
+  REQUIRE(it != names.end());
+  const std::string separated = step["indistinguishable_separated_by"][static_cast<std::size_t>(it - names.begin())];
+  CHECK(separated == effect_descriptions()[static_cast<std::size_t>(other == "second_lag" ? Effect::second_lag
+                                                                                           : Effect::rotary_alpha)]
+                         .separated_by);
+}
+
 TEST_CASE("residual signatures: a static error depends on the angle alone, a delay on the stroke") {
   DiagnoseOptions o;
   o.max_steps = 0;  // the configured model's residuals only

@@ -72,8 +72,9 @@ void run_diagnose(const DiagnoseCliOptions& o) {
   DiagnoseOutputs w;
   clock.stage("writing the outputs (runtime check, report, plots)",
               [&] { w = write_diagnose_outputs(d, e, o.diag, o.out, overwrite, ro); });
-  std::printf("diagnose: %s: initial fit error %.6g, noise estimate %.6g\n", o.experiment.c_str(),
-              d.initial_fit_error, d.noise.sigma);
+  std::printf("diagnose: %s: initial fit error %.6g, noise estimate %.6g (AR(1) phi %.2f; white-equivalent %.6g)\n",
+              o.experiment.c_str(), d.initial_fit_error, d.noise.sigma, d.noise.lag1_correlation,
+              d.noise.white_equivalent);
   for (const DiagnoseStep& s : d.steps)
     std::printf("diagnose: step %d: %s (%s): LR/kappa %.1f, log10 p %.1f < %.2f, fit error %.6g -> %.6g%s\n",
                 s.step, effect_name(s.effect), s.detail.c_str(), s.statistic, s.log10_p, std::log10(s.threshold),

@@ -47,16 +47,21 @@ eff = [cells(r) for r in rows if cells(r)[1] != "none"]
 null = [cells(r) for r in rows if cells(r)[1] == "none" and cells(r)[4].startswith("AR(1)")]
 turb = [cells(r) for r in rows if cells(r)[1] == "none" and cells(r)[4].startswith("turbulence")]
 right = sum(c[7] == "yes" for c in eff)
+tied = sum(c[7] == "tied" for c in eff)
 within = sum(abs(float(c[9]) - 1.0) <= 0.15 for c in eff)
 clean = sum(c[6] == "none" for c in null)
 times = sorted(float(cells(r)[12]) for r in rows)
-wrong = [f"{c[0]} {c[1]} x{c[2]} {c[3]} {c[4]}: {c[6]}" for c in eff if c[7] != "yes"]
+wrong = [f"{c[0]} {c[1]} x{c[2]} {c[3]} {c[4]}: {c[6]}" for c in eff if c[7] not in ("yes", "tied")]
+ties = [f"{c[0]} {c[1]} x{c[2]} {c[3]} {c[4]}: {c[6]}" for c in eff if c[7] == "tied"]
 far = [f"{c[0]} {c[1]} x{c[2]} {c[3]} {c[4]}: {c[9]}" for c in eff if abs(float(c[9]) - 1.0) > 0.15]
-summary = (f"**Summary ({mode})**: first named effect right in {right} of {len(eff)} effect cases; final fit "
+summary = (f"**Summary ({mode})**: first named effect right in {right} of {len(eff)} effect cases ({tied} more "
+           f"named as indistinguishable from the first, `tied`); final fit "
            f"error within 15 % of the noise level in {within} of {len(eff)}; no effect named in {clean} of "
            f"{len(null)} null cases (AR(1) phi 0.8, {100.0 * clean / max(1, len(null)):.0f} %) and in "
            f"{sum(c[6] == 'none' for c in turb)} of {len(turb)} with band-limited turbulence noise; diagnose time "
            f"median {times[len(times) // 2]:.1f} s, max {times[-1]:.1f} s (per case, {jobs} cases at a time).\n")
+if ties: summary += ("\nFirst named another effect, with the expected one named as indistinguishable on "
+                     "these data: " + "; ".join(ties) + ".\n")
 if wrong: summary += "\nFirst named effect wrong: " + "; ".join(wrong) + ".\n"
 if far: summary += "\nFinal fit error / sigma outside 0.85-1.15: " + "; ".join(far) + ".\n"
 table = "\n".join(header + rows) + "\n"

@@ -41,25 +41,50 @@ const char* candidate_status_name(CandidateStatus s) {
   return "?";
 }
 
-NoiseEstimate estimate_noise_level(const std::vector<RunSeries>& runs) {
-  NoiseEstimate ne;
-  double sum = 0.0;
-  double count = 0.0;
-  for (const RunSeries& r : runs) {
-    const std::vector<double>& v = r.residual;
-    double s = 0.0;
-    double c = 0.0;
-    for (std::size_t k = 1; k + 1 < v.size(); ++k) {
-      const double d2 = v[k + 1] - 2.0 * v[k] + v[k - 1];
-      s += d2 * d2;
-      c += 1.0;
+namespace {
+// Sums of one residual series' differences (see estimate_noise_level).
+struct DifferenceSums {
+  double d1_sq = 0.0, d1_lag1 = 0.0, d2_sq = 0.0, d2_count = 0.0;
+  void add(const std::vector<double>& v) {
+    for (std::size_t k = 1; k < v.size(); ++k) {
+      const double d1 = v[k] - v[k - 1];
+      d1_sq += d1 * d1;
+      if (k >= 2) {
+        d1_lag1 += d1 * (v[k - 1] - v[k - 2]);
+        const double d2 = d1 - (v[k - 1] - v[k - 2]);
+        d2_sq += d2 * d2;
+        d2_count += 1.0;
+      }
     }
-    // Why: a run of fewer than 3 samples has no second difference; it gives NaN, not 0.
-    ne.run_sigma.push_back(c > 0.0 ? std::sqrt(s / (6.0 * c)) : std::numeric_limits<double>::quiet_NaN());
-    sum += s;
-    count += c;
   }
-  ne.sigma = count > 0.0 ? std::sqrt(sum / (6.0 * count)) : std::numeric_limits<double>::quiet_NaN();
+};
+
+// Why the clamp: phi < 0 (a lag-1 correlation below white) is sampling error around white
+// noise; near 1 the marginal level is not determined by the differences.
+double ar1_phi(const DifferenceSums& s) {
+  if (!(s.d1_sq > 0.0)) return 0.0;
+  return std::clamp(1.0 + 2.0 * s.d1_lag1 / s.d1_sq, 0.0, 0.98);
+}
+
+double ar1_sigma(const DifferenceSums& s, double phi) {
+  // Why NaN: a run of fewer than 3 samples has no second difference (no level, not 0).
+  if (!(s.d2_count > 0.0)) return std::numeric_limits<double>::quiet_NaN();
+  return std::sqrt(s.d2_sq / s.d2_count / (2.0 * (1.0 - phi) * (3.0 - phi)));
+}
+}  // namespace
+
+NoiseEstimate estimate_noise_level(const std::vector<RunSeries>& runs) {
+  std::vector<DifferenceSums> per_run(runs.size());
+  DifferenceSums all;
+  for (std::size_t r = 0; r < runs.size(); ++r) {
+    per_run[r].add(runs[r].residual);
+    all.add(runs[r].residual);
+  }
+  NoiseEstimate ne;
+  ne.lag1_correlation = ar1_phi(all);
+  ne.sigma = ar1_sigma(all, ne.lag1_correlation);
+  ne.white_equivalent = ar1_sigma(all, 0.0);
+  for (const DifferenceSums& s : per_run) ne.run_sigma.push_back(ar1_sigma(s, ne.lag1_correlation));
   return ne;
 }
 
@@ -142,18 +167,29 @@ bool runtime_accepts(const FitResult& r, std::string& why) {
 }
 
 void describe_estimates(Scored& s, Effect effect) {
-  for (const ParameterEstimate& p : s.fit.parameters) {
-    if (effect == Effect::time_delay && p.name == "delay_s") s.score.detail = fmt::format("delay {:.4g} s", p.value);
-    if (effect == Effect::second_lag && p.name == "b2_0")
-      s.score.detail = fmt::format("b2 = {:.4g} 1/s", p.value) + s.score.detail;
-    if (effect == Effect::second_lag && p.name == "c2") s.score.detail += fmt::format(", c2 = {:.4g}", p.value);
-    if (effect == Effect::bias && p.name == "con") s.score.detail = fmt::format("con = {:.4g} 1/s", p.value);
-    // Why: a negative delay is a prediction, which the runtime refuses; it is no evidence of a
-    // delay in the data (the fit is recorded but cannot win).
-    if (effect == Effect::time_delay && p.name == "delay_s" && !(p.value > 0.0)) {
-      s.score.status = CandidateStatus::fit_failed;
-      s.score.message = "the delay estimate is not positive";
+  const FitResult& f = s.fit;
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  switch (effect) {
+    case Effect::time_delay: {
+      const double delay_s = estimate_of(f, param_id(ParamKind::delay), nan);
+      s.score.detail = fmt::format("delay {:.4g} s", delay_s);
+      // Why: a negative delay is a prediction, which the runtime refuses; it is no evidence of
+      // a delay in the data (the fit is recorded but cannot win).
+      if (!(delay_s > 0.0)) {
+        s.score.status = CandidateStatus::fit_failed;
+        s.score.message = "the delay estimate is not positive";
+      }
+      break;
     }
+    case Effect::second_lag:
+      s.score.detail = fmt::format("b2 = {:.4g} 1/s", estimate_of(f, param_id(ParamKind::b_power, 1, 0), nan)) +
+                       s.score.detail +
+                       fmt::format(", c2 = {:.4g}", estimate_of(f, param_id(ParamKind::gain, 1), nan));
+      break;
+    case Effect::bias:
+      s.score.detail = fmt::format("con = {:.4g} 1/s", estimate_of(f, param_id(ParamKind::con), nan));
+      break;
+    default: break;
   }
 }
 
@@ -165,14 +201,17 @@ class Diagnoser {
     Experiment x = e;
     x.model = m;
     FitOptions fo = o_.fit;
-    fo.start_values = sv;
+    // Why names here: FitOptions takes start values by contract name; each is made from the
+    // id of this configuration's term (its knot number in this model), never parsed back.
+    fo.start_values.clear();
+    for (const auto& [id, value] : sv) fo.start_values.emplace_back(parameter_name(id), value);
     ++d_.fits_run;
     return fit_experiment(x, fo);
   }
 
   // Fits a candidate from every start, keeps the best usable fit, scores it against `base`.
   Scored evaluate(const Experiment& e, const CandidateSpec& c, const FitResult& base,
-                  const std::map<std::string, double>& current) {
+                  const Estimates& current) {
     Scored s;
     s.score.effect = c.effect;
     s.score.term = c.term;
@@ -352,7 +391,7 @@ namespace {
 constexpr int kRefinements = 4;
 
 std::vector<Scored> score_candidates(Diagnoser& dg, const RoundContext& rc, int& tested) {
-  const std::map<std::string, double> current = keyed_estimates(rc.model, rc.base);
+  const Estimates current = estimates_by_id(rc.base);
   const std::vector<CandidateSpec> specs =
       all_candidates(CandidateContext{rc.w, rc.model, rc.base, rc.grid, rc.spacing});
   std::vector<Scored> scored;
@@ -366,7 +405,7 @@ std::vector<Scored> score_candidates(Diagnoser& dg, const RoundContext& rc, int&
 // A winning knot refined between its grid neighbours; the better position replaces it.
 void refine_knot(Diagnoser& dg, const RoundContext& rc, std::vector<Scored>& scored, std::size_t b) {
   if (!scored[b].is_knot) return;
-  const std::map<std::string, double> current = keyed_estimates(rc.model, rc.base);
+  const Estimates current = estimates_by_id(rc.base);
   const SplineFamily family = scored[b].family;
   const Effect effect = scored[b].score.effect;
   const double k0 = scored[b].knot_rad;
@@ -387,7 +426,7 @@ Family grow_family(Diagnoser& dg, const RoundContext& rc, Scored first, const Di
   if (entry.family == SplineFamily::none) return f;
   while (static_cast<int>(f.path.size()) < o.max_family_terms) {
     const Scored& cur = f.path.back();
-    const std::map<std::string, double> current = keyed_estimates(cur.config, cur.fit);
+    const Estimates current = estimates_by_id(cur.fit);
     std::vector<CandidateSpec> specs;
     entry.generate(CandidateContext{rc.w, cur.config, cur.fit, rc.grid, rc.spacing}, specs);
     if (specs.empty()) break;
@@ -521,7 +560,7 @@ bool run_round(Diagnoser& dg, const DiagnoseOptions& o, DiagnoseResult& d, bool 
 void flag_ill_conditioned(DiagnoseResult& d) {
   // Why y0 is left out: a run's initial state is a nuisance parameter that may well be ~0.
   for (const ParameterEstimate& p : d.fits.back().parameters)
-    if (p.name.rfind("y0_", 0) != 0 && std::isfinite(p.cr_bound) && p.cr_bound > std::abs(p.value))
+    if (p.id.kind != ParamKind::initial_state && std::isfinite(p.cr_bound) && p.cr_bound > std::abs(p.value))
       d.ill_conditioned.push_back(p.name);
 }
 
@@ -547,9 +586,7 @@ DiagnoseResult diagnose_experiment(const Experiment& e_in, const DiagnoseOptions
   if (frozen) {
     // Refit the frozen configuration from the first fit's estimates (same model, fixed form).
     const Experiment& w = d.experiment;
-    std::map<std::string, double> cur = keyed_estimates(w.model, first);
-    for (const ParameterEstimate& p : first.parameters) cur[p.name] = p.value;
-    first = dg.fit(w, w.model, start_values_for(w.model, cur, w.runs.size(), {}));
+    first = dg.fit(w, w.model, start_values_for(w.model, estimates_by_id(first), w.runs.size(), {}));
   }
   d.fits.push_back(first);
   d.configs.push_back(d.experiment.model);

@@ -15,8 +15,6 @@ namespace diagnose_detail {
 
 namespace {
 
-using Term = ParamId;  // issue 11: fit_detail's terms are ParamIds now
-
 int max_power(const std::vector<int>& p) {
   int m = -1;
   for (int i : p) m = std::max(m, i);
@@ -106,7 +104,8 @@ void gen_time_delay(const CandidateContext& ctx, std::vector<CandidateSpec>& out
   c.term = "delay_s";
   c.detail = "delay";
   const double dt = ctx.experiment.runs.empty() ? 0.01 : ctx.experiment.runs.front().dt_s();
-  c.starts = {{{"delay_s", 0.0}}, {{"delay_s", 4.0 * dt}}};
+  const ParamId delay = param_id(ParamKind::delay);
+  c.starts = {{{delay, 0.0}}, {{delay, 4.0 * dt}}};
   out.push_back(c);
 }
 
@@ -114,9 +113,7 @@ void gen_time_delay(const CandidateContext& ctx, std::vector<CandidateSpec>& out
 // (docs/diagnose.md, design notes).
 void gen_second_lag(const CandidateContext& ctx, std::vector<CandidateSpec>& out) {
   if (ctx.model.lags != 1 || DefaultCapacity::max_lags < 2 || FitCapacity::max_lags < 2) return;
-  double b1_0 = 1.0;
-  for (const ParameterEstimate& p : ctx.base.parameters)
-    if (p.name == "b1_0") b1_0 = std::abs(p.value);
+  double b1_0 = std::abs(estimate_of(ctx.base, param_id(ParamKind::b_power, 0, 0), 1.0));
   if (!(b1_0 > 0.0)) b1_0 = 1.0;
   CandidateSpec c;
   c.effect = Effect::second_lag;
@@ -124,7 +121,8 @@ void gen_second_lag(const CandidateContext& ctx, std::vector<CandidateSpec>& out
   c.config.lags = 2;
   c.config.further_lag_start = LagStart::at_rest;
   c.term = "b2_0, c2";
-  for (double f : {0.3, 4.0, 15.0}) c.starts.push_back({{"b2_0", f * b1_0}, {"c2", 0.1}});
+  for (double f : {0.3, 4.0, 15.0})
+    c.starts.push_back({{param_id(ParamKind::b_power, 1, 0), f * b1_0}, {param_id(ParamKind::gain, 1), 0.1}});
   out.push_back(c);
 }
 
@@ -140,19 +138,13 @@ void gen_static_error(const CandidateContext& ctx, std::vector<CandidateSpec>& o
 }
 
 // ---- parameter identity -------------------------------------------------------------------
-// Knots are renumbered when one is inserted (A{j}, B{j} ascending), so start values are carried
-// from fit to fit by what a parameter IS (kind, lag, power, knot), not by its name.
-std::string term_key(const Term& t) {
-  return fmt::format("{}:{}:{}:{:.12g}", static_cast<int>(t.kind), t.lag, t.power, t.knot_rad);
-}
-
-// (name, key) of every structural and output parameter of a configuration.
-std::vector<std::pair<std::string, std::string>> parameter_keys(const ModelConfig& m) {
+// Every structural and output parameter of a configuration, with the knot numbers of THAT
+// configuration (what its fit names them).
+std::vector<ParamId> model_terms(const ModelConfig& m) {
   const fit_detail::UnsteadyStructure s = fit_detail::structure_from_config(m);
-  std::vector<std::pair<std::string, std::string>> out;
-  for (const Term& t : fit_detail::structural_terms(s)) out.emplace_back(parameter_name(t), term_key(t));
-  for (const Term& t : fit_detail::rotary_terms(s.rotary)) out.emplace_back(parameter_name(t), term_key(t));
-  for (const Term& t : fit_detail::static_corr_terms(s.static_corr)) out.emplace_back(parameter_name(t), term_key(t));
+  std::vector<ParamId> out = fit_detail::structural_terms(s);
+  for (const ParamId& t : fit_detail::rotary_terms(s.rotary)) out.push_back(t);
+  for (const ParamId& t : fit_detail::static_corr_terms(s.static_corr)) out.push_back(t);
   return out;
 }
 
@@ -200,7 +192,9 @@ const std::vector<EffectEntry>& effect_registry() {
         "a second lag state with its own time constant",
         "lag 2: lag_poly 2 b2_0, lag_gain 2 c2 (starting at rest)",
         "a residual transient after every change of rate, with a time constant unlike b1's",
-        "ramp-and-hold runs: two time constants show in the decay after the hold starts"},
+        "ramp-and-hold runs sampled well within 1 / b2: the second lag's response continues after "
+        "the ramp stops, decaying with its own time constant (a rotary term's stops with the rate); "
+        "or oscillations up to b2 / (2 pi) Hz, above which its contribution saturates"},
        SplineFamily::none, gen_second_lag},
       {{Effect::static_error, "static_error",
         "the static curve C_a(x) is wrong",
@@ -286,32 +280,31 @@ std::vector<CandidateSpec> all_candidates(const CandidateContext& ctx) {
   return out;
 }
 
-std::map<std::string, double> keyed_estimates(const ModelConfig& m, const FitResult& r) {
-  std::map<std::string, double> by_name;
-  for (const ParameterEstimate& p : r.parameters) by_name[p.name] = p.value;
-  std::map<std::string, double> out;
-  for (const auto& [name, key] : parameter_keys(m)) {
-    const auto it = by_name.find(name);
-    if (it != by_name.end()) out[key] = it->second;
-  }
-  for (const ParameterEstimate& p : r.parameters)
-    if (p.name.rfind("y0_", 0) == 0) out[p.name] = p.value;
+Estimates estimates_by_id(const FitResult& r) {
+  Estimates out;
+  for (const ParameterEstimate& p : r.parameters) out[p.id] = p.value;
   return out;
 }
 
-StartValues start_values_for(const ModelConfig& m, const std::map<std::string, double>& current,
-                             std::size_t n_runs, const StartValues& extra) {
-  StartValues sv;
-  for (const auto& [name, key] : parameter_keys(m)) {
-    const auto it = current.find(key);
-    if (it != current.end()) sv.emplace_back(name, it->second);
-  }
-  for (std::size_t r = 1; r <= n_runs; ++r) {
-    for (int j = 1; j <= m.lags; ++j) {
-      const std::string n = j == 1 ? fmt::format("y0_{}", r) : fmt::format("y0_{}_{}", r, j);
-      const auto it = current.find(n);
-      if (it != current.end()) sv.emplace_back(n, it->second);
+double estimate_of(const FitResult& r, const ParamId& id, double fallback) {
+  for (const ParameterEstimate& p : r.parameters)
+    if (p.id == id) return p.value;
+  return fallback;
+}
+
+StartValues start_values_for(const ModelConfig& m, const Estimates& current, std::size_t n_runs,
+                             const StartValues& extra) {
+  std::vector<ParamId> ids = model_terms(m);
+  for (std::size_t r = 0; r < n_runs; ++r)
+    for (int j = 0; j < m.lags; ++j) {
+      ParamId y0 = param_id(ParamKind::initial_state, j);
+      y0.run = static_cast<int>(r);
+      ids.push_back(y0);
     }
+  StartValues sv;
+  for (const ParamId& id : ids) {
+    const auto it = current.find(id);
+    if (it != current.end()) sv.emplace_back(id, it->second);
   }
   for (const auto& e : extra) {
     const auto it = std::find_if(sv.begin(), sv.end(), [&](const auto& s) { return s.first == e.first; });

@@ -17,7 +17,20 @@ namespace indicial::diagnose_detail {
 constexpr double kRadToDeg = 180.0 / M_PI;
 constexpr double kDegToRad = M_PI / 180.0;
 
-using StartValues = std::vector<std::pair<std::string, double>>;
+// Start values and estimates are keyed by what a parameter is (ParamId: kind, lag, power, knot
+// position, run), never by its name: inserting a knot renumbers the names A1, A2, ..., not the
+// terms. Names are made (parameter_name) only where a fit takes its start values.
+using StartValues = std::vector<std::pair<ParamId, double>>;
+using Estimates = std::map<ParamId, double>;
+
+// The id of a non-knot parameter (b2_0: {b_power, 1, 0}; c2: {gain, 1}; delay_s: {delay}).
+inline ParamId param_id(ParamKind kind, int lag = 0, int power = 0) {
+  ParamId id;
+  id.kind = kind;
+  id.lag = lag;
+  id.power = power;
+  return id;
+}
 
 // The splines an effect may extend by a knot or a power.
 enum class SplineFamily { b1, a, rotary, static_correction, none };
@@ -65,9 +78,13 @@ std::vector<double> knot_grid(const Experiment& e, const DiagnoseOptions& o, dou
 std::vector<CandidateSpec> all_candidates(const CandidateContext& ctx);
 
 // Parameter identity: start values carried from fit to fit by what a parameter is.
-std::map<std::string, double> keyed_estimates(const ModelConfig& m, const FitResult& r);
-StartValues start_values_for(const ModelConfig& m, const std::map<std::string, double>& current,
-                             std::size_t n_runs, const StartValues& extra);
+Estimates estimates_by_id(const FitResult& r);
+// The start values of model `m` (its terms, and the initial states of n_runs runs, that are in
+// `current`), then `extra` (replacing or adding).
+StartValues start_values_for(const ModelConfig& m, const Estimates& current, std::size_t n_runs,
+                             const StartValues& extra);
+// The value of parameter `id` in a fit, or `fallback`.
+double estimate_of(const FitResult& r, const ParamId& id, double fallback);
 
 std::size_t total_samples(const Experiment& e);
 

@@ -197,12 +197,16 @@ nlohmann::json with_provenance_and_warnings(nlohmann::json j, const ReportOption
 std::vector<std::string> fit_warnings(const FitResult& r, const Experiment& e) {
   std::vector<std::string> w;
   const NoiseEstimate noise = estimate_noise_level(r.runs);
-  if (std::isfinite(r.fit_error) && noise.sigma > 0.0 && r.fit_error > kFitErrorNoiseRatio * noise.sigma) {
+  // Why the white-equivalent level: a model error leaks into the marginal (AR(1)) level and
+  // would hide itself; the second difference does not pass it (diagnose.hpp).
+  const double level = noise.white_equivalent;
+  if (std::isfinite(r.fit_error) && level > 0.0 && r.fit_error > kFitErrorNoiseRatio * level) {
     w.push_back(fmt::format(
         "{}: the fit error s(v) = {:.4g} is {:.1f} times the noise level estimated from the data "
-        "({:.4g}, from the residuals' second differences; more than {:g} times means the model misses an "
-        "effect or the input is wrong: check the angle units and columns, or run `indicial diagnose`)",
-        e.path, r.fit_error, r.fit_error / noise.sigma, noise.sigma, kFitErrorNoiseRatio));
+        "({:.4g}, white-equivalent, from the residuals' second differences; their AR(1) phi is {:.2f}); "
+        "more than {:g} times means the model misses an effect or the input is wrong: check the angle "
+        "units and columns, or run `indicial diagnose`",
+        e.path, r.fit_error, r.fit_error / level, level, noise.lag1_correlation, kFitErrorNoiseRatio));
   }
   return w;
 }
