@@ -240,7 +240,8 @@ TEST_CASE("CSV: fewer rows than one smoothing window") {
 TEST_CASE("TOML: unknown (misspelt) key") {
   expect_fit_refusal(good_run_csv(), experiment_toml("run.csv", "\n[model]\na_degre = 2\n"),
                      "experiment.toml:11: unknown key 'model.a_degre' (allowed here: a_degree, "
-                     "a_knots_deg, a_powers, b1_degree, b1_knots_deg, b1_powers, bias, delay, "
+                     "a_knots_deg, a_powers, b1_degree, b1_knots_deg, b1_powers, b2_degree, b2_knots_deg, "
+                     "b2_powers, b3_degree, b3_knots_deg, b3_powers, bias, delay, "
                      "delay_start_s, further_lag_start, lags, rotary_correction_degree, "
                      "rotary_correction_knots_deg, rotary_correction_powers, static_correction_degree, "
                      "static_correction_knots_deg, static_correction_powers, structure)");
