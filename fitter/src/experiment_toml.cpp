@@ -532,7 +532,7 @@ void read_model_section(LoadContext& c, const toml::node* model_node, bool rotar
   if (const toml::node* n = mt.get("structure")) model.structure = r.choice<StructureMode>(*n, "model.structure");
 }
 
-// Reads every run file and records the model angle's range over all of them.
+// Reads every run file and records the model angle's range over all of them (set_data_range).
 void read_runs(const LoadContext& c, const std::vector<RunEntry>& entries, Experiment& e) {
   for (const auto& entry : entries) {
     const std::string path = c.resolve(entry.file);
@@ -557,15 +557,7 @@ void read_runs(const LoadContext& c, const std::vector<RunEntry>& entries, Exper
     e.warnings.insert(e.warnings.end(), run.warnings.begin(), run.warnings.end());
     e.runs.push_back(std::move(run));
   }
-  bool first = true;
-  for (const auto& run : e.runs) {
-    for (double angle : run.motion_angle_rad) {
-      const double x = model_angle(e.axis, e.alpha0_rad, angle);
-      if (first || x < e.data_x_min_rad) e.data_x_min_rad = x;
-      if (first || x > e.data_x_max_rad) e.data_x_max_rad = x;
-      first = false;
-    }
-  }
+  set_data_range(e);
 }
 
 // Knots strictly inside the data's angle range; the static table covering it.
@@ -643,6 +635,19 @@ void check_motion(const TomlReader& r, Experiment& e) {
 }
 
 }  // namespace
+
+void set_data_range(Experiment& e) {
+  bool first = true;
+  for (const auto& run : e.runs) {
+    for (double angle : run.motion_angle_rad) {
+      const double x = model_angle(e.axis, e.alpha0_rad, angle);
+      if (first || x < e.data_x_min_rad) e.data_x_min_rad = x;
+      if (first || x > e.data_x_max_rad) e.data_x_max_rad = x;
+      first = false;
+    }
+  }
+  if (first) e.data_x_min_rad = e.data_x_max_rad = 0.0;
+}
 
 void refuse_unsupported_run_features(const Experiment& e) {
   for (const Run& run : e.runs) {

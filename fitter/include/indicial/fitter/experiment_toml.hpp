@@ -91,6 +91,11 @@ std::vector<Experiment> load_experiments(const std::string& toml_path);
 // both (issue 12).
 void refuse_unsupported_run_features(const Experiment& experiment);
 
+// Sets data_x_min_rad / data_x_max_rad to the range of the model angle x = model_angle(axis,
+// alpha0, motion angle) over every sample of every run (both 0 without samples). Called by
+// load_experiment; code that builds an Experiment from runs in memory calls it too.
+void set_data_range(Experiment& experiment);
+
 // An experiment file as text, for `experiment` with the run files named by runs[i].path
 // (relative to the experiment file), runs[i].periodic and, where they differ from the
 // defaults, frequency_hz (a phase-column run), airspeed_mps and time_grid. Knots are written in degrees,
