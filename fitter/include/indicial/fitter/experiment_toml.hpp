@@ -15,6 +15,7 @@
 // Keys: exactly those of interface.md plus the extensions documented in docs/formats.md:
 //   runs = ["a.csv", {file = "b.csv", periodic = true}]   entries are strings or tables
 //   [model] a_powers = [1, 2] / b1_powers = [0] (instead of *_degree), lags = 1
+//   [model] b2_degree|b2_powers|b2_knots_deg (bK_* for each lag K = 2..lags): b_K(x)
 //   [model] static_correction_degree|_powers|_knots_deg, rotary_correction_degree|_powers|
 //           _knots_deg, delay = "none"|"estimated", delay_start_s, further_lag_start =
 //           "estimated"|"at_rest"                          what diagnose adds (ModelConfig)
