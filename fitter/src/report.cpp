@@ -223,6 +223,37 @@ const char* state_derivative_name(StateDerivative d) {
   return d == StateDerivative::smoothed_difference ? "smoothed" : "modulating";
 }
 
+// One iteration of the two-stage loop (fit.json's `two_stage` entries).
+nlohmann::json two_stage_iteration_json(const TwoStageIteration& it) {
+  nlohmann::json t;
+  t["iteration"] = it.iteration;
+  t["cost"] = finite_or_null(it.cost);
+  t["fit_error"] = finite_or_null(it.fit_error);
+  t["rotary"] = nlohmann::json::array();
+  for (double v : it.rotary) t["rotary"].push_back(finite_or_null(v));
+  t["rotary_knot_coef"] = nlohmann::json::array();
+  for (double v : it.rotary_knot_coef) t["rotary_knot_coef"].push_back(finite_or_null(v));
+  t["rotary_parameters"] = nlohmann::json::array();
+  for (const ParameterEstimate& p : it.rotary_parameters) t["rotary_parameters"].push_back(parameter_json(p));
+  t["stepwise"] = stepwise_json(it.stepwise);
+  return t;
+}
+
+// The final C_aq(x) of the model (fit.json's `rotary`).
+nlohmann::json rotary_json(const CoefficientModel<double, FitCapacity>& cm, const Experiment& e) {
+  nlohmann::json rot;
+  rot["estimated"] = e.rotary.estimate;
+  rot["polynomial"] = nlohmann::json::array();
+  for (int i = 0; i < cm.rotary.n_powers; ++i) rot["polynomial"].push_back(cm.rotary.power_coef[i]);
+  rot["knots_rad"] = nlohmann::json::array();
+  rot["knot_coef"] = nlohmann::json::array();
+  for (int k = 0; k < cm.rotary.n_knots; ++k) {
+    rot["knots_rad"].push_back(cm.rotary.knot_rad[k]);
+    rot["knot_coef"].push_back(cm.rotary.knot_coef[k]);
+  }
+  return rot;
+}
+
 }  // namespace
 
 nlohmann::json fit_json(const FitResult& r, const Experiment& e, const FitOptions& o,
@@ -237,21 +268,7 @@ nlohmann::json fit_json(const FitResult& r, const Experiment& e, const FitOption
   for (const ParameterEstimate& p : r.parameters) j["parameters"].push_back(parameter_json(p));
   if (e.rotary.estimate) {
     j["two_stage"] = nlohmann::json::array();
-    for (const TwoStageIteration& it : r.two_stage) {
-      nlohmann::json t;
-      t["iteration"] = it.iteration;
-      t["cost"] = finite_or_null(it.cost);
-      t["fit_error"] = finite_or_null(it.fit_error);
-      t["rotary"] = nlohmann::json::array();
-      for (double v : it.rotary) t["rotary"].push_back(finite_or_null(v));
-      t["rotary_knot_coef"] = nlohmann::json::array();
-      for (double v : it.rotary_knot_coef) t["rotary_knot_coef"].push_back(finite_or_null(v));
-      t["rotary_parameters"] = nlohmann::json::array();
-      for (const ParameterEstimate& p : it.rotary_parameters)
-        t["rotary_parameters"].push_back(parameter_json(p));
-      t["stepwise"] = stepwise_json(it.stepwise);
-      j["two_stage"].push_back(t);
-    }
+    for (const TwoStageIteration& it : r.two_stage) j["two_stage"].push_back(two_stage_iteration_json(it));
   }
   j["termination"] = termination_name(oe.termination);
   j["message"] = oe.message;
@@ -281,18 +298,7 @@ nlohmann::json fit_json(const FitResult& r, const Experiment& e, const FitOption
   for (const ParameterEstimate& p : ee.parameters) eej["parameters"].push_back(parameter_json(p));
   eej["stepwise"] = stepwise_json(ee.stepwise);
   j["equation_error"] = eej;
-  const CoefficientModel<double, FitCapacity>& cm = r.model.coefficients[0];
-  nlohmann::json rot;
-  rot["estimated"] = e.rotary.estimate;
-  rot["polynomial"] = nlohmann::json::array();
-  for (int i = 0; i < cm.rotary.n_powers; ++i) rot["polynomial"].push_back(cm.rotary.power_coef[i]);
-  rot["knots_rad"] = nlohmann::json::array();
-  rot["knot_coef"] = nlohmann::json::array();
-  for (int k = 0; k < cm.rotary.n_knots; ++k) {
-    rot["knots_rad"].push_back(cm.rotary.knot_rad[k]);
-    rot["knot_coef"].push_back(cm.rotary.knot_coef[k]);
-  }
-  j["rotary"] = rot;
+  j["rotary"] = rotary_json(r.model.coefficients[0], e);
   j["runs"] = nlohmann::json::array();
   for (const RunSeries& s : r.runs)
     j["runs"].push_back({{"path", display_path(s.path, e)}, {"samples", s.time_s.size()}, {"fit_error", finite_or_null(run_fit_error(s))}});
