@@ -13,6 +13,7 @@
 #include "indicial/coef_file.hpp"
 #include "indicial/runtime.hpp"
 #include "runtime_test_models.hpp"
+#include "test_support.hpp"
 
 #if !defined(__GLIBC__)
 #error "test_alloc counts malloc through glibc's __libc_malloc; port the wrapper for this libc"
@@ -103,7 +104,7 @@ namespace {
 int* volatile g_int_sink = nullptr;
 void* volatile g_void_sink = nullptr;
 
-constexpr double kPi = 3.14159265358979323846;
+using indicial::testing::kPi;
 
 // The file text lives in static storage before counting starts.
 char g_text[8192];

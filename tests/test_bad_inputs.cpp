@@ -28,36 +28,24 @@
 #include <string>
 #include <vector>
 
+#include "cli_test_support.hpp"
 #include "indicial/coef_file.hpp"
+#include "test_support.hpp"
 
 namespace fs = std::filesystem;
 
 namespace {
 
-struct TempDir {
-  fs::path path;
-  TempDir() {
-    char tmpl[] = "/tmp/indicial-bad-inputs-XXXXXX";
-    const char* p = ::mkdtemp(tmpl);
-    REQUIRE(p != nullptr);
-    path = p;
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
+using indicial::testing::kPi;
+
+// The shared scratch directory, with paths as strings (what the argument lists take).
+struct TempDir : indicial::testing::TempDir {
+  TempDir() : indicial::testing::TempDir("bad-inputs") {}
   std::string operator/(const std::string& name) const { return (path / name).string(); }
 };
 
 bool ends_with(const std::string& s, const std::string& suffix) {
   return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
-}
-
-std::string read_file(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
 }
 
 void write(const std::string& path, const std::string& text) {
@@ -72,6 +60,8 @@ struct Result {
 };
 
 // Runs `indicial args...` in a child; fsize_limit_bytes > 0 sets RLIMIT_FSIZE there first.
+// Why not cli_test_support.hpp's run_indicial: the limit must be set in the child between
+// fork and exec, which a shell command line cannot do.
 Result run_cli(const TempDir& dir, const std::vector<std::string>& args, long fsize_limit_bytes = 0) {
   const std::string err_path = dir / ".stderr";
   std::fflush(nullptr);  // or the child would write the parent's buffered output again
@@ -101,7 +91,7 @@ Result run_cli(const TempDir& dir, const std::vector<std::string>& args, long fs
   REQUIRE(::waitpid(pid, &wstatus, 0) == pid);
   Result r;
   r.status = WIFEXITED(wstatus) ? WEXITSTATUS(wstatus) : 128 + WTERMSIG(wstatus);
-  r.err = read_file(err_path);
+  r.err = indicial::testing::slurp(err_path);
   fs::remove(err_path);
   return r;
 }
@@ -111,7 +101,7 @@ Result run_cli(const TempDir& dir, const std::vector<std::string>& args, long fs
 std::string good_run_csv(int rows = 64) {
   std::string s = "time_s,alpha_deg,q_degps,Cm\n";
   for (int i = 0; i < rows; ++i) {
-    const double t = i / 64.0, w = 2.0 * M_PI;
+    const double t = i / 64.0, w = 2.0 * kPi;
     char line[160];
     std::snprintf(line, sizeof line, "%.17g,%.17g,%.17g,%.17g\n", t, 20.0 + 15.0 * std::sin(w * t),
                   15.0 * w * std::cos(w * t), -0.01 * std::sin(w * t));
@@ -240,7 +230,8 @@ TEST_CASE("CSV: fewer rows than one smoothing window") {
 TEST_CASE("TOML: unknown (misspelt) key") {
   expect_fit_refusal(good_run_csv(), experiment_toml("run.csv", "\n[model]\na_degre = 2\n"),
                      "experiment.toml:11: unknown key 'model.a_degre' (allowed here: a_degree, "
-                     "a_knots_deg, a_powers, b1_degree, b1_knots_deg, b1_powers, bias, delay, "
+                     "a_knots_deg, a_powers, b1_degree, b1_knots_deg, b1_powers, b2_degree, b2_knots_deg, "
+                     "b2_powers, b3_degree, b3_knots_deg, b3_powers, bias, delay, "
                      "delay_start_s, further_lag_start, lags, rotary_correction_degree, "
                      "rotary_correction_knots_deg, rotary_correction_powers, static_correction_degree, "
                      "static_correction_knots_deg, static_correction_powers, structure)");
@@ -298,7 +289,7 @@ TEST_CASE("rank-deficient regressors: a ramp at constant rate with a bias") {
 
 namespace {
 std::string model_one_text() {
-  return read_file(std::string(INDICIAL_SOURCE_DIR) + "/examples/tailless-model-1.coef");
+  return indicial::testing::slurp(std::string(INDICIAL_SOURCE_DIR) + "/examples/tailless-model-1.coef");
 }
 std::string with_checksum(std::string body) {
   char line[32];
@@ -354,7 +345,7 @@ TEST_CASE("output directory not empty: refused, contents untouched") {
   CHECK(r.status == 1);
   CHECK(r.err == "indicial: error: " + (dir / "out") +
                      ": output directory is not empty (use --force to replace its contents)\n");
-  CHECK(read_file(dir / "out/previous.txt") == "previous results\n");
+  CHECK(indicial::testing::slurp(dir / "out/previous.txt") == "previous results\n");
   CHECK(std::distance(fs::directory_iterator(dir / "out"), fs::directory_iterator{}) == 1);
 }
 
@@ -363,7 +354,7 @@ namespace {
 std::map<std::string, std::string> tree(const fs::path& root) {
   std::map<std::string, std::string> t;
   for (const auto& e : fs::recursive_directory_iterator(root))
-    if (e.is_regular_file()) t[fs::relative(e.path(), root).string()] = read_file(e.path().string());
+    if (e.is_regular_file()) t[fs::relative(e.path(), root).string()] = indicial::testing::slurp(e.path().string());
   return t;
 }
 std::vector<std::string> names_in(const fs::path& dir) {
@@ -401,14 +392,14 @@ TEST_CASE("disk write failure of a single file with --force: the previous file s
   const std::string motion = "sine:alpha0_deg=35,amp_deg=35,freq_hz=0.5,cycles=3,dt_s=0.01";
   Result r = run_cli(dir, {"simulate", "--model", coef, "--motion", motion, "--out", dir / "sim.csv"});
   REQUIRE(r.status == 0);
-  const std::string before = read_file(dir / "sim.csv");
+  const std::string before = indicial::testing::slurp(dir / "sim.csv");
   REQUIRE(before.size() > 8192);
   r = run_cli(dir, {"simulate", "--model", coef, "--motion", motion, "--out", dir / "sim.csv", "--force"}, 4096);
   MESSAGE("message: " << r.err);
   CHECK(r.status == 1);
   CHECK(r.err == "indicial: error: " + (dir / "sim.csv") + ": write failed: File too large; " +
                      (dir / "sim.csv") + " left as it was\n");
-  CHECK(read_file(dir / "sim.csv") == before);
+  CHECK(indicial::testing::slurp(dir / "sim.csv") == before);
   CHECK(names_in(dir.path) == std::vector<std::string>{"sim.csv"});
 }
 
@@ -420,7 +411,7 @@ namespace {
 std::string cycle_csv(double jitter_rad = 0.0) {
   std::string s = "phase_rad,alpha_deg,Cm\n";
   for (int k = 0; k < 64; ++k) {
-    const double ph = 2.0 * M_PI * k / 64 + (k == 32 ? jitter_rad : 0.0);
+    const double ph = 2.0 * kPi * k / 64 + (k == 32 ? jitter_rad : 0.0);
     char line[96];
     std::snprintf(line, sizeof line, "%.2f,%.17g,%.17g\n", ph, 20.0 - 15.0 * std::cos(ph), -0.01 * std::sin(ph));
     s += line;
@@ -487,8 +478,8 @@ TEST_CASE("warnings on plausible mistakes go to stderr, the fit goes on") {
   std::string still = "time_s,alpha_deg,Cm\n";
   for (int i = 0; i < 64; ++i) {
     const double t = i / 64.0;
-    rad += std::to_string(t) + "," + std::to_string(0.35 + 0.26 * std::sin(2 * M_PI * t)) + ",101325," +
-           std::to_string(-0.01 * std::sin(2 * M_PI * t)) + "\n";
+    rad += std::to_string(t) + "," + std::to_string(0.35 + 0.26 * std::sin(2 * kPi * t)) + ",101325," +
+           std::to_string(-0.01 * std::sin(2 * kPi * t)) + "\n";
     still += std::to_string(t) + ",0.35,0\n";
   }
   write(dir / "run.csv", rad);

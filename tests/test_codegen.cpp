@@ -21,6 +21,8 @@
 #include "tailless_model_2.hpp"
 #include "codegen_only_tu.hpp"
 #include "runtime_test_models.hpp"
+#include "cli_test_support.hpp"
+#include "test_support.hpp"
 
 using indicial_generated::synthetic_lift_moment;
 using indicial_generated::tailless_model_1;
@@ -38,7 +40,7 @@ namespace {
 
 using Set = indicial::ModelSet<double, indicial::DefaultCapacity>;
 using P = indicial::Predictor<double>;
-constexpr double kPi = 3.14159265358979323846;
+using indicial::testing::kPi;
 
 std::string example(const std::string& name) {
   return indicial::read_text(std::string(INDICIAL_SOURCE_DIR) + "/examples/" + name + ".coef");
@@ -86,16 +88,10 @@ void compare_runs(const std::string& text, const Generated& generated) {
 
 // Runs the built CLI; returns its exit status and (via *output) stdout + stderr.
 int run(const std::string& args, std::string* output) {
-  const std::string log = std::filesystem::temp_directory_path() /
-                          ("indicial_codegen_" + std::to_string(::getpid()) + ".log");
-  const std::string cmd = std::string("\"") + INDICIAL_EXE + "\" " + args + " > \"" + log + "\" 2>&1";
-  const int rc = std::system(cmd.c_str());
-  std::ifstream in(log);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  *output = ss.str();
-  std::filesystem::remove(log);
-  return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+  const indicial::testing::CliRun r =
+      indicial::testing::run_indicial(args, indicial::testing::scratch_directory("codegen"));
+  *output = r.out + r.err;
+  return r.exit_code;
 }
 
 }  // namespace
@@ -127,10 +123,8 @@ TEST_CASE("the generated header runs bit for bit like the text file") {
 }
 
 TEST_CASE("codegen refuses damaged files with file:line: reason, and existing output") {
-  const std::filesystem::path dir = std::filesystem::temp_directory_path() /
-                                    ("indicial_codegen_test_" + std::to_string(::getpid()));
-  std::filesystem::remove_all(dir);
-  std::filesystem::create_directories(dir);
+  const indicial::testing::TempDir scratch("codegen-refusals");
+  const std::filesystem::path& dir = scratch.path;
   std::string text = example("tailless-model-2");
   const std::string bad = (dir / "bad.coef").string();
   text[text.find("2.5")] = '3';  // corrupt lag_poly 1 2.5 -> 3.5
@@ -179,7 +173,6 @@ TEST_CASE("codegen refuses damaged files with file:line: reason, and existing ou
   CHECK(out.find("ok") != std::string::npos);
   CHECK(run("coef check \"" + bad + "\"", &out) == 1);
   CHECK(out.find("checksum_mismatch") != std::string::npos);
-  std::filesystem::remove_all(dir);
 }
 
 TEST_CASE("a translation unit with only the generated header and runtime.hpp steps bit for bit") {

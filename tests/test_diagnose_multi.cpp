@@ -52,23 +52,7 @@ TEST_CASE("diagnose finds two hidden effects at once: b1_alpha and bias") {
 // ------------------------------------------------------------------------------------------
 namespace {
 using Cmd = CliRun;
-// A fresh directory under /tmp for this process, removed at exit.
-struct ScratchDir {
-  fs::path path;
-  ScratchDir() {
-    path = fs::temp_directory_path() / ("indicial-test-diagnose-" + std::to_string(::getpid()));
-    fs::remove_all(path);
-    fs::create_directories(path);
-  }
-  ~ScratchDir() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
-};
-const fs::path& scratch() {
-  static const ScratchDir dir;
-  return dir.path;
-}
+const fs::path& scratch() { return scratch_directory("diagnose"); }
 Cmd run(const std::string& args) { return run_indicial(args, scratch()); }
 }  // namespace
 

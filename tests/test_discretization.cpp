@@ -17,10 +17,11 @@
 #include "indicial/model.hpp"
 #include "indicial/runtime.hpp"
 #include "runtime_test_models.hpp"
+#include "test_support.hpp"
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using indicial::testing::kPi;
 constexpr double kDeg = kPi / 180.0;
 
 using indicial::FitCapacity;

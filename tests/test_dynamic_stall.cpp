@@ -12,12 +12,13 @@
 #include "indicial/fitter/dynamic_stall.hpp"
 #include "indicial/fitter/io.hpp"
 #include "indicial/fitter/validation_realistic.hpp"
+#include "test_support.hpp"
 
 namespace ds = indicial::dynamic_stall;
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using indicial::testing::kPi;
 
 ds::Campaign one_cycle_campaign(double k, double airspeed_mps, double amplitude_deg = 8.0) {
   ds::Campaign c = ds::default_campaign();
@@ -102,8 +103,8 @@ TEST_CASE("dynamic stall: noise is sigma = RMS(C - C_static) / SNR on the raw sa
 
 TEST_CASE("dynamic stall: simulate --case dynamic-stall writes the agreed phase-averaged format") {
   namespace fs = std::filesystem;
-  const fs::path dir = fs::temp_directory_path() / ("indicial-ds-" + std::to_string(std::random_device{}()));
-  fs::create_directories(dir);
+  const indicial::testing::TempDir scratch("dynamic-stall");
+  const fs::path& dir = scratch.path;
   const indicial::testing::CliRun r =
       indicial::testing::run_indicial("simulate --case dynamic-stall --snr 20 --out '" + (dir / "out").string() + "'", dir);
   REQUIRE(r.exit_code == 0);
@@ -149,7 +150,6 @@ TEST_CASE("dynamic stall: simulate --case dynamic-stall writes the agreed phase-
     return std::stod(metrics.substr(metrics.find(':', at) + 1));
   };
   CHECK(rms_after("\"model\"") < 0.5 * rms_after("\"quasi_steady\""));
-  fs::remove_all(dir);
 }
 
 TEST_CASE("dynamic stall: fitted on 3 cycles, the model beats half the quasi-steady error on >= 9 of 11") {

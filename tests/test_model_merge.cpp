@@ -117,22 +117,14 @@ TEST_CASE("merge: the envelope is the intersection, with a warning for each part
 #include <nlohmann/json.hpp>
 
 #include "cli_test_support.hpp"
+#include "test_support.hpp"
 
 namespace {
 
 namespace fs = std::filesystem;
 
-struct TempDir {
-  fs::path path;
-  TempDir() {
-    char tmpl[] = "/tmp/indicial-merge-XXXXXX";
-    REQUIRE(::mkdtemp(tmpl) != nullptr);
-    path = tmpl;
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
+struct TempDir : indicial::testing::TempDir {
+  TempDir() : indicial::testing::TempDir("merge") {}
 };
 
 std::string q(const fs::path& p) { return "'" + p.string() + "'"; }

@@ -14,7 +14,9 @@
 #include <sstream>
 #include <string>
 
+#include "cli_test_support.hpp"
 #include "indicial/fitter/montecarlo.hpp"
+#include "test_support.hpp"
 
 namespace fs = std::filesystem;
 
@@ -33,12 +35,7 @@ constexpr int kSeeds = 200;
 constexpr Statistics kStatistics = Statistics::checked;
 #endif
 
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
+using indicial::testing::slurp;
 
 // kSeeds seeds of `case_name` at SNR 40 from first_seed; checks that every seed was fitted
 // and, when the statistics are checked, that every parameter's empirical std / mean CR bound
@@ -147,16 +144,14 @@ TEST_CASE("bad options are refused") {
 }
 
 TEST_CASE("the montecarlo command writes montecarlo.json and .md, with progress lines on a non-tty") {
-  char tmpl[] = "/tmp/indicial-test-montecarlo-XXXXXX";
-  REQUIRE(::mkdtemp(tmpl) != nullptr);
-  const fs::path dir(tmpl);
-  const std::string cmd = std::string("'") + INDICIAL_EXE + "' montecarlo --case tailless-model-1 --seeds 10 --snr 40 "
-                          "--first-seed 5 --threads 2 --out '" + (dir / "mc").string() + "' > '" +
-                          (dir / "out.txt").string() + "' 2> '" + (dir / "err.txt").string() + "'";
-  const int rc = std::system(cmd.c_str());
-  REQUIRE(rc != -1);
-  CHECK(WEXITSTATUS(rc) == 0);
-  const std::string err = slurp(dir / "err.txt");
+  const indicial::testing::TempDir scratch("montecarlo");
+  const fs::path& dir = scratch.path;
+  const indicial::testing::CliRun r = indicial::testing::run_indicial(
+      "montecarlo --case tailless-model-1 --seeds 10 --snr 40 --first-seed 5 --threads 2 --out '" +
+          (dir / "mc").string() + "'",
+      dir);
+  CHECK(r.exit_code == 0);
+  const std::string& err = r.err;
   CHECK(err.find("montecarlo: 100% (10/10 seeds") != std::string::npos);
   CHECK(err.find('\r') == std::string::npos);  // no live counter when stderr is a file
   const nlohmann::json j = nlohmann::json::parse(slurp(dir / "mc" / "montecarlo.json"));
@@ -171,8 +166,6 @@ TEST_CASE("the montecarlo command writes montecarlo.json and .md, with progress 
   }
   CHECK(slurp(dir / "mc" / "montecarlo.md").find("| b1_0 |") != std::string::npos);
   // A second run into the same directory is refused without --force.
-  const int rc2 = std::system((std::string("'") + INDICIAL_EXE + "' montecarlo --case tailless-model-1 --seeds 2 --out '" +
-                               (dir / "mc").string() + "' > /dev/null 2>&1").c_str());
-  CHECK(WEXITSTATUS(rc2) == 1);
-  fs::remove_all(dir);
+  CHECK(indicial::testing::run_indicial("montecarlo --case tailless-model-1 --seeds 2 --out '" + (dir / "mc").string() + "'",
+                                        dir).exit_code == 1);
 }

@@ -12,10 +12,11 @@
 #include "indicial/fitter/io.hpp"
 #include "indicial/fitter/predict.hpp"
 #include "indicial/fitter/simulate.hpp"
+#include "test_support.hpp"
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using indicial::testing::kPi;
 constexpr int kSamplesPerCycle = 128;
 constexpr int kCycles = 12;
 
@@ -105,8 +106,8 @@ TEST_CASE("predict --periodic: a closed cycle (last sample repeats the first) gi
 TEST_CASE("predict --periodic: the command line predicts one cycle's periodic state and scores it") {
   namespace fs = std::filesystem;
   const LongRun& l = long_run();
-  const fs::path dir = fs::temp_directory_path() / ("indicial-pp-" + std::to_string(std::random_device{}()));
-  fs::create_directories(dir);
+  const indicial::testing::TempDir scratch("predict-periodic");
+  const fs::path& dir = scratch.path;
   const std::size_t n = kSamplesPerCycle;
   const Cycle c = cycle_of(l.run, static_cast<std::size_t>(kCycles - 1) * n, n);
   std::vector<double> deg = c.angle, degps = c.rate;
@@ -135,5 +136,4 @@ TEST_CASE("predict --periodic: the command line predicts one cycle's periodic st
     return std::stod(j.substr(j.find(':', at) + 1));
   };
   CHECK(rms(pj) < 0.1 * rms(cj));
-  fs::remove_all(dir);
 }

@@ -10,6 +10,7 @@
 #include "indicial/coef_file.hpp"
 #include "indicial/runtime.hpp"
 #include "runtime_test_models.hpp"
+#include "test_support.hpp"
 
 namespace {
 
@@ -18,7 +19,7 @@ using P = indicial::Predictor<double>;
 using indicial::LoadStatus;
 using indicial::StepStatus;
 
-constexpr double kPi = 3.14159265358979323846;
+using indicial::testing::kPi;
 
 // The report's Example 1 motion: alpha = 35 deg + 35 deg sin(2 pi f t).
 double alpha_at(double t_s, double f_hz) {

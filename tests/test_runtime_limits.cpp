@@ -13,13 +13,14 @@
 #include "indicial/fitter/io.hpp"
 #include "indicial/fitter/runtime_limits.hpp"
 #include "indicial/runtime.hpp"
+#include "test_support.hpp"
 
 namespace fs = std::filesystem;
 namespace ds = indicial::dynamic_stall;
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using indicial::testing::kPi;
 
 // Model I with b1(x) = 2.5 - 4 x: negative above 0.625 rad, inside the 0..70 deg envelope.
 indicial::TruthModel unstable_model() {
@@ -30,8 +31,9 @@ indicial::TruthModel unstable_model() {
   return m;
 }
 
+// A fresh directory per tag under this process's scratch directory (removed at exit).
 fs::path fresh_dir(const std::string& tag) {
-  const fs::path d = fs::temp_directory_path() / ("indicial-rl-" + tag + "-" + std::to_string(std::random_device{}()));
+  const fs::path d = indicial::testing::scratch_directory("runtime-limits") / tag;
   fs::create_directories(d);
   return d;
 }

@@ -7,10 +7,11 @@
 
 #include "indicial/fitter/predict.hpp"
 #include "indicial/fitter/simulate.hpp"
+#include "test_support.hpp"
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using indicial::testing::kPi;
 
 indicial::MotionSpec sine(double freq_hz, double dt_s) {
   indicial::MotionSpec m;

@@ -6,7 +6,6 @@
 // The truth comes from the reference integration in fitter/include/indicial/fitter/simulate.hpp.
 #include <cmath>
 #include <cstdio>
-#include <limits>
 #include <memory>
 #include <string>
 
@@ -31,21 +30,6 @@ struct SimulateOptions {
   bool force = false;
   bool list = false;
 };
-
-double parse_snr(const std::string& text) {
-  if (text == "inf" || text == "Inf" || text == "infinity") return std::numeric_limits<double>::infinity();
-  double v = 0.0;
-  std::size_t used = 0;
-  try {
-    v = std::stod(text, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used != text.size() || text.empty() || !(v > 0)) {
-    throw indicial::InputError("--snr", 0, "expected a number > 0 or 'inf', found '" + text + "'");
-  }
-  return v;
-}
 
 void run_simulate(const SimulateOptions& o) {
   using namespace indicial;

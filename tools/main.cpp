@@ -12,31 +12,15 @@
 #include <cstdio>
 #include <exception>
 #include <string>
-#include <vector>
 
 #include "command.hpp"
+#include "indicial/fitter/did_you_mean.hpp"
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/provenance.hpp"
 
 namespace {
 
 constexpr int kUsageError = 1;
-
-// Levenshtein distance (for "did you mean").
-std::size_t edit_distance(const std::string& a, const std::string& b) {
-  std::vector<std::size_t> row(b.size() + 1);
-  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
-  for (std::size_t i = 1; i <= a.size(); ++i) {
-    std::size_t diagonal = row[0];
-    row[0] = i;
-    for (std::size_t j = 1; j <= b.size(); ++j) {
-      const std::size_t up = row[j];
-      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
-      diagonal = up;
-    }
-  }
-  return row[b.size()];
-}
 
 // "unknown subcommand 'fitt' (did you mean 'fit'?)" when argv's first word names none.
 std::string unknown_subcommand(const CLI::App& app, const std::string& word) {
@@ -46,7 +30,7 @@ std::string unknown_subcommand(const CLI::App& app, const std::string& word) {
   for (const CLI::App* sub : app.get_subcommands([](const CLI::App*) { return true; })) {
     const std::string& name = sub->get_name();
     all += (all.empty() ? "" : ", ") + name;
-    const std::size_t d = edit_distance(word, name);
+    const std::size_t d = indicial::edit_distance(word, name, indicial::LetterCase::significant);
     if (d < best_distance) best_distance = d, best = name;
   }
   std::string message = "unknown subcommand '" + word + "'";

@@ -6,9 +6,9 @@
 #include <boost/numeric/odeint.hpp>
 #include <cmath>
 #include <fmt/format.h>
-#include <limits>
 
 #include "indicial/fitter/error.hpp"
+#include "indicial/fitter/experiment_toml.hpp"
 #include "indicial/fitter/io.hpp"
 
 namespace indicial::dynamic_stall {
@@ -266,8 +266,6 @@ Experiment campaign_experiment_config(const Campaign& c, const std::string& coef
 Experiment campaign_experiment(const Campaign& c, const std::vector<PhaseAveragedCycle>& cycles,
                                const std::string& coefficient, CycleRole role) {
   Experiment e = campaign_experiment_config(c, coefficient);
-  double lo = std::numeric_limits<double>::infinity();
-  double hi = -lo;
   for (const PhaseAveragedCycle& cy : cycles) {
     if (cy.cycle.role != role) continue;
     Run r;
@@ -280,14 +278,9 @@ Experiment campaign_experiment(const Campaign& c, const std::vector<PhaseAverage
     r.coefficient = coefficient == "CL" ? cy.lift : cy.moment;
     r.periodic = true;
     r.airspeed_mps = cy.cycle.airspeed_mps;
-    for (double x : cy.alpha_rad) {
-      lo = std::min(lo, x);
-      hi = std::max(hi, x);
-    }
     e.runs.push_back(std::move(r));
   }
-  e.data_x_min_rad = lo;
-  e.data_x_max_rad = hi;
+  set_data_range(e);
   return e;
 }
 

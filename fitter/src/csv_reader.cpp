@@ -13,6 +13,7 @@
 #include <utility>
 
 #include "indicial/fitter/derivative.hpp"
+#include "indicial/fitter/did_you_mean.hpp"
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/io.hpp"
 
@@ -78,22 +79,6 @@ char detect_delimiter(const std::string& header) {
 
 std::string delimiter_name(char d) {
   return d == '\t' ? "tab" : d == ';' ? "semicolon" : "comma";
-}
-
-// Case-insensitive edit distance (Levenshtein), for "did you mean" hints.
-std::size_t edit_distance(const std::string& a, const std::string& b) {
-  auto lower = [](char c) { return static_cast<char>(std::tolower(static_cast<unsigned char>(c))); };
-  std::vector<std::size_t> prev(b.size() + 1), cur(b.size() + 1);
-  for (std::size_t j = 0; j <= b.size(); ++j) prev[j] = j;
-  for (std::size_t i = 1; i <= a.size(); ++i) {
-    cur[0] = i;
-    for (std::size_t j = 1; j <= b.size(); ++j) {
-      const std::size_t sub = prev[j - 1] + (lower(a[i - 1]) == lower(b[j - 1]) ? 0 : 1);
-      cur[j] = std::min({prev[j] + 1, cur[j - 1] + 1, sub});
-    }
-    std::swap(prev, cur);
-  }
-  return prev[b.size()];
 }
 
 // Parses a whole cell as a finite double; on failure returns the problem text.
@@ -302,7 +287,7 @@ CsvTable read_csv_table(const std::string& path, const ColumnMap& columns) {
   for (const auto& name : t.original) {
     found += (found.empty() ? "" : ", ") + name;
     for (const auto& w : wanted) {
-      const std::size_t d = edit_distance(name, w);
+      const std::size_t d = edit_distance(name, w, LetterCase::ignored);
       if (d < best && d < w.size()) {
         best = d;
         nearest = name;

@@ -446,22 +446,68 @@ void read_spline_terms(LoadContext& c, const toml::table& mt, const std::string&
   }
 }
 
+// The [model] keys of lag k's b_k(x) (k = 1..FitCapacity::max_lags): bK_degree, bK_powers,
+// bK_knots_deg, the same names for every lag.
+std::vector<std::string> lag_b_keys(int k) {
+  const std::string b = "b" + std::to_string(k);
+  return {b + "_degree", b + "_powers", b + "_knots_deg"};
+}
+
+// The keys [model] accepts.
+std::set<std::string> model_keys() {
+  std::set<std::string> keys = {"a_degree", "a_powers", "a_knots_deg", "bias", "structure", "lags",
+                                // extensions (docs/formats.md): what `indicial diagnose` adds to a model
+                                "static_correction_degree", "static_correction_powers",
+                                "static_correction_knots_deg", "rotary_correction_degree",
+                                "rotary_correction_powers", "rotary_correction_knots_deg", "delay",
+                                "delay_start_s", "further_lag_start"};
+  for (int k = 1; k <= FitCapacity::max_lags; ++k)
+    for (const std::string& key : lag_b_keys(k)) keys.insert(key);
+  return keys;
+}
+
+// model.lags: 1..FitCapacity::max_lags here; beyond the runtime's capacity refused with the
+// other capacity uses once the structure is known.
+void read_lag_count(LoadContext& c, const toml::table& mt, ModelConfig& model) {
+  const TomlReader& r = c.r;
+  const toml::node* n = mt.get("lags");
+  if (!n) return;
+  const long lags = r.integer(*n, "model.lags");
+  if (lags < 1 || lags > FitCapacity::max_lags) {
+    r.fail(*n, "'model.lags' must be 1.." + std::to_string(FitCapacity::max_lags));
+  }
+  model.lags = static_cast<int>(lags);
+  c.capacity.push_back({"model.lags", "lags", model.lags, DefaultCapacity::max_lags, n->source()});
+}
+
+// b_k(x) of lags k = 2..model.lags (ModelConfig::further_lag_b); a lag without keys keeps the
+// constant b_k. Keys of a lag beyond model.lags are refused (they would be silently unused).
+void read_further_lag_b(LoadContext& c, const toml::table& mt, ModelConfig& model) {
+  model.further_lag_b.clear();
+  for (int k = 2; k <= FitCapacity::max_lags; ++k) {
+    const std::vector<std::string> keys = lag_b_keys(k);
+    const auto given = std::find_if(keys.begin(), keys.end(), [&](const std::string& key) { return mt.get(key); });
+    if (given == keys.end()) continue;
+    if (k > model.lags) {
+      c.r.fail(*mt.get(*given), "'model." + *given + "' is for lag " + std::to_string(k) + " but model.lags = " +
+                                    std::to_string(model.lags) + ": set 'lags = " + std::to_string(k) + "' or remove it");
+    }
+    model.further_lag_b.resize(static_cast<std::size_t>(k - 1), SplineConfig{{0}, {}, 1});
+    read_spline_terms(c, mt, "b" + std::to_string(k), model.further_lag_b.back());
+  }
+}
+
 // [model]: the splines, the structure and what diagnose adds.
 void read_model_section(LoadContext& c, const toml::node* model_node, bool rotary_estimate,
                         ModelConfig& model) {
   const TomlReader& r = c.r;
   if (!model_node) return;
   const toml::table& mt = r.table(*model_node, "model");
-  r.check_keys(mt, {"a_degree", "a_powers", "a_knots_deg", "b1_degree", "b1_powers",
-                    "b1_knots_deg", "bias", "structure", "lags",
-                    // extensions (docs/formats.md): what `indicial diagnose` adds to a model
-                    "static_correction_degree", "static_correction_powers",
-                    "static_correction_knots_deg", "rotary_correction_degree",
-                    "rotary_correction_powers", "rotary_correction_knots_deg", "delay",
-                    "delay_start_s", "further_lag_start"},
-               "model.");
+  r.check_keys(mt, model_keys(), "model.");
+  read_lag_count(c, mt, model);
   read_spline_terms(c, mt, "a", model.a);
   read_spline_terms(c, mt, "b1", model.b1);
+  read_further_lag_b(c, mt, model);
   read_spline_terms(c, mt, "static_correction", model.static_correction);
   read_spline_terms(c, mt, "rotary_correction", model.rotary_correction);
   const bool rotary_correction =
@@ -484,17 +530,9 @@ void read_model_section(LoadContext& c, const toml::node* model_node, bool rotar
     model.further_lag_start = r.choice<LagStart>(*n, "model.further_lag_start");
   if (const toml::node* n = mt.get("bias")) model.bias = r.boolean(*n, "model.bias");
   if (const toml::node* n = mt.get("structure")) model.structure = r.choice<StructureMode>(*n, "model.structure");
-  if (const toml::node* n = mt.get("lags")) {
-    const long lags = r.integer(*n, "model.lags");
-    if (lags < 1 || lags > FitCapacity::max_lags) {
-      r.fail(*n, "'model.lags' must be 1.." + std::to_string(FitCapacity::max_lags));
-    }
-    model.lags = static_cast<int>(lags);
-    c.capacity.push_back({"model.lags", "lags", model.lags, DefaultCapacity::max_lags, n->source()});
-  }
 }
 
-// Reads every run file and records the model angle's range over all of them.
+// Reads every run file and records the model angle's range over all of them (set_data_range).
 void read_runs(const LoadContext& c, const std::vector<RunEntry>& entries, Experiment& e) {
   for (const auto& entry : entries) {
     const std::string path = c.resolve(entry.file);
@@ -519,15 +557,7 @@ void read_runs(const LoadContext& c, const std::vector<RunEntry>& entries, Exper
     e.warnings.insert(e.warnings.end(), run.warnings.begin(), run.warnings.end());
     e.runs.push_back(std::move(run));
   }
-  bool first = true;
-  for (const auto& run : e.runs) {
-    for (double angle : run.motion_angle_rad) {
-      const double x = model_angle(e.axis, e.alpha0_rad, angle);
-      if (first || x < e.data_x_min_rad) e.data_x_min_rad = x;
-      if (first || x > e.data_x_max_rad) e.data_x_max_rad = x;
-      first = false;
-    }
-  }
+  set_data_range(e);
 }
 
 // Knots strictly inside the data's angle range; the static table covering it.
@@ -604,13 +634,28 @@ void check_motion(const TomlReader& r, Experiment& e) {
   }
 }
 
+}  // namespace
 
+void set_data_range(Experiment& e) {
+  bool first = true;
+  for (const auto& run : e.runs) {
+    for (double angle : run.motion_angle_rad) {
+      const double x = model_angle(e.axis, e.alpha0_rad, angle);
+      if (first || x < e.data_x_min_rad) e.data_x_min_rad = x;
+      if (first || x > e.data_x_max_rad) e.data_x_max_rad = x;
+      first = false;
+    }
+  }
+  if (first) e.data_x_min_rad = e.data_x_max_rad = 0.0;
+}
+
+namespace {
 
 // One coefficient's experiment from the parsed file (see load_experiments).
 Experiment load_one(const std::string& toml_path, const toml::table& root, const std::string& coefficient,
                     const std::vector<std::string>& coefficients) {
   const TomlReader r(toml_path);
-  LoadContext c{r, fs::path(toml_path).parent_path(), {}, root.source()};
+  LoadContext c{r, fs::path(toml_path).parent_path(), {}, root.source(), {}, {}};
   Experiment e;
   e.path = toml_path;
   read_top_level(c, root, coefficient, e);
@@ -635,7 +680,7 @@ toml::table parse_checked(const std::string& toml_path, std::vector<std::string>
   r.check_keys(root, {"axis", "coefficient", "coefficients", "reference_length_m", "airspeed_mps", "alpha0_deg",
                       "alpha0_rad", "runs", "static", "rotary", "model", "columns"},
                "");
-  const LoadContext c{r, {}, {}, root.source()};
+  const LoadContext c{r, {}, {}, root.source(), {}, {}};
   coefficients = read_coefficient_names(c, root);
   return root;
 }
@@ -750,6 +795,13 @@ std::string write_experiment_toml(const Experiment& e, const std::vector<std::st
   out += "a_knots_deg = " + number_list(e.model.a.knots_rad, kRadToDeg) + "\n";
   out += power_terms("b1", e.model.b1.powers);
   out += "b1_knots_deg = " + number_list(e.model.b1.knots_rad, kRadToDeg) + "\n";
+  // Only the lags the model has: the reader refuses b_k keys beyond model.lags.
+  for (std::size_t j = 0; j < e.model.further_lag_b.size() && static_cast<int>(j) + 2 <= e.model.lags; ++j) {
+    const std::string b = "b" + std::to_string(j + 2);
+    out += power_terms(b, e.model.further_lag_b[j].powers);
+    if (!e.model.further_lag_b[j].knots_rad.empty())
+      out += b + "_knots_deg = " + number_list(e.model.further_lag_b[j].knots_rad, kRadToDeg) + "\n";
+  }
   out += std::string("bias = ") + (e.model.bias ? "true" : "false") + "\n";
   out += std::string("structure = \"") + name_of(e.model.structure) + "\"\n";
   if (e.model.lags != 1) out += "lags = " + std::to_string(e.model.lags) + "\n";

@@ -11,6 +11,7 @@
 #include <thread>
 
 #include "indicial/fitter/error.hpp"
+#include "indicial/fitter/experiment_toml.hpp"
 #include "indicial/fitter/report.hpp"
 #include "indicial/fitter/runtime_limits.hpp"
 
@@ -20,8 +21,6 @@ Experiment experiment_from_simulation(const SimulationCase& c, const std::vector
   Experiment e = c.experiment;
   e.path = c.name + " (simulated)";
   e.runs.clear();
-  double lo = std::numeric_limits<double>::infinity();
-  double hi = -lo;
   for (std::size_t i = 0; i < runs.size(); ++i) {
     Run r;
     r.path = i < c.run_files.size() ? c.run_files[i] : fmt::format("run{}", i + 1);
@@ -31,14 +30,9 @@ Experiment experiment_from_simulation(const SimulationCase& c, const std::vector
     r.rate_from_file = true;  // the simulator's rate is exact, as a measured rate column would be
     r.coefficient = runs[i].coefficient_measured.at(0);
     r.periodic = i < c.experiment.runs.size() && c.experiment.runs[i].periodic;
-    for (double x : runs[i].x_rad) {
-      lo = std::min(lo, x);
-      hi = std::max(hi, x);
-    }
     e.runs.push_back(std::move(r));
   }
-  e.data_x_min_rad = lo;
-  e.data_x_max_rad = hi;
+  set_data_range(e);
   return e;
 }
 
@@ -106,6 +100,124 @@ struct SeedOutcome {
   std::vector<double> truth;
 };
 
+// Seed k's noisy data, fit and runtime check (never throws: a failure is recorded).
+SeedOutcome fit_one_seed(const SimulationCase& c, const std::vector<SimulatedRun>& clean, const MonteCarloOptions& o,
+                         std::size_t k) {
+  SeedOutcome out;
+  const auto ts = std::chrono::steady_clock::now();
+  try {
+    std::vector<SimulatedRun> runs = clean;
+    add_measurement_noise(runs, o.snr, o.first_seed + k, o.noise);
+    const Experiment e = experiment_from_simulation(c, runs);
+    const FitResult fr = fit_experiment(e, o.fit);
+    // A model the runtime refuses is a failed fit: counted and named, never averaged in.
+    require_runtime_accepts(fr.model, fmt::format("seed {}", o.first_seed + k), ModelFile::to_write);
+    out.ok = true;
+    out.termination = fr.output_error.termination;
+    out.fit_error = fr.fit_error;
+    out.parameters = fr.parameters;
+    for (const ParameterEstimate& p : fr.parameters) out.truth.push_back(true_parameter_value(c.truth, p.id));
+  } catch (const std::exception& ex) {
+    out.ok = false;
+    out.error = ex.what();
+  }
+  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - ts).count();
+  return out;
+}
+
+// Every seed's outcome, in seed order, fitted by o.threads threads taking the next seed.
+std::vector<SeedOutcome> fit_all_seeds(const SimulationCase& c, const std::vector<SimulatedRun>& clean,
+                                       const MonteCarloOptions& o, const MonteCarloProgress& progress) {
+  const auto n = static_cast<std::size_t>(o.seeds);
+  std::vector<SeedOutcome> outcomes(n);
+  std::atomic<std::size_t> next{0};
+  std::mutex progress_mutex;
+  int done = 0;
+  auto worker = [&]() {
+    for (;;) {
+      const std::size_t k = next.fetch_add(1);
+      if (k >= n) return;
+      outcomes[k] = fit_one_seed(c, clean, o, k);
+      std::lock_guard<std::mutex> lock(progress_mutex);
+      ++done;
+      if (progress) progress(done, o.seeds);
+    }
+  };
+  const int nt = std::min(o.threads, o.seeds);
+  std::vector<std::thread> pool;
+  for (int t = 1; t < nt; ++t) pool.emplace_back(worker);
+  worker();
+  for (std::thread& t : pool) t.join();
+  return outcomes;
+}
+
+double mean_of(const std::vector<double>& v) {
+  double s = 0.0;
+  for (double x : v) s += x;
+  return v.empty() ? std::numeric_limits<double>::quiet_NaN() : s / static_cast<double>(v.size());
+}
+
+// One parameter's statistics over the seeds.
+struct ParameterSamples {
+  double truth = std::numeric_limits<double>::quiet_NaN();
+  std::vector<double> values, cr, crc;
+};
+
+MonteCarloParameter parameter_statistics(const std::string& name, const ParameterSamples& a) {
+  MonteCarloParameter p;
+  p.name = name;
+  p.truth = a.truth;
+  p.count = static_cast<int>(a.values.size());
+  p.mean = mean_of(a.values);
+  double ss = 0.0;
+  for (double v : a.values) ss += (v - p.mean) * (v - p.mean);
+  p.std_dev = p.count > 1 ? std::sqrt(ss / (p.count - 1)) : std::numeric_limits<double>::quiet_NaN();
+  p.mean_cr_bound = mean_of(a.cr);
+  p.mean_cr_bound_colored = mean_of(a.crc);
+  p.ratio = p.std_dev / p.mean_cr_bound;
+  p.ratio_colored = p.std_dev / p.mean_cr_bound_colored;
+  p.bias_in_std_errors = (p.mean - p.truth) / (p.std_dev / std::sqrt(static_cast<double>(p.count)));
+  return p;
+}
+
+// Failures, terminations, mean fit error and time, and per parameter (by name, in the order of
+// the first successful fit) the statistics of the estimates and their bounds.
+void aggregate(const std::vector<SeedOutcome>& outcomes, const MonteCarloOptions& o, MonteCarloResult& res) {
+  std::vector<std::string> order;
+  std::map<std::string, ParameterSamples> acc;
+  double fit_error_sum = 0.0;
+  double seconds_sum = 0.0;
+  for (std::size_t k = 0; k < outcomes.size(); ++k) {
+    const SeedOutcome& out = outcomes[k];
+    seconds_sum += out.seconds;
+    if (!out.ok) {
+      res.failed_seeds.push_back(o.first_seed + k);
+      res.failure_messages.push_back(out.error);
+      continue;
+    }
+    ++res.fitted;
+    ++res.terminations[termination_name(out.termination)];
+    fit_error_sum += out.fit_error;
+    for (std::size_t i = 0; i < out.parameters.size(); ++i) {
+      const ParameterEstimate& p = out.parameters[i];
+      // Why skip: an unidentifiable parameter has no bound; its value is arbitrary.
+      if (p.identifiability != Identifiability::identified) continue;
+      auto it = acc.find(p.name);
+      if (it == acc.end()) {
+        order.push_back(p.name);
+        it = acc.emplace(p.name, ParameterSamples{}).first;
+        it->second.truth = out.truth[i];
+      }
+      it->second.values.push_back(p.value);
+      it->second.cr.push_back(p.cr_bound);
+      it->second.crc.push_back(p.cr_bound_colored);
+    }
+  }
+  res.mean_fit_error = res.fitted > 0 ? fit_error_sum / res.fitted : std::numeric_limits<double>::quiet_NaN();
+  res.fit_seconds_mean = seconds_sum / static_cast<double>(outcomes.size());
+  for (const std::string& name : order) res.parameters.push_back(parameter_statistics(name, acc[name]));
+}
+
 }  // namespace
 
 MonteCarloResult run_monte_carlo(const MonteCarloOptions& o, const MonteCarloProgress& progress) {
@@ -125,106 +237,7 @@ MonteCarloResult run_monte_carlo(const MonteCarloOptions& o, const MonteCarloPro
     const std::vector<double> sigma = add_measurement_noise(probe, o.snr, o.first_seed, o.noise);
     res.noise_sigma = sigma.empty() ? 0.0 : sigma[0];
   }
-
-  const auto n = static_cast<std::size_t>(o.seeds);
-  std::vector<SeedOutcome> outcomes(n);
-  std::atomic<std::size_t> next{0};
-  std::mutex progress_mutex;
-  int done = 0;
-  auto worker = [&]() {
-    for (;;) {
-      const std::size_t k = next.fetch_add(1);
-      if (k >= n) return;
-      SeedOutcome& out = outcomes[k];
-      const auto ts = std::chrono::steady_clock::now();
-      try {
-        std::vector<SimulatedRun> runs = clean;
-        add_measurement_noise(runs, o.snr, o.first_seed + k, o.noise);
-        const Experiment e = experiment_from_simulation(c, runs);
-        const FitResult fr = fit_experiment(e, o.fit);
-        // A model the runtime refuses is a failed fit: counted and named, never averaged in.
-        require_runtime_accepts(fr.model, fmt::format("seed {}", o.first_seed + k), ModelFile::to_write);
-        out.ok = true;
-        out.termination = fr.output_error.termination;
-        out.fit_error = fr.fit_error;
-        out.parameters = fr.parameters;
-        for (const ParameterEstimate& p : fr.parameters)
-          out.truth.push_back(true_parameter_value(c.truth, p.id));
-      } catch (const std::exception& ex) {
-        out.ok = false;
-        out.error = ex.what();
-      }
-      out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - ts).count();
-      std::lock_guard<std::mutex> lock(progress_mutex);
-      ++done;
-      if (progress) progress(done, o.seeds);
-    }
-  };
-  const int nt = std::min(o.threads, o.seeds);
-  std::vector<std::thread> pool;
-  for (int t = 1; t < nt; ++t) pool.emplace_back(worker);
-  worker();
-  for (std::thread& t : pool) t.join();
-
-  // Aggregate by parameter name, in the order of the first successful fit.
-  struct Acc {
-    double truth = std::numeric_limits<double>::quiet_NaN();
-    std::vector<double> values, cr, crc;
-  };
-  std::vector<std::string> order;
-  std::map<std::string, Acc> acc;
-  double fit_error_sum = 0.0;
-  double seconds_sum = 0.0;
-  for (std::size_t k = 0; k < n; ++k) {
-    const SeedOutcome& out = outcomes[k];
-    seconds_sum += out.seconds;
-    if (!out.ok) {
-      res.failed_seeds.push_back(o.first_seed + k);
-      res.failure_messages.push_back(out.error);
-      continue;
-    }
-    ++res.fitted;
-    ++res.terminations[termination_name(out.termination)];
-    fit_error_sum += out.fit_error;
-    for (std::size_t i = 0; i < out.parameters.size(); ++i) {
-      const ParameterEstimate& p = out.parameters[i];
-      // Why skip: an unidentifiable parameter has no bound; its value is arbitrary.
-      if (p.identifiability != Identifiability::identified) continue;
-      auto it = acc.find(p.name);
-      if (it == acc.end()) {
-        order.push_back(p.name);
-        it = acc.emplace(p.name, Acc{}).first;
-        it->second.truth = out.truth[i];
-      }
-      it->second.values.push_back(p.value);
-      it->second.cr.push_back(p.cr_bound);
-      it->second.crc.push_back(p.cr_bound_colored);
-    }
-  }
-  res.mean_fit_error = res.fitted > 0 ? fit_error_sum / res.fitted : std::numeric_limits<double>::quiet_NaN();
-  res.fit_seconds_mean = seconds_sum / static_cast<double>(n);
-  auto mean = [](const std::vector<double>& v) {
-    double s = 0.0;
-    for (double x : v) s += x;
-    return v.empty() ? std::numeric_limits<double>::quiet_NaN() : s / static_cast<double>(v.size());
-  };
-  for (const std::string& name : order) {
-    const Acc& a = acc[name];
-    MonteCarloParameter p;
-    p.name = name;
-    p.truth = a.truth;
-    p.count = static_cast<int>(a.values.size());
-    p.mean = mean(a.values);
-    double ss = 0.0;
-    for (double v : a.values) ss += (v - p.mean) * (v - p.mean);
-    p.std_dev = p.count > 1 ? std::sqrt(ss / (p.count - 1)) : std::numeric_limits<double>::quiet_NaN();
-    p.mean_cr_bound = mean(a.cr);
-    p.mean_cr_bound_colored = mean(a.crc);
-    p.ratio = p.std_dev / p.mean_cr_bound;
-    p.ratio_colored = p.std_dev / p.mean_cr_bound_colored;
-    p.bias_in_std_errors = (p.mean - p.truth) / (p.std_dev / std::sqrt(static_cast<double>(p.count)));
-    res.parameters.push_back(p);
-  }
+  aggregate(fit_all_seeds(c, clean, o, progress), o, res);
   res.elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return res;
 }

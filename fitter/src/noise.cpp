@@ -2,6 +2,7 @@
 // indicial/fitter/simulate.hpp ("Measurement noise").
 #include <cmath>
 #include <complex>
+#include <limits>
 
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/io.hpp"
@@ -62,6 +63,14 @@ NoiseModel parse_noise_spec(const std::string& spec) {
   }
   kv.require_all_taken();
   return n;
+}
+
+double parse_snr(const std::string& text) {
+  if (text == "inf" || text == "Inf" || text == "infinity") return std::numeric_limits<double>::infinity();
+  double v = 0.0;
+  if (!detail::parse_whole_number(text, v) || !(v > 0))
+    throw InputError("--snr", 0, "expected a number > 0 or 'inf', found '" + text + "'");
+  return v;
 }
 
 std::string noise_spec_text(const NoiseModel& n) {

@@ -15,6 +15,7 @@
 #include "indicial/fitter/diagnose.hpp"
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/io.hpp"
+#include "indicial/fitter/model_merge.hpp"
 #include "indicial/runtime.hpp"
 
 namespace fs = std::filesystem;
@@ -53,25 +54,7 @@ double run_fit_error(const RunSeries& s) {
   return std::sqrt(sum / static_cast<double>(s.residual.size()));
 }
 
-std::string model_coef_text(const FitResult& r, const std::string& origin) {
-  // The writer needs a caller buffer; grow it until the text fits (a FitCapacity model is a
-  // few KB, a 256-row static table a few more).
-  std::vector<char> buffer(16384);
-  for (int attempt = 0; attempt < 8; ++attempt) {
-    std::size_t n = 0;
-    const WriteStatus st = write_coef_file(r.model, buffer.data(), buffer.size(), &n);
-    if (st == WriteStatus::ok) return std::string(buffer.data(), n);
-    if (st != WriteStatus::buffer_too_small) {
-      ParseDiagnostic diag;
-      validate_model_set(r.model, &diag);
-      throw InputError(origin, 0,
-                       std::string("the identified model cannot be written as a coefficient file (") +
-                           to_string(st) + ": " + diag.reason + ")");
-    }
-    buffer.resize(buffer.size() * 4);
-  }
-  throw InputError(origin, 0, "the identified model's coefficient file is unreasonably large");
-}
+std::string model_coef_text(const FitResult& r, const std::string& origin) { return coef_file_text(r.model, origin); }
 
 namespace {
 
@@ -247,6 +230,37 @@ const char* state_derivative_name(StateDerivative d) {
   return d == StateDerivative::smoothed_difference ? "smoothed" : "modulating";
 }
 
+// One iteration of the two-stage loop (fit.json's `two_stage` entries).
+nlohmann::json two_stage_iteration_json(const TwoStageIteration& it) {
+  nlohmann::json t;
+  t["iteration"] = it.iteration;
+  t["cost"] = finite_or_null(it.cost);
+  t["fit_error"] = finite_or_null(it.fit_error);
+  t["rotary"] = nlohmann::json::array();
+  for (double v : it.rotary) t["rotary"].push_back(finite_or_null(v));
+  t["rotary_knot_coef"] = nlohmann::json::array();
+  for (double v : it.rotary_knot_coef) t["rotary_knot_coef"].push_back(finite_or_null(v));
+  t["rotary_parameters"] = nlohmann::json::array();
+  for (const ParameterEstimate& p : it.rotary_parameters) t["rotary_parameters"].push_back(parameter_json(p));
+  t["stepwise"] = stepwise_json(it.stepwise);
+  return t;
+}
+
+// The final C_aq(x) of the model (fit.json's `rotary`).
+nlohmann::json rotary_json(const CoefficientModel<double, FitCapacity>& cm, const Experiment& e) {
+  nlohmann::json rot;
+  rot["estimated"] = e.rotary.estimate;
+  rot["polynomial"] = nlohmann::json::array();
+  for (int i = 0; i < cm.rotary.n_powers; ++i) rot["polynomial"].push_back(cm.rotary.power_coef[i]);
+  rot["knots_rad"] = nlohmann::json::array();
+  rot["knot_coef"] = nlohmann::json::array();
+  for (int k = 0; k < cm.rotary.n_knots; ++k) {
+    rot["knots_rad"].push_back(cm.rotary.knot_rad[k]);
+    rot["knot_coef"].push_back(cm.rotary.knot_coef[k]);
+  }
+  return rot;
+}
+
 }  // namespace
 
 nlohmann::json fit_json(const FitResult& r, const Experiment& e, const FitOptions& o,
@@ -261,24 +275,12 @@ nlohmann::json fit_json(const FitResult& r, const Experiment& e, const FitOption
   for (const ParameterEstimate& p : r.parameters) j["parameters"].push_back(parameter_json(p));
   if (e.rotary.estimate) {
     j["two_stage"] = nlohmann::json::array();
-    for (const TwoStageIteration& it : r.two_stage) {
-      nlohmann::json t;
-      t["iteration"] = it.iteration;
-      t["cost"] = finite_or_null(it.cost);
-      t["fit_error"] = finite_or_null(it.fit_error);
-      t["rotary"] = nlohmann::json::array();
-      for (double v : it.rotary) t["rotary"].push_back(finite_or_null(v));
-      t["rotary_knot_coef"] = nlohmann::json::array();
-      for (double v : it.rotary_knot_coef) t["rotary_knot_coef"].push_back(finite_or_null(v));
-      t["rotary_parameters"] = nlohmann::json::array();
-      for (const ParameterEstimate& p : it.rotary_parameters)
-        t["rotary_parameters"].push_back(parameter_json(p));
-      t["stepwise"] = stepwise_json(it.stepwise);
-      j["two_stage"].push_back(t);
-    }
+    for (const TwoStageIteration& it : r.two_stage) j["two_stage"].push_back(two_stage_iteration_json(it));
   }
   j["termination"] = termination_name(oe.termination);
   j["message"] = oe.message;
+  j["feasibility_boundary"] = oe.boundary == FeasibilityBoundary::active ? "active" : "interior";
+  j["infeasible_trials"] = oe.infeasible_trials;
   j["cost"] = finite_or_null(oe.cost);
   j["n_samples"] = oe.n_samples;
   j["n_parameters"] = oe.n_parameters;
@@ -303,18 +305,7 @@ nlohmann::json fit_json(const FitResult& r, const Experiment& e, const FitOption
   for (const ParameterEstimate& p : ee.parameters) eej["parameters"].push_back(parameter_json(p));
   eej["stepwise"] = stepwise_json(ee.stepwise);
   j["equation_error"] = eej;
-  const CoefficientModel<double, FitCapacity>& cm = r.model.coefficients[0];
-  nlohmann::json rot;
-  rot["estimated"] = e.rotary.estimate;
-  rot["polynomial"] = nlohmann::json::array();
-  for (int i = 0; i < cm.rotary.n_powers; ++i) rot["polynomial"].push_back(cm.rotary.power_coef[i]);
-  rot["knots_rad"] = nlohmann::json::array();
-  rot["knot_coef"] = nlohmann::json::array();
-  for (int k = 0; k < cm.rotary.n_knots; ++k) {
-    rot["knots_rad"].push_back(cm.rotary.knot_rad[k]);
-    rot["knot_coef"].push_back(cm.rotary.knot_coef[k]);
-  }
-  j["rotary"] = rot;
+  j["rotary"] = rotary_json(r.model.coefficients[0], e);
   j["runs"] = nlohmann::json::array();
   for (const RunSeries& s : r.runs)
     j["runs"].push_back({{"path", display_path(s.path, e)}, {"samples", s.time_s.size()}, {"fit_error", finite_or_null(run_fit_error(s))}});
@@ -543,9 +534,8 @@ std::string image(const PlotSet& ps, const std::string& rel, const std::string& 
   return fmt::format("![{}]({})\n\n", alt, rel);
 }
 
-std::string report_markdown(const FitResult& r, const Experiment& e, const FitOptions& o,
-                            const RuntimeCheck& rc, const PlotSet& ps, const ReportOptions& ro) {
-  const OutputErrorSummary& oe = r.output_error;
+// The title, the command line and the experiment in one paragraph.
+std::string report_header(const FitResult& r, const Experiment& e, const FitOptions& o, const ReportOptions& ro) {
   std::string m;
   m += fmt::format("# Fit report: {} ({} axis)\n\n", e.coefficient, axis_name(e.axis));
   if (!ro.command_line.empty()) m += fmt::format("Command: `{}`\n\n", ro.command_line);
@@ -559,7 +549,13 @@ std::string report_markdown(const FitResult& r, const Experiment& e, const FitOp
       o.state_derivative == StateDerivative::smoothed_difference ? "Savitzky-Golay smoothed derivative"
                                                                  : "modulating functions",
       r.elapsed_s);
+  return m;
+}
 
+// The output-error outcome, the estimates and the per-run fit.
+std::string report_result(const FitResult& r, const Experiment& e) {
+  std::string m;
+  const OutputErrorSummary& oe = r.output_error;
   m += "## Result\n\n";
   m += fmt::format("Output error (maximum likelihood): **{}** after {} iterations. {}\n\n",
                    termination_name(oe.termination), oe.iterations, oe.message);
@@ -582,7 +578,12 @@ std::string report_markdown(const FitResult& r, const Experiment& e, const FitOp
   m += "### Per-run fit\n\n| run | samples | rms residual |\n|---|---:|---:|\n";
   for (const RunSeries& s : r.runs) m += fmt::format("| {} | {} | {} |\n", display_path(s.path, e), s.time_s.size(), num(run_fit_error(s)));
   m += "\n";
+  return m;
+}
 
+// Whether model.coef loads in the runtime and how closely it replays the fit.
+std::string report_runtime_check(const RuntimeCheck& rc) {
+  std::string m;
   m += "### Runtime check\n\n";
   if (rc.fit == RuntimeFit::refused) {
     m += fmt::format("The runtime refuses model.coef: {}.\n\n", rc.detail);
@@ -596,7 +597,12 @@ std::string report_markdown(const FitResult& r, const Experiment& e, const FitOp
         rc.steps_not_ok > 0 ? fmt::format(" ({} steps refused)", rc.steps_not_ok) : std::string(),
         rc.detail.empty() ? std::string() : " Note: " + rc.detail + ".");
   }
+  return m;
+}
 
+// The plots written (or why none were).
+std::string report_plots(const FitResult& r, const Experiment& e, const PlotSet& ps) {
+  std::string m;
   m += "## Plots\n\n";
   if (ps.status != PlotStatus::written) m += fmt::format("**No plots: {}.**\n\n", ps.message);
   for (const RunSeries& s : r.runs) {
@@ -614,7 +620,12 @@ std::string report_markdown(const FitResult& r, const Experiment& e, const FitOp
     m += image(ps, fmt::format("plots/run{}_fit.png", ri + 1), "measured, model and quasi-steady");
     m += image(ps, fmt::format("plots/run{}_residual.png", ri + 1), "residuals");
   }
+  return m;
+}
 
+// The equation error's start values and its stepwise log.
+std::string report_equation_error(const FitResult& r, const FitOptions& o) {
+  std::string m;
   m += "## Equation error (start values)\n\n";
   const EquationErrorResult& ee = r.equation_error;
   m += fmt::format("Least squares of eq. 22 (SVD, singular-value cut-off {:.1e}): s(e) = {}, R^2 = {:.6f}, "
@@ -627,7 +638,12 @@ std::string report_markdown(const FitResult& r, const Experiment& e, const FitOp
     m += stepwise_table(ee.stepwise);
     m += "\n";
   }
+  return m;
+}
 
+// The output-error iteration log and how it ended.
+std::string report_output_error_log(const OutputErrorSummary& oe) {
+  std::string m;
   m += "## Output-error iterations\n\n";
   if (oe.log.empty()) {
     m += "(no iterations logged)\n\n";
@@ -639,7 +655,12 @@ std::string report_markdown(const FitResult& r, const Experiment& e, const FitOp
     m += "\n";
   }
   m += fmt::format("Termination: **{}**: {}\n\n", termination_name(oe.termination), oe.message);
+  return m;
+}
 
+// With rotary.estimate: the two-stage iterations and their stepwise logs.
+std::string report_two_stage(const FitResult& r, const Experiment& e) {
+  std::string m;
   if (e.rotary.estimate) {
     m += "## Two-stage loop (C_aq(x) re-estimated)\n\n";
     if (r.two_stage.empty()) {
@@ -662,11 +683,17 @@ std::string report_markdown(const FitResult& r, const Experiment& e, const FitOp
       }
     }
   }
-  m += "## Files\n\n"
-       "* `fit.json`: the estimates, bounds and logs (contract fields plus extensions)\n"
-       "* `model.coef`: the identified model for the runtime (`indicial::Predictor`)\n"
-       "* `plots/`: PNG images, the gnuplot script `plots.gp` and its data files\n";
   return m;
+}
+
+std::string report_markdown(const FitResult& r, const Experiment& e, const FitOptions& o,
+                            const RuntimeCheck& rc, const PlotSet& ps, const ReportOptions& ro) {
+  return report_header(r, e, o, ro) + report_result(r, e) + report_runtime_check(rc) + report_plots(r, e, ps) +
+         report_equation_error(r, o) + report_output_error_log(r.output_error) + report_two_stage(r, e) +
+         "## Files\n\n"
+         "* `fit.json`: the estimates, bounds and logs (contract fields plus extensions)\n"
+         "* `model.coef`: the identified model for the runtime (`indicial::Predictor`)\n"
+         "* `plots/`: PNG images, the gnuplot script `plots.gp` and its data files\n";
 }
 
 }  // namespace

@@ -1,5 +1,5 @@
 // spec_keys.hpp (internal) -- the "kind:key=value,key=value" option spellings of --motion and
-// --noise, parsed once.
+// --noise, and the numbers of such options (--snr), parsed once.
 #pragma once
 
 #include <cmath>
@@ -10,6 +10,18 @@
 #include "indicial/fitter/error.hpp"
 
 namespace indicial::detail {
+
+// The whole of `text` as a double (std::stod: decimal, exponent, "inf", "nan"); false when
+// text is empty or has anything after the number.
+inline bool parse_whole_number(const std::string& text, double& value) {
+  std::size_t used = 0;
+  try {
+    value = std::stod(text, &used);
+  } catch (const std::exception&) {
+    return false;
+  }
+  return !text.empty() && used == text.size();
+}
 
 // The numeric keys of one spec. Every error is InputError(option, 0, ...): a bad number, a
 // key without '=', a key given twice, a required key missing, a key nobody took.
@@ -54,13 +66,7 @@ class SpecKeys {
  private:
   double number(const std::string& key, const std::string& text) const {
     double v = 0.0;
-    std::size_t used = 0;
-    try {
-      v = std::stod(text, &used);
-    } catch (const std::exception&) {
-      used = 0;
-    }
-    if (text.empty() || used != text.size() || !std::isfinite(v))
+    if (!parse_whole_number(text, v) || !std::isfinite(v))
       fail("'" + key + "' needs a finite number, found '" + text + "'");
     return v;
   }

@@ -15,6 +15,7 @@
 // Keys: exactly those of interface.md plus the extensions documented in docs/formats.md:
 //   runs = ["a.csv", {file = "b.csv", periodic = true}]   entries are strings or tables
 //   [model] a_powers = [1, 2] / b1_powers = [0] (instead of *_degree), lags = 1
+//   [model] b2_degree|b2_powers|b2_knots_deg (bK_* for each lag K = 2..lags): b_K(x)
 //   [model] static_correction_degree|_powers|_knots_deg, rotary_correction_degree|_powers|
 //           _knots_deg, delay = "none"|"estimated", delay_start_s, further_lag_start =
 //           "estimated"|"at_rest"                          what diagnose adds (ModelConfig)
@@ -84,6 +85,11 @@ Experiment load_experiment(const std::string& toml_path, const std::string& coef
 // [static], [rotary] and [model] (shared or per coefficient: [static.CL], [model.Cm]; see
 // docs/formats.md) and the same runs, in the order of `coefficients`.
 std::vector<Experiment> load_experiments(const std::string& toml_path);
+
+// Sets data_x_min_rad / data_x_max_rad to the range of the model angle x = model_angle(axis,
+// alpha0, motion angle) over every sample of every run (both 0 without samples). Called by
+// load_experiment; code that builds an Experiment from runs in memory calls it too.
+void set_data_range(Experiment& experiment);
 
 // An experiment file as text, for `experiment` with the run files named by runs[i].path
 // (relative to the experiment file), runs[i].periodic and, where they differ from the

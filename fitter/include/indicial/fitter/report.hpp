@@ -144,8 +144,8 @@ struct FitOutputs {
   RuntimeCheck runtime;
 };
 
-// The model as coefficient-file text (the runtime's writer, at FitCapacity). Throws
-// InputError naming `origin` if the writer refuses the model (its status is in the message).
+// The model as coefficient-file text: coef_file_text(r.model, origin) (model_merge.hpp, the
+// one writer). Throws InputError naming `origin` if the writer refuses the model.
 std::string model_coef_text(const FitResult& r, const std::string& origin);
 
 // Loads coef_text with the runtime (DefaultCapacity first, then FitCapacity) and replays every

@@ -203,6 +203,9 @@ struct NoiseModel {
 
 // Parses the spelling above; throws InputError("--noise", 0, problem).
 NoiseModel parse_noise_spec(const std::string& spec);
+// Parses --snr: a number > 0, or "inf" / "Inf" / "infinity" (no noise); throws
+// InputError("--snr", 0, problem).
+double parse_snr(const std::string& text);
 // The spelling back ("ar1:phi=0.8"), for comments and reports.
 std::string noise_spec_text(const NoiseModel& noise);
 // The theoretical lag-1 autocorrelation of the noise sampled at step dt_s.

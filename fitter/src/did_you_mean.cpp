@@ -1,0 +1,27 @@
+// The edit distance of "did you mean" hints. See indicial/fitter/did_you_mean.hpp.
+#include "indicial/fitter/did_you_mean.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <vector>
+
+namespace indicial {
+
+std::size_t edit_distance(const std::string& a, const std::string& b, LetterCase letter_case) {
+  auto fold = [letter_case](char c) {
+    return letter_case == LetterCase::ignored ? static_cast<char>(std::tolower(static_cast<unsigned char>(c))) : c;
+  };
+  std::vector<std::size_t> prev(b.size() + 1), cur(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) prev[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    cur[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t sub = prev[j - 1] + (fold(a[i - 1]) == fold(b[j - 1]) ? 0 : 1);
+      cur[j] = std::min({prev[j] + 1, cur[j - 1] + 1, sub});
+    }
+    std::swap(prev, cur);
+  }
+  return prev[b.size()];
+}
+
+}  // namespace indicial
