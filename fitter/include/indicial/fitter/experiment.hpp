@@ -15,9 +15,10 @@
 namespace indicial {
 
 // The time grid a run is declared to have (interface.md: "uniform step within 1e-6 relative
-// unless a run is declared otherwise"). The fitter needs a uniform grid (its smoothed y_E'
-// and the runs' dt); predict takes either, since the runtime steps with each sample's own dt
-// (a HIL or flight log with timestamp jitter, or a log with dropped samples).
+// unless a run is declared otherwise"; the tolerance in docs/formats.md). fit, diagnose and
+// predict take either: on a nonuniform grid each step is the sample's own dt, as the runtime
+// steps (a HIL or flight log with timestamp jitter, a jittered phase column, dropped samples),
+// and the fitter's derivatives are taken on the actual times.
 enum class TimeGrid { uniform, nonuniform };
 
 // Where a run's time came from: its time_s column, or a phase column (phase_rad | phase_deg of
@@ -36,7 +37,8 @@ struct Run {
   std::vector<double> coefficient;        // measured C_a
   bool periodic = false;                  // an ensemble-averaged cycle: periodic steady state
   double airspeed_mps = 0.0;              // V of this run; load_experiment fills it (the run's or the
-                                          // experiment's); 0 in a Run built in code: use Experiment's
+                                          // experiment's); 0 in a Run built in code: use Experiment's.
+                                          // The fit scales b_j, con and the delay by it (V / V_ref)
   double frequency_hz = 0.0;              // the cycle's frequency; 0 when not given
   TimeGrid time_grid = TimeGrid::uniform;
   TimeSource time_source = TimeSource::time_column;

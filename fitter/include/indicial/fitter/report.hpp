@@ -149,8 +149,8 @@ struct FitOutputs {
 std::string model_coef_text(const FitResult& r, const std::string& origin);
 
 // Loads coef_text with the runtime (DefaultCapacity first, then FitCapacity) and replays every
-// run of r (the motion angle and rate of e.runs, at e.airspeed_mps) from its estimated initial
-// state (warning 4).
+// run of r (the motion angle and rate of e.runs, at each run's airspeed_mps, e.airspeed_mps
+// where a run has none, with each sample's own dt) from its estimated initial state (warning 4).
 RuntimeCheck replay_in_runtime(const FitResult& r, const Experiment& e,
                                const std::string& coef_text);
 
