@@ -873,12 +873,12 @@ class Predictor {
     if (state_.phase != static_cast<int>(PredictorPhase::running)) return StepStatus::not_reset;
     if (out == nullptr) return StepStatus::null_output;
     const Runtime& m = runtime();
-    Outputs result;
-    const StepStatus s = indicial::step(m, state_, in, dt_s, result.value);
+    // Straight into *out: indicial::step writes out->value only when it steps (a refusal
+    // leaves *out as it was), and no copy of the Outputs lengthens the caller's chain.
+    const StepStatus s = indicial::step(m, state_, in, dt_s, out->value);
     if (s != StepStatus::ok && s != StepStatus::angle_clamped) return s;
-    result.count = m.set.n_coefficients;
-    for (int c = 0; c < m.set.n_coefficients; ++c) result.name[c] = m.set.coefficients[c].name;
-    *out = result;
+    out->count = m.set.n_coefficients;
+    for (int c = 0; c < m.set.n_coefficients; ++c) out->name[c] = m.set.coefficients[c].name;
     return s;
   }
 
