@@ -60,56 +60,79 @@ namespace detail {
 inline bool lane_active(StepStatus s) { return s == StepStatus::ok || s == StepStatus::angle_clamped; }
 
 // The lane type of step_batch: batch_block Scalars with element-wise arithmetic. With GCC and
-// Clang its storage is a vector extension, so that every operation, comparison and select is
-// compiled to SIMD instructions of the target (four SSE2 or one AVX-512 instruction on 8
-// doubles) whatever the auto-vectoriser decides; other compilers get plain loops. Wrapped in a
-// struct so that passing one by value never depends on the target's vector ABI (-Wpsabi).
+// Clang its storage is an array of vector-extension registers of the target's width (SSE2:
+// 16 bytes, AVX: 32, AVX-512: 64), so that every operation, comparison and select is compiled
+// to SIMD instructions (four SSE2 or one AVX-512 instruction on 8 doubles) whatever the
+// auto-vectoriser decides; other compilers get plain loops. (A single 64-byte vector on an
+// SSE2 target is lowered through memory: the register-width parts avoid that.) A struct, so
+// that passing one by value never depends on the target's vector ABI (-Wpsabi).
+#if defined(__GNUC__) || defined(__clang__)
+#if defined(__AVX512F__)
+inline constexpr int lane_register_bytes = 64;
+#elif defined(__AVX__)
+inline constexpr int lane_register_bytes = 32;
+#else
+inline constexpr int lane_register_bytes = 16;
+#endif
 template <class S>
 struct LaneArray {
-#if defined(__GNUC__) || defined(__clang__)
-  typedef S Raw __attribute__((vector_size(batch_block * sizeof(S))));
-  Raw v;
+  static constexpr int bytes = batch_block * static_cast<int>(sizeof(S));
+  static constexpr int part_bytes = bytes < lane_register_bytes ? bytes : lane_register_bytes;
+  static constexpr int parts = bytes / part_bytes;
+  typedef S Part __attribute__((vector_size(part_bytes)));
+  Part p[parts];
   // GCC and Clang let a vector alias its element type.
-  S& operator[](int i) { return reinterpret_cast<S*>(&v)[i]; }
-  const S& operator[](int i) const { return reinterpret_cast<const S*>(&v)[i]; }
-#else
-  S v[batch_block];
-  S& operator[](int i) { return v[i]; }
-  const S& operator[](int i) const { return v[i]; }
-#endif
+  S& operator[](int i) { return reinterpret_cast<S*>(p)[i]; }
+  const S& operator[](int i) const { return reinterpret_cast<const S*>(p)[i]; }
 };
 
 template <class S>
 struct LaneMask {
-#if defined(__GNUC__) || defined(__clang__)
-  typedef decltype(typename LaneArray<S>::Raw{} < typename LaneArray<S>::Raw{}) Raw;
-  Raw m;
-  bool operator[](int i) const { return m[i] != 0; }
-#else
-  bool m[batch_block];
-  bool operator[](int i) const { return m[i]; }
-#endif
+  typedef decltype(typename LaneArray<S>::Part{} < typename LaneArray<S>::Part{}) Part;
+  Part p[LaneArray<S>::parts];
+  static constexpr int per_part = batch_block / LaneArray<S>::parts;
+  bool operator[](int i) const { return p[i / per_part][i % per_part] != 0; }
 };
 
-#if defined(__GNUC__) || defined(__clang__)
 #define INDICIAL_LANE_BINARY(op)                                                                 \
   template <class S> inline LaneArray<S> operator op(const LaneArray<S>& a, const LaneArray<S>& b) { \
-    return LaneArray<S>{a.v op b.v}; }                                                           \
+    LaneArray<S> r; for (int k = 0; k < LaneArray<S>::parts; ++k) r.p[k] = a.p[k] op b.p[k]; return r; } \
   template <class S> inline LaneArray<S> operator op(const LaneArray<S>& a, S b) {                \
-    return LaneArray<S>{a.v op b}; }                                                             \
+    LaneArray<S> r; for (int k = 0; k < LaneArray<S>::parts; ++k) r.p[k] = a.p[k] op b; return r; } \
   template <class S> inline LaneArray<S> operator op(S a, const LaneArray<S>& b) {                \
-    return LaneArray<S>{a op b.v}; }
+    LaneArray<S> r; for (int k = 0; k < LaneArray<S>::parts; ++k) r.p[k] = a op b.p[k]; return r; }
 #define INDICIAL_LANE_COMPARE(op)                                                                \
   template <class S> inline LaneMask<S> operator op(const LaneArray<S>& a, S b) {                 \
-    return LaneMask<S>{a.v op b}; }                                                              \
+    LaneMask<S> r; for (int k = 0; k < LaneArray<S>::parts; ++k) r.p[k] = a.p[k] op b; return r; } \
   template <class S> inline LaneMask<S> operator op(const LaneArray<S>& a, const LaneArray<S>& b) { \
-    return LaneMask<S>{a.v op b.v}; }
-template <class S> inline LaneArray<S> operator-(const LaneArray<S>& a) { return LaneArray<S>{-a.v}; }
+    LaneMask<S> r; for (int k = 0; k < LaneArray<S>::parts; ++k) r.p[k] = a.p[k] op b.p[k]; return r; }
+template <class S> inline LaneArray<S> operator-(const LaneArray<S>& a) {
+  LaneArray<S> r;
+  for (int k = 0; k < LaneArray<S>::parts; ++k) r.p[k] = -a.p[k];
+  return r;
+}
+// As bit operations (a mask lane is all ones or all zeros).
 template <class S>
 inline LaneArray<S> lane_select(const LaneMask<S>& m, const LaneArray<S>& a, const LaneArray<S>& b) {
-  return LaneArray<S>{m.m ? a.v : b.v};
+  using Part = typename LaneArray<S>::Part;
+  using Bits = typename LaneMask<S>::Part;
+  LaneArray<S> r;
+  for (int k = 0; k < LaneArray<S>::parts; ++k)
+    r.p[k] = (Part)(((Bits)a.p[k] & m.p[k]) | ((Bits)b.p[k] & ~m.p[k]));
+  return r;
 }
 #else
+template <class S>
+struct LaneArray {
+  S v[batch_block];
+  S& operator[](int i) { return v[i]; }
+  const S& operator[](int i) const { return v[i]; }
+};
+template <class S>
+struct LaneMask {
+  bool m[batch_block];
+  bool operator[](int i) const { return m[i]; }
+};
 #define INDICIAL_LANE_BINARY(op)                                                                 \
   template <class S> inline LaneArray<S> operator op(const LaneArray<S>& a, const LaneArray<S>& b) { \
     LaneArray<S> r; for (int i = 0; i < batch_block; ++i) r.v[i] = a.v[i] op b.v[i]; return r; } \
@@ -176,20 +199,21 @@ struct BlockLanes {
   static constexpr int L = Cap::max_lags;
   StepStatus status[W] = {};
   bool keep[W] = {};      // active (ok / angle_clamped) and, after the step, finite
-  V x0_rad{};             // the state's x_prev_rad
-  V x1_rad{};             // the new model angle (clamped by prepare_lanes)
-  V rate{};
-  V airspeed_mps{};       // airspeed terms of this step
-  V time_scale{};
-  V l_over_v_s{};
-  V time_scale_dt{};      // time_scale * dt_s (StepGeometry's)
-  V old_airspeed_mps{};   // the state's cached airspeed terms
-  V old_time_scale{};
-  V old_l_over_v_s{};
-  V forcing_antiderivative[C] = {};  // A(x): the old end in, the new end out
-  V b_antiderivative[C][L] = {};     // B_j(x): the old end in, the new end out
-  V y[C][L] = {};                    // lag states: old in, new out
-  V value[C] = {};
+  // Not initialised here (a block is built for every 8 instances): load_lanes fills every lane.
+  V x0_rad;             // the state's x_prev_rad
+  V x1_rad;             // the new model angle (clamped by prepare_lanes)
+  V rate;
+  V airspeed_mps;       // airspeed terms of this step
+  V time_scale;
+  V l_over_v_s;
+  V time_scale_dt;      // time_scale * dt_s (StepGeometry's)
+  V old_airspeed_mps;   // the state's cached airspeed terms
+  V old_time_scale;
+  V old_l_over_v_s;
+  V forcing_antiderivative[C];  // A(x): the old end in, the new end out
+  V b_antiderivative[C][L];     // B_j(x): the old end in, the new end out
+  V y[C][L];                    // lag states: old in, new out
+  V value[C];
 };
 
 // The input stage, per lane: the checks of indicial::step, the model angle, the state's
@@ -199,6 +223,15 @@ inline void load_lanes(const RuntimeModel<Scalar, Cap>& m, const State<Scalar, C
                        const double* angle_rad, const double* rate_radps,
                        const double* airspeed_mps, double dt_s, const void* out,
                        BlockLanes<Scalar, Cap>* b) {
+  // Lanes past k (a partial last block): harmless values, never stored.
+  for (int i = k; i < batch_block; ++i) {
+    b->x0_rad[i] = b->x1_rad[i] = b->rate[i] = Scalar(0);
+    b->airspeed_mps[i] = b->old_airspeed_mps[i] = b->old_time_scale[i] = b->old_l_over_v_s[i] = Scalar(1);
+    for (int c = 0; c < Cap::max_coefficients; ++c) {
+      b->forcing_antiderivative[c][i] = Scalar(0);
+      for (int j = 0; j < Cap::max_lags; ++j) b->b_antiderivative[c][j][i] = b->y[c][j][i] = Scalar(0);
+    }
+  }
   for (int i = 0; i < k; ++i) {
     const MotionInput in{angle_rad[i], rate_radps[i], airspeed_mps[i]};
     b->status[i] = check_step_input(s[i].phase, in, dt_s, out);
