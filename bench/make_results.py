@@ -389,3 +389,12 @@ if os.path.exists(notes_path):
 
 with open(results_path, "w") as f:
     f.write("\n".join(lines) + "\n")
+
+# The README's step-time headline, from this run (paste it over the README's "Step time" item).
+st, fl = t("step/model2/double"), t("floor/model2/double")
+ir_st, ir_fl = (cg.get("step/model2/double") or (None,))[0], (cg.get("floor/model2/double") or (None,))[0]
+if st and fl:
+    print(f"README headline: **Step time**: {fmt(st)} ns median CPU per `Predictor::step` (C_L and C_m "
+          f"together, Example 1's Model II structure, double), {fmt(st / fl)}x its floor of {fmt(fl)} ns"
+          + (f"; {ir_st:.0f} instructions per step against a floor of {ir_fl:.0f}" if ir_st and ir_fl else "")
+          + " (`bench/RESULTS.md`, section 1).")

@@ -6,7 +6,9 @@
 # Environment: HIL_SECONDS (default 60: the 10 kHz loaded loop of the goal), HIL_SHORT_SECONDS
 # (default 10: the other loops), REPS (default 5:
 # Google Benchmark repetitions; medians are reported), SKIP_FITTER=1 (runtime only),
-# SKIP_CALLGRIND=1, NATIVE=1 (build for this CPU, INDICIAL_NATIVE). The runs take about 6 minutes on an idle 2-core machine, plus the build. Needs cmake, ninja, a C++17
+# SKIP_CALLGRIND=1, NATIVE=1 (build for this CPU, INDICIAL_NATIVE), RESULTS_MD (default
+# bench/RESULTS.md: where the report goes; make_results.py also prints the README's headline
+# line from this run). The runs take about 6 minutes on an idle 2-core machine, plus the build. Needs cmake, ninja, a C++17
 # compiler, Google Benchmark, python3; valgrind for the instruction counts (optional).
 set -euo pipefail
 
@@ -92,5 +94,6 @@ echo "== hil (1 kHz and 10 kHz idle, 10 s each; 1 kHz loaded 10 s; 10 kHz loaded
 "$bin/hil" --rate-hz 10000 --seconds "$hil_seconds" --load | tee "$out/hil_load_10k.md"
 
 echo "load average at end: $(cut -d' ' -f1-3 /proc/loadavg)" >>"$out/machine.txt"
-python3 "$here/make_results.py" "$out" "$here/RESULTS.md"
-echo "== wrote $here/RESULTS.md"
+results="${RESULTS_MD:-$here/RESULTS.md}"
+python3 "$here/make_results.py" "$out" "$results"
+echo "== wrote $results"

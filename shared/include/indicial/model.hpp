@@ -665,6 +665,32 @@ inline void lag_derivatives(const CoefficientModel<Scalar, Cap>& m, const Scalar
 // Results are out-parameters (a wide vector returned by value changes a function's ABI).
 // Not vectorised: a static TABLE (its binary search), evaluated lane by lane by static_value.
 
+namespace detail {
+// Which sum a knot term belongs to: spline_value's coef u^p or spline_antiderivative's
+// (coef u^(p+1)) / (p+1).
+enum class KnotSum : int { value = 0, antiderivative = 1 };
+
+// *acc += each knot term of s where x > knot (u = x - knot > 0), the scalar forms' branch as a
+// select: every term is computed in every lane, the sum merged where u > 0.
+template <class Ops, int P, int K>
+inline void add_knot_terms_lanes(const Spline<typename Ops::Scalar, P, K>& s,
+                                 const typename Ops::V& x, KnotSum sum_kind, typename Ops::V* acc) {
+  using Scalar = typename Ops::Scalar;
+  using V = typename Ops::V;
+  for (int j = 0; j < s.n_knots; ++j) {
+    const int power = s.knot_power[j] + (sum_kind == KnotSum::antiderivative ? 1 : 0);
+    const V u = x - Scalar(s.knot_rad[j]);
+    V t = Ops::constant(Scalar(1));
+    for (int q = 0; q < power; ++q) t = t * u;
+    // (coef * u^p) / (p + 1) as scaled_basis_antiderivative rounds it.
+    const V term = sum_kind == KnotSum::antiderivative ? V(s.knot_coef[j] * t / Scalar(power))
+                                                      : V(s.knot_coef[j] * t);
+    const V sum = *acc + term;
+    *acc = Ops::select(u > Scalar(0), sum, *acc);
+  }
+}
+}  // namespace detail
+
 // spline_value at W angles: *r = s(x) lane-wise.
 template <class Ops, int P, int K>
 inline void spline_value_lanes(const Spline<typename Ops::Scalar, P, K>& s,
@@ -673,13 +699,7 @@ inline void spline_value_lanes(const Spline<typename Ops::Scalar, P, K>& s,
   using V = typename Ops::V;
   V acc = Ops::constant(Scalar(0));
   for (int i = s.n_powers - 1; i >= 0; --i) acc = acc * x + s.power_coef[i];
-  for (int j = 0; j < s.n_knots; ++j) {
-    const V u = x - Scalar(s.knot_rad[j]);
-    V t = Ops::constant(Scalar(1));
-    for (int q = 0; q < s.knot_power[j]; ++q) t = t * u;
-    const V sum = acc + s.knot_coef[j] * t;
-    acc = Ops::select(u > Scalar(0), sum, acc);
-  }
+  detail::add_knot_terms_lanes<Ops>(s, x, detail::KnotSum::value, &acc);
   *r = acc;
 }
 
@@ -692,13 +712,7 @@ inline void spline_antiderivative_lanes(const Spline<typename Ops::Scalar, P, K>
   V acc = Ops::constant(Scalar(0));
   for (int i = s.n_powers - 1; i >= 0; --i) acc = acc * x + s.power_coef[i] / Scalar(i + 1);
   acc = acc * x;
-  for (int j = 0; j < s.n_knots; ++j) {
-    const V u = x - Scalar(s.knot_rad[j]);
-    V t = Ops::constant(Scalar(1));
-    for (int q = 0; q < s.knot_power[j] + 1; ++q) t = t * u;
-    const V sum = acc + s.knot_coef[j] * t / Scalar(s.knot_power[j] + 1);
-    acc = Ops::select(u > Scalar(0), sum, acc);
-  }
+  detail::add_knot_terms_lanes<Ops>(s, x, detail::KnotSum::antiderivative, &acc);
   *r = acc;
 }
 
