@@ -434,6 +434,8 @@ int callgrind_main(const std::string& name, std::size_t steps) {
     const std::string m = ib::model_kind_name(k);
     table.push_back({"step/" + m + "/double", [=] { return callgrind_run<double, PredictorStepper<double>>(steps, k); }});
     table.push_back({"step/" + m + "/float", [=] { return callgrind_run<float, PredictorStepper<float>>(steps, k); }});
+    table.push_back({"state/" + m + "/double", [=] { return callgrind_run<double, StateStepper<double>>(steps, k); }});
+    table.push_back({"c/" + m + "/double", [=] { return callgrind_run<double, CStepper>(steps, k); }});
     table.push_back({"model/" + m + "/double", [=] { return callgrind_run<double, ModelStepper<double>>(steps, k); }});
     table.push_back({"floor/" + m + "/double", [=] { return callgrind_run<double, FloorStepper<double>>(steps, k); }});
     table.push_back({"floor/" + m + "/float", [=] { return callgrind_run<float, FloorStepper<float>>(steps, k); }});

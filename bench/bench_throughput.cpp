@@ -15,8 +15,12 @@
 // and, for 1024 instances sharing ONE model (a 160-byte State each: 160 KB in all), lockstep:
 //   shared/    indicial::step per instance; stepbatch/ indicial::step_batch; cbatch/ the C
 //              interface's indicial_step_batch (see SharedFleet)
-// Reported: steps_per_s, the aggregate over all threads (wall time, UseRealTime). The 1 -> 2
-// thread scaling is steps_per_s(T=2) / steps_per_s(T=1), computed by run_all.sh.
+// Reported: steps_per_s, the aggregate over all threads (wall time, UseRealTime), and
+// cpu_ns_per_step, the stepping threads' own CPU time (CLOCK_THREAD_CPUTIME_ID) per
+// instance-step, which a loaded machine inflates much less than the wall time. The 1 -> 2
+// thread scaling is steps_per_s(T=2) / steps_per_s(T=1), computed by make_results.py.
+// Thread t steps its own contiguous range, a multiple of 8 instances, on cache-line aligned
+// arrays (CacheLineAllocator): no cache line is written by both threads.
 //
 // Warnings
 // --------
@@ -25,10 +29,12 @@
 #include <benchmark/benchmark.h>
 #include <pthread.h>
 #include <sched.h>
+#include <time.h>
 
 #include <cstdio>
 #include <cstdlib>
 #include <memory>
+#include <new>
 #include <thread>
 #include <vector>
 
@@ -101,6 +107,36 @@ struct Fleet {
   }
 };
 
+// Storage on 64-byte cache lines: with every array of SharedFleet aligned and each thread's
+// range a multiple of batch_block (8) instances, no cache line holds data of two threads
+// (8 States = 1280 bytes = 20 lines, 8 angles = 1 line, 8 out rows = 2 lines): no false
+// sharing between the threads.
+template <class T>
+struct CacheLineAllocator {
+  using value_type = T;
+  static constexpr std::size_t line_bytes = 64;
+  CacheLineAllocator() = default;
+  template <class U>
+  CacheLineAllocator(const CacheLineAllocator<U>&) {}
+  T* allocate(std::size_t n) {
+    return static_cast<T*>(::operator new(n * sizeof(T), std::align_val_t(line_bytes)));
+  }
+  void deallocate(T* p, std::size_t) { ::operator delete(p, std::align_val_t(line_bytes)); }
+  template <class U>
+  bool operator==(const CacheLineAllocator<U>&) const { return true; }
+  template <class U>
+  bool operator!=(const CacheLineAllocator<U>&) const { return false; }
+};
+template <class T>
+using LineVector = std::vector<T, CacheLineAllocator<T>>;
+
+// Thread t's range of aircraft [first, first of t + 1): even shares, each a multiple of
+// batch_block instances (so of whole cache lines, see CacheLineAllocator).
+int range_begin(int t, int threads) {
+  const int blocks = kAircraft / indicial::batch_block;
+  return t * blocks / threads * indicial::batch_block;
+}
+
 // 1024 instances sharing ONE model: a State (160 bytes for double) each, the RuntimeModel once
 // (it stays in cache). Time-major (lockstep) like a simulation of many aircraft, stepped by
 //   shared/    indicial::step per instance
@@ -110,12 +146,12 @@ enum class SharedMode : int { single = 0, batch = 1, c_batch = 2 };
 
 struct SharedFleet {
   std::unique_ptr<indicial::RuntimeModel<double, Cap>> model;
-  std::vector<indicial::State<double, Cap>> states;
+  LineVector<indicial::State<double, Cap>> states;
   std::vector<double> c_model;   // the C interface's storage (double-aligned)
-  std::vector<double> c_states;
+  LineVector<double> c_states;
   std::size_t c_state_bytes = 0;
-  std::vector<std::size_t> phase;
-  std::vector<double> angle, rate, airspeed, out, sink;
+  LineVector<std::size_t> phase;
+  LineVector<double> angle, rate, airspeed, out, sink;
   ib::Motion<double> motion{1.0 / kDtS};
 
   SharedFleet()
@@ -169,6 +205,12 @@ struct SharedFleet {
   }
 };
 
+double thread_cpu_s() {
+  timespec t{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+}
+
 void pin_self(int cpu) {
   cpu_set_t set;
   CPU_ZERO(&set);
@@ -182,19 +224,26 @@ void run_fleet(benchmark::State& state, ModeT order) {
   auto fleet = std::make_unique<FleetT>();
   const int ncpu = static_cast<int>(std::thread::hardware_concurrency());
   int bad = 0;
+  double cpu_s = 0.0;  // CPU time of the stepping threads, all together
   for (auto _ : state) {
     std::vector<std::thread> pool;
     std::vector<int> bad_of(threads, 0);
+    std::vector<double> cpu_s_of(threads, 0.0);
     for (int t = 1; t < threads; ++t) {
       pool.emplace_back([&, t] {
         pin_self(t % ncpu);
-        bad_of[t] = fleet->advance(t * kAircraft / threads, (t + 1) * kAircraft / threads, order);
+        const double c0 = thread_cpu_s();
+        bad_of[t] = fleet->advance(range_begin(t, threads), range_begin(t + 1, threads), order);
+        cpu_s_of[t] = thread_cpu_s() - c0;
       });
     }
     pin_self(0);
-    bad_of[0] = fleet->advance(0, kAircraft / threads, order);
+    const double c0 = thread_cpu_s();
+    bad_of[0] = fleet->advance(0, range_begin(1, threads), order);
+    cpu_s_of[0] = thread_cpu_s() - c0;
     for (auto& th : pool) th.join();
     for (int b : bad_of) bad += b;
+    for (double c : cpu_s_of) cpu_s += c;
     benchmark::DoNotOptimize(fleet->sink.data());
     benchmark::ClobberMemory();
   }
@@ -204,6 +253,10 @@ void run_fleet(benchmark::State& state, ModeT order) {
   for (int c = 0; c < ncpu; ++c) CPU_SET(c, &all);
   sched_setaffinity(0, sizeof all, &all);
   if (bad != 0) state.SkipWithError("Predictor::step returned a status other than ok");
+  const double steps = static_cast<double>(state.iterations()) * kAircraft * kStepsPerIteration;
+  // The stepping threads' own CPU time per instance-step: what a step costs, without the time
+  // spent waiting for a CPU on a loaded machine (1e9 / this = instance-steps per CPU-second).
+  state.counters["cpu_ns_per_step"] = cpu_s * 1e9 / steps;
   state.counters["steps_per_s"] = benchmark::Counter(
       static_cast<double>(state.iterations()) * kAircraft * kStepsPerIteration,
       benchmark::Counter::kIsRate);

@@ -125,13 +125,30 @@ for m in ("model1", "model2", "twolag"):
     q = lambda a, b: a / b if (a and b) else None
     w(f"| {m} | {fmt(sd)} | {fmt(q(sd, fd))} | {fmt(cd)} | {fmt(q(cd, sd))} | {fmt(sf)} | {fmt(q(sf, ff))} |")
 w("")
-ratio_state = (t("state/model2/double") / t("floor/model2/double")) if t("floor/model2/double") and t("state/model2/double") else None
+# The goals' ratios from the interleaved run (run_all.sh: state, c and floor of Model II in
+# random order, many repetitions, medians), which shares the machine's state between the three;
+# the sequential run above is the fallback.
+inter = medians(load_json("interleaved.json"))
+
+
+def ti(name):
+    b = inter.get(name)
+    return to_ns(b, "cpu_time") if b else t(name)
+
+
+ratio_state = (ti("state/model2/double") / ti("floor/model2/double")) if ti("floor/model2/double") and ti("state/model2/double") else None
+ratio_c = (ti("c/model2/double") / ti("state/model2/double")) if ti("c/model2/double") and ti("state/model2/double") else None
+if inter:
+    reps = max((b.get("repetitions", 0) for b in inter.values()), default=0)
+    w(f"Interleaved (`--benchmark_enable_random_interleaving`, {reps} repetitions, medians of CPU")
+    w(f"time): state {fmt(ti('state/model2/double'))} ns, c {fmt(ti('c/model2/double'))} ns, floor "
+      f"{fmt(ti('floor/model2/double'))} ns: **state/floor {fmt(ratio_state)}, c/state {fmt(ratio_c)}**.")
+    w("")
 if ratio_state:
-    goals.append(("state step / floor <= 1.5, Model II C_L + C_m, double (CPU time)", fmt(ratio_state),
+    goals.append(("state step / floor <= 1.5, Model II C_L + C_m, double (CPU time, interleaved)", fmt(ratio_state),
                   "met" if ratio_state <= 1.5 else "NOT met"))
-ratio_c = (t("c/model2/double") / t("state/model2/double")) if t("c/model2/double") and t("state/model2/double") else None
 if ratio_c:
-    goals.append(("C interface within 5 % of C++ (single step, Model II)", fmt(ratio_c),
+    goals.append(("C interface within 5 % of C++ (single step, Model II, interleaved)", fmt(ratio_c),
                   "met" if ratio_c <= 1.05 else "NOT met"))
 ratio_m2 = (t("step/model2/double") / t("floor/model2/double")) if t("floor/model2/double") else None
 allocs_all = [b.get("allocs_per_step", 0.0) for n, b in step.items()]
@@ -236,12 +253,15 @@ w("")
 w("`batch` and `lockstep`: 1024 Predictors, each with its own copy of the model (predictor-major")
 w("and time-major). `shared`, `stepbatch`, `cbatch`: 1024 States sharing ONE RuntimeModel,")
 w("time-major, stepped by `indicial::step`, `indicial::step_batch` and the C interface's")
-w("`indicial_step_batch`. Instance-steps per second of wall time, all threads together.")
+w("`indicial_step_batch`. Instance-steps per second of wall time, all threads together, and the")
+w("stepping threads' own CPU time per instance-step (`cpu ns/step`; 1000 / it = M instance-steps")
+w("per CPU-second), which waiting for a CPU on a loaded machine does not inflate.")
 w("")
-w("| order | scalar | threads | steps/s (median) | scaling 1 -> 2 |")
-w("|---|---|---|---|---|")
+w("| order | scalar | threads | steps/s (median, wall) | scaling 1 -> 2 | cpu ns/step | M steps per CPU-s |")
+w("|---|---|---|---|---|---|---|")
 best2 = 0.0
 best_scaling = 0.0
+best_cpu2 = None
 for order in ("batch", "lockstep", "shared", "stepbatch", "cbatch"):
     for s in ("double", "float"):
         one = thr.get(f"{order}/{s}/1/real_time")
@@ -253,13 +273,22 @@ for order in ("batch", "lockstep", "shared", "stepbatch", "cbatch"):
         best2 = max(best2, r2 or 0.0)
         if order in ("shared", "stepbatch", "cbatch") and r2:
             best_scaling = max(best_scaling, r2 / r1)
-        w(f"| {order} | {s} | 1 | {fmt(r1 / 1e6)} M | |")
+        c1 = one.get("cpu_ns_per_step")
+        c2 = two.get("cpu_ns_per_step") if two else None
+        if order == "stepbatch" and s == "double" and c2:
+            best_cpu2 = 2e3 / c2  # M steps/s on two cores at this CPU cost per step
+        cell = lambda c: (f"{fmt(c)} | {fmt(1e3 / c)}" if c else "n/a | n/a")
+        w(f"| {order} | {s} | 1 | {fmt(r1 / 1e6)} M | | {cell(c1)} |")
         w(f"| {order} | {s} | 2 | {fmt(r2 / 1e6) if r2 else 'n/a'} M | "
-          f"{fmt(r2 / r1) if r2 else 'n/a'}x |")
+          f"{fmt(r2 / r1) if r2 else 'n/a'}x | {cell(c2)} |")
 w("")
 if thr:
-    goals.append((">= 50 M instance-steps/s on 2 cores", f"{fmt(best2 / 1e6)} M steps/s (best)",
+    goals.append((">= 50 M instance-steps/s on 2 cores", f"{fmt(best2 / 1e6)} M steps/s (best, wall)",
                   "met" if best2 >= 50e6 else "NOT met"))
+    if best_cpu2:
+        goals.append(("... by CPU time: 2 x 1000 / (stepbatch cpu ns/step, 2 threads)",
+                      f"{fmt(best_cpu2)} M steps/s if both cores were ours",
+                      "met" if best_cpu2 >= 50 else "NOT met"))
     if best_scaling:
         goals.append(("1 -> 2 threads scaling >= 1.8x (shared model)", f"{fmt(best_scaling)}x (best)",
                       "met" if best_scaling >= 1.8 else "NOT met"))
@@ -360,3 +389,12 @@ if os.path.exists(notes_path):
 
 with open(results_path, "w") as f:
     f.write("\n".join(lines) + "\n")
+
+# The README's step-time headline, from this run (paste it over the README's "Step time" item).
+st, fl = t("step/model2/double"), t("floor/model2/double")
+ir_st, ir_fl = (cg.get("step/model2/double") or (None,))[0], (cg.get("floor/model2/double") or (None,))[0]
+if st and fl:
+    print(f"README headline: **Step time**: {fmt(st)} ns median CPU per `Predictor::step` (C_L and C_m "
+          f"together, Example 1's Model II structure, double), {fmt(st / fl)}x its floor of {fmt(fl)} ns"
+          + (f"; {ir_st:.0f} instructions per step against a floor of {ir_fl:.0f}" if ir_st and ir_fl else "")
+          + " (`bench/RESULTS.md`, section 1).")

@@ -6,7 +6,9 @@
 # Environment: HIL_SECONDS (default 60: the 10 kHz loaded loop of the goal), HIL_SHORT_SECONDS
 # (default 10: the other loops), REPS (default 5:
 # Google Benchmark repetitions; medians are reported), SKIP_FITTER=1 (runtime only),
-# SKIP_CALLGRIND=1. The runs take about 6 minutes on an idle 2-core machine, plus the build. Needs cmake, ninja, a C++17
+# SKIP_CALLGRIND=1, NATIVE=1 (build for this CPU, INDICIAL_NATIVE), RESULTS_MD (default
+# bench/RESULTS.md: where the report goes; make_results.py also prints the README's headline
+# line from this run). The runs take about 6 minutes on an idle 2-core machine, plus the build. Needs cmake, ninja, a C++17
 # compiler, Google Benchmark, python3; valgrind for the instruction counts (optional).
 set -euo pipefail
 
@@ -21,7 +23,9 @@ mkdir -p "$out"
 rm -f "$out"/*.json "$out"/*.txt "$out"/*.md "$out"/*.out
 
 echo "== configure and build (Release) in $build"
-cmake -S "$src" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release >"$out/cmake.log"
+# NATIVE=1: every target for this machine's CPU (INDICIAL_NATIVE: -march=native, AVX-512 here).
+cmake -S "$src" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release \
+  -DINDICIAL_NATIVE="$([[ "${NATIVE:-0}" == 1 ]] && echo ON || echo OFF)" >"$out/cmake.log"
 targets=(bench_step bench_throughput hil)
 [[ "${SKIP_FITTER:-0}" == 1 ]] || targets+=(bench_fitter)
 cmake --build "$build" -j2 --target "${targets[@]}" >"$out/build.log" 2>&1 || {
@@ -50,12 +54,18 @@ echo "== bench_step"
 "$bin/bench_step" "${gb_flags[@]}" --benchmark_min_time=0.2 \
   --benchmark_out="$out/step.json" | grep -E '_median|^-' || true
 
+echo "== C vs C++ and state vs floor, Model II, interleaved (random order, medians)"
+"$bin/bench_step" --benchmark_filter='^(state|c|floor)/model2/double$' \
+  --benchmark_enable_random_interleaving=true --benchmark_repetitions="$((reps * 3))" \
+  --benchmark_min_time=0.1 --benchmark_report_aggregates_only=true --benchmark_format=console \
+  --benchmark_out_format=json --benchmark_out="$out/interleaved.json" | grep -E '_median' || true
+
 if [[ "${SKIP_CALLGRIND:-0}" != 1 ]] && command -v valgrind >/dev/null; then
   echo "== callgrind instruction counts per step"
   steps=50000
   : >"$out/callgrind.txt"
   for v in step/model1/double step/model2/double step/twolag/double step/model2/float \
-           model/model2/double \
+           state/model2/double c/model2/double model/model2/double \
            floor/model1/double floor/model2/double floor/twolag/double floor/model2/float; do
     f="$out/callgrind.$(echo "$v" | tr / _).out"
     valgrind --tool=callgrind --instr-atstart=no --callgrind-out-file="$f" \
@@ -84,5 +94,6 @@ echo "== hil (1 kHz and 10 kHz idle, 10 s each; 1 kHz loaded 10 s; 10 kHz loaded
 "$bin/hil" --rate-hz 10000 --seconds "$hil_seconds" --load | tee "$out/hil_load_10k.md"
 
 echo "load average at end: $(cut -d' ' -f1-3 /proc/loadavg)" >>"$out/machine.txt"
-python3 "$here/make_results.py" "$out" "$here/RESULTS.md"
-echo "== wrote $here/RESULTS.md"
+results="${RESULTS_MD:-$here/RESULTS.md}"
+python3 "$here/make_results.py" "$out" "$results"
+echo "== wrote $results"

@@ -494,16 +494,22 @@ struct Clamped {
   StepStatus status;  // ok or angle_clamped
 };
 
-// Model angle from the motion angle, clamped to the envelope, all in Scalar.
+// Model angle from the motion angle (not yet clamped), in Scalar.
 template <class Scalar, class Cap>
-inline Clamped<Scalar> clamp_model_angle(const RuntimeModel<Scalar, Cap>& m, double motion_angle_rad) {
+inline Scalar model_angle_of(const RuntimeModel<Scalar, Cap>& m, double motion_angle_rad) {
   const Scalar motion = Scalar(motion_angle_rad);
   // Why the branch: a finite double beyond Scalar's range (1e300 for float) becomes Inf, whose
   // sine is NaN; roll and yaw are periodic in the motion angle, so take that rare angle's
   // model angle in double. (Pitch needs nothing: Inf clamps to the envelope's end.)
-  const Scalar x = std::isfinite(motion) || m.set.axis == Axis::pitch
-                       ? model_angle_from_factor(m.set.axis, m.angle_factor, motion)
-                       : Scalar(model_angle<double>(m.set.axis, m.set.alpha0_rad, motion_angle_rad));
+  return std::isfinite(motion) || m.set.axis == Axis::pitch
+             ? model_angle_from_factor(m.set.axis, m.angle_factor, motion)
+             : Scalar(model_angle<double>(m.set.axis, m.set.alpha0_rad, motion_angle_rad));
+}
+
+// Model angle from the motion angle, clamped to the envelope, all in Scalar.
+template <class Scalar, class Cap>
+inline Clamped<Scalar> clamp_model_angle(const RuntimeModel<Scalar, Cap>& m, double motion_angle_rad) {
+  const Scalar x = model_angle_of(m, motion_angle_rad);
   // Why the clamp: the splines are fitted inside the envelope only; outside it a polynomial
   // extrapolates without data behind it.
   if (x < m.x_min_rad) return {m.x_min_rad, StepStatus::angle_clamped};
@@ -867,12 +873,12 @@ class Predictor {
     if (state_.phase != static_cast<int>(PredictorPhase::running)) return StepStatus::not_reset;
     if (out == nullptr) return StepStatus::null_output;
     const Runtime& m = runtime();
-    Outputs result;
-    const StepStatus s = indicial::step(m, state_, in, dt_s, result.value);
+    // Straight into *out: indicial::step writes out->value only when it steps (a refusal
+    // leaves *out as it was), and no copy of the Outputs lengthens the caller's chain.
+    const StepStatus s = indicial::step(m, state_, in, dt_s, out->value);
     if (s != StepStatus::ok && s != StepStatus::angle_clamped) return s;
-    result.count = m.set.n_coefficients;
-    for (int c = 0; c < m.set.n_coefficients; ++c) result.name[c] = m.set.coefficients[c].name;
-    *out = result;
+    out->count = m.set.n_coefficients;
+    for (int c = 0; c < m.set.n_coefficients; ++c) out->name[c] = m.set.coefficients[c].name;
     return s;
   }
 

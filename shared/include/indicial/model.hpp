@@ -640,4 +640,157 @@ inline void lag_derivatives(const CoefficientModel<Scalar, Cap>& m, const Scalar
   }
 }
 
+
+// ------------------------------------------------------------------------------------------
+// Lane-wise forms: W independent instances of one model at once (the runtime's step_batch).
+// ------------------------------------------------------------------------------------------
+// Each function below is its scalar namesake above evaluated for W angles at once: the same
+// expressions, term for term and in the same order, so every lane's result is bit-identical to
+// the scalar function's at that lane's arguments. They are written on a lane type V and contain
+// no branch on a lane's value: a knot term (x - k)_+^p is computed for every lane and merged by
+// a select (the scalar branch x > k), phi1's series/quotient and interval_mean's
+// midpoint/quotient are selects too. Only branches on the model (powers, knots, lags) and
+// "does any lane need the midpoint" remain, uniform over the block.
+//
+// Ops is the lane policy (the runtime's batch.hpp defines it; the fitter and autodiff types use
+// the scalar forms):
+//   using Scalar = ...;   float or double
+//   using V = ...;        W lanes of Scalar: + - * / with V or Scalar on either side, unary -,
+//                         comparisons giving a mask, v[i] element access
+//   static constexpr int width;                        W
+//   static V constant(Scalar);                         every lane = the value
+//   static V select(const Mask&, const V& a, const V& b);   lane-wise mask ? a : b
+//   static V abs(const V&);
+//   static bool any(const Mask&);
+// Results are out-parameters (a wide vector returned by value changes a function's ABI).
+// Not vectorised: a static TABLE (its binary search), evaluated lane by lane by static_value.
+
+namespace detail {
+// Which sum a knot term belongs to: spline_value's coef u^p or spline_antiderivative's
+// (coef u^(p+1)) / (p+1).
+enum class KnotSum : int { value = 0, antiderivative = 1 };
+
+// *acc += each knot term of s where x > knot (u = x - knot > 0), the scalar forms' branch as a
+// select: every term is computed in every lane, the sum merged where u > 0.
+template <class Ops, int P, int K>
+inline void add_knot_terms_lanes(const Spline<typename Ops::Scalar, P, K>& s,
+                                 const typename Ops::V& x, KnotSum sum_kind, typename Ops::V* acc) {
+  using Scalar = typename Ops::Scalar;
+  using V = typename Ops::V;
+  for (int j = 0; j < s.n_knots; ++j) {
+    const int power = s.knot_power[j] + (sum_kind == KnotSum::antiderivative ? 1 : 0);
+    const V u = x - Scalar(s.knot_rad[j]);
+    V t = Ops::constant(Scalar(1));
+    for (int q = 0; q < power; ++q) t = t * u;
+    // (coef * u^p) / (p + 1) as scaled_basis_antiderivative rounds it.
+    const V term = sum_kind == KnotSum::antiderivative ? V(s.knot_coef[j] * t / Scalar(power))
+                                                      : V(s.knot_coef[j] * t);
+    const V sum = *acc + term;
+    *acc = Ops::select(u > Scalar(0), sum, *acc);
+  }
+}
+}  // namespace detail
+
+// spline_value at W angles: *r = s(x) lane-wise.
+template <class Ops, int P, int K>
+inline void spline_value_lanes(const Spline<typename Ops::Scalar, P, K>& s,
+                               const typename Ops::V& x, typename Ops::V* r) {
+  using Scalar = typename Ops::Scalar;
+  using V = typename Ops::V;
+  V acc = Ops::constant(Scalar(0));
+  for (int i = s.n_powers - 1; i >= 0; --i) acc = acc * x + s.power_coef[i];
+  detail::add_knot_terms_lanes<Ops>(s, x, detail::KnotSum::value, &acc);
+  *r = acc;
+}
+
+// spline_antiderivative at W angles.
+template <class Ops, int P, int K>
+inline void spline_antiderivative_lanes(const Spline<typename Ops::Scalar, P, K>& s,
+                                        const typename Ops::V& x, typename Ops::V* r) {
+  using Scalar = typename Ops::Scalar;
+  using V = typename Ops::V;
+  V acc = Ops::constant(Scalar(0));
+  for (int i = s.n_powers - 1; i >= 0; --i) acc = acc * x + s.power_coef[i] / Scalar(i + 1);
+  acc = acc * x;
+  detail::add_knot_terms_lanes<Ops>(s, x, detail::KnotSum::antiderivative, &acc);
+  *r = acc;
+}
+
+// interval_mean at W intervals. The midpoint values are evaluated only when some lane needs
+// them (an angle that did not move): a branch on the block, not on a lane.
+template <class Ops, int P, int K>
+inline void interval_mean_lanes(const Spline<typename Ops::Scalar, P, K>& s,
+                                const typename Ops::V& x0, const typename Ops::V& x1,
+                                const typename Ops::V& antiderivative_x0,
+                                const typename Ops::V& antiderivative_x1, typename Ops::V* mean) {
+  using Scalar = typename Ops::Scalar;
+  using V = typename Ops::V;
+  const V dx = x1 - x0;
+  const auto small = Ops::abs(dx) < Scalar(detail::interval_mean_threshold<Scalar>::value);
+  *mean = (antiderivative_x1 - antiderivative_x0) / dx;
+  if (!Ops::any(small)) return;
+  V midpoint_value;
+  spline_value_lanes<Ops>(s, Scalar(0.5) * (x0 + x1), &midpoint_value);
+  *mean = Ops::select(small, midpoint_value, *mean);
+}
+
+// phi1(z, exp(-z)) at W lanes.
+template <class Ops>
+inline void phi1_lanes(const typename Ops::V& z, const typename Ops::V& exp_minus_z,
+                       typename Ops::V* r) {
+  using Scalar = typename Ops::Scalar;
+  using V = typename Ops::V;
+  const V series =
+      Scalar(1) + z * (Scalar(-0.5) + z * (Scalar(1.0 / 6.0) + z * Scalar(-1.0 / 24.0)));
+  const V quotient = (Scalar(1) - exp_minus_z) / z;
+  *r = Ops::select(Ops::abs(z) < Scalar(1e-3), series, quotient);
+}
+
+// lag_exponent of lag j at W lanes, from the angles, the antiderivatives B_j at both ends and
+// StepGeometry's time_scale * dt_s per lane.
+template <class Ops, class Cap>
+inline void lag_exponent_lanes(const CoefficientModel<typename Ops::Scalar, Cap>& m, int j,
+                               const typename Ops::V& x0, const typename Ops::V& x1,
+                               const typename Ops::V& b_antiderivative_x0,
+                               const typename Ops::V& b_antiderivative_x1,
+                               const typename Ops::V& time_scale_dt, typename Ops::V* z) {
+  typename Ops::V b_mean;
+  interval_mean_lanes<Ops>(m.lags[j].b, x0, x1, b_antiderivative_x0, b_antiderivative_x1, &b_mean);
+  *z = b_mean * time_scale_dt;
+}
+
+// lag_update of lag j at W lanes, *y updated in place.
+template <class Ops, class Cap>
+inline void lag_update_lanes(const CoefficientModel<typename Ops::Scalar, Cap>& m, int j,
+                             const typename Ops::V& forcing_integral,
+                             const typename Ops::V& time_scale_dt, const typename Ops::V& z,
+                             const typename Ops::V& decay, typename Ops::V* y) {
+  using V = typename Ops::V;
+  V phi;
+  phi1_lanes<Ops>(z, decay, &phi);
+  V drive = (j == 0) ? V(-forcing_integral) : V(-m.lags[j].gain * forcing_integral);
+  if (j == 0) drive = drive + m.con * time_scale_dt;
+  *y = decay * *y + phi * drive;
+}
+
+// coefficient_output at W lanes; y[j] is lag j's W states.
+template <class Ops, class Cap>
+inline void coefficient_output_lanes(const CoefficientModel<typename Ops::Scalar, Cap>& m,
+                                     const typename Ops::V& x_rad, const typename Ops::V& rate_radps,
+                                     const typename Ops::V& l_over_v_s, const typename Ops::V* y,
+                                     typename Ops::V* c) {
+  using V = typename Ops::V;
+  V curve, correction, rotary;
+  if (m.static_curve.kind == StaticKind::polynomial) {
+    spline_value_lanes<Ops>(m.static_curve.polynomial, x_rad, &curve);
+  } else {
+    for (int i = 0; i < Ops::width; ++i) curve[i] = static_value(m.static_curve, x_rad[i]);
+  }
+  spline_value_lanes<Ops>(m.static_correction, x_rad, &correction);
+  spline_value_lanes<Ops>(m.rotary, x_rad, &rotary);
+  V sum = curve + correction + l_over_v_s * rotary * rate_radps;
+  for (int j = 0; j < m.n_lags; ++j) sum = sum + y[j];
+  *c = sum;
+}
+
 }  // namespace indicial
