@@ -132,6 +132,24 @@ std::vector<int> stepwise_select(const Eigen::MatrixXd& X, const Eigen::VectorXd
   std::vector<int> best_set;
   const int max_steps = 4 * pool + 4;  // guard against entry/removal cycles
   int just_entered = -1;
+  // Logs the step that just entered or removed `term` (the model is now `in` with `sse`) and
+  // keeps the set of least PSE.
+  auto log_step = [&](int term, StepwiseAction action, double f, double f_white) {
+    StepwiseStep s;
+    s.step = static_cast<int>(log.steps.size()) + 1;
+    s.term = names[static_cast<std::size_t>(term)];
+    s.action = action;
+    s.partial_f = f;
+    s.partial_f_white = f_white;
+    s.r_squared = r2_of(sse);
+    s.pse = pse_of(sse, in.size());
+    s.n_terms = static_cast<int>(in.size());
+    log.steps.push_back(s);
+    if (s.pse < best_pse) {
+      best_pse = s.pse;
+      best_set = in;
+    }
+  };
   // Backward: remove the weakest term (not `protect`, the one just entered) while its partial
   // F is below F_out.
   auto backward = [&](int protect) {
@@ -159,20 +177,7 @@ std::vector<int> stepwise_select(const Eigen::MatrixXd& X, const Eigen::VectorXd
       if (worst < 0 || worst_f >= o.f_to_remove) return;
       in.erase(std::find(in.begin(), in.end(), worst));
       sse = worst_sse;
-      StepwiseStep s;
-      s.step = static_cast<int>(log.steps.size()) + 1;
-      s.term = names[static_cast<std::size_t>(worst)];
-      s.action = StepwiseAction::removed;
-      s.partial_f = worst_f;
-      s.partial_f_white = worst_white;
-      s.r_squared = r2_of(sse);
-      s.pse = pse_of(sse, in.size());
-      s.n_terms = static_cast<int>(in.size());
-      log.steps.push_back(s);
-      if (s.pse < best_pse) {
-        best_pse = s.pse;
-        best_set = in;
-      }
+      log_step(worst, StepwiseAction::removed, worst_f, worst_white);
     }
   };
   for (int step = 0; step < max_steps; ++step) {
@@ -203,22 +208,7 @@ std::vector<int> stepwise_select(const Eigen::MatrixXd& X, const Eigen::VectorXd
     in.push_back(best_j);
     just_entered = best_j;
     sse = best_sse;
-    {
-      StepwiseStep s;
-      s.step = static_cast<int>(log.steps.size()) + 1;
-      s.term = names[static_cast<std::size_t>(best_j)];
-      s.action = StepwiseAction::entered;
-      s.partial_f = best_f;
-      s.partial_f_white = best_white;
-      s.r_squared = r2_of(sse);
-      s.pse = pse_of(sse, in.size());
-      s.n_terms = static_cast<int>(in.size());
-      log.steps.push_back(s);
-      if (s.pse < best_pse) {
-        best_pse = s.pse;
-        best_set = in;
-      }
-    }
+    log_step(best_j, StepwiseAction::entered, best_f, best_white);
     backward(just_entered);
   }
   // A last backward pass: a term that entered early may have lost its significance to later
