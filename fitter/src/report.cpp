@@ -14,6 +14,7 @@
 
 #include "indicial/fitter/diagnose.hpp"
 #include "indicial/fitter/error.hpp"
+#include "indicial/fitter/experiment_toml.hpp"
 #include "indicial/fitter/io.hpp"
 #include "indicial/fitter/model_merge.hpp"
 #include "indicial/runtime.hpp"
@@ -307,8 +308,15 @@ nlohmann::json fit_json(const FitResult& r, const Experiment& e, const FitOption
   j["equation_error"] = eej;
   j["rotary"] = rotary_json(r.model.coefficients[0], e);
   j["runs"] = nlohmann::json::array();
-  for (const RunSeries& s : r.runs)
-    j["runs"].push_back({{"path", display_path(s.path, e)}, {"samples", s.time_s.size()}, {"fit_error", finite_or_null(run_fit_error(s))}});
+  for (std::size_t ri = 0; ri < r.runs.size(); ++ri) {
+    const RunSeries& s = r.runs[ri];
+    nlohmann::json run = {{"path", display_path(s.path, e)}, {"samples", s.time_s.size()}, {"fit_error", finite_or_null(run_fit_error(s))}};
+    if (ri < e.runs.size()) {  // the run's own airspeed and time grid (issue 12)
+      run["airspeed_mps"] = e.runs[ri].airspeed_mps;
+      run["time_grid"] = name_of(e.runs[ri].time_grid);
+    }
+    j["runs"].push_back(run);
+  }
   j["experiment"] = {{"path", e.path},
                      {"axis", axis_name(e.axis)},
                      {"coefficient", e.coefficient},
