@@ -8,8 +8,9 @@
 // the whole step on lane vectors -- the clamp (as selects), the airspeed terms, the spline
 // antiderivatives A(x) and B_j(x) with their plus-function knots (a select per knot),
 // b_j's interval mean, the exponentials (Eigen's vectorised array exp), phi1, the lag update,
-// the static / correction / rotary output -- with model.hpp's lane-wise forms (the model's
-// expressions written once for lanes, term for term those of the scalar step), then merges
+// the static / correction / rotary output -- with model.hpp's `*_with<Ops>` bodies (the model's
+// expressions written once, called here with the lane policy BatchLanes and by the scalar step
+// with ScalarOps), then merges
 // each lane's new state with its old one by its status and scatters the block back. With GCC
 // and Clang the lane type is a vector extension, so every one of those operations is a SIMD
 // instruction (SSE2 by default, AVX-512 with -march=native) whatever the auto-vectoriser does.
@@ -167,7 +168,8 @@ INDICIAL_LANE_COMPARE(==)
 #undef INDICIAL_LANE_BINARY
 #undef INDICIAL_LANE_COMPARE
 
-// The lane policy of model.hpp's lane-wise forms (see there).
+// The lane policy of model.hpp's `*_with<Ops>` bodies (see ScalarOps there): selects where
+// ScalarOps branches.
 template <class S>
 struct BatchLanes {
   using Scalar = S;
@@ -178,12 +180,26 @@ struct BatchLanes {
     for (int i = 0; i < width; ++i) r[i] = c;
     return r;
   }
+  static V one(const V&) { return constant(S(1)); }
+  static S lift(const V&, double c) { return S(c); }
   static V select(const LaneMask<S>& m, const V& a, const V& b) { return lane_select(m, a, b); }
+  template <class F> static void add_where(const LaneMask<S>& m, V* acc, F term) {
+    const V sum = *acc + term();
+    *acc = lane_select(m, sum, *acc);
+  }
+  template <class Fa, class Fb> static V choose(const LaneMask<S>& m, Fa a, Fb b) {
+    return lane_select(m, a(), b());
+  }
   static V abs(const V& v) { return lane_select(v < S(0), -v, v); }
+  static LaneMask<S> abs_less(const V& v, double threshold) { return abs(v) < S(threshold); }
   static bool any(const LaneMask<S>& m) {
     bool r = false;
     for (int i = 0; i < width; ++i) r = r || m[i];
     return r;
+  }
+  // Not vectorised: a static TABLE's binary search, lane by lane.
+  template <class Curve> static void table_value(const Curve& c, const V& x, V* r) {
+    for (int i = 0; i < width; ++i) (*r)[i] = static_value(c, x[i]);
   }
 };
 
@@ -276,8 +292,8 @@ inline void prepare_lanes(const RuntimeModel<Scalar, Cap>& m, Scalar dt_s, Block
   b->time_scale_dt = b->time_scale * dt_s;
 }
 
-// The model equations of coefficient c over one step for every lane (model.hpp's lane-wise
-// forms in advance_lags_between's sequence), with the exponentials of the block taken at once
+// The model equations of coefficient c over one step for every lane (model.hpp's `*_with`
+// bodies in advance_lags_between's sequence), with the exponentials of the block taken at once
 // by Eigen's vectorised array exp. Clears keep where a result is not finite.
 template <class Scalar, class Cap>
 inline void advance_lanes(const CoefficientModel<Scalar, Cap>& cm, int c, BlockLanes<Scalar, Cap>* b) {
@@ -285,23 +301,23 @@ inline void advance_lanes(const CoefficientModel<Scalar, Cap>& cm, int c, BlockL
   using V = typename Ops::V;
   using Lanes = Eigen::Array<Scalar, batch_block, 1>;
   V end1, z, decay;
-  spline_antiderivative_lanes<Ops>(cm.a, b->x1_rad, &end1);
+  end1 = spline_antiderivative_with<Ops>(cm.a, b->x1_rad);
   const V forcing_integral = end1 - b->forcing_antiderivative[c];
   b->forcing_antiderivative[c] = end1;
   for (int j = 0; j < cm.n_lags; ++j) {
-    spline_antiderivative_lanes<Ops>(cm.lags[j].b, b->x1_rad, &end1);
-    lag_exponent_lanes<Ops>(cm, j, b->x0_rad, b->x1_rad, b->b_antiderivative[c][j], end1,
+    end1 = spline_antiderivative_with<Ops>(cm.lags[j].b, b->x1_rad);
+    lag_exponent_with<Ops>(cm, j, b->x0_rad, b->x1_rad, b->b_antiderivative[c][j], end1,
                             b->time_scale_dt, &z);
     Lanes e;
     for (int i = 0; i < batch_block; ++i) e(i) = -z[i];
     e = e.exp();
     for (int i = 0; i < batch_block; ++i) decay[i] = e(i);
-    lag_update_lanes<Ops>(cm, j, forcing_integral, b->time_scale_dt, z, decay, &b->y[c][j]);
+    lag_update_with<Ops>(cm, j, forcing_integral, b->time_scale_dt, z, decay, &b->y[c][j]);
     b->b_antiderivative[c][j] = end1;
   }
   // As advance_lags_between leaves them: B_j of the unused lags is 0 in a new StepEnd.
   for (int j = cm.n_lags; j < Cap::max_lags; ++j) b->b_antiderivative[c][j] = Ops::constant(Scalar(0));
-  coefficient_output_lanes<Ops>(cm, b->x1_rad, b->rate, b->l_over_v_s, b->y[c], &b->value[c]);
+  b->value[c] = coefficient_output_with<Ops>(cm, b->x1_rad, b->rate, b->l_over_v_s, b->y[c]);
   // Finite: x - x is 0 for a finite x, NaN for Inf and NaN.
   V finite_test = b->value[c] - b->value[c];
   for (int j = 0; j < cm.n_lags; ++j) finite_test = finite_test + (b->y[c][j] - b->y[c][j]);

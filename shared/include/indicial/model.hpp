@@ -113,13 +113,71 @@ struct Spline {
 namespace detail {
 // u^p for small non-negative integer p without pow(): pow() of an autodiff type at u = 0 has
 // an undefined derivative for p < 1 and is slower for all p.
-template <class Scalar>
-inline Scalar int_power(const Scalar& u, int p) {
-  Scalar r = Scalar(1);
+// `one` is the unit of u's type (Scalar(1), or every lane 1 for a lane vector).
+template <class T>
+inline T int_power_from(T one, const T& u, int p) {
+  T r = one;
   for (int i = 0; i < p; ++i) r = r * u;
   return r;
 }
+template <class Scalar>
+inline Scalar int_power(const Scalar& u, int p) {
+  return int_power_from(Scalar(1), u, p);
+}
 }  // namespace detail
+
+// The step's hottest bodies are inlined whatever GCC's size heuristics decide: written once on
+// a policy they are one call level deeper than the scalar code was, and an out-of-line call per
+// coefficient costs the scalar step instructions (bench_step's callgrind count).
+#if defined(__GNUC__) || defined(__clang__)
+#define INDICIAL_HOT_INLINE inline __attribute__((always_inline))
+#else
+#define INDICIAL_HOT_INLINE inline
+#endif
+
+// ------------------------------------------------------------------------------------------
+// Evaluation policies: the spline sums and the update below are written ONCE, on a policy Ops,
+// and evaluated either on one Scalar (ScalarOps: double, float, the fitter's autodiff type) or
+// on W instances at once (the runtime's step_batch; batch.hpp's BatchLanes). A policy gives
+//   using Scalar = ...;  the coefficient type;   using V = ...;  the value type (Scalar, or W
+//                        lanes of Scalar: + - * / with V or Scalar on either side, unary -,
+//                        comparisons with a Scalar giving a Mask)
+//   static V constant(Scalar);                 the value in every lane
+//   template <class X> static X one(const X&);             1 of the angle type X
+//   template <class X> static auto lift(const X&, double); a model constant (a knot) as X's
+//                                                          element type
+//   static void add_where(Mask, Acc* acc, F term);  *acc += term() where the mask holds
+//   static V choose(Mask, Fa a, Fb b);         mask ? a() : b()
+//   static bool any(Mask);
+//   static Mask abs_less(const V&, double);    |v| < threshold
+//   static void table_value(curve, x, V*);     a static TABLE's value (static_value)
+// ScalarOps BRANCHES: add_where skips a term (an autodiff type does none of its work), choose
+// evaluates one side. A lane policy SELECTS: both sides are computed in every lane and merged,
+// so no lane's value steers the control flow; the result in each lane is the scalar form's at
+// that lane's arguments, bit for bit (the same expressions in the same order).
+template <class S>
+struct ScalarOps {
+  using Scalar = S;
+  using V = S;
+  static S constant(const S& c) { return c; }
+  template <class X> static X one(const X&) { return X(1); }
+  template <class X> static X lift(const X&, double c) { return X(c); }
+  template <class Acc, class F> static void add_where(bool mask, Acc* acc, F term) {
+    if (mask) *acc = *acc + term();
+  }
+  template <class Fa, class Fb> static S choose(bool mask, Fa a, Fb b) {
+    if (mask) return a();
+    return b();
+  }
+  static bool any(bool mask) { return mask; }
+  static bool abs_less(const S& v, double threshold) {
+    using std::abs;
+    return abs(v) < S(threshold);
+  }
+  template <class Curve> static void table_value(const Curve& c, const S& x, S* r) {
+    *r = static_value(c, x);
+  }
+};
 
 // ------------------------------------------------------------------------------------------
 // The spline basis: the ONE definition of a spline term and its antiderivative. spline_value
@@ -165,17 +223,45 @@ inline BasisTerm knot_term(const Spline<Scalar, P, K>& s, int j) {
   return BasisTerm{BasisKind::knot, s.knot_power[j], s.knot_rad[j]};
 }
 
+namespace detail {
+// Which sum a knot term belongs to: spline_value's coef u^p or spline_antiderivative's
+// (coef u^(p+1)) / (p+1).
+enum class KnotSum : int { value = 0, antiderivative = 1 };
+
+// *acc += each knot term of s where x > knot. Why the branch (ScalarOps) / select (lanes): a
+// term below its knot is 0; skipping it saves an autodiff type the work. The antiderivative
+// term is rounded as (coef * u^(p+1)) / (p+1), scaled_basis_antiderivative's form.
+template <class Ops, class Acc, class X, int P, int K>
+inline void add_knot_terms(const Spline<typename Ops::Scalar, P, K>& s, const X& x,
+                           KnotSum sum_kind, Acc* acc) {
+  using Scalar = typename Ops::Scalar;
+  for (int j = 0; j < s.n_knots; ++j) {
+    Ops::add_where(x > Ops::lift(x, s.knot_rad[j]), acc, [&] {
+      const X u = x - Ops::lift(x, s.knot_rad[j]);
+      const int p = s.knot_power[j];
+      if (sum_kind == KnotSum::value) return Acc(s.knot_coef[j] * int_power_from(Ops::one(u), u, p));
+      return Acc(s.knot_coef[j] * int_power_from(Ops::one(u), u, p + 1) / Scalar(p + 1));
+    });
+  }
+}
+}  // namespace detail
+
+// Value s(x) on a policy (see ScalarOps): *r = s(x).
+template <class Ops, int P, int K>
+inline typename Ops::V spline_value_with(const Spline<typename Ops::Scalar, P, K>& s,
+                                         const typename Ops::V& x) {
+  using V = typename Ops::V;
+  V acc = Ops::constant(typename Ops::Scalar(0));
+  // Horner from the highest power: sum_i power_coef[i] x^i.
+  for (int i = s.n_powers - 1; i >= 0; --i) acc = acc * x + s.power_coef[i];
+  detail::add_knot_terms<Ops>(s, x, detail::KnotSum::value, &acc);
+  return acc;
+}
+
 // Value s(x).
 template <class Scalar, int P, int K>
 inline Scalar spline_value(const Spline<Scalar, P, K>& s, const Scalar& x) {
-  Scalar r = Scalar(0);
-  // Horner from the highest power: sum_i power_coef[i] x^i.
-  for (int i = s.n_powers - 1; i >= 0; --i) r = r * x + s.power_coef[i];
-  for (int j = 0; j < s.n_knots; ++j) {
-    // Why the branch: a term below its knot is 0; skipping it saves an autodiff type the work.
-    if (x > Scalar(s.knot_rad[j])) r = r + s.knot_coef[j] * basis_value<Scalar>(knot_term(s, j), x);
-  }
-  return r;
+  return spline_value_with<ScalarOps<Scalar>>(s, x);
 }
 
 // Derivative ds/dx. A knot term of power 0 (a step) contributes 0 away from its knot.
@@ -201,16 +287,23 @@ inline Scalar spline_derivative(const Spline<Scalar, P, K>& s, const Scalar& x) 
 // fitter's data angle carries no derivative, and a plain double skips the derivative work of
 // its powers, which dominates the sensitivities' cost. The expressions are the same for both,
 // so with X = Scalar = double the result is bit-identical to the runtime's.
+//
+// On a policy: *r = S(x); X is Ops::V, or double with ScalarOps of an autodiff Scalar.
+template <class Ops, int P, int K, class X>
+inline typename Ops::V spline_antiderivative_with(const Spline<typename Ops::Scalar, P, K>& s,
+                                                  const X& x) {
+  using Scalar = typename Ops::Scalar;
+  using V = typename Ops::V;
+  V acc = Ops::constant(Scalar(0));
+  for (int i = s.n_powers - 1; i >= 0; --i) acc = acc * x + s.power_coef[i] / Scalar(i + 1);
+  acc = acc * x;
+  detail::add_knot_terms<Ops>(s, x, detail::KnotSum::antiderivative, &acc);
+  return acc;
+}
+
 template <class Scalar, int P, int K, class X>
 inline Scalar spline_antiderivative(const Spline<Scalar, P, K>& s, const X& x) {
-  Scalar r = Scalar(0);
-  for (int i = s.n_powers - 1; i >= 0; --i) r = r * x + s.power_coef[i] / Scalar(i + 1);
-  r = r * x;
-  for (int j = 0; j < s.n_knots; ++j) {
-    if (x > X(s.knot_rad[j]))
-      r = r + scaled_basis_antiderivative(knot_term(s, j), x, s.knot_coef[j]);
-  }
-  return r;
+  return spline_antiderivative_with<ScalarOps<Scalar>>(s, x);
 }
 
 // ------------------------------------------------------------------------------------------
@@ -343,18 +436,27 @@ inline Scalar model_angle(Axis axis, double alpha0_rad, const Scalar& motion_ang
 // phi1(z) = (1 - exp(-z)) / z, the weight of a forcing spread evenly over a step of
 // decay z = b dt. The caller passes exp(-z), which it needs anyway for the free decay: one
 // exp() per lag per step instead of two (the compiler cannot merge them under -fmath-errno).
-template <class Scalar>
-inline Scalar phi1(const Scalar& z, const Scalar& exp_minus_z) {
-  using std::abs;
+template <class Ops>
+inline void phi1_with(const typename Ops::V& z, const typename Ops::V& exp_minus_z,
+                      typename Ops::V* r) {
+  using Scalar = typename Ops::Scalar;
+  using V = typename Ops::V;
   // Why the branch: (1 - exp(-z)) / z is 0/0 at z = 0 and loses all digits for |z| < 1e-8
   // (1 - exp(-z) cancels). Below |z| = 1e-3 the 4-term Taylor series 1 - z/2 + z^2/6 - z^3/24
   // has truncation error z^4/120 < 1e-14, and, being a polynomial, it also gives an autodiff
   // type the exact derivative -1/2 + z/3 - z^2/8 (no 0/0 in the dual part either). Above it
   // the cancellation costs at most ~1e-13 relative. Both branches agree to 1e-14 at the seam.
-  if (abs(z) < Scalar(1e-3)) {
-    return Scalar(1) + z * (Scalar(-0.5) + z * (Scalar(1.0 / 6.0) + z * Scalar(-1.0 / 24.0)));
-  }
-  return (Scalar(1) - exp_minus_z) / z;
+  *r = Ops::choose(
+      Ops::abs_less(z, 1e-3),
+      [&] { return V(Scalar(1) + z * (Scalar(-0.5) + z * (Scalar(1.0 / 6.0) + z * Scalar(-1.0 / 24.0)))); },
+      [&] { return V((Scalar(1) - exp_minus_z) / z); });
+}
+
+template <class Scalar>
+inline Scalar phi1(const Scalar& z, const Scalar& exp_minus_z) {
+  Scalar r;
+  phi1_with<ScalarOps<Scalar>>(z, exp_minus_z, &r);
+  return r;
 }
 
 template <class Scalar>
@@ -378,16 +480,34 @@ struct interval_mean_threshold<float> { static constexpr double value = 3e-4; };
 // ends: (S(x1) - S(x0)) / (x1 - x0). Why the branch: the quotient is 0/0 when the angle does
 // not move; there the mean IS the value at the (common) point, and the midpoint value is the
 // smooth continuation (same value and first derivatives for an autodiff type).
+// On a policy: the midpoint value is evaluated only when some lane needs it (a branch on the
+// block, not on a lane; with ScalarOps the plain branch).
+template <class Ops, int P, int K>
+inline void interval_mean_with(const Spline<typename Ops::Scalar, P, K>& s,
+                               const typename Ops::V& x0, const typename Ops::V& x1,
+                               const typename Ops::V& antiderivative_x0,
+                               const typename Ops::V& antiderivative_x1, typename Ops::V* mean) {
+  using Scalar = typename Ops::Scalar;
+  using V = typename Ops::V;
+  const V dx = x1 - x0;
+  const auto small = Ops::abs_less(dx, detail::interval_mean_threshold<Scalar>::value);
+  const auto quotient = [&] { return V((antiderivative_x1 - antiderivative_x0) / dx); };
+  if (!Ops::any(small)) {
+    *mean = quotient();
+    return;
+  }
+  const auto midpoint_value = [&] {
+    return spline_value_with<Ops>(s, V(Scalar(0.5) * (x0 + x1)));
+  };
+  *mean = Ops::choose(small, midpoint_value, quotient);
+}
+
 template <class Scalar, int P, int K>
 inline Scalar interval_mean(const Spline<Scalar, P, K>& s, const Scalar& x0, const Scalar& x1,
                             const Scalar& antiderivative_x0, const Scalar& antiderivative_x1) {
-  using std::abs;
-  const Scalar dx = x1 - x0;
-  if (abs(dx) < Scalar(detail::interval_mean_threshold<Scalar>::value)) {
-    const Scalar midpoint = Scalar(0.5) * (x0 + x1);
-    return spline_value(s, midpoint);
-  }
-  return (antiderivative_x1 - antiderivative_x0) / dx;
+  Scalar mean;
+  interval_mean_with<ScalarOps<Scalar>>(s, x0, x1, antiderivative_x0, antiderivative_x1, &mean);
+  return mean;
 }
 
 // Everything the update needs about one step of length dt_s, from sample k to k + 1.
@@ -554,22 +674,48 @@ inline void evaluate_step_end(const CoefficientModel<Scalar, Cap>& m, const X& x
 // can take exp(-z_j) of many instances at once between them: lag_exponent gives z_j,
 // lag_update applies the update given z_j and exp(-z_j). advance_lags_between is the two
 // with std::exp between, the one sequence every caller runs.
+// On a policy: lag j's z from the angles, the antiderivatives B_j at both ends and
+// time_scale * dt_s; lag_update_with updates *y in place.
+template <class Ops, class Cap>
+inline void lag_exponent_with(const CoefficientModel<typename Ops::Scalar, Cap>& m, int j,
+                              const typename Ops::V& x0, const typename Ops::V& x1,
+                              const typename Ops::V& b_antiderivative_x0,
+                              const typename Ops::V& b_antiderivative_x1,
+                              const typename Ops::V& time_scale_dt, typename Ops::V* z) {
+  typename Ops::V b_mean;
+  interval_mean_with<Ops>(m.lags[j].b, x0, x1, b_antiderivative_x0, b_antiderivative_x1, &b_mean);
+  *z = b_mean * time_scale_dt;
+}
+
+template <class Ops, class Cap>
+inline void lag_update_with(const CoefficientModel<typename Ops::Scalar, Cap>& m, int j,
+                            const typename Ops::V& forcing_integral,
+                            const typename Ops::V& time_scale_dt, const typename Ops::V& z,
+                            const typename Ops::V& decay, typename Ops::V* y) {
+  using V = typename Ops::V;
+  V drive = (j == 0) ? V(-forcing_integral) : V(-m.lags[j].gain * forcing_integral);
+  if (j == 0) drive = drive + m.con * time_scale_dt;
+  V phi;
+  phi1_with<Ops>(z, decay, &phi);
+  *y = decay * *y + phi * drive;
+}
+
 template <class Scalar, class Cap>
 inline Scalar lag_exponent(const CoefficientModel<Scalar, Cap>& m, const StepGeometry<Scalar>& g,
                            const StepEnd<Scalar, Cap>& end0, const StepEnd<Scalar, Cap>& end1,
                            int j) {
-  const Scalar b_mean = interval_mean(m.lags[j].b, g.x0_rad, g.x1_rad, end0.b_antiderivative[j],
-                                      end1.b_antiderivative[j]);
-  return b_mean * (g.time_scale * g.dt_s);
+  Scalar z;
+  lag_exponent_with<ScalarOps<Scalar>>(m, j, g.x0_rad, g.x1_rad, end0.b_antiderivative[j],
+                                       end1.b_antiderivative[j], Scalar(g.time_scale * g.dt_s), &z);
+  return z;
 }
 
 template <class Scalar, class Cap>
 inline void lag_update(const CoefficientModel<Scalar, Cap>& m, const StepGeometry<Scalar>& g,
                        const Scalar& forcing_integral, const Scalar& z, const Scalar& decay, int j,
                        Scalar* y) {
-  Scalar drive = (j == 0) ? Scalar(-forcing_integral) : Scalar(-m.lags[j].gain * forcing_integral);
-  if (j == 0) drive = drive + m.con * (g.time_scale * g.dt_s);
-  y[j] = decay * y[j] + phi1(z, decay) * drive;
+  lag_update_with<ScalarOps<Scalar>>(m, j, forcing_integral, Scalar(g.time_scale * g.dt_s), z,
+                                     decay, &y[j]);
 }
 
 template <class Scalar, class Cap>
@@ -608,14 +754,30 @@ inline void steady_state(const CoefficientModel<Scalar, Cap>& m, const Scalar& x
 // The coefficient at a sample: static + correction + rotary + the sum of the lag states
 // (eq. 4b with the convolution replaced by its states). l_over_v_s = l / V at the current
 // airspeed; rate_radps is q, p or r.
+template <class Ops, class Cap>
+INDICIAL_HOT_INLINE typename Ops::V coefficient_output_with(const CoefficientModel<typename Ops::Scalar, Cap>& m,
+                                               const typename Ops::V& x_rad,
+                                               const typename Ops::V& rate_radps,
+                                               const typename Ops::V& l_over_v_s,
+                                               const typename Ops::V* y) {
+  using V = typename Ops::V;
+  V curve;
+  if (m.static_curve.kind == StaticKind::polynomial) {
+    curve = spline_value_with<Ops>(m.static_curve.polynomial, x_rad);
+  } else {
+    Ops::table_value(m.static_curve, x_rad, &curve);
+  }
+  V sum = curve + spline_value_with<Ops>(m.static_correction, x_rad) +
+          l_over_v_s * spline_value_with<Ops>(m.rotary, x_rad) * rate_radps;
+  for (int j = 0; j < m.n_lags; ++j) sum = sum + y[j];
+  return sum;
+}
+
 template <class Scalar, class Cap>
-inline Scalar coefficient_output(const CoefficientModel<Scalar, Cap>& m, const Scalar& x_rad,
+INDICIAL_HOT_INLINE Scalar coefficient_output(const CoefficientModel<Scalar, Cap>& m, const Scalar& x_rad,
                                  const Scalar& rate_radps, const Scalar& l_over_v_s,
                                  const Scalar* y) {
-  Scalar c = static_value(m.static_curve, x_rad) + spline_value(m.static_correction, x_rad) +
-             l_over_v_s * spline_value(m.rotary, x_rad) * rate_radps;
-  for (int j = 0; j < m.n_lags; ++j) c = c + y[j];
-  return c;
+  return coefficient_output_with<ScalarOps<Scalar>>(m, x_rad, rate_radps, l_over_v_s, y);
 }
 
 // The quasi-steady part only (static + correction + rotary), for comparisons.
@@ -640,157 +802,5 @@ inline void lag_derivatives(const CoefficientModel<Scalar, Cap>& m, const Scalar
   }
 }
 
-
-// ------------------------------------------------------------------------------------------
-// Lane-wise forms: W independent instances of one model at once (the runtime's step_batch).
-// ------------------------------------------------------------------------------------------
-// Each function below is its scalar namesake above evaluated for W angles at once: the same
-// expressions, term for term and in the same order, so every lane's result is bit-identical to
-// the scalar function's at that lane's arguments. They are written on a lane type V and contain
-// no branch on a lane's value: a knot term (x - k)_+^p is computed for every lane and merged by
-// a select (the scalar branch x > k), phi1's series/quotient and interval_mean's
-// midpoint/quotient are selects too. Only branches on the model (powers, knots, lags) and
-// "does any lane need the midpoint" remain, uniform over the block.
-//
-// Ops is the lane policy (the runtime's batch.hpp defines it; the fitter and autodiff types use
-// the scalar forms):
-//   using Scalar = ...;   float or double
-//   using V = ...;        W lanes of Scalar: + - * / with V or Scalar on either side, unary -,
-//                         comparisons giving a mask, v[i] element access
-//   static constexpr int width;                        W
-//   static V constant(Scalar);                         every lane = the value
-//   static V select(const Mask&, const V& a, const V& b);   lane-wise mask ? a : b
-//   static V abs(const V&);
-//   static bool any(const Mask&);
-// Results are out-parameters (a wide vector returned by value changes a function's ABI).
-// Not vectorised: a static TABLE (its binary search), evaluated lane by lane by static_value.
-
-namespace detail {
-// Which sum a knot term belongs to: spline_value's coef u^p or spline_antiderivative's
-// (coef u^(p+1)) / (p+1).
-enum class KnotSum : int { value = 0, antiderivative = 1 };
-
-// *acc += each knot term of s where x > knot (u = x - knot > 0), the scalar forms' branch as a
-// select: every term is computed in every lane, the sum merged where u > 0.
-template <class Ops, int P, int K>
-inline void add_knot_terms_lanes(const Spline<typename Ops::Scalar, P, K>& s,
-                                 const typename Ops::V& x, KnotSum sum_kind, typename Ops::V* acc) {
-  using Scalar = typename Ops::Scalar;
-  using V = typename Ops::V;
-  for (int j = 0; j < s.n_knots; ++j) {
-    const int power = s.knot_power[j] + (sum_kind == KnotSum::antiderivative ? 1 : 0);
-    const V u = x - Scalar(s.knot_rad[j]);
-    V t = Ops::constant(Scalar(1));
-    for (int q = 0; q < power; ++q) t = t * u;
-    // (coef * u^p) / (p + 1) as scaled_basis_antiderivative rounds it.
-    const V term = sum_kind == KnotSum::antiderivative ? V(s.knot_coef[j] * t / Scalar(power))
-                                                      : V(s.knot_coef[j] * t);
-    const V sum = *acc + term;
-    *acc = Ops::select(u > Scalar(0), sum, *acc);
-  }
-}
-}  // namespace detail
-
-// spline_value at W angles: *r = s(x) lane-wise.
-template <class Ops, int P, int K>
-inline void spline_value_lanes(const Spline<typename Ops::Scalar, P, K>& s,
-                               const typename Ops::V& x, typename Ops::V* r) {
-  using Scalar = typename Ops::Scalar;
-  using V = typename Ops::V;
-  V acc = Ops::constant(Scalar(0));
-  for (int i = s.n_powers - 1; i >= 0; --i) acc = acc * x + s.power_coef[i];
-  detail::add_knot_terms_lanes<Ops>(s, x, detail::KnotSum::value, &acc);
-  *r = acc;
-}
-
-// spline_antiderivative at W angles.
-template <class Ops, int P, int K>
-inline void spline_antiderivative_lanes(const Spline<typename Ops::Scalar, P, K>& s,
-                                        const typename Ops::V& x, typename Ops::V* r) {
-  using Scalar = typename Ops::Scalar;
-  using V = typename Ops::V;
-  V acc = Ops::constant(Scalar(0));
-  for (int i = s.n_powers - 1; i >= 0; --i) acc = acc * x + s.power_coef[i] / Scalar(i + 1);
-  acc = acc * x;
-  detail::add_knot_terms_lanes<Ops>(s, x, detail::KnotSum::antiderivative, &acc);
-  *r = acc;
-}
-
-// interval_mean at W intervals. The midpoint values are evaluated only when some lane needs
-// them (an angle that did not move): a branch on the block, not on a lane.
-template <class Ops, int P, int K>
-inline void interval_mean_lanes(const Spline<typename Ops::Scalar, P, K>& s,
-                                const typename Ops::V& x0, const typename Ops::V& x1,
-                                const typename Ops::V& antiderivative_x0,
-                                const typename Ops::V& antiderivative_x1, typename Ops::V* mean) {
-  using Scalar = typename Ops::Scalar;
-  using V = typename Ops::V;
-  const V dx = x1 - x0;
-  const auto small = Ops::abs(dx) < Scalar(detail::interval_mean_threshold<Scalar>::value);
-  *mean = (antiderivative_x1 - antiderivative_x0) / dx;
-  if (!Ops::any(small)) return;
-  V midpoint_value;
-  spline_value_lanes<Ops>(s, Scalar(0.5) * (x0 + x1), &midpoint_value);
-  *mean = Ops::select(small, midpoint_value, *mean);
-}
-
-// phi1(z, exp(-z)) at W lanes.
-template <class Ops>
-inline void phi1_lanes(const typename Ops::V& z, const typename Ops::V& exp_minus_z,
-                       typename Ops::V* r) {
-  using Scalar = typename Ops::Scalar;
-  using V = typename Ops::V;
-  const V series =
-      Scalar(1) + z * (Scalar(-0.5) + z * (Scalar(1.0 / 6.0) + z * Scalar(-1.0 / 24.0)));
-  const V quotient = (Scalar(1) - exp_minus_z) / z;
-  *r = Ops::select(Ops::abs(z) < Scalar(1e-3), series, quotient);
-}
-
-// lag_exponent of lag j at W lanes, from the angles, the antiderivatives B_j at both ends and
-// StepGeometry's time_scale * dt_s per lane.
-template <class Ops, class Cap>
-inline void lag_exponent_lanes(const CoefficientModel<typename Ops::Scalar, Cap>& m, int j,
-                               const typename Ops::V& x0, const typename Ops::V& x1,
-                               const typename Ops::V& b_antiderivative_x0,
-                               const typename Ops::V& b_antiderivative_x1,
-                               const typename Ops::V& time_scale_dt, typename Ops::V* z) {
-  typename Ops::V b_mean;
-  interval_mean_lanes<Ops>(m.lags[j].b, x0, x1, b_antiderivative_x0, b_antiderivative_x1, &b_mean);
-  *z = b_mean * time_scale_dt;
-}
-
-// lag_update of lag j at W lanes, *y updated in place.
-template <class Ops, class Cap>
-inline void lag_update_lanes(const CoefficientModel<typename Ops::Scalar, Cap>& m, int j,
-                             const typename Ops::V& forcing_integral,
-                             const typename Ops::V& time_scale_dt, const typename Ops::V& z,
-                             const typename Ops::V& decay, typename Ops::V* y) {
-  using V = typename Ops::V;
-  V phi;
-  phi1_lanes<Ops>(z, decay, &phi);
-  V drive = (j == 0) ? V(-forcing_integral) : V(-m.lags[j].gain * forcing_integral);
-  if (j == 0) drive = drive + m.con * time_scale_dt;
-  *y = decay * *y + phi * drive;
-}
-
-// coefficient_output at W lanes; y[j] is lag j's W states.
-template <class Ops, class Cap>
-inline void coefficient_output_lanes(const CoefficientModel<typename Ops::Scalar, Cap>& m,
-                                     const typename Ops::V& x_rad, const typename Ops::V& rate_radps,
-                                     const typename Ops::V& l_over_v_s, const typename Ops::V* y,
-                                     typename Ops::V* c) {
-  using V = typename Ops::V;
-  V curve, correction, rotary;
-  if (m.static_curve.kind == StaticKind::polynomial) {
-    spline_value_lanes<Ops>(m.static_curve.polynomial, x_rad, &curve);
-  } else {
-    for (int i = 0; i < Ops::width; ++i) curve[i] = static_value(m.static_curve, x_rad[i]);
-  }
-  spline_value_lanes<Ops>(m.static_correction, x_rad, &correction);
-  spline_value_lanes<Ops>(m.rotary, x_rad, &rotary);
-  V sum = curve + correction + l_over_v_s * rotary * rate_radps;
-  for (int j = 0; j < m.n_lags; ++j) sum = sum + y[j];
-  *c = sum;
-}
 
 }  // namespace indicial
