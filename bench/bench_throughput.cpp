@@ -13,8 +13,11 @@
 //              simulation of 1024 aircraft in one world; each Predictor carries its own copy of
 //              the model, 1024 x 13.7 KB = 14 MB, beyond the private L2)
 // and, for 1024 instances sharing ONE model (a 160-byte State each: 160 KB in all), lockstep:
-//   shared/    indicial::step per instance; stepbatch/ indicial::step_batch; cbatch/ the C
-//              interface's indicial_step_batch (see SharedFleet)
+//   shared/    indicial::step per instance; stepbatch/ indicial::step_batch (the automatic
+//              kernel: AVX2 on a CPU that has it); stepbatch_portable/ the same with the
+//              portable kernel (SSE2 in the default build); cbatch/ the C interface's
+//              indicial_step_batch (see SharedFleet). The context line batch_kernel says which
+//              kernel the automatic choice ran.
 // Reported: steps_per_s, the aggregate over all threads (wall time, UseRealTime), and
 // cpu_ns_per_step, the stepping threads' own CPU time (CLOCK_THREAD_CPUTIME_ID) per
 // instance-step, which a loaded machine inflates much less than the wall time. The 1 -> 2
@@ -140,9 +143,10 @@ int range_begin(int t, int threads) {
 // 1024 instances sharing ONE model: a State (160 bytes for double) each, the RuntimeModel once
 // (it stays in cache). Time-major (lockstep) like a simulation of many aircraft, stepped by
 //   shared/    indicial::step per instance
-//   stepbatch/ indicial::step_batch over each thread's range (structure-of-arrays exp)
+//   stepbatch/ indicial::step_batch over each thread's range, automatic kernel
+//   stepbatch_portable/ the same, BatchKernel::portable
 //   cbatch/    indicial_step_batch, the C interface
-enum class SharedMode : int { single = 0, batch = 1, c_batch = 2 };
+enum class SharedMode : int { single = 0, batch = 1, c_batch = 2, batch_portable = 3 };
 
 struct SharedFleet {
   std::unique_ptr<indicial::RuntimeModel<double, Cap>> model;
@@ -192,9 +196,13 @@ struct SharedFleet {
         for (int a = begin; a < end; ++a)
           bad += indicial::step(*model, states[a], {angle[a], rate[a], airspeed[a]}, kDtS,
                                 &out[2 * a]) != indicial::StepStatus::ok;
-      } else if (mode == SharedMode::batch) {
+      } else if (mode == SharedMode::batch || mode == SharedMode::batch_portable) {
+        const indicial::BatchKernel kernel = mode == SharedMode::batch
+                                                 ? indicial::BatchKernel::automatic
+                                                 : indicial::BatchKernel::portable;
         bad += indicial::step_batch(*model, &states[begin], count, &angle[begin], &rate[begin],
-                                    &airspeed[begin], kDtS, &out[2 * begin]) != indicial::StepStatus::ok;
+                                    &airspeed[begin], kDtS, &out[2 * begin], nullptr,
+                                    kernel) != indicial::StepStatus::ok;
       } else {
         bad += indicial_step_batch(c_model.data(), c_state(begin), count, &angle[begin],
                                    &rate[begin], &airspeed[begin], kDtS, &out[2 * begin]) != INDICIAL_OK;
@@ -270,6 +278,9 @@ void BM_lockstep_double(benchmark::State& s) { run_fleet<Fleet<double>>(s, Order
 void BM_shared_double(benchmark::State& s) { run_fleet<SharedFleet>(s, SharedMode::single); }
 void BM_stepbatch_double(benchmark::State& s) { run_fleet<SharedFleet>(s, SharedMode::batch); }
 void BM_cbatch_double(benchmark::State& s) { run_fleet<SharedFleet>(s, SharedMode::c_batch); }
+void BM_stepbatch_portable_double(benchmark::State& s) {
+  run_fleet<SharedFleet>(s, SharedMode::batch_portable);
+}
 
 BENCHMARK(BM_batch_double)->Name("batch/double")->Arg(1)->Arg(2)->UseRealTime()
     ->Unit(benchmark::kMillisecond);
@@ -283,5 +294,15 @@ BENCHMARK(BM_stepbatch_double)->Name("stepbatch/double")->Arg(1)->Arg(2)->UseRea
     ->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_cbatch_double)->Name("cbatch/double")->Arg(1)->Arg(2)->UseRealTime()
     ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_stepbatch_portable_double)->Name("stepbatch_portable/double")->Arg(1)->Arg(2)
+    ->UseRealTime()->Unit(benchmark::kMillisecond);
 
-BENCHMARK_MAIN();
+int main(int argc, char** argv) {
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  // Which kernel step_batch's automatic choice (stepbatch/, and cbatch/ in the C library) runs.
+  benchmark::AddCustomContext("batch_kernel", indicial::to_string(indicial::batch_kernel_in_use()));
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}

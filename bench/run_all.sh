@@ -76,7 +76,9 @@ if [[ "${SKIP_CALLGRIND:-0}" != 1 ]] && command -v valgrind >/dev/null; then
 fi
 
 echo "== bench_throughput"
-"$bin/bench_throughput" --benchmark_repetitions=3 --benchmark_report_aggregates_only=true \
+# Interleaved: every variant sees the same machine (a noisy neighbour hits all of them alike).
+"$bin/bench_throughput" --benchmark_repetitions=5 --benchmark_enable_random_interleaving=true \
+  --benchmark_report_aggregates_only=true \
   --benchmark_out_format=json --benchmark_out="$out/throughput.json" | grep -E '_median' || true
 
 if [[ "${SKIP_FITTER:-0}" != 1 ]]; then

@@ -185,14 +185,15 @@ double compare_batch_with_single(const indicial::RuntimeModel<Scalar, Cap>& mode
                                  std::vector<indicial::State<Scalar, Cap>>& batch,
                                  std::vector<indicial::State<Scalar, Cap>>& single,
                                  const std::vector<double>& angle, const std::vector<double>& rate,
-                                 const std::vector<double>& airspeed, double dt_s, double tolerance) {
+                                 const std::vector<double>& airspeed, double dt_s, double tolerance,
+                                 indicial::BatchKernel kernel = indicial::BatchKernel::automatic) {
   const std::size_t n = batch.size();
   const int n_out = model.set.n_coefficients;
   std::vector<Scalar> out(n * std::size_t(n_out), Scalar(-7));
   std::vector<StepStatus> status(n);
   const std::vector<indicial::State<Scalar, Cap>> before = batch;
   indicial::step_batch(model, batch.data(), n, angle.data(), rate.data(), airspeed.data(), dt_s,
-                       out.data(), status.data());
+                       out.data(), status.data(), kernel);
   double worst = 0.0;
   for (std::size_t i = 0; i < n; ++i) {
     Scalar o[3] = {Scalar(-7), Scalar(-7), Scalar(-7)};
@@ -305,4 +306,50 @@ TEST_CASE("step_batch: roll (three coefficients) and float equal single steps") 
                                                            rate_f, airspeed_f, 0.005, 5e-4));
   }
   MESSAGE("roll: ", worst, ", float: ", worst_f);
+}
+
+TEST_CASE("step_batch: the AVX2 kernel gives the portable kernel's bits") {
+  using indicial::BatchKernel;
+  MESSAGE("automatic runs the ", indicial::to_string(indicial::batch_kernel_in_use()), " kernel here");
+  CHECK(indicial::batch_kernel_in_use(BatchKernel::portable) == BatchKernel::portable);
+  if (indicial::batch_kernel_in_use(BatchKernel::avx2) != BatchKernel::avx2)
+    MESSAGE("no AVX2 kernel on this CPU or in this build: avx2 requests run the portable one");
+  static Model model;
+  REQUIRE(indicial::make_runtime_model(indicial::test_models::lift_and_moment(), &model) ==
+          indicial::LoadStatus::ok);
+  const std::size_t n = 19;  // two full blocks and a partial one
+  std::vector<State> portable(n), avx2(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    REQUIRE(indicial::reset(model, portable[i], angle_at(0.0, 0.3 * double(i)), 17.0) == StepStatus::ok);
+    avx2[i] = portable[i];
+  }
+  std::vector<double> angle(n), rate(n), airspeed(n), out_p(2 * n, -7.0), out_a(2 * n, -7.0);
+  std::vector<StepStatus> status_p(n), status_a(n);
+  int refused = 0, clamped = 0;
+  for (int k = 1; k <= 200; ++k) {
+    const double t = 0.004 * k;
+    for (std::size_t i = 0; i < n; ++i) {
+      angle[i] = angle_at(t, 0.3 * double(i));
+      rate[i] = rate_at(t, 0.3 * double(i));
+      airspeed[i] = 17.0 * (1.0 + 0.05 * double((i + std::size_t(k) / 50) % 3));
+    }
+    angle[2] = 3.0;                                   // angle_clamped
+    angle[5] = k % 2 == 0 ? NAN : angle[5];           // non_finite_input
+    airspeed[8] = k % 7 == 0 ? 1e-310 : airspeed[8];  // non_finite_result (with the rate below)
+    rate[8] = 1e300;
+    indicial::step_batch(model, portable.data(), n, angle.data(), rate.data(), airspeed.data(), 0.004,
+                         out_p.data(), status_p.data(), BatchKernel::portable);
+    indicial::step_batch(model, avx2.data(), n, angle.data(), rate.data(), airspeed.data(), 0.004,
+                         out_a.data(), status_a.data(), BatchKernel::avx2);
+    for (std::size_t i = 0; i < n; ++i) {
+      CHECK(status_p[i] == status_a[i]);
+      refused += status_p[i] != StepStatus::ok && status_p[i] != StepStatus::angle_clamped;
+      clamped += status_p[i] == StepStatus::angle_clamped;
+      CHECK(std::memcmp(&portable[i], &avx2[i], sizeof(State)) == 0);
+    }
+    CHECK(std::memcmp(out_p.data(), out_a.data(), out_p.size() * sizeof(double)) == 0);
+  }
+  // Every path was taken: 100 NaN inputs, 28 non-finite results, 200 clamps.
+  CHECK(refused == 100 + 28);
+  CHECK(clamped == 200);
 }

@@ -4,22 +4,35 @@
 // --------------
 // A Monte Carlo batch, a many-aircraft simulation or a vectorised FMU steps N independent
 // states of one model with the same dt. step_batch does that block by block (batch_block = 8
-// instances, the lanes): it gathers the block's states into a structure of arrays, evaluates
-// the whole step on lane vectors -- the clamp (as selects), the airspeed terms, the spline
-// antiderivatives A(x) and B_j(x) with their plus-function knots (a select per knot),
-// b_j's interval mean, the exponentials (Eigen's vectorised array exp), phi1, the lag update,
-// the static / correction / rotary output -- with model.hpp's `*_with<Ops>` bodies (the model's
-// expressions written once, called here with the lane policy BatchLanes and by the scalar step
-// with ScalarOps), then merges
-// each lane's new state with its old one by its status and scatters the block back. With GCC
-// and Clang the lane type is a vector extension, so every one of those operations is a SIMD
-// instruction (SSE2 by default, AVX-512 with -march=native) whatever the auto-vectoriser does.
+// instances, the lanes): it checks each instance's input, gathers the block's states into a
+// structure of arrays, evaluates the whole step on lane vectors -- the clamp (as selects), the
+// airspeed terms, the spline antiderivatives A(x) and B_j(x) with their plus-function knots (a
+// select per knot), b_j's interval mean, the exponentials, phi1, the lag update, the static /
+// correction / rotary output -- with model.hpp's `*_with<Ops>` bodies (the model's expressions
+// written once, called here with the lane policy BatchLanes and by the scalar step with
+// ScalarOps), and scatters the block back, each instance only if it stepped. With GCC and
+// Clang the lane type is a vector extension, so every one of those operations is a SIMD
+// instruction whatever the auto-vectoriser does.
 //
-// Results equal N single steps (indicial::step) but for the exponential (Eigen's and the C
-// library's differ by about an ulp): within 1e-12 relative in double, relative to
+// Which instructions (BatchKernel)
+// --------------------------------
+//   portable   the translation unit's own target: SSE2 on x86-64 by default (two doubles per
+//              instruction), AVX-512 under -march=native on a machine that has it, NEON on
+//              AArch64, scalar code where the target has no vectors.
+//   avx2       x86-64 with GCC or Clang, in a translation unit not already compiled for AVX2:
+//              the same code compiled a second time for AVX2 (four doubles per instruction,
+//              a target attribute on one function), run only on a CPU that has AVX2. No FMA,
+//              so its results are bit-identical to the portable kernel's.
+//   automatic  (the default) avx2 where it exists and the CPU has it, else portable.
+// batch_kernel_in_use(k) says which kernel step_batch(..., k) runs on this CPU.
+//
+// Results equal N single steps (indicial::step) but for the exponential: the lanes take it
+// with lane_exp (below; within 1 ulp of std::exp, tests/test_lane_exp.cpp), the single step
+// with the C library's. In double that stays within 1e-12 relative, relative to
 // max(|value|, 0.01) where a coefficient crosses zero (measured 3e-14;
-// tests/test_runtime_batch.cpp checks it on every status path). In float the ulp of exp,
-// amplified by phi1's 1 - exp(-z), gives about 1e-4 relative after a few hundred steps.
+// tests/test_runtime_batch.cpp checks it on every status path and with every kernel). In
+// float an ulp of exp (6e-8), amplified by phi1's 1 - exp(-z), gives about 1e-4 relative
+// after a few hundred steps: the float runtime's own rounding error is of that order.
 //
 // Usage
 // -----
@@ -31,55 +44,119 @@
 //
 // Warnings
 // --------
-// 1. Needs Eigen 3.4 headers (only here: runtime.hpp alone does not). Without Eigen, loop over
-//    indicial::step.
-// 2. Each instance keeps its own status: a refused instance (bad input, not reset, a
+// 1. Each instance keeps its own status: a refused instance (bad input, not reset, a
 //    non-finite result) is left bytewise unchanged and its out row untouched; the others step.
 //    The return value is the first refusal's status, else angle_clamped if any instance was
 //    clamped, else ok; pass `status` (n entries) to get every instance's.
-// 3. A model with a delay is stepped one instance at a time (DelayedState overload): the
+// 2. A model with a delay is stepped one instance at a time (DelayedState overload): the
 //    history lookups do not vectorise. A static TABLE curve is evaluated lane by lane (its
 //    binary search); everything else of the step is vectorised.
-// 4. Compile every translation unit of a program with the same target flags: the lane
-//    functions are inline templates, and the linker keeps one copy of each.
+// 3. Translation units compiled for different targets may be linked together: everything
+//    here sits in an inline namespace named after the target (lanes_sse2, lanes_avx2_fma, ...),
+//    so the linker never swaps one target's copy of an inline function for another's.
+// 4. Not for -ffast-math (refused at compile time by runtime.hpp's rules as well as here):
+//    lane_exp rounds to an integer by adding and subtracting 1.5 * 2^52, which re-association
+//    would remove, and the finite checks need IEEE infinities and NaN.
 #pragma once
 
-#include <Eigen/Core>
-#include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
+#include <cstring>
+#include <limits>
 
 #include "indicial/runtime.hpp"
 
+#if defined(__FAST_MATH__)
+#error "indicial/batch.hpp needs IEEE arithmetic: do not compile it with -ffast-math"
+#endif
+
+#if defined(__GNUC__) || defined(__clang__)
+#define INDICIAL_LANE_VECTORS 1
+#define INDICIAL_LANE_INLINE inline __attribute__((always_inline))
+#define INDICIAL_LANE_FLATTEN __attribute__((flatten))
+#else
+#define INDICIAL_LANE_VECTORS 0
+#define INDICIAL_LANE_INLINE inline
+#define INDICIAL_LANE_FLATTEN
+#endif
+
+// The second, AVX2 kernel: x86-64, GCC or Clang, and a translation unit that is not already
+// compiled for AVX2 (then the portable kernel is at least as wide). INDICIAL_NO_AVX2_KERNEL
+// turns it off.
+#if INDICIAL_LANE_VECTORS && defined(__x86_64__) && !defined(__AVX2__) && \
+    !defined(INDICIAL_NO_AVX2_KERNEL)
+#define INDICIAL_AVX2_KERNEL 1
+#else
+#define INDICIAL_AVX2_KERNEL 0
+#endif
+
+// The inline namespace of this translation unit's target (warning 3).
+#if defined(__AVX512F__)
+#define INDICIAL_LANE_ABI lanes_avx512
+#elif defined(__AVX2__) && defined(__FMA__)
+#define INDICIAL_LANE_ABI lanes_avx2_fma
+#elif defined(__AVX2__)
+#define INDICIAL_LANE_ABI lanes_avx2
+#elif defined(__AVX__)
+#define INDICIAL_LANE_ABI lanes_avx
+#elif defined(__x86_64__)
+#define INDICIAL_LANE_ABI lanes_sse2
+#else
+#define INDICIAL_LANE_ABI lanes_generic
+#endif
+
 namespace indicial {
+inline namespace INDICIAL_LANE_ABI {
 
 // Instances per block of step_batch (lanes): its structure-of-arrays working set (about 2 KB
-// for double) stays in L1, and 8 doubles are one AVX-512 vector, four SSE2 ones.
+// for double) stays in L1, and 8 doubles are one AVX-512 vector, two AVX2 or four SSE2 ones.
+// (Measured on Model II with SSE2: blocks of 4 run 1.15x and of 16 1.4x the time of 8.)
 inline constexpr int batch_block = 8;
 
-namespace detail {
+// Which instructions step_batch uses (see "Which instructions" above).
+enum class BatchKernel : int { automatic = 0, portable = 1, avx2 = 2 };
+
+inline const char* to_string(BatchKernel k) {
+  return k == BatchKernel::avx2 ? "avx2" : k == BatchKernel::portable ? "portable" : "automatic";
+}
+
+// The kernel step_batch(..., requested) runs on this CPU: avx2 only where it was compiled and
+// the CPU has it (a request for it elsewhere runs portable), portable when asked for.
+inline BatchKernel batch_kernel_in_use(BatchKernel requested = BatchKernel::automatic) {
+#if INDICIAL_AVX2_KERNEL
+  if (requested != BatchKernel::portable && __builtin_cpu_supports("avx2")) return BatchKernel::avx2;
+#endif
+  (void)requested;
+  return BatchKernel::portable;
+}
+
+namespace batch_detail {
 inline bool lane_active(StepStatus s) { return s == StepStatus::ok || s == StepStatus::angle_clamped; }
 
-// The lane type of step_batch: batch_block Scalars with element-wise arithmetic. With GCC and
-// Clang its storage is an array of vector-extension registers of the target's width (SSE2:
-// 16 bytes, AVX: 32, AVX-512: 64), so that every operation, comparison and select is compiled
-// to SIMD instructions (four SSE2 or one AVX-512 instruction on 8 doubles) whatever the
-// auto-vectoriser decides; other compilers get plain loops. (A single 64-byte vector on an
-// SSE2 target is lowered through memory: the register-width parts avoid that.) A struct, so
-// that passing one by value never depends on the target's vector ABI (-Wpsabi).
-#if defined(__GNUC__) || defined(__clang__)
+// The widest vector register of this translation unit's target, in bytes.
 #if defined(__AVX512F__)
-inline constexpr int lane_register_bytes = 64;
+inline constexpr int portable_lane_bytes = 64;
 #elif defined(__AVX__)
-inline constexpr int lane_register_bytes = 32;
+inline constexpr int portable_lane_bytes = 32;
 #else
-inline constexpr int lane_register_bytes = 16;
+inline constexpr int portable_lane_bytes = 16;
 #endif
-template <class S>
+
+// The lane type of step_batch: batch_block Scalars with element-wise arithmetic, stored as
+// vector-extension parts of RegisterBytes each (16: SSE2 / NEON, 32: AVX, 64: AVX-512), so
+// that every operation, comparison and select is compiled to SIMD instructions (four SSE2 or
+// one AVX-512 instruction on 8 doubles) whatever the auto-vectoriser decides; other compilers
+// get plain loops. (A single 64-byte vector on an SSE2 target is lowered through memory: the
+// register-width parts avoid that.) A struct, so that passing one by value never depends on
+// the target's vector ABI (-Wpsabi).
+#if INDICIAL_LANE_VECTORS
+template <class S, int RegisterBytes>
 struct LaneArray {
   static constexpr int bytes = batch_block * static_cast<int>(sizeof(S));
-  static constexpr int part_bytes = bytes < lane_register_bytes ? bytes : lane_register_bytes;
+  static constexpr int part_bytes = bytes < RegisterBytes ? bytes : RegisterBytes;
   static constexpr int parts = bytes / part_bytes;
+  static constexpr int per_part = batch_block / parts;
   typedef S Part __attribute__((vector_size(part_bytes)));
   Part p[parts];
   // GCC and Clang let a vector alias its element type.
@@ -87,74 +164,254 @@ struct LaneArray {
   const S& operator[](int i) const { return reinterpret_cast<const S*>(p)[i]; }
 };
 
-template <class S>
+template <class S, int RegisterBytes>
 struct LaneMask {
-  typedef decltype(typename LaneArray<S>::Part{} < typename LaneArray<S>::Part{}) Part;
-  Part p[LaneArray<S>::parts];
-  static constexpr int per_part = batch_block / LaneArray<S>::parts;
-  bool operator[](int i) const { return p[i / per_part][i % per_part] != 0; }
+  using Lanes = LaneArray<S, RegisterBytes>;
+  typedef decltype(typename Lanes::Part{} < typename Lanes::Part{}) Part;
+  Part p[Lanes::parts];
+  bool operator[](int i) const { return p[i / Lanes::per_part][i % Lanes::per_part] != 0; }
 };
 
-#define INDICIAL_LANE_BINARY(op)                                                                 \
-  template <class S> inline LaneArray<S> operator op(const LaneArray<S>& a, const LaneArray<S>& b) { \
-    LaneArray<S> r; for (int k = 0; k < LaneArray<S>::parts; ++k) r.p[k] = a.p[k] op b.p[k]; return r; } \
-  template <class S> inline LaneArray<S> operator op(const LaneArray<S>& a, S b) {                \
-    LaneArray<S> r; for (int k = 0; k < LaneArray<S>::parts; ++k) r.p[k] = a.p[k] op b; return r; } \
-  template <class S> inline LaneArray<S> operator op(S a, const LaneArray<S>& b) {                \
-    LaneArray<S> r; for (int k = 0; k < LaneArray<S>::parts; ++k) r.p[k] = a op b.p[k]; return r; }
-#define INDICIAL_LANE_COMPARE(op)                                                                \
-  template <class S> inline LaneMask<S> operator op(const LaneArray<S>& a, S b) {                 \
-    LaneMask<S> r; for (int k = 0; k < LaneArray<S>::parts; ++k) r.p[k] = a.p[k] op b; return r; } \
-  template <class S> inline LaneMask<S> operator op(const LaneArray<S>& a, const LaneArray<S>& b) { \
-    LaneMask<S> r; for (int k = 0; k < LaneArray<S>::parts; ++k) r.p[k] = a.p[k] op b.p[k]; return r; }
-template <class S> inline LaneArray<S> operator-(const LaneArray<S>& a) {
-  LaneArray<S> r;
-  for (int k = 0; k < LaneArray<S>::parts; ++k) r.p[k] = -a.p[k];
+#define INDICIAL_LANE_BINARY(op)                                                                   \
+  template <class S, int R>                                                                        \
+  INDICIAL_LANE_INLINE LaneArray<S, R> operator op(const LaneArray<S, R>& a, const LaneArray<S, R>& b) { \
+    LaneArray<S, R> r;                                                                             \
+    for (int k = 0; k < LaneArray<S, R>::parts; ++k) r.p[k] = a.p[k] op b.p[k];                    \
+    return r;                                                                                      \
+  }                                                                                                \
+  template <class S, int R>                                                                        \
+  INDICIAL_LANE_INLINE LaneArray<S, R> operator op(const LaneArray<S, R>& a, S b) {                \
+    LaneArray<S, R> r;                                                                             \
+    for (int k = 0; k < LaneArray<S, R>::parts; ++k) r.p[k] = a.p[k] op b;                         \
+    return r;                                                                                      \
+  }                                                                                                \
+  template <class S, int R>                                                                        \
+  INDICIAL_LANE_INLINE LaneArray<S, R> operator op(S a, const LaneArray<S, R>& b) {                \
+    LaneArray<S, R> r;                                                                             \
+    for (int k = 0; k < LaneArray<S, R>::parts; ++k) r.p[k] = a op b.p[k];                         \
+    return r;                                                                                      \
+  }
+#define INDICIAL_LANE_COMPARE(op)                                                                  \
+  template <class S, int R>                                                                        \
+  INDICIAL_LANE_INLINE LaneMask<S, R> operator op(const LaneArray<S, R>& a, S b) {                 \
+    LaneMask<S, R> r;                                                                              \
+    for (int k = 0; k < LaneArray<S, R>::parts; ++k) r.p[k] = a.p[k] op b;                         \
+    return r;                                                                                      \
+  }                                                                                                \
+  template <class S, int R>                                                                        \
+  INDICIAL_LANE_INLINE LaneMask<S, R> operator op(const LaneArray<S, R>& a, const LaneArray<S, R>& b) { \
+    LaneMask<S, R> r;                                                                              \
+    for (int k = 0; k < LaneArray<S, R>::parts; ++k) r.p[k] = a.p[k] op b.p[k];                    \
+    return r;                                                                                      \
+  }
+template <class S, int R>
+INDICIAL_LANE_INLINE LaneArray<S, R> operator-(const LaneArray<S, R>& a) {
+  LaneArray<S, R> r;
+  for (int k = 0; k < LaneArray<S, R>::parts; ++k) r.p[k] = -a.p[k];
+  return r;
+}
+template <class S, int R>
+INDICIAL_LANE_INLINE LaneMask<S, R> operator|(const LaneMask<S, R>& a, const LaneMask<S, R>& b) {
+  LaneMask<S, R> r;
+  for (int k = 0; k < LaneArray<S, R>::parts; ++k) r.p[k] = a.p[k] | b.p[k];
+  return r;
+}
+template <class S, int R>
+INDICIAL_LANE_INLINE LaneArray<S, R> lane_constant(S c) {
+  LaneArray<S, R> r;
+  for (int k = 0; k < LaneArray<S, R>::parts; ++k) r.p[k] = typename LaneArray<S, R>::Part{} + c;
   return r;
 }
 // As bit operations (a mask lane is all ones or all zeros).
-template <class S>
-inline LaneArray<S> lane_select(const LaneMask<S>& m, const LaneArray<S>& a, const LaneArray<S>& b) {
-  using Part = typename LaneArray<S>::Part;
-  using Bits = typename LaneMask<S>::Part;
-  LaneArray<S> r;
-  for (int k = 0; k < LaneArray<S>::parts; ++k)
+template <class S, int R>
+INDICIAL_LANE_INLINE LaneArray<S, R> lane_select(const LaneMask<S, R>& m, const LaneArray<S, R>& a,
+                                                 const LaneArray<S, R>& b) {
+  using Part = typename LaneArray<S, R>::Part;
+  using Bits = typename LaneMask<S, R>::Part;
+  LaneArray<S, R> r;
+  for (int k = 0; k < LaneArray<S, R>::parts; ++k)
     r.p[k] = (Part)(((Bits)a.p[k] & m.p[k]) | ((Bits)b.p[k] & ~m.p[k]));
   return r;
 }
-#else
+// |v|: the sign bit cleared.
+template <class S, int R>
+INDICIAL_LANE_INLINE LaneArray<S, R> lane_abs(const LaneArray<S, R>& v) {
+  using Part = typename LaneArray<S, R>::Part;
+  using Bits = typename LaneMask<S, R>::Part;
+  const Bits sign = (Bits)(-Part{});  // -0.0 in every lane: the sign bit alone
+  LaneArray<S, R> r;
+  for (int k = 0; k < LaneArray<S, R>::parts; ++k) r.p[k] = (Part)((Bits)v.p[k] & ~sign);
+  return r;
+}
+template <class S, int R>
+INDICIAL_LANE_INLINE bool lane_any(const LaneMask<S, R>& m) {
+  typename LaneMask<S, R>::Part all = m.p[0];
+  for (int k = 1; k < LaneArray<S, R>::parts; ++k) all = all | m.p[k];
+  bool r = false;
+  for (int i = 0; i < LaneArray<S, R>::per_part; ++i) r = r || all[i] != 0;
+  return r;
+}
+
+// The constants of lane_exp per scalar type: the shifter 1.5 * 2^mantissa_bits (adding and
+// subtracting it rounds to the nearest integer), ln 2 in two parts (Cody and Waite: n * hi is
+// exact for every n in range), the range ends, and the Taylor coefficients 1/k! up to a degree
+// whose truncation error on |r| <= ln(2)/2 is below a hundredth of an ulp
+// (0.35^14 / 14! = 4e-18 for double, 0.35^8 / 8! = 5e-9 for float).
 template <class S>
+struct LaneExpConstants;
+template <>
+struct LaneExpConstants<double> {
+  using Bits = std::uint64_t;
+  static constexpr int mantissa_bits = 52;
+  static constexpr Bits exponent_bias = 1023;
+  static constexpr double shifter = 6755399441055744.0;  // 1.5 * 2^52
+  static constexpr double log2e = 1.4426950408889634074;
+  static constexpr double ln2_hi = 0.693145751953125;            // Cephes' C1
+  static constexpr double ln2_lo = 1.42860682030941723212e-6;    // Cephes' C2
+  static constexpr double overflow_above = 709.782712893384;     // exp > DBL_MAX: Inf
+  static constexpr double underflow_below = -745.1332191019412;  // exp < DBL_TRUE_MIN / 2: 0
+  static constexpr int degree = 13;
+};
+template <>
+struct LaneExpConstants<float> {
+  using Bits = std::uint32_t;
+  static constexpr int mantissa_bits = 23;
+  static constexpr Bits exponent_bias = 127;
+  static constexpr float shifter = 12582912.0f;  // 1.5 * 2^23
+  static constexpr float log2e = 1.44269504088896341f;
+  static constexpr float ln2_hi = 0.693359375f;       // Cephes' expf C1
+  static constexpr float ln2_lo = -2.12194440e-4f;    // Cephes' expf C2
+  static constexpr float overflow_above = 88.72283935546875f;
+  static constexpr float underflow_below = -103.97208404541015625f;
+  static constexpr int degree = 7;
+};
+
+// exp(x) lane-wise: x = n ln2 + r, |r| <= ln(2)/2, exp(r) by its Taylor polynomial (Horner),
+// times 2^n built in the exponent bits -- as two factors 2^n1 2^n2, n1 + n2 = n, so that a
+// subnormal result (n down to -1075) is rounded once and no factor leaves the normal range.
+// Inf above the overflow end, 0 below the underflow end, NaN for NaN. Within 1 ulp of the C
+// library's exp (measured in tests/test_lane_exp.cpp).
+//
+// Why written here (the one hand-written function of the batch): Eigen's vectorised exp is
+// compiled for the translation unit's target only, so it cannot serve the AVX2 kernel of an
+// SSE2 build, and it would make Eigen a dependency of the runtime's header.
+template <class S, int R>
+INDICIAL_LANE_INLINE LaneArray<S, R> lane_exp(const LaneArray<S, R>& x) {
+  using C = LaneExpConstants<S>;
+  using Part = typename LaneArray<S, R>::Part;
+  typedef typename C::Bits Bits __attribute__((vector_size(sizeof(Part))));
+  S inverse_factorial[C::degree + 1];
+  inverse_factorial[0] = S(1);
+  for (int k = 1; k <= C::degree; ++k) inverse_factorial[k] = inverse_factorial[k - 1] / S(k);
+  const Part shifter = Part{} + C::shifter;
+  const Bits bias = Bits{} + C::exponent_bias;
+  LaneArray<S, R> r;
+  for (int k = 0; k < LaneArray<S, R>::parts; ++k) {
+    const Part v = x.p[k];
+    const Part shifted = v * C::log2e + shifter;
+    const Part n = shifted - shifter;  // round(x / ln 2)
+    const Part reduced = (v - n * C::ln2_hi) - n * C::ln2_lo;
+    Part poly = Part{} + inverse_factorial[C::degree];
+    for (int d = C::degree - 1; d >= 0; --d) poly = poly * reduced + inverse_factorial[d];
+    const Part half_shifted = n * S(0.5) + shifter;  // n1 = round(n / 2), n2 = n - n1
+    const Part n2 = n - (half_shifted - shifter);
+    const Bits n1_bits = (Bits)half_shifted - (Bits)shifter;  // modulo 2^bits: n1's two's complement
+    const Bits n2_bits = (Bits)(n2 + shifter) - (Bits)shifter;
+    Part e = poly * (Part)((n1_bits + bias) << C::mantissa_bits) *
+             (Part)((n2_bits + bias) << C::mantissa_bits);
+    e = v > C::overflow_above ? Part{} + std::numeric_limits<S>::infinity() : e;
+    e = v < C::underflow_below ? Part{} : e;
+    e = v != v ? v + v : e;
+    r.p[k] = e;
+  }
+  return r;
+}
+#else
+template <class S, int RegisterBytes>
 struct LaneArray {
+  static constexpr int parts = 1;
   S v[batch_block];
   S& operator[](int i) { return v[i]; }
   const S& operator[](int i) const { return v[i]; }
 };
-template <class S>
+template <class S, int RegisterBytes>
 struct LaneMask {
   bool m[batch_block];
   bool operator[](int i) const { return m[i]; }
 };
-#define INDICIAL_LANE_BINARY(op)                                                                 \
-  template <class S> inline LaneArray<S> operator op(const LaneArray<S>& a, const LaneArray<S>& b) { \
-    LaneArray<S> r; for (int i = 0; i < batch_block; ++i) r.v[i] = a.v[i] op b.v[i]; return r; } \
-  template <class S> inline LaneArray<S> operator op(const LaneArray<S>& a, S b) {                \
-    LaneArray<S> r; for (int i = 0; i < batch_block; ++i) r.v[i] = a.v[i] op b; return r; }     \
-  template <class S> inline LaneArray<S> operator op(S a, const LaneArray<S>& b) {                \
-    LaneArray<S> r; for (int i = 0; i < batch_block; ++i) r.v[i] = a op b.v[i]; return r; }
-#define INDICIAL_LANE_COMPARE(op)                                                                \
-  template <class S> inline LaneMask<S> operator op(const LaneArray<S>& a, S b) {                 \
-    LaneMask<S> r; for (int i = 0; i < batch_block; ++i) r.m[i] = a.v[i] op b; return r; }       \
-  template <class S> inline LaneMask<S> operator op(const LaneArray<S>& a, const LaneArray<S>& b) { \
-    LaneMask<S> r; for (int i = 0; i < batch_block; ++i) r.m[i] = a.v[i] op b.v[i]; return r; }
-template <class S> inline LaneArray<S> operator-(const LaneArray<S>& a) {
-  LaneArray<S> r;
+#define INDICIAL_LANE_BINARY(op)                                                                   \
+  template <class S, int R>                                                                        \
+  inline LaneArray<S, R> operator op(const LaneArray<S, R>& a, const LaneArray<S, R>& b) {         \
+    LaneArray<S, R> r;                                                                             \
+    for (int i = 0; i < batch_block; ++i) r.v[i] = a.v[i] op b.v[i];                               \
+    return r;                                                                                      \
+  }                                                                                                \
+  template <class S, int R>                                                                        \
+  inline LaneArray<S, R> operator op(const LaneArray<S, R>& a, S b) {                              \
+    LaneArray<S, R> r;                                                                             \
+    for (int i = 0; i < batch_block; ++i) r.v[i] = a.v[i] op b;                                    \
+    return r;                                                                                      \
+  }                                                                                                \
+  template <class S, int R>                                                                        \
+  inline LaneArray<S, R> operator op(S a, const LaneArray<S, R>& b) {                              \
+    LaneArray<S, R> r;                                                                             \
+    for (int i = 0; i < batch_block; ++i) r.v[i] = a op b.v[i];                                    \
+    return r;                                                                                      \
+  }
+#define INDICIAL_LANE_COMPARE(op)                                                                  \
+  template <class S, int R>                                                                        \
+  inline LaneMask<S, R> operator op(const LaneArray<S, R>& a, S b) {                               \
+    LaneMask<S, R> r;                                                                              \
+    for (int i = 0; i < batch_block; ++i) r.m[i] = a.v[i] op b;                                    \
+    return r;                                                                                      \
+  }                                                                                                \
+  template <class S, int R>                                                                        \
+  inline LaneMask<S, R> operator op(const LaneArray<S, R>& a, const LaneArray<S, R>& b) {          \
+    LaneMask<S, R> r;                                                                              \
+    for (int i = 0; i < batch_block; ++i) r.m[i] = a.v[i] op b.v[i];                               \
+    return r;                                                                                      \
+  }
+template <class S, int R>
+inline LaneArray<S, R> operator-(const LaneArray<S, R>& a) {
+  LaneArray<S, R> r;
   for (int i = 0; i < batch_block; ++i) r.v[i] = -a.v[i];
   return r;
 }
-template <class S>
-inline LaneArray<S> lane_select(const LaneMask<S>& m, const LaneArray<S>& a, const LaneArray<S>& b) {
-  LaneArray<S> r;
+template <class S, int R>
+inline LaneMask<S, R> operator|(const LaneMask<S, R>& a, const LaneMask<S, R>& b) {
+  LaneMask<S, R> r;
+  for (int i = 0; i < batch_block; ++i) r.m[i] = a.m[i] || b.m[i];
+  return r;
+}
+template <class S, int R>
+inline LaneArray<S, R> lane_constant(S c) {
+  LaneArray<S, R> r;
+  for (int i = 0; i < batch_block; ++i) r.v[i] = c;
+  return r;
+}
+template <class S, int R>
+inline LaneArray<S, R> lane_select(const LaneMask<S, R>& m, const LaneArray<S, R>& a,
+                                   const LaneArray<S, R>& b) {
+  LaneArray<S, R> r;
   for (int i = 0; i < batch_block; ++i) r.v[i] = m.m[i] ? a.v[i] : b.v[i];
+  return r;
+}
+template <class S, int R>
+inline LaneArray<S, R> lane_abs(const LaneArray<S, R>& a) {
+  LaneArray<S, R> r;
+  for (int i = 0; i < batch_block; ++i) r.v[i] = std::fabs(a.v[i]);
+  return r;
+}
+template <class S, int R>
+inline bool lane_any(const LaneMask<S, R>& m) {
+  bool r = false;
+  for (int i = 0; i < batch_block; ++i) r = r || m.m[i];
+  return r;
+}
+template <class S, int R>
+inline LaneArray<S, R> lane_exp(const LaneArray<S, R>& x) {
+  LaneArray<S, R> r;
+  for (int i = 0; i < batch_block; ++i) r.v[i] = std::exp(x.v[i]);
   return r;
 }
 #endif
@@ -165,203 +422,277 @@ INDICIAL_LANE_BINARY(/)
 INDICIAL_LANE_COMPARE(<)
 INDICIAL_LANE_COMPARE(>)
 INDICIAL_LANE_COMPARE(==)
+INDICIAL_LANE_COMPARE(!=)
 #undef INDICIAL_LANE_BINARY
 #undef INDICIAL_LANE_COMPARE
 
+// Fills lane i of *v with f(i) for every lane.
+template <class S, int R, class F>
+INDICIAL_LANE_INLINE void gather_lanes(LaneArray<S, R>* v, F f) {
+#if INDICIAL_LANE_VECTORS
+  using Lanes = LaneArray<S, R>;
+  for (int k = 0; k < Lanes::parts; ++k) {
+    typename Lanes::Part part = {};
+    for (int i = 0; i < Lanes::per_part; ++i) part[i] = f(k * Lanes::per_part + i);
+    v->p[k] = part;
+  }
+#else
+  for (int i = 0; i < batch_block; ++i) (*v)[i] = f(i);
+#endif
+}
+
 // The lane policy of model.hpp's `*_with<Ops>` bodies (see ScalarOps there): selects where
 // ScalarOps branches.
-template <class S>
+template <class S, int R>
 struct BatchLanes {
   using Scalar = S;
-  using V = LaneArray<S>;
+  using V = LaneArray<S, R>;
+  using Mask = LaneMask<S, R>;
   static constexpr int width = batch_block;
-  static V constant(S c) {
-    V r;
-    for (int i = 0; i < width; ++i) r[i] = c;
-    return r;
-  }
-  static V one(const V&) { return constant(S(1)); }
-  static S lift(const V&, double c) { return S(c); }
-  static V select(const LaneMask<S>& m, const V& a, const V& b) { return lane_select(m, a, b); }
-  template <class F> static void add_where(const LaneMask<S>& m, V* acc, F term) {
+  INDICIAL_LANE_INLINE static V constant(S c) { return lane_constant<S, R>(c); }
+  INDICIAL_LANE_INLINE static V one(const V&) { return constant(S(1)); }
+  INDICIAL_LANE_INLINE static S lift(const V&, double c) { return S(c); }
+  INDICIAL_LANE_INLINE static V select(const Mask& m, const V& a, const V& b) { return lane_select(m, a, b); }
+  template <class F>
+  INDICIAL_LANE_INLINE static void add_where(const Mask& m, V* acc, F term) {
     const V sum = *acc + term();
     *acc = lane_select(m, sum, *acc);
   }
-  template <class Fa, class Fb> static V choose(const LaneMask<S>& m, Fa a, Fb b) {
+  template <class Fa, class Fb>
+  INDICIAL_LANE_INLINE static V choose(const Mask& m, Fa a, Fb b) {
     return lane_select(m, a(), b());
   }
-  static V abs(const V& v) { return lane_select(v < S(0), -v, v); }
-  static LaneMask<S> abs_less(const V& v, double threshold) { return abs(v) < S(threshold); }
-  static bool any(const LaneMask<S>& m) {
-    bool r = false;
-    for (int i = 0; i < width; ++i) r = r || m[i];
-    return r;
-  }
+  INDICIAL_LANE_INLINE static V abs(const V& v) { return lane_abs(v); }
+  INDICIAL_LANE_INLINE static Mask abs_less(const V& v, double threshold) { return lane_abs(v) < S(threshold); }
+  INDICIAL_LANE_INLINE static bool any(const Mask& m) { return lane_any(m); }
   // Not vectorised: a static TABLE's binary search, lane by lane.
-  template <class Curve> static void table_value(const Curve& c, const V& x, V* r) {
+  template <class Curve>
+  static void table_value(const Curve& c, const V& x, V* r) {
     for (int i = 0; i < width; ++i) (*r)[i] = static_value(c, x[i]);
   }
 };
 
-// One block of the batch as a structure of arrays: one lane vector per quantity. Lanes past
-// the block's count and refused lanes hold harmless finite values; their results are dropped
-// by the merge.
-template <class Scalar, class Cap>
+// One block of the batch as a structure of arrays: one lane vector per quantity. Refused
+// lanes hold harmless finite values; their results are dropped by the scatter.
+template <class Scalar, class Cap, int R>
 struct BlockLanes {
-  using Ops = BatchLanes<Scalar>;
-  using V = typename Ops::V;
+  using V = LaneArray<Scalar, R>;
   static constexpr int W = batch_block;
   static constexpr int C = Cap::max_coefficients;
   static constexpr int L = Cap::max_lags;
-  StepStatus status[W] = {};
-  bool keep[W] = {};      // active (ok / angle_clamped) and, after the step, finite
-  // Not initialised here (a block is built for every 8 instances): load_lanes fills every lane.
+  StepStatus status[W];
+  bool active[W];       // ok / angle_clamped after the input checks
+  bool all_active;
+  // Not initialised here (a block is built for every 8 instances): load_lanes fills them.
   V x0_rad;             // the state's x_prev_rad
-  V x1_rad;             // the new model angle (clamped by prepare_lanes)
+  V x1_rad;             // the new model angle (clamped)
   V rate;
   V airspeed_mps;       // airspeed terms of this step
   V time_scale;
   V l_over_v_s;
   V time_scale_dt;      // time_scale * dt_s (StepGeometry's)
-  V old_airspeed_mps;   // the state's cached airspeed terms
-  V old_time_scale;
-  V old_l_over_v_s;
   V forcing_antiderivative[C];  // A(x): the old end in, the new end out
   V b_antiderivative[C][L];     // B_j(x): the old end in, the new end out
   V y[C][L];                    // lag states: old in, new out
   V value[C];
+  V finite_test;                // 0 where every result of the lane is finite, else NaN
 };
 
-// The input stage, per lane: the checks of indicial::step, the model angle, the state's
-// cached quantities (a gather from the array of States).
-template <class Scalar, class Cap>
-inline void load_lanes(const RuntimeModel<Scalar, Cap>& m, const State<Scalar, Cap>* s, int k,
-                       const double* angle_rad, const double* rate_radps,
-                       const double* airspeed_mps, double dt_s, const void* out,
-                       BlockLanes<Scalar, Cap>* b) {
-  // Lanes past k (a partial last block): harmless values, never stored.
-  for (int i = k; i < batch_block; ++i) {
-    b->x0_rad[i] = b->x1_rad[i] = b->rate[i] = Scalar(0);
-    b->airspeed_mps[i] = b->old_airspeed_mps[i] = b->old_time_scale[i] = b->old_l_over_v_s[i] = Scalar(1);
-    for (int c = 0; c < Cap::max_coefficients; ++c) {
-      b->forcing_antiderivative[c][i] = Scalar(0);
-      for (int j = 0; j < Cap::max_lags; ++j) b->b_antiderivative[c][j][i] = b->y[c][j][i] = Scalar(0);
-    }
+// The input checks of indicial::step for each lane of a full block, and the model angle with
+// its clamp status. A refused lane gets finite substitutes (angle 0, rate 0, its cached
+// airspeed): it is computed with its block and dropped.
+template <class Scalar, class Cap, int R>
+INDICIAL_LANE_INLINE void check_lanes(const RuntimeModel<Scalar, Cap>& m, const State<Scalar, Cap>* s,
+                                      const double* angle_rad, const double* rate_radps,
+                                      const double* airspeed_mps, double dt_s, const void* out,
+                                      BlockLanes<Scalar, Cap, R>* b) {
+  bool all_active = true;
+  Scalar x[batch_block];
+  for (int i = 0; i < batch_block; ++i) {
+    const StepStatus st = indicial::detail::check_step_input(s[i].phase, {angle_rad[i], rate_radps[i], airspeed_mps[i]},
+                                           dt_s, out);
+    const bool active = st == StepStatus::ok;
+    x[i] = indicial::detail::model_angle_of(m, active ? angle_rad[i] : 0.0);
+    const bool clamped = x[i] < m.x_min_rad || x[i] > m.x_max_rad;
+    b->status[i] = active && clamped ? StepStatus::angle_clamped : st;
+    b->active[i] = active;
+    all_active = all_active && active;
   }
-  for (int i = 0; i < k; ++i) {
-    const MotionInput in{angle_rad[i], rate_radps[i], airspeed_mps[i]};
-    b->status[i] = check_step_input(s[i].phase, in, dt_s, out);
-    const bool active = b->status[i] == StepStatus::ok;
-    b->keep[i] = active;
-    // Why the substitutes: a refused lane is computed with the rest of its block and dropped;
-    // its inputs may be NaN, so it gets finite ones (angle 0, rate 0, its cached airspeed).
-    b->x1_rad[i] = model_angle_of(m, active ? in.motion_angle_rad : 0.0);
-    b->rate[i] = Scalar(active ? in.rate_radps : 0.0);
-    b->old_airspeed_mps[i] = s[i].airspeed_mps;
-    b->old_time_scale[i] = s[i].time_scale;
-    b->old_l_over_v_s[i] = s[i].l_over_v_s;
-    b->airspeed_mps[i] = active ? Scalar(in.airspeed_mps) : s[i].airspeed_mps;
-    b->x0_rad[i] = s[i].x_prev_rad;
-    for (int c = 0; c < m.set.n_coefficients; ++c) {
-      b->forcing_antiderivative[c][i] = s[i].end[c].forcing_antiderivative;
-      for (int j = 0; j < Cap::max_lags; ++j) {
-        b->b_antiderivative[c][j][i] = s[i].end[c].b_antiderivative[j];
-        b->y[c][j][i] = s[i].y[c][j];
-      }
-    }
-  }
+  b->all_active = all_active;
+  using V = LaneArray<Scalar, R>;
+  const V motion = [&] { V v; gather_lanes(&v, [&](int i) { return x[i]; }); return v; }();
+  b->x1_rad = lane_select(motion < m.x_min_rad, lane_constant<Scalar, R>(m.x_min_rad),
+                          lane_select(motion > m.x_max_rad, lane_constant<Scalar, R>(m.x_max_rad), motion));
+  gather_lanes(&b->rate, [&](int i) { return Scalar(b->active[i] ? rate_radps[i] : 0.0); });
+  gather_lanes(&b->airspeed_mps, [&](int i) {
+    return b->active[i] ? Scalar(airspeed_mps[i]) : s[i].airspeed_mps;
+  });
 }
 
-// The clamp (clamp_model_angle's comparisons as selects) and the airspeed terms
-// (airspeed_terms' cache test as a select), lane-wise.
-template <class Scalar, class Cap>
-inline void prepare_lanes(const RuntimeModel<Scalar, Cap>& m, Scalar dt_s, BlockLanes<Scalar, Cap>* b) {
-  using Ops = BatchLanes<Scalar>;
-  using V = typename Ops::V;
-  const V x = b->x1_rad;
-  const V low = Ops::constant(m.x_min_rad), high = Ops::constant(m.x_max_rad);
-  b->x1_rad = Ops::select(x < m.x_min_rad, low, Ops::select(x > m.x_max_rad, high, x));
-  for (int i = 0; i < batch_block; ++i) {
-    if (b->status[i] == StepStatus::ok && (x[i] < m.x_min_rad || x[i] > m.x_max_rad))
-      b->status[i] = StepStatus::angle_clamped;
-  }
+// The state's quantities the step reads (a gather from the array of States; only the
+// coefficients and lags the model has), and the airspeed terms (airspeed_terms' cache test
+// as a select).
+template <class Scalar, class Cap, int R>
+INDICIAL_LANE_INLINE void load_lanes(const RuntimeModel<Scalar, Cap>& m, const State<Scalar, Cap>* s,
+                                     Scalar dt_s, BlockLanes<Scalar, Cap, R>* b) {
+  using V = LaneArray<Scalar, R>;
+  gather_lanes(&b->x0_rad, [&](int i) { return s[i].x_prev_rad; });
+  V old_airspeed, old_time_scale, old_l_over_v;
+  gather_lanes(&old_airspeed, [&](int i) { return s[i].airspeed_mps; });
+  gather_lanes(&old_time_scale, [&](int i) { return s[i].time_scale; });
+  gather_lanes(&old_l_over_v, [&](int i) { return s[i].l_over_v_s; });
   const V v = b->airspeed_mps;
-  const auto cached = v == b->old_airspeed_mps;
-  b->time_scale = Ops::select(cached, b->old_time_scale, v / m.airspeed_mps);
-  b->l_over_v_s = Ops::select(cached, b->old_l_over_v_s, m.reference_length_m / v);
+  const auto cached = v == old_airspeed;
+  b->time_scale = lane_select(cached, old_time_scale, v / m.airspeed_mps);
+  b->l_over_v_s = lane_select(cached, old_l_over_v, m.reference_length_m / v);
   b->time_scale_dt = b->time_scale * dt_s;
+  for (int c = 0; c < m.set.n_coefficients; ++c) {
+    gather_lanes(&b->forcing_antiderivative[c], [&](int i) { return s[i].end[c].forcing_antiderivative; });
+    for (int j = 0; j < m.set.coefficients[c].n_lags; ++j) {
+      gather_lanes(&b->b_antiderivative[c][j], [&](int i) { return s[i].end[c].b_antiderivative[j]; });
+      gather_lanes(&b->y[c][j], [&](int i) { return s[i].y[c][j]; });
+    }
+  }
 }
 
 // The model equations of coefficient c over one step for every lane (model.hpp's `*_with`
-// bodies in advance_lags_between's sequence), with the exponentials of the block taken at once
-// by Eigen's vectorised array exp. Clears keep where a result is not finite.
-template <class Scalar, class Cap>
-inline void advance_lanes(const CoefficientModel<Scalar, Cap>& cm, int c, BlockLanes<Scalar, Cap>* b) {
-  using Ops = BatchLanes<Scalar>;
+// bodies in advance_lags_between's sequence, lane_exp between them). Accumulates the finite
+// test of its results.
+template <class Scalar, class Cap, int R>
+INDICIAL_LANE_INLINE void advance_lanes(const CoefficientModel<Scalar, Cap>& cm, int c,
+                                        BlockLanes<Scalar, Cap, R>* b) {
+  using Ops = BatchLanes<Scalar, R>;
   using V = typename Ops::V;
-  using Lanes = Eigen::Array<Scalar, batch_block, 1>;
-  V end1, z, decay;
-  end1 = spline_antiderivative_with<Ops>(cm.a, b->x1_rad);
+  V end1 = spline_antiderivative_with<Ops>(cm.a, b->x1_rad);
   const V forcing_integral = end1 - b->forcing_antiderivative[c];
   b->forcing_antiderivative[c] = end1;
   for (int j = 0; j < cm.n_lags; ++j) {
     end1 = spline_antiderivative_with<Ops>(cm.lags[j].b, b->x1_rad);
+    V z;
     lag_exponent_with<Ops>(cm, j, b->x0_rad, b->x1_rad, b->b_antiderivative[c][j], end1,
-                            b->time_scale_dt, &z);
-    Lanes e;
-    for (int i = 0; i < batch_block; ++i) e(i) = -z[i];
-    e = e.exp();
-    for (int i = 0; i < batch_block; ++i) decay[i] = e(i);
+                           b->time_scale_dt, &z);
+    const V decay = lane_exp(-z);
     lag_update_with<Ops>(cm, j, forcing_integral, b->time_scale_dt, z, decay, &b->y[c][j]);
     b->b_antiderivative[c][j] = end1;
+    b->finite_test = b->finite_test + (b->y[c][j] - b->y[c][j]);
   }
-  // As advance_lags_between leaves them: B_j of the unused lags is 0 in a new StepEnd.
-  for (int j = cm.n_lags; j < Cap::max_lags; ++j) b->b_antiderivative[c][j] = Ops::constant(Scalar(0));
   b->value[c] = coefficient_output_with<Ops>(cm, b->x1_rad, b->rate, b->l_over_v_s, b->y[c]);
-  // Finite: x - x is 0 for a finite x, NaN for Inf and NaN.
-  V finite_test = b->value[c] - b->value[c];
-  for (int j = 0; j < cm.n_lags; ++j) finite_test = finite_test + (b->y[c][j] - b->y[c][j]);
-  for (int i = 0; i < batch_block; ++i) b->keep[i] = b->keep[i] && finite_test[i] == Scalar(0);
+  // x - x is 0 for a finite x, NaN for Inf and NaN.
+  b->finite_test = b->finite_test + (b->value[c] - b->value[c]);
 }
 
-// The commit: a lane that stepped (active, finite) takes its new state and writes its out row;
-// any other lane's state is written back as it was read (a per-lane select of old and new, so
-// its bytes do not change) and its out row is not touched.
-template <class Scalar, class Cap>
-inline void store_lanes(const RuntimeModel<Scalar, Cap>& m, int k, const BlockLanes<Scalar, Cap>& b,
-                        State<Scalar, Cap>* s, Scalar* out, StepStatus* status) {
+// Lane i of a block that stepped into its State and out row: the coefficients and lags the
+// model has; B_j of the unused lags is 0, as advance_lags_between leaves it in a new StepEnd.
+template <class Scalar, class Cap, int R>
+INDICIAL_LANE_INLINE void scatter_lane(const RuntimeModel<Scalar, Cap>& m, const BlockLanes<Scalar, Cap, R>& b,
+                                       int i, State<Scalar, Cap>* s, Scalar* out) {
   const int n_out = m.set.n_coefficients;
-  for (int i = 0; i < k; ++i) {
-    const bool keep = b.keep[i];
-    status[i] = b.status[i];
-    if (lane_active(b.status[i]) && !keep) status[i] = StepStatus::non_finite_result;
-    State<Scalar, Cap>& si = s[i];
-    for (int c = 0; c < n_out; ++c) {
-      si.end[c].forcing_antiderivative = keep ? b.forcing_antiderivative[c][i] : si.end[c].forcing_antiderivative;
-      for (int j = 0; j < Cap::max_lags; ++j) {
-        si.end[c].b_antiderivative[j] = keep ? b.b_antiderivative[c][j][i] : si.end[c].b_antiderivative[j];
-        si.y[c][j] = keep ? b.y[c][j][i] : si.y[c][j];
+  for (int c = 0; c < n_out; ++c) {
+    const int n_lags = m.set.coefficients[c].n_lags;
+    s->end[c].forcing_antiderivative = b.forcing_antiderivative[c][i];
+    // Over the capacity (a loop of a constant count, unrolled; over n_lags GCC calls memset).
+    for (int j = 0; j < Cap::max_lags; ++j) {
+      if (j < n_lags) {
+        s->end[c].b_antiderivative[j] = b.b_antiderivative[c][j][i];
+        s->y[c][j] = b.y[c][j][i];
+      } else {
+        s->end[c].b_antiderivative[j] = Scalar(0);
       }
     }
-    si.x_prev_rad = keep ? b.x1_rad[i] : si.x_prev_rad;
-    si.airspeed_mps = keep ? b.airspeed_mps[i] : si.airspeed_mps;
-    si.time_scale = keep ? b.time_scale[i] : si.time_scale;
-    si.l_over_v_s = keep ? b.l_over_v_s[i] : si.l_over_v_s;
-    if (!keep) continue;
-    for (int c = 0; c < n_out; ++c) out[i * n_out + c] = b.value[c][i];
+    out[c] = b.value[c][i];
+  }
+  s->x_prev_rad = b.x1_rad[i];
+  s->airspeed_mps = b.airspeed_mps[i];
+  s->time_scale = b.time_scale[i];
+  s->l_over_v_s = b.l_over_v_s[i];
+}
+
+// One full block of batch_block instances; status receives batch_block statuses. Lanes that
+// did not step (refused, or a non-finite result) are not written: their States keep their
+// bytes and their out rows are untouched.
+template <int R, class Scalar, class Cap>
+INDICIAL_LANE_INLINE void step_block(const RuntimeModel<Scalar, Cap>& m, State<Scalar, Cap>* s,
+                                     const double* angle_rad, const double* rate_radps,
+                                     const double* airspeed_mps, double dt_s, Scalar* out,
+                                     StepStatus* status) {
+  BlockLanes<Scalar, Cap, R> b;
+  check_lanes(m, s, angle_rad, rate_radps, airspeed_mps, dt_s, out, &b);
+  load_lanes(m, s, Scalar(dt_s), &b);
+  b.finite_test = lane_constant<Scalar, R>(Scalar(0));
+  for (int c = 0; c < m.set.n_coefficients; ++c) advance_lanes(m.set.coefficients[c], c, &b);
+  const auto not_finite = b.finite_test != b.finite_test;
+  const bool all_step = b.all_active && !lane_any(not_finite);
+  const std::size_t n_out = static_cast<std::size_t>(m.set.n_coefficients);
+  for (int i = 0; i < batch_block; ++i) {
+    status[i] = b.status[i];
+    if (!all_step) {
+      if (!b.active[i]) continue;
+      if (!(b.finite_test[i] == Scalar(0))) {
+        status[i] = StepStatus::non_finite_result;
+        continue;
+      }
+    }
+    scatter_lane(m, b, i, &s[i], out + static_cast<std::size_t>(i) * n_out);
   }
 }
 
-// One block of k <= batch_block instances; status receives k statuses.
+// The kernels: step_block for the portable target, and compiled for AVX2 (flatten: every call
+// in it is inlined, so that the whole step is compiled for that target).
 template <class Scalar, class Cap>
-inline void step_block(const RuntimeModel<Scalar, Cap>& m, State<Scalar, Cap>* s, int k,
-                       const double* angle_rad, const double* rate_radps,
-                       const double* airspeed_mps, double dt_s, Scalar* out, StepStatus* status) {
-  BlockLanes<Scalar, Cap> b;
-  load_lanes(m, s, k, angle_rad, rate_radps, airspeed_mps, dt_s, out, &b);
-  prepare_lanes(m, Scalar(dt_s), &b);
-  for (int c = 0; c < m.set.n_coefficients; ++c) advance_lanes(m.set.coefficients[c], c, &b);
-  store_lanes(m, k, b, s, out, status);
+INDICIAL_LANE_FLATTEN inline void step_block_portable(const RuntimeModel<Scalar, Cap>& m, State<Scalar, Cap>* s,
+                                                      const double* angle_rad, const double* rate_radps,
+                                                      const double* airspeed_mps, double dt_s, Scalar* out,
+                                                      StepStatus* status) {
+  step_block<portable_lane_bytes>(m, s, angle_rad, rate_radps, airspeed_mps, dt_s, out, status);
+}
+#if INDICIAL_AVX2_KERNEL
+template <class Scalar, class Cap>
+__attribute__((target("avx2"), flatten)) inline void step_block_avx2(
+    const RuntimeModel<Scalar, Cap>& m, State<Scalar, Cap>* s, const double* angle_rad,
+    const double* rate_radps, const double* airspeed_mps, double dt_s, Scalar* out, StepStatus* status) {
+  step_block<32>(m, s, angle_rad, rate_radps, airspeed_mps, dt_s, out, status);
+}
+#endif
+
+template <class Scalar, class Cap>
+inline void step_block_with(BatchKernel kernel, const RuntimeModel<Scalar, Cap>& m, State<Scalar, Cap>* s,
+                            const double* angle_rad, const double* rate_radps,
+                            const double* airspeed_mps, double dt_s, Scalar* out, StepStatus* status) {
+#if INDICIAL_AVX2_KERNEL
+  if (kernel == BatchKernel::avx2) {
+    step_block_avx2(m, s, angle_rad, rate_radps, airspeed_mps, dt_s, out, status);
+    return;
+  }
+#endif
+  (void)kernel;
+  step_block_portable(m, s, angle_rad, rate_radps, airspeed_mps, dt_s, out, status);
+}
+
+// The last k < batch_block instances: copied into a full block whose other lanes repeat the
+// first instance (their results are dropped), stepped, and the k copied back.
+template <class Scalar, class Cap>
+inline void step_partial_block(BatchKernel kernel, const RuntimeModel<Scalar, Cap>& m, State<Scalar, Cap>* s,
+                               int k, const double* angle_rad, const double* rate_radps,
+                               const double* airspeed_mps, double dt_s, Scalar* out, StepStatus* status) {
+  State<Scalar, Cap> states[batch_block];
+  double angle[batch_block], rate[batch_block], airspeed[batch_block];
+  Scalar rows[batch_block * Cap::max_coefficients];
+  StepStatus lane_status[batch_block];
+  const int n_out = m.set.n_coefficients;
+  for (int i = 0; i < batch_block; ++i) {
+    const int from = i < k ? i : 0;
+    states[i] = s[from];
+    angle[i] = angle_rad[from];
+    rate[i] = rate_radps[from];
+    airspeed[i] = airspeed_mps[from];
+    for (int c = 0; c < n_out; ++c) rows[i * n_out + c] = out[from * n_out + c];
+  }
+  step_block_with(kernel, m, states, angle, rate, airspeed, dt_s, rows, lane_status);
+  for (int i = 0; i < k; ++i) {
+    s[i] = states[i];
+    status[i] = lane_status[i];
+    for (int c = 0; c < n_out; ++c) out[i * n_out + c] = rows[i * n_out + c];
+  }
 }
 
 inline bool batch_arguments_given(const void* states, const double* angle_rad, const double* rate_radps,
@@ -377,29 +708,38 @@ inline StepStatus combine(StepStatus so_far, StepStatus lane) {
   if (!lane_active(lane)) return lane;
   return so_far == StepStatus::angle_clamped ? so_far : lane;
 }
-}  // namespace detail
+}  // namespace batch_detail
 
 // Steps n states of one undelayed model with a common dt_s; out receives n rows of
-// m.set.n_coefficients values. See the warnings above for statuses.
+// m.set.n_coefficients values. See the warnings above for statuses, and "Which instructions"
+// for `kernel`.
 template <class Scalar, class Cap>
 inline StepStatus step_batch(const RuntimeModel<Scalar, Cap>& m, State<Scalar, Cap>* states, std::size_t n,
                              const double* angle_rad, const double* rate_radps,
                              const double* airspeed_mps, double dt_s, Scalar* out,
-                             StepStatus* status = nullptr) {
+                             StepStatus* status = nullptr,
+                             BatchKernel kernel = BatchKernel::automatic) {
   if (n == 0) return StepStatus::ok;
-  if (!detail::batch_arguments_given(states, angle_rad, rate_radps, airspeed_mps, out))
+  if (!batch_detail::batch_arguments_given(states, angle_rad, rate_radps, airspeed_mps, out))
     return StepStatus::null_output;
   if (m.delay != DelayUse::none) return StepStatus::delay_needs_history;
+  const BatchKernel use = batch_kernel_in_use(kernel);
   StepStatus result = StepStatus::ok;
   const std::size_t n_out = static_cast<std::size_t>(m.set.n_coefficients);
   for (std::size_t b = 0; b < n; b += batch_block) {
-    const int k = n - b < static_cast<std::size_t>(batch_block) ? static_cast<int>(n - b) : batch_block;
     StepStatus lane_status[batch_block];
-    detail::step_block(m, states + b, k, angle_rad + b, rate_radps + b, airspeed_mps + b, dt_s,
-                       out + b * n_out, lane_status);
+    const std::size_t left = n - b;
+    const int k = left < static_cast<std::size_t>(batch_block) ? static_cast<int>(left) : batch_block;
+    if (k == batch_block) {
+      batch_detail::step_block_with(use, m, states + b, angle_rad + b, rate_radps + b, airspeed_mps + b,
+                              dt_s, out + b * n_out, lane_status);
+    } else {
+      batch_detail::step_partial_block(use, m, states + b, k, angle_rad + b, rate_radps + b,
+                                 airspeed_mps + b, dt_s, out + b * n_out, lane_status);
+    }
     for (int i = 0; i < k; ++i) {
       if (status != nullptr) status[b + static_cast<std::size_t>(i)] = lane_status[i];
-      result = detail::combine(result, lane_status[i]);
+      result = batch_detail::combine(result, lane_status[i]);
     }
   }
   return result;
@@ -412,7 +752,7 @@ inline StepStatus step_batch(const RuntimeModel<Scalar, Cap>& m, DelayedState<Sc
                              const double* airspeed_mps, double dt_s, Scalar* out,
                              StepStatus* status = nullptr) {
   if (n == 0) return StepStatus::ok;
-  if (!detail::batch_arguments_given(states, angle_rad, rate_radps, airspeed_mps, out))
+  if (!batch_detail::batch_arguments_given(states, angle_rad, rate_radps, airspeed_mps, out))
     return StepStatus::null_output;
   StepStatus result = StepStatus::ok;
   const std::size_t n_out = static_cast<std::size_t>(m.set.n_coefficients);
@@ -420,9 +760,10 @@ inline StepStatus step_batch(const RuntimeModel<Scalar, Cap>& m, DelayedState<Sc
     const StepStatus s = step(m, states[i], MotionInput{angle_rad[i], rate_radps[i], airspeed_mps[i]},
                               dt_s, out + i * n_out);
     if (status != nullptr) status[i] = s;
-    result = detail::combine(result, s);
+    result = batch_detail::combine(result, s);
   }
   return result;
 }
 
+}  // inline namespace INDICIAL_LANE_ABI
 }  // namespace indicial

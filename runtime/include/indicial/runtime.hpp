@@ -877,6 +877,15 @@ class Predictor {
     // leaves *out as it was), and no copy of the Outputs lengthens the caller's chain.
     const StepStatus s = indicial::step(m, state_, in, dt_s, out->value);
     if (s != StepStatus::ok && s != StepStatus::angle_clamped) return s;
+    // Entries a previous, larger model left beyond the new count are cleared (a branch never
+    // taken in a loop over one model).
+    if (out->count != m.set.n_coefficients) {
+      for (int c = 0; c < Cap::max_coefficients; ++c) {
+        if (c < m.set.n_coefficients) continue;
+        out->value[c] = Scalar(0);
+        out->name[c] = nullptr;
+      }
+    }
     out->count = m.set.n_coefficients;
     for (int c = 0; c < m.set.n_coefficients; ++c) out->name[c] = m.set.coefficients[c].name;
     return s;

@@ -115,7 +115,7 @@ namespace detail {
 // an undefined derivative for p < 1 and is slower for all p.
 // `one` is the unit of u's type (Scalar(1), or every lane 1 for a lane vector).
 template <class T>
-inline T int_power_from(T one, const T& u, int p) {
+inline T int_power_from(const T& one, const T& u, int p) {
   T r = one;
   for (int i = 0; i < p; ++i) r = r * u;
   return r;
