@@ -173,7 +173,8 @@ void run_ml_iteration(benchmark::State& state, const indicial::Experiment& e) {
   Eigen::VectorXd theta0 = Eigen::VectorXd::Zero(layout.size());
   for (const indicial::ParameterEstimate& p : ee.parameters) theta0[layout.find(p.id)] = p.value;
   const std::string context = "bench";
-  const fd::OutputErrorData data{runs, base.coefficients[0], context};
+  const fd::OutputErrorData data{runs, base.coefficients[0], context,
+                                 indicial::AngleRange{base.x_min_rad, base.x_max_rad}};
   std::size_t n = 0;
   for (const auto& r : runs) n += r.t.size();
   // Why the minimum over repeats: the per-iteration time is a difference of two totals, and

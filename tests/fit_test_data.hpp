@@ -7,8 +7,10 @@
 
 #include <cmath>
 #include <cstdint>
+#include <iterator>
 #include <limits>
 #include <map>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -53,6 +55,51 @@ inline Experiment simulated_experiment(const std::string& case_name, double snr,
   Experiment e = experiment_from_simulation(c, runs);
   e.path = case_name + ".toml";
   return e;
+}
+
+// A one-coefficient pitch truth model written out by a test, every curve a polynomial in the
+// model angle x (rad; no knots): the static curve C_a(x), a(x) and each lag's b_j(x) by their
+// power coefficients, with the gain c_j of every lag after the first (c_1 = 1).
+struct PolynomialLag {
+  std::vector<double> b_powers;  // b_j(x) = sum_i b_powers[i] x^i, 1/s at the airspeed
+  double gain = 1.0;             // c_j; not used for the first lag
+};
+struct PolynomialTruth {
+  std::string coefficient;
+  double reference_length_m = 1.0;
+  double airspeed_mps = 1.0;
+  double x_min_rad = 0.0, x_max_rad = 0.0;  // the envelope
+  std::vector<double> static_powers;
+  std::vector<double> a_powers;
+  std::vector<PolynomialLag> lags;
+};
+
+inline TruthModel polynomial_pitch_truth(const PolynomialTruth& s) {
+  TruthModel t;
+  t.axis = Axis::pitch;
+  t.reference_length_m = s.reference_length_m;
+  t.airspeed_mps = s.airspeed_mps;
+  t.x_min_rad = s.x_min_rad;
+  t.x_max_rad = s.x_max_rad;
+  t.n_coefficients = 1;
+  auto& m = t.coefficients[0];
+  if (s.coefficient.size() >= sizeof(m.name) || s.lags.size() > std::size_t{FitCapacity::max_lags})
+    throw std::length_error("polynomial_pitch_truth: the name or the lags exceed FitCapacity");
+  s.coefficient.copy(m.name, s.coefficient.size());
+  auto set_powers = [](auto& spline, const std::vector<double>& c) {
+    if (c.size() > std::size(spline.power_coef))
+      throw std::length_error("polynomial_pitch_truth: more powers than FitCapacity holds");
+    spline.n_powers = static_cast<int>(c.size());
+    for (std::size_t i = 0; i < c.size(); ++i) spline.power_coef[i] = c[i];
+  };
+  set_powers(m.static_curve.polynomial, s.static_powers);
+  set_powers(m.a, s.a_powers);
+  m.n_lags = static_cast<int>(s.lags.size());
+  for (std::size_t j = 0; j < s.lags.size(); ++j) {
+    set_powers(m.lags[j].b, s.lags[j].b_powers);
+    if (j > 0) m.lags[j].gain = s.lags[j].gain;
+  }
+  return t;
 }
 
 // The estimate named `name` in a fit's parameters, or null.

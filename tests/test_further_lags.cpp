@@ -20,6 +20,7 @@
 #include "indicial/fitter/fit.hpp"
 #include "indicial/fitter/report.hpp"
 #include "indicial/fitter/simulate.hpp"
+#include "fit_test_data.hpp"
 #include "test_support.hpp"
 
 namespace {
@@ -30,30 +31,9 @@ constexpr double kAirspeed = 20.0;  // m/s
 constexpr double kB1 = 1.5, kB2_0 = 12.0, kB2_1 = 30.0, kC2 = 0.8;
 
 indicial::TruthModel two_lag_truth() {
-  indicial::TruthModel t;
-  t.axis = indicial::Axis::pitch;
-  t.reference_length_m = 0.3;
-  t.airspeed_mps = kAirspeed;
-  t.x_min_rad = 0.0;
-  t.x_max_rad = 40.0 * kDeg;
-  t.n_coefficients = 1;
-  auto& m = t.coefficients[0];
-  m.name[0] = 'C';
-  m.name[1] = 'm';
-  m.static_curve.polynomial.n_powers = 3;
-  m.static_curve.polynomial.power_coef[1] = 0.4;
-  m.static_curve.polynomial.power_coef[2] = -0.3;
-  m.a.n_powers = 2;
-  m.a.power_coef[0] = 0.5;
-  m.a.power_coef[1] = 1.0;
-  m.n_lags = 2;
-  m.lags[0].b.n_powers = 1;
-  m.lags[0].b.power_coef[0] = kB1;
-  m.lags[1].b.n_powers = 2;
-  m.lags[1].b.power_coef[0] = kB2_0;
-  m.lags[1].b.power_coef[1] = kB2_1;
-  m.lags[1].gain = kC2;
-  return t;
+  return indicial::testing::polynomial_pitch_truth({"Cm", 0.3, kAirspeed, 0.0, 40.0 * kDeg,
+                                                    {0.0, 0.4, -0.3}, {0.5, 1.0},
+                                                    {{{kB1}}, {{kB2_0, kB2_1}, kC2}}});
 }
 
 // Sines at several means, amplitudes and frequencies, so b2(x) is seen at small and large x

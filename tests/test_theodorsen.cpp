@@ -24,7 +24,9 @@
 
 #include "indicial/fitter/fit.hpp"
 #include "indicial/fitter/freqresp.hpp"
+#include "indicial/fitter/experiment_toml.hpp"
 #include "indicial/fitter/simulate.hpp"
+#include "fit_test_data.hpp"
 #include "test_support.hpp"
 
 namespace {
@@ -47,27 +49,9 @@ std::complex<double> theodorsen(double k) {
 }
 
 indicial::TruthModel wagner_jones_model() {
-  indicial::TruthModel t;
-  t.axis = indicial::Axis::pitch;
-  t.reference_length_m = kChord / 2.0;
-  t.airspeed_mps = kAirspeed;
-  t.x_min_rad = -10.0 * kDeg;
-  t.x_max_rad = 10.0 * kDeg;
-  t.n_coefficients = 1;
-  auto& m = t.coefficients[0];
-  m.name[0] = 'C';
-  m.name[1] = 'L';
-  m.static_curve.polynomial.n_powers = 2;
-  m.static_curve.polynomial.power_coef[1] = 2.0 * kPi;
-  m.a.n_powers = 1;
-  m.a.power_coef[0] = 2.0 * kPi * 0.165;
-  m.n_lags = 2;
-  m.lags[0].b.n_powers = 1;
-  m.lags[0].b.power_coef[0] = 0.0455 * kTimeScale;
-  m.lags[1].b.n_powers = 1;
-  m.lags[1].b.power_coef[0] = 0.3 * kTimeScale;
-  m.lags[1].gain = 0.335 / 0.165;
-  return t;
+  return indicial::testing::polynomial_pitch_truth({"CL", kChord / 2.0, kAirspeed, -10.0 * kDeg, 10.0 * kDeg,
+                                                    {0.0, 2.0 * kPi}, {2.0 * kPi * 0.165},
+                                                    {{{0.0455 * kTimeScale}}, {{0.3 * kTimeScale}, 0.335 / 0.165}}});
 }
 
 // Reduced frequencies of the simulated runs (k = omega l / V).
@@ -89,7 +73,6 @@ indicial::Experiment simulated_experiment(const indicial::TruthModel& truth) {
   e.model.bias = false;
   e.model.lags = 2;
   e.model.structure = indicial::StructureMode::fixed;
-  double xmin = 1e300, xmax = -1e300;
   std::vector<indicial::SimulatedRun> sims;
   for (double k : kRunK) {
     indicial::MotionSpec s;
@@ -112,14 +95,9 @@ indicial::Experiment simulated_experiment(const indicial::TruthModel& truth) {
     r.rate_radps = sim.rate_radps;
     r.rate_from_file = true;
     r.coefficient = sim.coefficient_measured[0];
-    for (double x : sim.x_rad) {
-      xmin = std::min(xmin, x);
-      xmax = std::max(xmax, x);
-    }
     e.runs.push_back(r);
   }
-  e.data_x_min_rad = xmin;
-  e.data_x_max_rad = xmax;
+  indicial::set_data_range(e);
   return e;
 }
 
@@ -173,6 +151,12 @@ TEST_CASE("theodorsen: a two-lag model identified from Wagner-Jones data matches
   MESSAGE("termination: " << std::string(indicial::termination_name(r.output_error.termination))
                           << ", s(v) = " << r.fit_error);
   REQUIRE(r.model.coefficients[0].n_lags == 2);
+  // The written envelope (base_model_set's, on which the fit keeps b_j > 0) is the data's
+  // model-angle range, the sines' +-2 deg, the same as Experiment::data_x_*.
+  CHECK(r.model.x_min_rad == e.data_x_min_rad);
+  CHECK(r.model.x_max_rad == e.data_x_max_rad);
+  CHECK(e.data_x_min_rad == doctest::Approx(-2.0 * kDeg).epsilon(1e-3));
+  CHECK(e.data_x_max_rad == doctest::Approx(2.0 * kDeg).epsilon(1e-3));
   const auto fitted_h = [&](double k) {
     return indicial::linearised_response(r.model, 0.0, {k}, kAirspeed)[0].points[0].h / (2.0 * kPi);
   };

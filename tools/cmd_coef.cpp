@@ -58,7 +58,8 @@ void run_check(const std::string& path) {
   const ModelSet<double, DefaultCapacity>& m = *model;
   std::printf("%s: ok, %zu bytes, runtime-valid (DefaultCapacity)\n", path.c_str(), text.size());
   std::printf("  axis %s, l = %g m, V_ref = %g m/s (l/V = %.5g s), alpha0 = %g deg\n", axis_name(m.axis),
-              m.reference_length_m, m.airspeed_mps, m.reference_length_m / m.airspeed_mps,
+              m.reference_length_m, m.airspeed_mps,
+              airspeed_scaling(m.airspeed_mps, m.reference_length_m, m.airspeed_mps).l_over_v_s,
               m.alpha0_rad * kDegPerRad);
   std::printf("  envelope %g .. %g deg\n", m.x_min_rad * kDegPerRad, m.x_max_rad * kDegPerRad);
   for (int c = 0; c < m.n_coefficients; ++c) {

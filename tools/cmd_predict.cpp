@@ -16,6 +16,7 @@
 
 #include "command.hpp"
 #include "indicial/fitter/error.hpp"
+#include "indicial/fitter/experiment.hpp"
 #include "indicial/fitter/io.hpp"
 #include "indicial/fitter/output.hpp"
 #include "indicial/fitter/predict.hpp"
@@ -62,7 +63,7 @@ void run_predict(const PredictOptions& o) {
     throw InputError("--frequency-hz", 0, "give one of --frequency-hz and --reduced-frequency, > 0");
   // k = 2 pi f l / V with the model's reference length and the run's airspeed.
   read.frequency_hz = o.reduced_frequency > 0.0
-                          ? o.reduced_frequency * airspeed / (2.0 * 3.14159265358979323846 * model->reference_length_m)
+                          ? frequency_hz_from_reduced(o.reduced_frequency, airspeed, model->reference_length_m)
                           : o.frequency_hz;
   std::vector<Run> runs;
   for (int c = 0; c < model->n_coefficients; ++c)

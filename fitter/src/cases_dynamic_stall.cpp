@@ -175,7 +175,7 @@ std::string experiment_text(const Campaign& c, const std::string& coefficient,
 }  // namespace
 
 double Campaign::frequency_hz(const PitchCycle& p) const {
-  return p.reduced_frequency * p.airspeed_mps / (2.0 * kPi * reference_length_m());
+  return frequency_hz_from_reduced(p.reduced_frequency, p.airspeed_mps, reference_length_m());
 }
 
 const Campaign& default_campaign() {

@@ -258,7 +258,7 @@ RunEntry read_run_table(const LoadContext& c, const toml::node& entry, const Exp
     // k = 2 pi f l / V, with V the run's airspeed.
     const double kv = r.number(*k, "runs.reduced_frequency");
     if (!(kv > 0.0)) r.fail(*k, "'runs.reduced_frequency' must be > 0");
-    re.csv.frequency_hz = kv * re.airspeed_mps / (2.0 * 3.14159265358979323846 * e.reference_length_m);
+    re.csv.frequency_hz = frequency_hz_from_reduced(kv, re.airspeed_mps, e.reference_length_m);
   }
   re.frequency_given = fh || k;
   if (const toml::node* n = t.get("time_grid")) re.csv.grid = r.choice<TimeGrid>(*n, "runs.time_grid");
@@ -637,16 +637,9 @@ void check_motion(const TomlReader& r, Experiment& e) {
 }  // namespace
 
 void set_data_range(Experiment& e) {
-  bool first = true;
-  for (const auto& run : e.runs) {
-    for (double angle : run.motion_angle_rad) {
-      const double x = model_angle(e.axis, e.alpha0_rad, angle);
-      if (first || x < e.data_x_min_rad) e.data_x_min_rad = x;
-      if (first || x > e.data_x_max_rad) e.data_x_max_rad = x;
-      first = false;
-    }
-  }
-  if (first) e.data_x_min_rad = e.data_x_max_rad = 0.0;
+  const AngleRange r = model_angle_range(e);
+  e.data_x_min_rad = r.empty() ? 0.0 : r.min_rad;
+  e.data_x_max_rad = r.empty() ? 0.0 : r.max_rad;
 }
 
 namespace {

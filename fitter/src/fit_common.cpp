@@ -35,9 +35,9 @@ std::vector<PreparedRun> prepare_runs(const Experiment& e, const ModelSet<double
     // A Run built in code has airspeed 0: the experiment's (load_experiment fills it).
     p.airspeed_mps = r.airspeed_mps > 0.0 ? r.airspeed_mps : e.airspeed_mps;
     p.reference_airspeed_mps = e.airspeed_mps;
-    // The runtime's expressions (runtime.hpp airspeed_terms): V / V_ref and l / V.
-    p.time_scale = p.airspeed_mps / e.airspeed_mps;
-    p.l_over_v_s = e.reference_length_m / p.airspeed_mps;
+    const AirspeedScaling<double> scaling = airspeed_scaling(e.airspeed_mps, e.reference_length_m, p.airspeed_mps);
+    p.time_scale = scaling.time_scale;
+    p.l_over_v_s = scaling.l_over_v_s;
     const std::size_t n = r.size();
     if (r.coefficient.size() != n || r.motion_angle_rad.size() != n || r.rate_radps.size() != n)
       throw InputError(r.path, 0, "run has columns of different lengths");
@@ -260,16 +260,10 @@ ModelSet<double, FitCapacity> base_model_set(const Experiment& e) {
     cm.rotary.knot_coef[j] = e.rotary.prior_knot_coefficients[j];
   }
   // Envelope: the model-angle range of the data.
-  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
-  for (const Run& r : e.runs)
-    for (double m : r.motion_angle_rad) {
-      const double x = model_angle(e.axis, e.alpha0_rad, m);
-      lo = std::min(lo, x);
-      hi = std::max(hi, x);
-    }
-  if (lo <= hi) {
-    ms.x_min_rad = lo;
-    ms.x_max_rad = hi;
+  const AngleRange range = model_angle_range(e);
+  if (!range.empty()) {
+    ms.x_min_rad = range.min_rad;
+    ms.x_max_rad = range.max_rad;
   }
   return ms;
 }

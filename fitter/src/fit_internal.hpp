@@ -287,11 +287,14 @@ EquationErrorResult run_equation_error(const std::vector<PreparedRun>& runs,
 // Maximum-likelihood output error.
 // ------------------------------------------------------------------------------------------
 // What an output-error fit works on: the prepared runs and the known part of the model (the
-// static curve, its known correction and the current C_aq: the model y_E was computed with).
+// static curve, its known correction and the current C_aq: the model y_E was computed with)
+// and the envelope the fitted model is written with (base_model_set's x_min_rad / x_max_rad,
+// the data's model-angle range), on which every b_j(x) must stay positive.
 struct OutputErrorData {
   const std::vector<PreparedRun>& runs;
   const CoefficientModel<double, Cap>& known;
   const std::string& context_file;
+  AngleRange envelope;
 };
 
 // Whether a model is admissible for the output-error fit (e.g. every b_j(x) > 0 on the

@@ -422,18 +422,6 @@ std::string start_failure_message(const ParameterLayout& L, const OutputErrorDat
          "error's estimates in fit.json)" + what_to_do;
 }
 
-// The envelope the fitted model is written with: the model-angle range of the data (as
-// base_model_set sets it).
-std::pair<double, double> data_envelope(const std::vector<PreparedRun>& runs) {
-  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
-  for (const PreparedRun& r : runs)
-    for (double x : r.x) {
-      lo = std::min(lo, x);
-      hi = std::max(hi, x);
-    }
-  return {lo, hi};
-}
-
 // Projects an infeasible start onto the feasible set: for every lag whose b_j(x) is not
 // positive everywhere on the envelope, its constant term b_j_0 is raised until the minimum is
 // a tenth of max |b_j| on the envelope (1 1/s if that is 0). Why the constant term: it moves
@@ -499,7 +487,7 @@ MLResult fit_output_error(const UnsteadyStructure& s, const OutputErrorData& d,
   // Positive decay rates by construction (issue 12): a trial step to a model with b_j(x) <= 0
   // anywhere on the envelope (the runtime's own validation grid: runtime_limits.hpp
   // min_lag_decay) is rejected like a cost increase; an infeasible start is projected first.
-  const auto [lo, hi] = data_envelope(d.runs);
+  const double lo = d.envelope.min_rad, hi = d.envelope.max_rad;
   const FeasibilityPredicate decaying = [&](const CoefficientModel<double, Cap>& m) {
     return lag_decay_positive(m, lo, hi) && (!feasible || feasible(m));
   };

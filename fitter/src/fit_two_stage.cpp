@@ -196,11 +196,12 @@ struct FitContext {
   const Experiment& e;
   const FitOptions& o;
   CoefficientModel<double, Cap> base;  // static curve, the a priori C_aq
+  AngleRange envelope;                 // the model's (base_model_set's) envelope
   MLResult fit(const UnsteadyStructure& s, const std::vector<PreparedRun>& runs,
                const SplineD& rotary, const Eigen::VectorXd& theta0) const {
     CoefficientModel<double, Cap> known = base;
     known.rotary = rotary;
-    return fit_output_error(s, OutputErrorData{runs, known, e.path}, theta0, o);
+    return fit_output_error(s, OutputErrorData{runs, known, e.path, envelope}, theta0, o);
   }
 };
 
@@ -400,7 +401,7 @@ FitResult fit_experiment(const Experiment& e, const FitOptions& o) {
   check_experiment(e);
   FitResult res;
   ModelSet<double, Cap> model = base_model_set(e);
-  const FitContext c{e, o, model.coefficients[0]};
+  const FitContext c{e, o, model.coefficients[0], AngleRange{model.x_min_rad, model.x_max_rad}};
   Estimate est;
   est.runs = prepare_runs(e, model);
   est.rotary = c.base.rotary;
@@ -417,7 +418,7 @@ FitResult fit_experiment(const Experiment& e, const FitOptions& o) {
   const bool refine = e.model.structure == StructureMode::stepwise &&
                       (o.stepwise_refinement == StepwiseRefinement::output_error || !res.stepwise_fallback.empty());
   if (refine && std::isfinite(est.ml.summary.cost)) {
-    const OutputErrorData d{est.runs, c.base, e.path};
+    const OutputErrorData d{est.runs, c.base, e.path, c.envelope};
     est.ml = refine_structure_output_error(pool, d, std::move(est.ml), o, &res.output_error_stepwise);
     est.s = est.ml.structure;
   } else if (!res.stepwise_fallback.empty()) {

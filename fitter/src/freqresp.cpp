@@ -69,8 +69,9 @@ std::vector<FrequencyResponse> linearised_response(const ModelSet<double, FitCap
   for (double k : k_list)
     if (!(k >= 0.0) || !std::isfinite(k)) throw InputError("--k-list", 0, "reduced frequencies must be finite and >= 0");
   const double xm = model_angle_derivative(model.axis, model.alpha0_rad, motion_angle0_rad);
-  const double time_scale = airspeed_mps / model.airspeed_mps;
-  const double l_over_v = model.reference_length_m / airspeed_mps;
+  const AirspeedScaling<double> scaling = airspeed_scaling(model.airspeed_mps, model.reference_length_m, airspeed_mps);
+  const double time_scale = scaling.time_scale;
+  const double l_over_v = scaling.l_over_v_s;
   const std::complex<double> I(0.0, 1.0);
 
   std::vector<FrequencyResponse> out;

@@ -96,7 +96,7 @@ Prediction predict_motion(const ModelSet<double, FitCapacity>& model,
     cp.predicted.resize(n);
     cp.quasi_steady.resize(n);
   }
-  const double l_over_v_s = m.reference_length_m / airspeed_mps;
+  const double l_over_v_s = airspeed_scaling(m.airspeed_mps, m.reference_length_m, airspeed_mps).l_over_v_s;
   auto clamp_x = [&](double x) { return std::min(std::max(x, m.x_min_rad), m.x_max_rad); };
 
   for (std::size_t i = 0; i < n; ++i) {
@@ -201,11 +201,12 @@ Prediction predict_periodic(const ModelSet<double, FitCapacity>& model, const st
     }
   }
   predictor->restore(fixed);
+  const double l_over_v_s = airspeed_scaling(m.airspeed_mps, m.reference_length_m, airspeed_mps).l_over_v_s;
   for (int c = 0; c < m.n_coefficients; ++c) {
     // The output at sample 0 at the fixed-point state (a closed cycle's last step gives it too).
     p.coefficients[static_cast<std::size_t>(c)].predicted[0] =
         coefficient_output(m.coefficients[c], std::min(std::max(p.x_rad[0], m.x_min_rad), m.x_max_rad),
-                           rate_radps[0], m.reference_length_m / airspeed_mps, fixed.y[c]);
+                           rate_radps[0], l_over_v_s, fixed.y[c]);
   }
   step_cycle(*predictor, time_s, motion_angle_rad, rate_radps, airspeed_mps, closed, wrap_dt_s, model_label,
              [&](std::size_t i, const PeriodicPredictor::Outputs& out) {

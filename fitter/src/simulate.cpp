@@ -218,8 +218,9 @@ SimulatedRun simulate_reference(const TruthModel& model, const MotionSpec& motio
     offset[static_cast<std::size_t>(c) + 1] = offset[static_cast<std::size_t>(c)] + model.coefficients[c].n_lags;
   }
   const double airspeed_mps = motion.airspeed_mps > 0.0 ? motion.airspeed_mps : model.airspeed_mps;
-  const double l_over_v = model.reference_length_m / airspeed_mps;
-  const double time_scale = airspeed_mps / model.airspeed_mps;
+  const AirspeedScaling<double> scaling = airspeed_scaling(model.airspeed_mps, model.reference_length_m, airspeed_mps);
+  const double l_over_v = scaling.l_over_v_s;
+  const double time_scale = scaling.time_scale;
   const Axis axis = model.axis;
   const double a0 = model.alpha0_rad;
   std::vector<double> delay_s(static_cast<std::size_t>(nc));

@@ -531,7 +531,8 @@ inline AirspeedTerms<Scalar> airspeed_terms(const RuntimeModel<Scalar, Cap>& m,
                                             const State<Scalar, Cap>& s, double airspeed_mps) {
   const Scalar v = Scalar(airspeed_mps);
   if (v == s.airspeed_mps) return {v, s.time_scale, s.l_over_v_s};
-  return {v, v / m.airspeed_mps, m.reference_length_m / v};
+  const AirspeedScaling<Scalar> scaling = airspeed_scaling(m.airspeed_mps, m.reference_length_m, v);
+  return {v, scaling.time_scale, scaling.l_over_v_s};
 }
 
 // The checks every step makes before touching anything.

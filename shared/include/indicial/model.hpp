@@ -431,6 +431,27 @@ inline Scalar model_angle(Axis axis, double alpha0_rad, const Scalar& motion_ang
 }
 
 // ------------------------------------------------------------------------------------------
+// Airspeed scaling (warning 2): the one place V / V_ref and l / V are computed.
+// ------------------------------------------------------------------------------------------
+// At airspeed V the model runs in the non-dimensional time s = V t / l, so the rates b_j and
+// con, given at V_ref, are multiplied by time_scale = V / V_ref (StepGeometry::time_scale),
+// and the rotary term carries l / V (coefficient_output's l_over_v_s). The runtime (which
+// caches both per airspeed), the fitter, the predictor, the frequency response and the
+// reference simulator all take them from here, so they agree bit for bit.
+template <class Scalar>
+struct AirspeedScaling {
+  Scalar time_scale;  // V / V_ref
+  Scalar l_over_v_s;  // l / V, in s
+};
+
+template <class Scalar>
+inline AirspeedScaling<Scalar> airspeed_scaling(const Scalar& reference_airspeed_mps,
+                                                const Scalar& reference_length_m,
+                                                const Scalar& airspeed_mps) {
+  return {airspeed_mps / reference_airspeed_mps, reference_length_m / airspeed_mps};
+}
+
+// ------------------------------------------------------------------------------------------
 // The discrete state update.
 // ------------------------------------------------------------------------------------------
 // phi1(z) = (1 - exp(-z)) / z, the weight of a forcing spread evenly over a step of

@@ -6,6 +6,8 @@
 // (equation error, output error, diagnose, predict) works on these structures only.
 #pragma once
 
+#include <algorithm>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -132,7 +134,37 @@ struct Experiment {
   // the warnings: issue 14's CLI side).
   std::vector<std::string> notes;
   std::vector<std::string> warnings;
-  double l_over_v_s() const { return reference_length_m / airspeed_mps; }
+  double l_over_v_s() const {
+    return airspeed_scaling(airspeed_mps, reference_length_m, airspeed_mps).l_over_v_s;
+  }
 };
+
+// A range of the model angle x, in rad. Empty (min_rad > max_rad) when nothing was measured.
+struct AngleRange {
+  double min_rad = std::numeric_limits<double>::infinity();
+  double max_rad = -std::numeric_limits<double>::infinity();
+  bool empty() const { return !(min_rad <= max_rad); }
+};
+
+// The range of the model angle x = model_angle(axis, alpha0, motion angle) over every sample
+// of every run: the one computation behind Experiment::data_x_min_rad / data_x_max_rad
+// (set_data_range) and the fitted model's envelope (base_model_set). Empty without samples.
+inline AngleRange model_angle_range(const Experiment& e) {
+  AngleRange r;
+  for (const Run& run : e.runs)
+    for (double angle : run.motion_angle_rad) {
+      const double x = model_angle(e.axis, e.alpha0_rad, angle);
+      r.min_rad = std::min(r.min_rad, x);
+      r.max_rad = std::max(r.max_rad, x);
+    }
+  return r;
+}
+
+// The frequency of a motion given its reduced frequency k = 2 pi f l / V (l the reference
+// length, V the airspeed): f = k V / (2 pi l).
+inline double frequency_hz_from_reduced(double reduced_frequency, double airspeed_mps,
+                                        double reference_length_m) {
+  return reduced_frequency * airspeed_mps / (2.0 * 3.14159265358979323846 * reference_length_m);
+}
 
 }  // namespace indicial
