@@ -530,8 +530,8 @@ INDICIAL_LANE_INLINE void check_lanes(const RuntimeModel<Scalar, Cap>& m, const 
 }
 
 // The state's quantities the step reads (a gather from the array of States; only the
-// coefficients and lags the model has), and the airspeed terms (airspeed_terms' cache test
-// as a select).
+// coefficients and lags the model has), and the airspeed terms (model.hpp's airspeed_scaling,
+// with airspeed_terms' cache test as a select).
 template <class Scalar, class Cap, int R>
 INDICIAL_LANE_INLINE void load_lanes(const RuntimeModel<Scalar, Cap>& m, const State<Scalar, Cap>* s,
                                      Scalar dt_s, BlockLanes<Scalar, Cap, R>* b) {
@@ -543,8 +543,10 @@ INDICIAL_LANE_INLINE void load_lanes(const RuntimeModel<Scalar, Cap>& m, const S
   gather_lanes(&old_l_over_v, [&](int i) { return s[i].l_over_v_s; });
   const V v = b->airspeed_mps;
   const auto cached = v == old_airspeed;
-  b->time_scale = lane_select(cached, old_time_scale, v / m.airspeed_mps);
-  b->l_over_v_s = lane_select(cached, old_l_over_v, m.reference_length_m / v);
+  const AirspeedScaling<V> scaling = airspeed_scaling(lane_constant<Scalar, R>(m.airspeed_mps),
+                                                      lane_constant<Scalar, R>(m.reference_length_m), v);
+  b->time_scale = lane_select(cached, old_time_scale, scaling.time_scale);
+  b->l_over_v_s = lane_select(cached, old_l_over_v, scaling.l_over_v_s);
   b->time_scale_dt = b->time_scale * dt_s;
   for (int c = 0; c < m.set.n_coefficients; ++c) {
     gather_lanes(&b->forcing_antiderivative[c], [&](int i) { return s[i].end[c].forcing_antiderivative; });

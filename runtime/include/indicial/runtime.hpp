@@ -29,6 +29,8 @@
 //   indicial/coef_file.hpp    the coefficient-file parser and writer, Predictor::load(text)
 //                             and load_runtime_model(text): include it to load text.
 //   indicial/model_check.hpp  LoadStatus, ParseDiagnostic, validate_model_set (included here).
+//   indicial/batch.hpp        step_batch: N states of one model on lane vectors (SIMD), a
+//                             portable and, on x86-64, a run-time-chosen AVX2 kernel.
 //   indicial/indicial.h       the C99 interface (library indicial::c).
 //
 // Usage
