@@ -90,7 +90,7 @@ TEST_CASE("function_band gives a(x) with its standard deviation") {
   CHECK(std::abs(b.value - truth) < 4.0 * b.sigma);
   const FunctionBand b1 = function_band(r, ModelFunction::b1, x);
   // b1(x) = b1_0 here: its sigma is b1_0's CR bound to rounding (relative 1e-12, scale 0; the
-  // default absolute ~1.2e-5 is a large fraction of a small bound).
+  // default absolute ~1.2e-5 allowed 0.4 % of this ~0.003 bound).
   REQUIRE(r.parameters[4].name == "b1_0");
   CHECK(b1.sigma == doctest::Approx(r.parameters[4].cr_bound).epsilon(1e-12).scale(0));
 }
