@@ -210,7 +210,12 @@ TEST_CASE("stepwise structure: the report and fit.json carry every step of the l
   CHECK(jr["output_error_stepwise"]["selected"].size() >= 2);
   const Run bad = run_cli("fit '" + (d / "experiment.toml").string() + "' --out '" +
                           (d / "fit-bad").string() + "' --stepwise-refinement sometimes");
-  CHECK(bad.exit_code != 0);
+  // A usage error: exit 1 and one line naming the option (docs/bad-inputs.md), not merely
+  // non-zero (a crash is -1 here and passed that).
+  CHECK(bad.exit_code == 1);
+  INFO(bad.err);
+  CHECK(bad.err.find("--stepwise-refinement") != std::string::npos);
+  CHECK(count_lines(bad.err) == 1);
   CHECK_FALSE(fs::exists(d / "fit-bad"));
 }
 
