@@ -39,7 +39,7 @@ inline DiagnoseResult check_single_effect(const std::string& case_name, const st
   REQUIRE(!d.steps.empty());
   CHECK(std::string(effect_name(d.steps.front().effect)) == effect);
   CHECK(d.verdict == effect);
-  CHECK(std::abs(d.final_fit_error / sigma - 1.0) < 0.15);
+  CHECK(std::abs(d.final_fit_error / sigma - 1.0) < fit_error_ratio_tolerance(d.fits.back()));
   // White noise: the white-equivalent level is the noise level; the marginal (AR(1)) level
   // may read a large smooth model error as correlation, never much below the noise.
   CHECK(std::abs(d.noise.white_equivalent / sigma - 1.0) < 0.15);

@@ -109,6 +109,17 @@ inline const ParameterEstimate* find_estimate(const FitResult& r, const std::str
   return nullptr;
 }
 
+// The tolerance on |s(v) / sigma - 1| for a fit of the true model structure to data with white
+// noise of std sigma: s(v) = sqrt(SSR / N) is sigma with the ML bias -p / 2N and a relative
+// standard error 1 / sqrt(2N) (N samples over all runs, p parameters), so 4 standard errors
+// plus the bias (0.064 for the tailless cases' 2103 samples).
+inline double fit_error_ratio_tolerance(const FitResult& r) {
+  std::size_t n = 0;
+  for (const auto& run : r.runs) n += run.time_s.size();
+  const double nn = static_cast<double>(n), p = static_cast<double>(r.parameters.size());
+  return 4.0 / std::sqrt(2.0 * nn) + p / (2.0 * nn);
+}
+
 // Samples [first, end) of a simulated run (coefficient 0), times shifted to start at 0: e.g.
 // the last, settled cycle of a long oscillation (the reference integration starts from rest).
 inline SimulatedRun tail_of(const SimulatedRun& r, std::size_t first) {

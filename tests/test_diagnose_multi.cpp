@@ -45,7 +45,7 @@ TEST_CASE("diagnose finds two hidden effects at once: b1_alpha and bias") {
             " final/sigma ", d.final_fit_error / sigma);
     CHECK(contains(d.effects_added, "b1_alpha"));
     CHECK(contains(d.effects_added, "bias"));
-    CHECK(std::abs(d.final_fit_error / sigma - 1.0) < 0.15);
+    CHECK(std::abs(d.final_fit_error / sigma - 1.0) < fit_error_ratio_tolerance(d.fits.back()));
   }
 }
 

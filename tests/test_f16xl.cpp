@@ -18,6 +18,7 @@
 #include "indicial/fitter/montecarlo.hpp"
 #include "indicial/fitter/predict.hpp"
 #include "indicial/fitter/simulate.hpp"
+#include "fit_test_data.hpp"
 #include "test_support.hpp"
 
 namespace {
@@ -70,8 +71,10 @@ void study(const char* case_name, std::uint64_t seed) {
                     << ", s(v) = " << fit.fit_error << " (noise sigma " << sigma[0] << ")");
   for (const auto& p : fit.parameters)
     if (p.name.rfind("y0_", 0) != 0) MESSAGE("  " << p.name << " = " << p.value << " (" << p.cr_bound << ")");
-  // The fit reproduces its own data to the noise level.
-  CHECK(fit.fit_error < 1.3 * sigma[0]);
+  // The fit reproduces its own data to the noise level: s(v) / sigma within 4 standard errors
+  // plus the ML bias (measured 1.006 and 0.993; the former one-sided < 1.3 was ~5x wider and
+  // passed any s(v) below sigma).
+  CHECK(std::abs(fit.fit_error / sigma[0] - 1.0) < indicial::testing::fit_error_ratio_tolerance(fit));
 
   // The predicting model: the fitted one (its C_aq is the experiment's, C_Lq's a priori knot
   // terms included), over the truth's envelope.

@@ -72,7 +72,7 @@ TEST_CASE("runs at 0.7, 1.0 and 1.4 V_ref: Model II recovered within 3 bounds, r
     CHECK(std::abs(p->value - t.value) < 3.0 * p->cr_bound);
   }
   INFO("s(v) " << fit.fit_error << ", noise " << d.sigma);
-  CHECK(std::abs(fit.fit_error / d.sigma - 1.0) < 0.1);
+  CHECK(std::abs(fit.fit_error / d.sigma - 1.0) < testing::fit_error_ratio_tolerance(fit));
   // The runtime, loading the written model and stepping each run at its own airspeed, gives the
   // fitter's model output: both scale b, con and l / V by the same model.hpp expressions.
   const RuntimeCheck rc = replay_in_runtime(fit, d.experiment, model_coef_text(fit, "airspeed fit"));
@@ -188,7 +188,7 @@ TEST_CASE("a delayed forcing at several airspeeds: delay_s (at V_ref) recovered,
     CHECK(std::abs(p->value - t.value) < 3.0 * p->cr_bound);
   }
   INFO("s(v) " << fit.fit_error << ", noise " << sigma);
-  CHECK(std::abs(fit.fit_error / sigma - 1.0) < 0.1);
+  CHECK(std::abs(fit.fit_error / sigma - 1.0) < testing::fit_error_ratio_tolerance(fit));
   const RuntimeCheck rc = replay_in_runtime(fit, e, model_coef_text(fit, "delay fit"));
   CHECK(rc.steps_not_ok == 0);
   CHECK(rc.max_abs_difference < 1e-9);

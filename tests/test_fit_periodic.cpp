@@ -58,7 +58,7 @@ TEST_CASE("periodic runs: the last settled cycle of each run, no y0, recovers Mo
     CHECK(std::abs(p->value - t.value) < 3.0 * p->cr_bound);
   }
   INFO("s(v) " << fit.fit_error << ", noise " << sigma[0]);
-  CHECK(std::abs(fit.fit_error / sigma[0] - 1.0) < 0.15);
+  CHECK(std::abs(fit.fit_error / sigma[0] - 1.0) < testing::fit_error_ratio_tolerance(fit));
   // The model's state at each cycle's start is the truth's (from the integration), to well
   // inside the noise; a zero or free start would be off by the size of y (0.05-0.2 here).
   REQUIRE(fit.runs.size() == cycles.size());

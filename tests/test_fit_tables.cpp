@@ -65,7 +65,7 @@ TEST_CASE("Table II: Model I at SNR 40 and 20") {
         CHECK(mine > bound / 1.5);
       }
       INFO("s(v) " << r.fit_error << " noise " << sigma);
-      CHECK(std::abs(r.fit_error / sigma - 1.0) < 0.25);
+      CHECK(std::abs(r.fit_error / sigma - 1.0) < testing::fit_error_ratio_tolerance(r));
       // White noise: the colored bounds stay close to the white ones.
       for (const auto& p : r.parameters) CHECK(p.cr_bound_colored < 1.5 * p.cr_bound);
     }
@@ -78,7 +78,7 @@ TEST_CASE("Table III: Model II data, Model II and Model I fits") {
   const FitResult r2 = fit_experiment(e, FitOptions{});
   CHECK(r2.output_error.termination == Termination::converged);
   check_within_3_bounds(r2, kModelII);
-  CHECK(std::abs(r2.fit_error / sigma - 1.0) < 0.25);
+  CHECK(std::abs(r2.fit_error / sigma - 1.0) < testing::fit_error_ratio_tolerance(r2));
 
   Experiment e1 = e;
   e1.model.b1 = SplineConfig{{0}, {}, 1};  // Model I: b1 constant
@@ -116,7 +116,7 @@ TEST_CASE("Table IV: two-stage loop from C_mq = -1.4") {
     CHECK(r.model.coefficients[0].rotary.power_coef[1] == 0.0);
     // The cost never rises from one kept iteration to the next, and the first iteration
     // improves on the a priori C_mq fit by far.
-    CHECK(std::abs(r.fit_error / sigma - 1.0) < 0.25);
+    CHECK(std::abs(r.fit_error / sigma - 1.0) < testing::fit_error_ratio_tolerance(r));
   }
 }
 

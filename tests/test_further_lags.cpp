@@ -140,8 +140,14 @@ TEST_CASE("two lags: an angle-dependent b2(x) from [model] b2_degree is recovere
     sum_sq += std::pow(out.value[0] - sim.coefficient_true[0][k], 2);
     sum_sq_y += std::pow(sim.y_true[0][k], 2);
   }
-  // Noise sigma is RMS(y) / 50; the model's error must be well under it.
-  CHECK(std::sqrt(sum_sq / sum_sq_y) < 1.0 / 50.0);
+  // Noise sigma is RMS(y) / 50; the model's error must be well under it: at the scale the
+  // estimates' scatter sets, sigma sqrt(p / N) (p = 15 parameters, N = 7206 samples: 0.046
+  // sigma), twice that (measured 0.017 sigma; the former bound, sigma itself, was 58x looser).
+  std::size_t n_samples = 0;
+  for (const auto& run : r.runs) n_samples += run.time_s.size();
+  REQUIRE(n_samples > 0);
+  const double scatter = std::sqrt(static_cast<double>(r.parameters.size()) / static_cast<double>(n_samples));
+  CHECK(std::sqrt(sum_sq / sum_sq_y) < 2.0 * scatter / 50.0);
 }
 
 TEST_CASE("[model] b_k keys: refused beyond model.lags; more lags than the runtime holds refused at input") {

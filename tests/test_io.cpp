@@ -97,10 +97,12 @@ TEST_CASE("a good run CSV is read, converted to rad and rad/s") {
                                                  indicial::CoefficientPresence::required);
   REQUIRE(r.size() == 101);
   CHECK(r.rate_from_file);
-  CHECK(r.dt_s() == doctest::Approx(0.01));
+  // Read values are the printed ones to rounding: 1e-12 relative (scale 0), not doctest's default
+  // (an absolute ~1.2e-5, which is 0.1 % of dt and 3e-5 of the 0.35 below).
+  CHECK(r.dt_s() == doctest::Approx(0.01).epsilon(1e-12).scale(0));
   CHECK(r.motion_angle_rad[25] == doctest::Approx(35.0 * kPi / 180).epsilon(1e-12));
   CHECK(r.rate_radps[25] == doctest::Approx(35.0 * kPi / 180 * 2 * kPi).epsilon(1e-12));
-  CHECK(r.coefficient[25] == doctest::Approx(0.35));
+  CHECK(r.coefficient[25] == doctest::Approx(0.35).epsilon(1e-12).scale(0));
   // Without the rate column the rate is the Savitzky-Golay derivative of alpha.
   const std::string p2 = write("norate.csv", good_csv(101, false));
   const indicial::Run r2 = indicial::read_run_csv(p2, indicial::Axis::pitch, "Cm",
@@ -340,8 +342,9 @@ TEST_CASE("interface.md's experiment file is accepted verbatim") {
   CHECK(e.model.b1.powers == std::vector<int>{0});
   CHECK(e.model.b1.knots_rad.empty());
   CHECK(e.model.structure == indicial::StructureMode::fixed);
-  CHECK(e.data_x_min_rad == doctest::Approx(0.0));
-  CHECK(e.data_x_max_rad == doctest::Approx(70 * kPi / 180));
+  // The data's extremes, 0 and 70 deg printed exactly: to rounding (absolute 1e-12 rad).
+  CHECK(e.data_x_min_rad == doctest::Approx(0.0).epsilon(1e-12));
+  CHECK(e.data_x_max_rad == doctest::Approx(70 * kPi / 180).epsilon(1e-12));
   // And the copy in the reference, if the checkout has shared/ beside it, says the same.
   const fs::path ref = fs::path(INDICIAL_SOURCE_DIR) / ".." / "shared" / "reference" / "interface.md";
   if (fs::exists(ref)) {
@@ -386,7 +389,7 @@ TEST_CASE("model extension keys (what diagnose adds): read, written back, and re
   const double deg = 3.14159265358979323846 / 180.0;
   CHECK(e.model.static_correction.powers == std::vector<int>{1, 2});
   REQUIRE(e.model.static_correction.knots_rad.size() == 1);
-  CHECK(e.model.static_correction.knots_rad[0] == doctest::Approx(30.0 * deg));
+  CHECK(e.model.static_correction.knots_rad[0] == doctest::Approx(30.0 * deg).epsilon(1e-14).scale(0));
   CHECK(e.model.static_correction.knot_power == 2);
   CHECK(e.model.rotary_correction.powers == std::vector<int>{0, 1});
   REQUIRE(e.model.rotary_correction.knots_rad.size() == 1);
@@ -464,7 +467,7 @@ TEST_CASE("[rotary] a priori knot terms: read, used by the model, written back, 
   const indicial::Experiment e = indicial::load_experiment(write_exp("prior.toml", with));
   const double deg = 3.14159265358979323846 / 180.0;
   REQUIRE(e.rotary.prior_knots_rad.size() == 2);
-  CHECK(e.rotary.prior_knots_rad[1] == doctest::Approx(20.0 * deg));
+  CHECK(e.rotary.prior_knots_rad[1] == doctest::Approx(20.0 * deg).epsilon(1e-14).scale(0));
   CHECK(e.rotary.prior_knot_powers == std::vector<int>{1, 2});
   CHECK(e.rotary.prior_knot_coefficients == std::vector<double>{3.3, -3.4});
   // The fitter's a priori C_aq(x) carries them: at 30 deg, -2 + 0.8 x^2 + 3.3 u - 3.4 u^2.
@@ -516,7 +519,7 @@ TEST_CASE("experiment extensions: run tables, powers, rotary pool, static table"
   CHECK(e.rotary.candidates.knots_rad.size() == 1);
   CHECK(e.static_curve.kind == indicial::StaticKind::table);
   CHECK(e.static_curve.table_x_rad.size() == 36);
-  CHECK(e.static_curve.table_value[35] == doctest::Approx(0.07));
+  CHECK(e.static_curve.table_value[35] == doctest::Approx(0.07).epsilon(1e-12).scale(0));
 
   // A table that stops at 60 deg does not cover the runs' 70 deg.
   std::string short_table = "alpha_deg,Cm\n";
@@ -691,7 +694,7 @@ TEST_CASE("unknown columns are ignored with a note; one of ours with an unknown 
   std::string s = "time_s,alpha_deg,q_pa,alpha_cmd_deg,r_m,Cm,Cm_true,beta_deg\n";
   for (int k = 0; k < 20; ++k) s += indicial::format_double(0.01 * k) + "," + std::to_string(k) + ",101325,5,0.2,0.1,0.1,0\n";
   const indicial::Run r = read_pitch(write("tunnel_log.csv", s));
-  CHECK(r.motion_angle_rad[3] == doctest::Approx(3 * kPi / 180));
+  CHECK(r.motion_angle_rad[3] == doctest::Approx(3 * kPi / 180).epsilon(1e-14).scale(0));
   REQUIRE(r.notes.size() == 1);
   CHECK_HAS(r.notes[0], "tunnel_log.csv: ignored column(s) 'q_pa', 'alpha_cmd_deg', 'r_m' (not a column indicial reads)");
   // The rule: one of our bases (time, phase, alpha, beta, phi, psi, theta, q, p, r) with a
@@ -832,7 +835,10 @@ TEST_CASE("a time column written to 9 significant digits is uniform; beyond its 
   for (std::size_t k = 0; k < r.size(); ++k)
     worst = std::max(worst, std::abs(r.time_s[k] - (10.0 + static_cast<double>(k) / 3000.0)));
   CHECK(worst < 2e-8);
-  CHECK(r.dt_s() == doctest::Approx(1 / 3000.0).epsilon(1e-6));
+  // dt relative to 1/3000 (scale 0; the former epsilon(1e-6) was an absolute 1e-6 s, 0.3 % of dt):
+  // 4 standard errors of a least-squares slope through N = 300 times rounded to 1e-7 s,
+  // 4 (1e-7 / sqrt 12) sqrt(12 / N^3) / dt = 2.3e-7 (measured 4.5e-9).
+  CHECK(r.dt_s() == doctest::Approx(1 / 3000.0).epsilon(2.5e-7).scale(0));
   // One sample moved by 1e-6 s (20 times the half unit) is not uniform: refused, with the hint.
   const std::string moved = time9_csv(1e-6);
   const std::string m = csv_error("nine_moved.csv", moved);
@@ -929,8 +935,9 @@ TEST_CASE("coefficients = [\"CL\", \"Cm\"]: per-coefficient or shared sections, 
   CHECK(es[0].model.a.powers == std::vector<int>{0, 1});
   CHECK(es[1].model.a.powers == std::vector<int>{0, 1, 2});
   CHECK(es[1].model.b1.knots_rad.size() == 1);
-  CHECK(es[0].runs[0].coefficient[10] == doctest::Approx(0.03 * es[0].runs[0].motion_angle_rad[10] * 180 / kPi));
-  CHECK(es[1].runs[0].coefficient[10] == doctest::Approx(-0.002 * es[1].runs[0].motion_angle_rad[10] * 180 / kPi));
+  // Relative (scale 0): Cm here is -0.0034, and the default absolute ~1.2e-5 is 0.35 % of it.
+  CHECK(es[0].runs[0].coefficient[10] == doctest::Approx(0.03 * es[0].runs[0].motion_angle_rad[10] * 180 / kPi).epsilon(1e-12).scale(0));
+  CHECK(es[1].runs[0].coefficient[10] == doctest::Approx(-0.002 * es[1].runs[0].motion_angle_rad[10] * 180 / kPi).epsilon(1e-12).scale(0));
   // One of them, by name (diagnose --coefficient); none named: refused with the hint.
   CHECK(indicial::load_experiment(path, "Cm").model.a.powers.size() == 3);
   CHECK_HAS(error_of([&] { indicial::load_experiment(path); }),

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "fit_test_data.hpp"
 #include "indicial/fitter/fit.hpp"
 #include "indicial/fitter/montecarlo.hpp"
 #include "indicial/fitter/predict.hpp"
@@ -40,7 +41,7 @@ void end_to_end(const std::string& case_name, double second_amplitude_deg) {
   MESSAGE(case_name << ": ML " << std::string(indicial::termination_name(fit.output_error.termination))
                     << ", s(v) = " << fit.fit_error << " (noise sigma " << sigma[0] << ")");
   CHECK(fit.output_error.termination == indicial::Termination::converged);
-  CHECK(fit.fit_error < 1.2 * sigma[0]);
+  CHECK(std::abs(fit.fit_error / sigma[0] - 1.0) < indicial::testing::fit_error_ratio_tolerance(fit));
   // Every structural parameter within 4 Cramer-Rao bounds of the truth (colored bounds: the
   // residuals of a finite run are not white) -- or within 2 % where the bound is tiny.
   const auto& tm = truth.coefficients[0];
@@ -79,6 +80,13 @@ void end_to_end(const std::string& case_name, double second_amplitude_deg) {
   // unsteady term is worth) and below the fitting data's noise sigma.
   CHECK(m.rms_error < 0.05 * q.rms_error);
   CHECK(m.rms_error < sigma[0]);
+  // And at the scale the estimates' scatter sets: a fit of p parameters to N samples predicts
+  // to about sigma sqrt(p / N) (0.055 sigma here); twice that (measured 0.027 and 0.019 sigma,
+  // 37 and 54 times below the sigma bound above).
+  std::size_t n_samples = 0;
+  for (const auto& run : fit.runs) n_samples += run.time_s.size();
+  REQUIRE(n_samples > 0);
+  CHECK(m.rms_error < 2.0 * sigma[0] * std::sqrt(static_cast<double>(fit.parameters.size()) / static_cast<double>(n_samples)));
   CHECK(m.theil_inequality < 0.05 * q.theil_inequality);
 }
 

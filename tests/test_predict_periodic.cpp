@@ -135,5 +135,7 @@ TEST_CASE("predict --periodic: the command line predicts one cycle's periodic st
     const std::size_t at = j.find("\"rms_error\"");
     return std::stod(j.substr(j.find(':', at) + 1));
   };
-  CHECK(rms(pj) < 0.1 * rms(cj));
+  // Measured 9.1e-4: the periodic start leaves only the discrete update's error (the first
+  // test case); 1e-2 still fails a fixed point off by a few percent of the cold start's miss.
+  CHECK(rms(pj) < 1e-2 * rms(cj));
 }

@@ -95,7 +95,10 @@ TEST_CASE("spline value, derivative and antiderivative against hand arithmetic")
   // Exactly at a knot the plus term is 0 (u > 0 is false); continuity from the right:
   //   s(0.5) = 1 + 1 - 0.125 = 1.875; s(0.5 + 1e-9) = 1.875 + (1.5 + 3) 1e-9 (to first order)
   CHECK(indicial::spline_value(s, 0.5) == doctest::Approx(1.875).epsilon(1e-15));
-  CHECK(indicial::spline_value(s, 0.5 + 1e-9) - 1.875 == doctest::Approx(4.5e-9).epsilon(1e-6));
+  // Relative (scale 0): with doctest's default scale 1, epsilon(1e-6) was an absolute 1e-6 on a
+  // 4.5e-9 difference and passed any slope, the left one (1.5) too. Rounding of 0.5 + 1e-9 and
+  // of the difference is ~1e-7 of it.
+  CHECK(indicial::spline_value(s, 0.5 + 1e-9) - 1.875 == doctest::Approx(4.5e-9).epsilon(1e-6).scale(0));
   // Left / right derivatives at the power-1 knot: 1.5 and 4.5 (a kink of size 3);
   // at the power-2 knot the derivative is continuous: s'(1) = 2 - 1 + 3 = 4 on both sides.
   CHECK(indicial::spline_derivative(s, 0.5 - 1e-12) == doctest::Approx(1.5).epsilon(1e-9));
@@ -153,7 +156,10 @@ TEST_CASE("float and autodiff evaluate the same spline") {
   indicial::advance_lags(m, g, y);
   // y = phi1(0.025) * -(A(0.2) - A(0.1)), A = 0.25 x^2: -(0.01 - 0.0025) = -0.0075;
   // phi1(0.025) = (1 - e^-0.025)/0.025 = 0.98760351...  ->  y = -0.00740702...
-  CHECK(y[0] == doctest::Approx(-0.0075 * 0.9876035157).epsilon(1e-6));
+  // Relative 1e-5 (scale 0; the former absolute 1e-6 was 1.4e-4 of y and passed the first-order
+  // phi1 = 1 - z/2 = 0.9875): float's exp(-z) rounding (6e-8) divided by 1 - exp(-z) = 0.025
+  // costs ~2.4e-6 relative.
+  CHECK(y[0] == doctest::Approx(-0.0075 * 0.9876035157).epsilon(1e-5).scale(0));
 }
 
 TEST_CASE("static table: natural cubic spline") {
