@@ -34,7 +34,7 @@ SimulationCase at_two_airspeeds() {
 
 }  // namespace
 
-TEST_CASE("montecarlo: each run's airspeed reaches the fit; s(v) at the noise, estimates at the truth") {
+TEST_CASE("montecarlo: each run's airspeed reaches the fit, s(v) at the noise, estimates at the truth") {
   const SimulationCase c = at_two_airspeeds();
   MonteCarloOptions o;
   o.seeds = 3;
@@ -55,7 +55,7 @@ TEST_CASE("montecarlo: each run's airspeed reaches the fit; s(v) at the noise, e
 
 // What the test above would see without the airspeeds (every run fitted at V_ref, the old
 // behaviour): the same data fitted several times worse than the noise.
-TEST_CASE("montecarlo's experiment carries each motion's airspeed; without it the fit misses") {
+TEST_CASE("montecarlo's experiment carries each motion's airspeed, without it the fit misses") {
   const SimulationCase c = at_two_airspeeds();
   std::vector<SimulatedRun> runs;
   for (const MotionSpec& m : c.motions) runs.push_back(simulate_reference(c.truth, m));
