@@ -3,7 +3,7 @@
 // stepwise selects the structure, and the fit says so. Data: the dynamic-stall generator
 // (dynamic_stall.hpp: a Goman-Khrabrov separation-point truth OUTSIDE the model class,
 // integrated accurately, AR(1) phi 0.8 noise on the raw samples, ensemble-averaged cycles of
-// 128 samples), its three fit cycles, C_m, SNR 20; the pool a0..a2, knots 10, 14, 17 deg,
+// 128 samples), its three fit cycles (at one airspeed, below), C_m, SNR 20; the pool a0..a2, knots 10, 14, 17 deg,
 // b1_0, b1_1.
 #include <doctest/doctest.h>
 
@@ -23,8 +23,14 @@ namespace ds = indicial::dynamic_stall;
 
 namespace {
 
+// The fit cycles all at 30 m/s (the default campaign has them at 25, 30 and 35 m/s). Why: at
+// one airspeed the regression on seed 1 selects nothing, the fallback's first branch; at three
+// it selects 6 terms with R^2 0.70 on every seed 1-16 (measured), so the test would only see
+// the low-R^2 branch. The phase-averaged cycles are the same either way (same reduced
+// frequencies, the noise by seed): the output-error fits end at the same s(v) (seeds 1-5).
 Experiment stall_experiment(std::uint64_t seed, const std::string& coefficient) {
-  const ds::Campaign& c = ds::default_campaign();
+  ds::Campaign c = ds::default_campaign();
+  for (ds::PitchCycle& p : c.cycles) p.airspeed_mps = c.reference_airspeed_mps;
   const std::vector<ds::PhaseAveragedCycle> cycles = ds::simulate_campaign(c, 20.0, seed, c.default_noise);
   Experiment e = ds::campaign_experiment(c, cycles, coefficient, ds::CycleRole::fit);
   e.model.structure = StructureMode::stepwise;
@@ -42,7 +48,9 @@ FitOptions with_fallback(StepwiseFallback f) {
 
 // Seed 1: the regression's first candidate (A3, white F 25) has colored F below 4 -- its
 // residual is the unmodelled dynamic stall, correlated over the cycle -- so nothing enters.
-TEST_CASE("fallback: the regression selects no term; the output-error stepwise finds a model the runtime takes") {
+// (No ';' in a test name: doctest_discover_tests splits the name there into two ctest tests
+// that each run nothing.)
+TEST_CASE("fallback: the regression selects no term, the output-error stepwise finds a model the runtime takes") {
   const Experiment e = stall_experiment(1, "Cm");
   CHECK_THROWS_WITH_AS(fit_experiment(e, with_fallback(StepwiseFallback::off)),
                        doctest::Contains("stepwise regression selected no term"), InputError);

@@ -101,7 +101,7 @@ TEST_CASE("Monte Carlo, Model II, SNR 40, 200 seeds: empirical std / mean CR bou
 // Issue 12, Done-when: on AR(1) colored noise (phi 0.8) the colored-residual bound predicts the
 // scatter of the estimates, and the white Cramer-Rao bound does not. The full tables (both
 // models, turbulence too) are in docs/validation-realistic.md (tools/validate-realistic.sh).
-TEST_CASE("Monte Carlo, AR(1) noise phi 0.8: std / colored bound in [0.8, 1.25]; white bounds 2-4x too small") {
+TEST_CASE("Monte Carlo, AR(1) noise phi 0.8: std / colored bound in [0.8, 1.25], white bounds 2-4x too small") {
   indicial::MonteCarloOptions o;
   o.case_name = "tailless-model-1";
   o.seeds = kSeeds;

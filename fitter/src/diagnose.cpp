@@ -458,25 +458,35 @@ FamilyResult summarize(const Family& f, const FitResult& base, std::size_t n, do
   return r;
 }
 
+}  // namespace
+
+namespace diagnose_detail {
+
 // The family that explains the disagreement: the lowest BIC; families within
-// indistinguishable_bic of it are named with it, and among them the one with the fewest
-// parameters (then the registry's order) is the step.
+// indistinguishable_bic of it are named with it, and among them the step is the one with the
+// fewest parameters, then the lower BIC, then the registry's order (an exact tie only).
 int choose_family(const std::vector<FamilyResult>& fr, const DiagnoseOptions& o, std::vector<Effect>& tied) {
   if (fr.empty()) return -1;
   double best = fr.front().delta_bic;
   for (const FamilyResult& f : fr) best = std::min(best, f.delta_bic);
+  auto simpler = [](const FamilyResult& x, const FamilyResult& y) {
+    if (x.added_parameters != y.added_parameters) return x.added_parameters < y.added_parameters;
+    if (x.delta_bic != y.delta_bic) return x.delta_bic < y.delta_bic;
+    return x.effect < y.effect;
+  };
   int w = -1;
   for (std::size_t i = 0; i < fr.size(); ++i) {
     if (fr[i].delta_bic > best + o.indistinguishable_bic) continue;
-    const bool better = w < 0 || fr[i].added_parameters < fr[static_cast<std::size_t>(w)].added_parameters ||
-                        (fr[i].added_parameters == fr[static_cast<std::size_t>(w)].added_parameters &&
-                         fr[i].effect < fr[static_cast<std::size_t>(w)].effect);
-    if (better) w = static_cast<int>(i);
+    if (w < 0 || simpler(fr[i], fr[static_cast<std::size_t>(w)])) w = static_cast<int>(i);
   }
   for (std::size_t i = 0; i < fr.size(); ++i)
     if (static_cast<int>(i) != w && fr[i].delta_bic <= best + o.indistinguishable_bic) tied.push_back(fr[i].effect);
   return w;
 }
+
+}  // namespace diagnose_detail
+
+namespace {
 
 void record_step(DiagnoseResult& d, const DiagnoseRound& rd, const FamilyResult& fr, Scored& last,
                  const std::vector<Effect>& tied) {

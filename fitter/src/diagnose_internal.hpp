@@ -88,6 +88,12 @@ double estimate_of(const FitResult& r, const ParamId& id, double fallback);
 
 std::size_t total_samples(const Experiment& e);
 
+// The step of a round among its families (diagnose.cpp): the lowest delta_bic; families within
+// o.indistinguishable_bic of it go to `tied`, and among them the step is the one with the fewest
+// added parameters, then the lower delta_bic, then the registry's (the enum's) order. -1 when
+// `fr` is empty.
+int choose_family(const std::vector<FamilyResult>& fr, const DiagnoseOptions& o, std::vector<Effect>& tied);
+
 // Effects that are the same model as `e` on ANY data, given the model `m` it extends (bias and
 // a constant static offset when b1 is constant); named with it in the step.
 std::vector<Effect> structural_look_alikes(Effect e, const ModelConfig& m);

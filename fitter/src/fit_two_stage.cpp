@@ -2,6 +2,7 @@
 // configured) for start values, ML output error, and -- when rotary.estimate = true -- the
 // two-stage loop of eqs. 25-26; then the FitResult with the model, estimates and series.
 #include <Eigen/Core>
+#include <Eigen/QR>
 
 #include <algorithm>
 #include <chrono>
@@ -307,6 +308,86 @@ void two_stage_loop(const FitContext& c, Estimate& est, std::vector<TwoStageIter
 }
 
 // ------------------------------------------------------------------------------------------
+// The simple start of the output-error stepwise.
+// ------------------------------------------------------------------------------------------
+// Why: the output-error stepwise (the fallback, or --stepwise-refinement output_error) refines
+// an ML fit; when the regression's start values (or a --start-value) give a model whose output
+// is not finite, there is nothing to refine. A plain first-order lag always propagates: the
+// pool's lowest a(x) and b1(x) terms (a0 and b1_0 when offered; fallback_start_columns), no
+// other a(x), b1(x) or con term, the parameters the stepwise does not select (further lags,
+// delay, initial states) at their defaults (default_start), no --start-value. Its values: the
+// equation-error least squares of the two terms alone; when that b1 is not positive or a value
+// is not finite, b1 = 2 V / l (one decay per unit of reduced time 2 V t / l: faster than the
+// Wagner function's poles, 0.09 and 0.6 V / l, so the lag starts near quasi-steady and the ML
+// slows it) and the a(x) term by least squares with that b1 held.
+struct SimpleStart {
+  UnsteadyStructure s;
+  Eigen::VectorXd theta0;
+  std::string said;  // e.g. "a0 = 0.0123, b1_0 = 2.47 (least squares of a first-order lag)"
+};
+
+// False when the pool offers no a(x) or no b1(x) term.
+bool simple_start(const FitContext& c, const UnsteadyStructure& pool, const std::vector<PreparedRun>& runs,
+                  SimpleStart& out) {
+  std::vector<ParamId> lowest;
+  for (const ParamId& t : structural_terms(pool))
+    if (t.kind == ParamKind::a_power || t.kind == ParamKind::a_knot ||
+        ((t.kind == ParamKind::b_power || t.kind == ParamKind::b_knot) && t.lag == 0))
+      lowest.push_back(t);
+  const std::vector<int> cols = fallback_start_columns(lowest);
+  if (cols.empty()) return false;
+  out.s = select_terms(pool, {lowest[static_cast<std::size_t>(cols[0])], lowest[static_cast<std::size_t>(cols[1])]});
+  const EquationErrorProblem p = equation_error_problem(runs, out.s, c.o);
+  const bool a_first = p.terms[0].kind == ParamKind::a_power || p.terms[0].kind == ParamKind::a_knot;
+  const Eigen::VectorXd xa = p.X.col(a_first ? 0 : 1), xb = p.X.col(a_first ? 1 : 0);
+  const Eigen::VectorXd beta = p.X.colPivHouseholderQr().solve(p.z);
+  double a = beta(a_first ? 0 : 1), b1 = beta(a_first ? 1 : 0);
+  const char* how = "least squares of a first-order lag";
+  if (!(std::isfinite(a) && std::isfinite(b1) && b1 > 0.0)) {
+    b1 = 2.0 * c.e.airspeed_mps / c.e.reference_length_m;
+    const double xx = xa.squaredNorm();
+    a = xx > 0.0 ? xa.dot(p.z - b1 * xb) / xx : 0.0;
+    if (!std::isfinite(a)) a = 0.0;
+    how = "b1 = 2 V / l, the a(x) term by least squares";
+  }
+  const ParameterLayout L(out.s, runs);
+  out.theta0 = Eigen::VectorXd::Zero(L.size());
+  for (int i = 0; i < L.size(); ++i) {
+    const ParamId& id = L.ids()[static_cast<std::size_t>(i)];
+    out.theta0(i) = id == p.terms[a_first ? 0 : 1]   ? a
+                    : id == p.terms[a_first ? 1 : 0] ? b1
+                                                     : default_start(id, b1, runs, c.e.model.delay_start_s);
+  }
+  out.said = fmt::format("{} = {:.6g}, {} = {:.6g} ({})", p.names[a_first ? 0 : 1], a, p.names[a_first ? 1 : 0], b1, how);
+  return true;
+}
+
+// Replaces est.ml, whose start cannot be propagated, by the ML fit from the simple start; says
+// what it did in `fallback` (FitResult::stepwise_fallback). When the simple start fails too,
+// est.ml stays (its message names the start value that failed) with the simple start's failure
+// appended, and the fit ends with exit 4.
+void restart_simply(const FitContext& c, const UnsteadyStructure& pool, Estimate& est, std::string& fallback) {
+  const std::string first = est.ml.summary.message.substr(0, est.ml.summary.message.find("; nothing estimated"));
+  SimpleStart ss;
+  std::string failed = "the pool offers no a(x) or b1(x) term";
+  if (simple_start(c, pool, est.runs, ss)) {
+    MLResult ml = c.fit(ss.s, est.runs, est.rotary, ss.theta0);
+    if (std::isfinite(ml.summary.cost)) {
+      fallback += fmt::format("{}the start values cannot be propagated ({}); the output-error stepwise started "
+                              "from the simple start {}",
+                              fallback.empty() ? "" : "; ", first, ss.said);
+      est.ml = std::move(ml);
+      est.s = est.ml.structure;
+      return;
+    }
+    failed = ml.summary.message.substr(0, ml.summary.message.find("; nothing estimated"));
+  }
+  est.ml.summary.message += fmt::format("; the simple start{} failed too: {}", ss.said.empty() ? "" : " " + ss.said, failed);
+  fallback += fmt::format("{}NOT run: the start values cannot be propagated, nor the simple start (see the output "
+                          "error's message)", fallback.empty() ? "" : "; ");
+}
+
+// ------------------------------------------------------------------------------------------
 // The result.
 // ------------------------------------------------------------------------------------------
 // Estimates in output order -- structural, the regression's rotary terms, then the ML output
@@ -417,12 +498,11 @@ FitResult fit_experiment(const Experiment& e, const FitOptions& o) {
   res.stepwise_fallback = fallback_reason(e, o, res.equation_error);
   const bool refine = e.model.structure == StructureMode::stepwise &&
                       (o.stepwise_refinement == StepwiseRefinement::output_error || !res.stepwise_fallback.empty());
+  if (refine && !std::isfinite(est.ml.summary.cost)) restart_simply(c, pool, est, res.stepwise_fallback);
   if (refine && std::isfinite(est.ml.summary.cost)) {
     const OutputErrorData d{est.runs, c.base, e.path, c.envelope};
     est.ml = refine_structure_output_error(pool, d, std::move(est.ml), o, &res.output_error_stepwise);
     est.s = est.ml.structure;
-  } else if (!res.stepwise_fallback.empty()) {
-    res.stepwise_fallback += "; NOT run: the start values cannot be propagated (see the output error's message)";
   }
 
   // 4. Two-stage loop.

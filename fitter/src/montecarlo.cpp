@@ -30,6 +30,9 @@ Experiment experiment_from_simulation(const SimulationCase& c, const std::vector
     r.rate_from_file = true;  // the simulator's rate is exact, as a measured rate column would be
     r.coefficient = runs[i].coefficient_measured.at(0);
     r.periodic = i < c.experiment.runs.size() && c.experiment.runs[i].periodic;
+    // Run i is the simulation of motion i: the fit scales the model by its airspeed as the
+    // simulator did (0: the experiment's).
+    r.airspeed_mps = i < c.motions.size() ? c.motions[i].airspeed_mps : 0.0;
     e.runs.push_back(std::move(r));
   }
   set_data_range(e);
@@ -221,17 +224,22 @@ void aggregate(const std::vector<SeedOutcome>& outcomes, const MonteCarloOptions
 }  // namespace
 
 MonteCarloResult run_monte_carlo(const MonteCarloOptions& o, const MonteCarloProgress& progress) {
+  return run_monte_carlo(find_simulation_case(o.case_name), o, progress);
+}
+
+MonteCarloResult run_monte_carlo(const SimulationCase& c, const MonteCarloOptions& o,
+                                 const MonteCarloProgress& progress) {
   if (o.seeds < 2) throw InputError("--seeds", 0, "at least 2 seeds are needed for a standard deviation");
   if (o.threads < 1) throw InputError("--threads", 0, "at least 1 thread");
   if (!(o.snr > 0.0) || !std::isfinite(o.snr))
     throw InputError("--snr", 0, "the Monte Carlo needs noise: a finite SNR > 0");
   const auto t0 = std::chrono::steady_clock::now();
-  const SimulationCase& c = find_simulation_case(o.case_name);
   std::vector<SimulatedRun> clean;
   for (const MotionSpec& m : c.motions) clean.push_back(simulate_reference(c.truth, m));
 
   MonteCarloResult res;
   res.options = o;
+  res.options.case_name = c.name;
   {
     std::vector<SimulatedRun> probe = clean;
     const std::vector<double> sigma = add_measurement_noise(probe, o.snr, o.first_seed, o.noise);

@@ -37,7 +37,8 @@
 //      while each passes alpha / its scan and lowers BIC, up to max_family_terms); the
 //      sub-models are compared by BIC (one common N_eff) and the lowest is added as ONE step
 //      (several terms possible). Sub-models within indistinguishable_bic of it are named with
-//      it (DiagnoseStep::indistinguishable), the simplest is the step.
+//      it (DiagnoseStep::indistinguishable), the simplest is the step (fewest parameters,
+//      then the lower BIC, then the registry's order).
 //   5. Repeat until nothing is significant or max_steps; at max_steps one more round is tested
 //      and DiagnoseResult::stopped says whether an effect was still significant. The verdict
 //      is the first step's effect ("none" without steps: the model is left as configured).

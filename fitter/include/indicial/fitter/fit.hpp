@@ -369,7 +369,9 @@ struct FitResult {
   OutputErrorStepwiseResult output_error_stepwise;  // with StepwiseRefinement::output_error
                                                     // or after a fallback
   std::string stepwise_fallback;               // why the output-error stepwise replaced the
-                                               // regression's selection; empty: it did not
+                                               // regression's selection, and whether it began
+                                               // from the simple start (the start values gave
+                                               // a non-finite output); empty: neither
   double fit_error = 0.0;                      // s(v) of the final model
   double elapsed_s = 0.0;                      // wall time of fit_experiment
 };

@@ -48,7 +48,10 @@ namespace indicial {
 
 // An Experiment in memory from a built-in case's configuration and simulated runs (the same
 // data `indicial simulate --case` writes, without the CSV round trip). Uses
-// coefficient_measured[0]; the run paths are the case's run file names.
+// coefficient_measured[0]; the run paths are the case's run file names. Run i is taken as the
+// simulation of c.motions[i]: its airspeed_mps is that motion's (0, the experiment's, when the
+// motion has none), so the fit scales the model as the simulator did. Runs simulated from other
+// motions must set their airspeed themselves.
 Experiment experiment_from_simulation(const SimulationCase& c, const std::vector<SimulatedRun>& runs);
 
 // The true value of a fitted parameter (warning 4); NaN when the truth has none. A knot term
@@ -99,6 +102,10 @@ using MonteCarloProgress = std::function<void(int done, int total)>;
 
 // Throws InputError for an unknown case, seeds < 2, threads < 1 or snr <= 0 / not finite.
 MonteCarloResult run_monte_carlo(const MonteCarloOptions& o, const MonteCarloProgress& progress = {});
+// The same on a case built in code (e.g. a built-in case with other motions or airspeeds);
+// o.case_name is ignored, the result's options name c.
+MonteCarloResult run_monte_carlo(const SimulationCase& c, const MonteCarloOptions& o,
+                                 const MonteCarloProgress& progress = {});
 
 nlohmann::json monte_carlo_json(const MonteCarloResult& r);
 std::string monte_carlo_markdown(const MonteCarloResult& r);
