@@ -3,7 +3,7 @@
 
 Reads the Google Benchmark JSON files (medians of the repetitions), the callgrind outputs, the
 hil tables and the machine description written by run_all.sh, computes the ratios and the
-log-log slope, and writes the Markdown report with each goal of issue 6 beside the measurement.
+log-log slope, and writes the Markdown report with each goal of issues 6 and 15 beside the measurement.
 Every number in the report comes from the files of this run; nothing is typed in.
 """
 import json
@@ -383,7 +383,7 @@ if fit or ml:
     w("")
 
 # ------------------------------------------------------------------------------------------
-w("## Goals (issue 6) against this run")
+w("## Goals (issues 6 and 15) against this run")
 w("")
 w("| goal | measured | verdict |")
 w("|---|---|---|")

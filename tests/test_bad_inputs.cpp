@@ -425,7 +425,7 @@ std::string with_runs(const std::string& runs_value, const std::string& extra = 
 
 }  // namespace
 
-TEST_CASE("runs: a phase column without its frequency, with periodic = false; a frequency for a time column") {
+TEST_CASE("runs: a phase column without its frequency, with periodic = false, a frequency for a time column") {
   expect_fit_refusal(cycle_csv(), experiment_toml(),
                      "run.csv:1: column 'phase_rad' needs the cycle's frequency: give frequency_hz or "
                      "reduced_frequency in the experiment's runs entry");
@@ -462,7 +462,7 @@ TEST_CASE("runtime limits are checked at input: static-table rows, knots, lags")
                      "at most 2");
 }
 
-TEST_CASE("no run moves: refused; one still run among moving ones: a warning") {
+TEST_CASE("no run moves: refused, one still run among moving ones: a warning") {
   std::string still = "time_s,alpha_deg,Cm\n";
   for (int i = 0; i < 64; ++i) still += std::to_string(i / 64.0) + ",20,0.01\n";
   expect_fit_refusal(still, experiment_toml(),

@@ -116,7 +116,7 @@ TEST_CASE("SHA-256 (OpenSSL) gives the FIPS 180-2 example digests") {
   CHECK_THROWS_AS(indicial::sha256_file(scratch() / "no-such-file"), indicial::InputError);
 }
 
-TEST_CASE("fit records its provenance in fit.json and model.coef; the file stays valid") {
+TEST_CASE("fit records its provenance in fit.json and model.coef, the file stays valid") {
   const fs::path exp = data_dir() / "experiment.toml";
   const fs::path out1 = scratch() / "prov-fit1";
   const CliRun r = run_cli("fit '" + exp.string() + "' --out '" + out1.string() + "' --no-plots");

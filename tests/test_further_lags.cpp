@@ -150,7 +150,7 @@ TEST_CASE("two lags: an angle-dependent b2(x) from [model] b2_degree is recovere
   CHECK(std::sqrt(sum_sq / sum_sq_y) < 2.0 * scatter / 50.0);
 }
 
-TEST_CASE("[model] b_k keys: refused beyond model.lags; more lags than the runtime holds refused at input") {
+TEST_CASE("[model] b_k keys: refused beyond model.lags, more lags than the runtime holds refused at input") {
   indicial::testing::TempDir dir("further-lags-bad");
   const std::string path = write_case(dir.path);
   auto with_model = [&](const std::string& from, const std::string& to) {

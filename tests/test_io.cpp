@@ -645,7 +645,7 @@ bool any_note_has(const std::vector<std::string>& notes, const std::string& s) {
 
 }  // namespace
 
-TEST_CASE("CSV dialects: ';' with decimal commas, tabs, a BOM and quoted names read the same values") {
+TEST_CASE("CSV dialects: semicolons with decimal commas, tabs, a BOM and quoted names read the same values") {
   const indicial::Run ref = read_pitch(write("dialect_ref.csv", good_csv(40)));
   CHECK(ref.notes.empty());
   struct Case {
@@ -690,7 +690,7 @@ TEST_CASE("a missing column lists the columns found and suggests the nearest") {
   CHECK(m.find("did you mean") == std::string::npos);
 }
 
-TEST_CASE("unknown columns are ignored with a note; one of ours with an unknown unit is refused") {
+TEST_CASE("unknown columns are ignored with a note, one of ours with an unknown unit is refused") {
   std::string s = "time_s,alpha_deg,q_pa,alpha_cmd_deg,r_m,Cm,Cm_true,beta_deg\n";
   for (int k = 0; k < 20; ++k) s += indicial::format_double(0.01 * k) + "," + std::to_string(k) + ",101325,5,0.2,0.1,0.1,0\n";
   const indicial::Run r = read_pitch(write("tunnel_log.csv", s));
@@ -825,7 +825,7 @@ std::string time9_csv(double jitter_s) {
   return s;
 }
 
-TEST_CASE("a time column written to 9 significant digits is uniform; beyond its digits it is refused") {
+TEST_CASE("a time column written to 9 significant digits is uniform, beyond its digits it is refused") {
   const indicial::Run r = read_pitch(write("nine.csv", time9_csv(0.0)));
   CHECK(r.time_grid == indicial::TimeGrid::uniform);
   CHECK(any_note_has(r.notes, "nine.csv: 'time_s' is uniform to its printed digits"));

@@ -182,7 +182,7 @@ TEST_CASE("predict: CLI writes the CSV and metrics and plot and refuses overwrit
 // A log with dropped samples (irregular steps of 1-3 x 0.01 s): refused as it stands (the
 // interface's uniform step), predicted with --time-grid nonuniform, where the runtime steps
 // with each sample's own dt. Truth: the reference integration (noise-free simulate output).
-TEST_CASE("predict: --time-grid nonuniform predicts a log with dropped samples; without it, refused") {
+TEST_CASE("predict: --time-grid nonuniform predicts a log with dropped samples, without it, refused") {
   TempDir tmp;
   const std::string exe = INDICIAL_EXE;
   const std::string sim_dir = (tmp.path / "sim").string();

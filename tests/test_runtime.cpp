@@ -167,7 +167,7 @@ TEST_CASE("outputs come in file order: CL and Cm together, CY Cl Cn together") {
   CHECK(std::string(out.name[2]) == "Cn");
 }
 
-TEST_CASE("reset sets the steady state; holding the angle keeps it") {
+TEST_CASE("reset sets the steady state, holding the angle keeps it") {
   Set m = indicial::test_models::lift_and_moment();  // CL has con = 0.125 and b1(x) = 4 - 1.5 x
   P p;
   REQUIRE(p.load(m) == LoadStatus::ok);

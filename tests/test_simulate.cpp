@@ -93,7 +93,7 @@ double quadrature_y(const indicial::CoefficientModel<double, indicial::FitCapaci
 
 }  // namespace
 
-TEST_CASE("simulate --case writes the runs, experiment.toml and truth.coef; refuses without --force") {
+TEST_CASE("simulate --case writes the runs, experiment.toml and truth.coef, refuses without --force") {
   const fs::path out = dir() / "m2";
   std::string err;
   REQUIRE(run_cli("simulate --case tailless-model-2 --out " + out.string() + " --snr 40 --seed 11", &err) == 0);
