@@ -54,9 +54,9 @@
 // 3. Translation units compiled for different targets may be linked together: everything
 //    here sits in an inline namespace named after the target (lanes_sse2, lanes_avx2_fma, ...),
 //    so the linker never swaps one target's copy of an inline function for another's.
-// 4. Not for -ffast-math (refused at compile time by runtime.hpp's rules as well as here):
-//    lane_exp rounds to an integer by adding and subtracting 1.5 * 2^52, which re-association
-//    would remove, and the finite checks need IEEE infinities and NaN.
+// 4. Not for -ffast-math (an #error below): lane_exp rounds to an integer by adding and
+//    subtracting 1.5 * 2^52, which re-association would remove, and the finite checks need
+//    IEEE infinities and NaN.
 #pragma once
 
 #include <cmath>
