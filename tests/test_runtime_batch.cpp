@@ -26,6 +26,18 @@ constexpr double kPi = 3.14159265358979323846;
 double angle_at(double t, double phase) { return 0.6 + 0.5 * std::sin(2 * kPi * 0.9 * t + phase); }
 double rate_at(double t, double phase) { return 0.5 * 2 * kPi * 0.9 * std::cos(2 * kPi * 0.9 * t + phase); }
 
+// Step k (dt 0.004 s) of the status-path tests: instance i on its own phase of the motion, at
+// one of three airspeeds that change every 50 steps (the airspeed-term cache's both paths).
+void status_path_inputs(int k, std::vector<double>& angle, std::vector<double>& rate,
+                        std::vector<double>& airspeed) {
+  const double t = 0.004 * k;
+  for (std::size_t i = 0; i < angle.size(); ++i) {
+    angle[i] = angle_at(t, 0.3 * double(i));
+    rate[i] = rate_at(t, 0.3 * double(i));
+    airspeed[i] = 17.0 * (1.0 + 0.05 * double((i + std::size_t(k) / 50) % 3));
+  }
+}
+
 }  // namespace
 
 TEST_CASE("step_batch equals single steps to 1e-12 relative, each instance on its own motion") {
@@ -244,12 +256,7 @@ TEST_CASE("step_batch: every status path equals indicial::step lane by lane") {
   std::vector<double> angle(n), rate(n), airspeed(n);
   double worst = 0.0;
   for (int k = 1; k <= 300; ++k) {
-    const double t = 0.004 * k;
-    for (std::size_t i = 0; i < n; ++i) {
-      angle[i] = angle_at(t, 0.3 * double(i));
-      rate[i] = rate_at(t, 0.3 * double(i));
-      airspeed[i] = 17.0 * (1.0 + 0.05 * double((i + std::size_t(k) / 50) % 3));
-    }
+    status_path_inputs(k, angle, rate, airspeed);
     angle[1] = 0.55;                 // an angle that does not move: interval_mean's midpoint
     angle[2] = 3.0;                  // beyond the envelope: angle_clamped
     angle[3] = -3.0;
@@ -327,12 +334,7 @@ TEST_CASE("step_batch: the AVX2 kernel gives the portable kernel's bits") {
   std::vector<StepStatus> status_p(n), status_a(n);
   int refused = 0, clamped = 0;
   for (int k = 1; k <= 200; ++k) {
-    const double t = 0.004 * k;
-    for (std::size_t i = 0; i < n; ++i) {
-      angle[i] = angle_at(t, 0.3 * double(i));
-      rate[i] = rate_at(t, 0.3 * double(i));
-      airspeed[i] = 17.0 * (1.0 + 0.05 * double((i + std::size_t(k) / 50) % 3));
-    }
+    status_path_inputs(k, angle, rate, airspeed);
     angle[2] = 3.0;                                   // angle_clamped
     angle[5] = k % 2 == 0 ? NAN : angle[5];           // non_finite_input
     airspeed[8] = k % 7 == 0 ? 1e-310 : airspeed[8];  // non_finite_result (with the rate below)
