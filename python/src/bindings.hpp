@@ -6,7 +6,8 @@
 // nothing here computes anything of its own. Each concept has its binding file (one concept
 // per file): errors.cpp (exceptions), experiment_binding.cpp, fit_binding.cpp,
 // diagnose_binding.cpp, model_binding.cpp, predict_binding.cpp, simulate_binding.cpp,
-// stepper_binding.cpp (Predictor and the batch stepper). This header holds the types that
+// stepper_binding.cpp (Predictor and the batch stepper), bench_binding.cpp (the C++ reference
+// loop of the Python benchmark). This header holds the types that
 // cross files (the model holder, the fit result holder) and the numpy conversions.
 //
 // Warnings
@@ -108,5 +109,6 @@ void bind_diagnose(py::module_& m);
 void bind_predict(py::module_& m);
 void bind_simulate(py::module_& m);
 void bind_stepper(py::module_& m);
+void bind_bench(py::module_& m);
 
 }  // namespace indicial::python
