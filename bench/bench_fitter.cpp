@@ -42,7 +42,7 @@
 #include <thread>
 #include <vector>
 
-#include "../fitter/src/fit_internal.hpp"
+#include "estimate/fit_internal.hpp"
 #include "indicial/fitter/fit.hpp"
 #include "indicial/fitter/simulate.hpp"
 

@@ -8,7 +8,7 @@
 #include <unordered_map>
 #include <vector>
 
-#include "../fitter/src/fit_levenberg_marquardt.hpp"
+#include "estimate/fit_levenberg_marquardt.hpp"
 #include "indicial/fitter/fit.hpp"
 
 using namespace indicial;

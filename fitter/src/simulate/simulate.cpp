@@ -15,7 +15,7 @@
 #include "indicial/coef_file.hpp"
 #include "indicial/fitter/tailless_model.hpp"
 #include "indicial/fitter/io.hpp"
-#include "spec_keys.hpp"
+#include "simulate/spec_keys.hpp"
 
 namespace indicial {
 namespace {

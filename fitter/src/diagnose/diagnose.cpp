@@ -13,8 +13,8 @@
 #include <limits>
 #include <map>
 
-#include "diagnose_internal.hpp"
-#include "fit_internal.hpp"
+#include "diagnose/diagnose_internal.hpp"
+#include "estimate/fit_internal.hpp"
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/io.hpp"
 #include "indicial/runtime.hpp"
