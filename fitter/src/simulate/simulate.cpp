@@ -402,7 +402,7 @@ SimulationCase tailless_case(TaillessB1 kind) {
 
 }  // namespace
 
-// Cases defined in their own files (fitter/src/cases_f16xl.cpp).
+// Cases defined in their own files (fitter/src/simulate/cases_f16xl.cpp).
 std::vector<SimulationCase> f16xl_like_cases();
 std::vector<SimulationCase> lateral_cases();
 
