@@ -86,7 +86,7 @@ Api load_api(const fs::path& so) {
   REQUIRE_MESSAGE(a.handle != nullptr, ::dlerror());
 #define INDICIAL_FMI2_SYM(name)                                               \
   a.name = reinterpret_cast<decltype(a.name)>(::dlsym(a.handle, #name));     \
-  CHECK_MESSAGE(a.name != nullptr, "the FMU does not export " #name);
+  CHECK_MESSAGE(static_cast<bool>(a.name != nullptr), "the FMU does not export " #name);
   INDICIAL_FMI2_FUNCTIONS(INDICIAL_FMI2_SYM)
   return a;
 }
@@ -135,7 +135,7 @@ Variable read_variable(xmlNode* sv) {
   v.variability = attr(sv, "variability");
   v.initial = attr(sv, "initial");
   const auto types = children(sv);
-  REQUIRE_MESSAGE(types.size() == 1, v.name + ": a ScalarVariable has exactly one type element");
+  REQUIRE_MESSAGE(types.size() == 1, (v.name + ": a ScalarVariable has exactly one type element"));
   v.type = reinterpret_cast<const char*>(types[0]->name);
   const std::string start = attr(types[0], "start", &v.has_start);
   if (v.has_start) v.start = std::stod(start);
@@ -159,7 +159,7 @@ Description parse_description(const fs::path& xml) {
   std::size_t last = 0;
   for (xmlNode* c : children(root)) {
     const auto it = std::find(kTopOrder.begin(), kTopOrder.end(), reinterpret_cast<const char*>(c->name));
-    REQUIRE_MESSAGE(it != kTopOrder.end(), std::string("unknown element ") + reinterpret_cast<const char*>(c->name));
+    REQUIRE_MESSAGE(it != kTopOrder.end(), (std::string("unknown element ") + reinterpret_cast<const char*>(c->name)));
     const auto pos = static_cast<std::size_t>(it - kTopOrder.begin());
     CHECK_MESSAGE(pos >= last, "elements out of the schema's order");
     last = pos;
