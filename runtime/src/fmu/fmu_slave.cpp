@@ -590,7 +590,7 @@ FMI2_Export fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference 
 }
 
 // No Boolean or String variables: only empty calls succeed.
-fmi2Status no_variables(fmi2Component c, const char* function, size_t nvr) {
+static fmi2Status no_variables(fmi2Component c, const char* function, size_t nvr) {
   fmi2Status st;
   Instance* inst = checked(c, function, kAnyPhase, &st);
   if (inst == nullptr || nvr == 0) return st;
@@ -663,7 +663,7 @@ FMI2_Export fmi2Status fmi2CancelStep(fmi2Component c) {
   return fail(inst, "fmi2CancelStep: fmi2DoStep never returns fmi2Pending: nothing to cancel");
 }
 
-fmi2Status unsupported(fmi2Component c, const char* function, const char* why) {
+static fmi2Status unsupported(fmi2Component c, const char* function, const char* why) {
   fmi2Status st;
   Instance* inst = checked(c, function, kAnyPhase, &st);
   if (inst == nullptr) return st;
@@ -731,12 +731,16 @@ FMI2_Export fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2V
 }
 
 // ---- status queries: doStep is synchronous, so only the last successful time is known -------
+// The answer to a status query that has none: fmi2Discard (or fmi2Error for a stranger).
+static fmi2Status no_status(fmi2Component c, const char* function) {
+  fmi2Status st;
+  return checked(c, function, kAnyPhase, &st) == nullptr ? st : fmi2Discard;
+}
+
 FMI2_Export fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind kind, fmi2Status* value) {
   (void)kind;
   (void)value;
-  fmi2Status st;
-  Instance* inst = checked(c, "fmi2GetStatus", kAnyPhase, &st);
-  return inst == nullptr ? st : fmi2Discard;
+  return no_status(c, "fmi2GetStatus");
 }
 FMI2_Export fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind kind, fmi2Real* value) {
   fmi2Status st;
@@ -749,24 +753,19 @@ FMI2_Export fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind k
 FMI2_Export fmi2Status fmi2GetIntegerStatus(fmi2Component c, const fmi2StatusKind kind, fmi2Integer* value) {
   (void)kind;
   (void)value;
-  fmi2Status st;
-  Instance* inst = checked(c, "fmi2GetIntegerStatus", kAnyPhase, &st);
-  return inst == nullptr ? st : fmi2Discard;
+  return no_status(c, "fmi2GetIntegerStatus");
 }
 FMI2_Export fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind kind, fmi2Boolean* value) {
+  if (kind != fmi2Terminated || value == nullptr) return no_status(c, "fmi2GetBooleanStatus");
   fmi2Status st;
-  Instance* inst = checked(c, "fmi2GetBooleanStatus", kAnyPhase, &st);
-  if (inst == nullptr) return st;
-  if (kind != fmi2Terminated || value == nullptr) return fmi2Discard;
+  if (checked(c, "fmi2GetBooleanStatus", kAnyPhase, &st) == nullptr) return st;
   *value = fmi2False;  // the slave never asks to end the simulation
   return fmi2OK;
 }
 FMI2_Export fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind kind, fmi2String* value) {
   (void)kind;
   (void)value;
-  fmi2Status st;
-  Instance* inst = checked(c, "fmi2GetStringStatus", kAnyPhase, &st);
-  return inst == nullptr ? st : fmi2Discard;
+  return no_status(c, "fmi2GetStringStatus");
 }
 
 }  // extern "C"
