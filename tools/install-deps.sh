@@ -23,6 +23,9 @@ packages=(
   # pytest, and venv + pip + setuptools + wheel for the offline `pip install ./python`.
   pybind11-dev python3-dev python3-numpy python3-pytest python3-venv python3-pip python3-setuptools
   python3-wheel
+  libzip-dev          # `indicial fmu` writes the FMU package (a zip) with libzip
+  libxml2-dev unzip   # the FMU test's own importer: unzip the package, parse modelDescription.xml
+  octave liboctave-dev  # the MEX stepper: built with mkoctfile --mex, tested under octave-cli
 )
 for extra in "$@"; do
   case "$extra" in
