@@ -58,22 +58,27 @@ _ANGLE = {"pitch": "alpha_rad", "roll": "phi_rad", "yaw": "psi_rad"}
 _RATE = {"pitch": "q_radps", "roll": "p_radps", "yaw": "r_radps"}
 
 
+_MOTION_NAMES = frozenset(_ANGLE.values()) | frozenset(_RATE.values())
+
+
 def _motion(axis: str, kwargs: dict, need_rate: bool = False):
     """The motion angle (rad) and rate (rad/s, or None) named for `axis` in kwargs; refuses
     another axis' names (a roll model given alpha_rad is a mistake, not a synonym)."""
     angle_name, rate_name = _ANGLE[axis], _RATE[axis]
-    for other in ("pitch", "roll", "yaw"):
-        if other == axis:
-            continue
-        for name in (_ANGLE[other], _RATE[other]):
-            if name in kwargs and kwargs[name] is not None:
-                raise InputError(f"{name}: the model's axis is {axis}: give {angle_name} and {rate_name}")
-    if kwargs.get(angle_name) is None:
+    angle, rate = kwargs.get(angle_name), kwargs.get(rate_name)
+    if angle is not None and (rate is not None or not need_rate) and \
+            len(kwargs) == (angle_name in kwargs) + (rate_name in kwargs):
+        return angle, rate  # the fast path of a stepping loop
+    for name, value in kwargs.items():
+        if name not in _MOTION_NAMES:
+            raise TypeError(f"unexpected keyword argument '{name}'")
+        if value is not None and name not in (angle_name, rate_name):
+            raise InputError(f"{name}: the model's axis is {axis}: give {angle_name} and {rate_name}")
+    if angle is None:
         raise InputError(f"{angle_name}: required (the {axis} motion angle, rad)")
-    rate = kwargs.get(rate_name)
     if need_rate and rate is None:
         raise InputError(f"{rate_name}: required (the {axis} rate, rad/s)")
-    return kwargs[angle_name], rate
+    return angle, rate
 
 
 # --------------------------------------------------------------------------------------------
@@ -372,7 +377,8 @@ class FitResult:
 
     def __init__(self, handle):
         self._r = handle
-        self.model = Model(handle.model)
+        # None only for a diagnose step's intermediate fit whose model the runtime refuses.
+        self.model = Model(handle.model) if handle.model is not None else None
 
     parameters = property(lambda self: _parameters(self._r.parameters))
     fit_error = property(lambda self: self._r.fit_error, doc="s(v) = sqrt(sum v^2 / N) of the final model")

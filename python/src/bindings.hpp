@@ -86,10 +86,14 @@ struct FitHolder {
   std::vector<std::string> warnings;
 };
 
-// A finished fit as the Python result: the model (runtime-checked, InputError when refused)
-// and the warnings `indicial fit` prints, in its order.
+// A finished fit as the Python result: the model (runtime-checked) and the warnings
+// `indicial fit` prints, in its order. A model the runtime refuses is an InputError with
+// ModelCheck::required (a fit's result, as the command line), and no model (None) with
+// ModelCheck::optional (diagnose's intermediate fits, which the command line never writes).
+enum class ModelCheck { required, optional };
 std::shared_ptr<FitHolder> wrap_fit(std::shared_ptr<const FitResult> result, const ExperimentPtr& e,
-                                    const FitOptions& fo, const std::string& call);
+                                    const FitOptions& fo, const std::string& call,
+                                    ModelCheck check = ModelCheck::required);
 
 // The array as contiguous doubles (warning 1); `name` names it in the TypeError.
 DoubleArray as_doubles(const py::handle& value, const char* name);

@@ -88,8 +88,9 @@ std::shared_ptr<DiagnoseHolder> run_diagnose(const ExperimentPtr& e, const py::d
   }
   const DiagnoseResult& d = *h->result;
   auto working = std::make_shared<Experiment>(d.experiment);
-  for (const FitResult& f : d.fits)
-    h->fits.push_back(wrap_fit(std::make_shared<const FitResult>(f), working, h->options.fit, call));
+  for (std::size_t k = 0; k < d.fits.size(); ++k)
+    h->fits.push_back(wrap_fit(std::make_shared<const FitResult>(d.fits[k]), working, h->options.fit, call,
+                               k + 1 == d.fits.size() ? ModelCheck::required : ModelCheck::optional));
   h->warnings = e->warnings;
   const std::vector<std::string> after = diagnose_warnings(d);
   h->warnings.insert(h->warnings.end(), after.begin(), after.end());

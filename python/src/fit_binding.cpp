@@ -118,7 +118,7 @@ FitOptions fit_options_from(const py::dict& kw) {
 }
 
 std::shared_ptr<FitHolder> wrap_fit(std::shared_ptr<const FitResult> result, const ExperimentPtr& e,
-                                    const FitOptions& fo, const std::string& call) {
+                                    const FitOptions& fo, const std::string& call, ModelCheck check) {
   auto h = std::make_shared<FitHolder>();
   h->experiment = e;
   h->options = fo;
@@ -126,10 +126,11 @@ std::shared_ptr<FitHolder> wrap_fit(std::shared_ptr<const FitResult> result, con
   const FitResult& r = *h->result;
   h->warnings = e->warnings;
   if (!r.stepwise_fallback.empty()) h->warnings.push_back(e->path + ": " + r.stepwise_fallback);
-  h->model = model_from_set(r.model, e->path, provenance_for(*e, call));
+  if (check == ModelCheck::required || runtime_acceptance(r.model).capacity != RuntimeCapacity::refused)
+    h->model = model_from_set(r.model, e->path, provenance_for(*e, call));
   const std::vector<std::string> after = fit_warnings(r, *e);
   h->warnings.insert(h->warnings.end(), after.begin(), after.end());
-  if (h->model->acceptance.capacity == RuntimeCapacity::fit_capacity_only)
+  if (h->model && h->model->acceptance.capacity == RuntimeCapacity::fit_capacity_only)
     h->warnings.push_back(e->path + ": " + h->model->acceptance.reason);
   return h;
 }

@@ -6,6 +6,8 @@
 // for a bad file. Its text is the file's bytes (load) or the bytes `indicial fit` writes
 // (a fit's model: the coefficient-file writer plus the provenance header), and save() writes
 // exactly that text, refusing to replace a file unless force=True.
+#include <filesystem>
+
 #include "bindings.hpp"
 
 #include "indicial/coef_file.hpp"
@@ -117,6 +119,9 @@ void bind_model(py::module_& m) {
              });
            }, py::arg("x_rad"), py::arg("coefficient") = py::none())
       .def("save", [](const ModelHolder& h, const std::string& path, bool force) {
+             std::error_code ec;
+             if (!force && std::filesystem::exists(path, ec))
+               throw InputError(path, 0, "output file exists (pass force=True to replace it)");
              write_file_atomically(path, h.text, force ? Overwrite::replace : Overwrite::refuse);
            }, py::arg("path"), py::arg("force") = false);
 
