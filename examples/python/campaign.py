@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """A Monte Carlo campaign of fits on Dask: are the Cramer-Rao bounds the real scatter?
 
-    python3 examples/python/campaign.py [--fits 40] [--workers 1 2] [--snr 40]
+    python3 examples/python/campaign.py [--fits 200] [--workers 1 2] [--snr 40]
     python3 examples/python/campaign.py --scheduler tcp://HOST:8786 --fits 400    # a cluster
 
 Each task simulates Example 1's Model I (indicial.simulation_case, its own noise seed), fits it
@@ -65,7 +65,7 @@ def summary(results):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--fits", type=int, default=40)
+    ap.add_argument("--fits", type=int, default=200)
     ap.add_argument("--snr", type=float, default=40.0)
     ap.add_argument("--workers", type=int, nargs="+", default=[1, 2])
     ap.add_argument("--repeat", type=int, default=3)
