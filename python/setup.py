@@ -8,9 +8,10 @@ that one target; nothing is compiled twice from copied sources. pip builds in th
 (pip >= 21.3), so ../ is the repository.
 
 Environment:
-  INDICIAL_BUILD_DIR   an existing CMake build directory of the repository (e.g. build/, as
-                       tools/run-tests.sh makes): the module is built there, reusing its
-                       objects, and its configuration is left as it is
+  INDICIAL_BUILD_DIR   an existing CMake build directory of the repository (e.g. build, as
+                       tools/run-tests.sh makes; a relative path is taken from the repository
+                       root, since pip runs this script in python/): the module is built
+                       there, reusing its objects, and its configuration is left as it is
   INDICIAL_JOBS        parallel jobs (default: the CPU count)
 """
 import os
@@ -42,7 +43,7 @@ class CMakeBuild(build_ext):
             raise RuntimeError(f"{REPO}: not the indicial repository (python/ must stay inside it)")
         jobs = os.environ.get("INDICIAL_JOBS", str(os.cpu_count() or 1))
         given = os.environ.get("INDICIAL_BUILD_DIR")
-        build_dir = Path(given).resolve() if given else Path(self.build_temp).resolve() / "cmake"
+        build_dir = (REPO / given).resolve() if given else Path(self.build_temp).resolve() / "cmake"
         if not (build_dir / "CMakeCache.txt").is_file():
             generator = ["-G", "Ninja"] if shutil.which("ninja") else []
             subprocess.run(["cmake", "-S", str(REPO), "-B", str(build_dir), *generator,

@@ -11,5 +11,5 @@ ctest --test-dir build --output-on-failure -j"$(nproc)"
 # Then the pytest suite again, importing the installed package (ctest's python_pytest imports
 # build/python).
 /usr/bin/python3 -m venv --system-site-packages build/venv
-INDICIAL_BUILD_DIR=build build/venv/bin/pip install --quiet --no-build-isolation --no-index ./python
+INDICIAL_BUILD_DIR="$PWD/build" build/venv/bin/pip install --quiet --no-build-isolation --no-index ./python
 (cd build && INDICIAL_CLI="$PWD/tools/indicial" venv/bin/python -m pytest -q -p no:cacheprovider ../python/tests)
