@@ -81,6 +81,34 @@
 // only when the airspeed changes. With Scalar = float every per-step operation is in float
 // (clamp, axis factor, airspeed ratios), except the delayed path's clock, which is double.
 //
+// Dynamic-stall families (issue 22) -- the runtime's side of the contract with model.hpp
+// -----------------------------------------------------------------------------------------
+// (Written first as the runtime's proposal to model.hpp's owner; kept as the contract.)
+// model.hpp owns the equations; the runtime steps them and adds nothing of its own:
+//   * parameters per coefficient (CoefficientModel::separation, ::vortex), plain fixed-size
+//     data, a named enum saying whether each family is used; a family that is not used
+//     changes nothing, bit for bit (files, states and outputs of today's models stay as they
+//     are);
+//   * the family states per coefficient as ONE struct templated on the value type (Scalar, or
+//     batch.hpp's lane vector), so that the batch gathers them into lanes and runs the same
+//     update; a handful of Scalars (<= 4 per coefficient keeps State<double, Cap> with 3
+//     coefficients at <= 256 bytes);
+//   * ONE discrete update and ONE output map on a policy (`*_with<Ops>`, as advance_lags'
+//     pieces), the exponential taken through the policy (Ops::exp: std::exp for ScalarOps,
+//     lane_exp for the batch), so the batch differs from single steps only in exp; the
+//     family outputs are added by coefficient_output_with; steady_state sets the family
+//     states at rest;
+//   * Capacity gates the STATE storage (a 7th parameter, defaulted to none): a State whose
+//     Cap has no family storage is byte for byte today's (issue 25's float Model II state
+//     stays small); a capacity with storage (StallCapacity) is what codegen, the C API and
+//     the tests use for family models.
+//   * coefficient-file keys, in a block, written after delay_s and only for a used family
+//     (so a model without families is written byte-identically as version 1):
+//     `separation_...` and `vortex_...` keys; times in s at V_ref with the `_s` suffix (they
+//     scale by V_ref / V as delay_s does), splines as `<name>_poly` / `<name>_knot`.
+//   * feasibility (validate_for_runtime refuses otherwise): every time constant finite and
+//     > 0, f0 and the separation state in [0, 1] over the envelope.
+//
 // Warnings
 // --------
 // 1. A model is validated once: make_runtime_model / Predictor::load validate and convert;
