@@ -15,8 +15,9 @@
 //     in read-only memory (flash) and is used in place -- and shared by any number of states.
 //   * State<Scalar, Cap>: per instance, only what changes (lag states, the previous sample's
 //     cached spline ends, the last airspeed's terms): 160 bytes for double and
-//     DefaultCapacity (up to 3 coefficients, 2 lags). DelayedState adds the history ring
-//     that a model with a delay needs (about 4 KB with DefaultCapacity).
+//     DefaultCapacity (up to 3 coefficients, 2 lags). FamilyState adds the dynamic-stall
+//     family states (below), DelayedState the history ring that a model with a delay needs
+//     (about 4 KB with DefaultCapacity).
 // The stateless core is reset(model, state, angle, airspeed) and
 // step(model, state, input, dt, out); step_batch steps N states of one model. Predictor is
 // the convenience of one instance: a model (its own copy, or a shared one by reference) and a
@@ -81,33 +82,29 @@
 // only when the airspeed changes. With Scalar = float every per-step operation is in float
 // (clamp, axis factor, airspeed ratios), except the delayed path's clock, which is double.
 //
-// Dynamic-stall families (issue 22) -- the runtime's side of the contract with model.hpp
-// -----------------------------------------------------------------------------------------
-// (Written first as the runtime's proposal to model.hpp's owner; kept as the contract.)
-// model.hpp owns the equations; the runtime steps them and adds nothing of its own:
-//   * parameters per coefficient (CoefficientModel::separation, ::vortex), plain fixed-size
-//     data, a named enum saying whether each family is used; a family that is not used
-//     changes nothing, bit for bit (files, states and outputs of today's models stay as they
-//     are);
-//   * the family states per coefficient as ONE struct templated on the value type (Scalar, or
-//     batch.hpp's lane vector), so that the batch gathers them into lanes and runs the same
-//     update; a handful of Scalars (<= 4 per coefficient keeps State<double, Cap> with 3
-//     coefficients at <= 256 bytes);
-//   * ONE discrete update and ONE output map on a policy (`*_with<Ops>`, as advance_lags'
-//     pieces), the exponential taken through the policy (Ops::exp: std::exp for ScalarOps,
-//     lane_exp for the batch), so the batch differs from single steps only in exp; the
-//     family outputs are added by coefficient_output_with; steady_state sets the family
-//     states at rest;
-//   * Capacity gates the STATE storage (a 7th parameter, defaulted to none): a State whose
-//     Cap has no family storage is byte for byte today's (issue 25's float Model II state
-//     stays small); a capacity with storage (StallCapacity) is what codegen, the C API and
-//     the tests use for family models.
-//   * coefficient-file keys, in a block, written after delay_s and only for a used family
-//     (so a model without families is written byte-identically as version 1):
-//     `separation_...` and `vortex_...` keys; times in s at V_ref with the `_s` suffix (they
-//     scale by V_ref / V as delay_s does), splines as `<name>_poly` / `<name>_knot`.
-//   * feasibility (validate_for_runtime refuses otherwise): every time constant finite and
-//     > 0, f0 and the separation state in [0, 1] over the envelope.
+// Dynamic-stall families (issue 22)
+// ---------------------------------
+// A coefficient may carry model.hpp's separation and leading-edge-vortex families
+// (CoefficientModel::stall; the equations, units and feasible set are model.hpp's essay
+// "Dynamic stall: equations"). The runtime steps them and adds nothing of its own:
+//   * the state: model.hpp's StallState per coefficient (separation point, vortex lift,
+//     vortex clock) in a FamilyState, a State plus those (240 bytes for double, 128 for float
+//     with DefaultCapacity). Why a state type of its own rather than room in every State or a
+//     Capacity parameter: a model without families pays nothing (its State stays 160 / 88
+//     bytes) under the same Capacity that codegen and the C API use, as the delay ring lives
+//     only in DelayedState -- which derives from FamilyState, so the Predictor's Snapshot
+//     carries the family states too (Snapshot::stall[c]).
+//   * the step: after each coefficient's lags, advance_stall(cm.stall, StallStep{x0, x1, dt,
+//     l / V}, &state) on the step's clamped angles, and value = coefficient_output(...) +
+//     stall_output(cm.stall, x1, state) -- the fitter's sum, so they agree bit for bit -- all
+//     on copies, committed only if every number is finite; reset sets stall_steady_state.
+//     A family model stepped with a plain State returns StepStatus::families_need_state
+//     (RuntimeModel::stall says whether a model has families).
+//   * validation: validate_model_set applies model.hpp's check_stall_parameters (the feasible
+//     set: positive time constants, f0 in [0, 1], ...); validate_for_runtime also checks the
+//     family outputs finite over the envelope.
+//   * the coefficient file: version 2 keys sep_* and vortex_* (coef_file.hpp,
+//     docs/architecture.md), written only for a model with a family.
 //
 // Warnings
 // --------
