@@ -214,6 +214,16 @@ static void check_families(const char* exe, const char* source_dir, const char* 
   motion_hz = 4.0;
   check_against_cli(exe, path, work);
   check_batch();
+  {
+    /* indicial_evaluate after a step gives that step's outputs (families included). */
+    double stepped[3], evaluated[3];
+    CHECK(indicial_reset(model_storage, single_storage, angle_at(0, 0.0), airspeed_mps) == INDICIAL_OK);
+    CHECK(indicial_step(model_storage, single_storage, angle_at(1, 0.0), rate_at(1, 0.0), airspeed_mps,
+                        dt_s, stepped) == INDICIAL_OK);
+    CHECK(indicial_evaluate(model_storage, single_storage, rate_at(1, 0.0), airspeed_mps, evaluated) ==
+          INDICIAL_OK);
+    CHECK(memcmp(stepped, evaluated, 2 * sizeof(double)) == 0);
+  }
 }
 
 int main(int argc, char** argv) {
