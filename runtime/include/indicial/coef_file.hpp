@@ -1,4 +1,4 @@
-// indicial/coef_file.hpp -- the coefficient file (.coef, version 1): parse, validate, write.
+// indicial/coef_file.hpp -- the coefficient file (.coef, versions 1 and 2): parse, validate, write.
 //
 // What it is for
 // --------------
@@ -43,6 +43,11 @@
 //    (Versions before delay support refused a nonzero delay with unsupported_feature; that
 //    value is kept in the enums so their numbering and callers stay valid, but nothing
 //    returns it now.)
+// 6. Version 2 is version 1 plus the dynamic-stall families' keys (sep_*, vortex_*; model.hpp's
+//    StallModel), allowed only in a file that says `indicial-coef 2`. The writer writes
+//    version 2 only for a model with a family: every other model is written byte for byte as
+//    before. A family is carried by a block that gives any of its keys, and then must give
+//    every key it needs (checked at end_coefficient).
 #pragma once
 
 #include <charconv>
