@@ -66,6 +66,7 @@
 #include <cstdint>
 #include <cstring>
 #include <limits>
+#include <type_traits>
 
 #include "indicial/runtime.hpp"
 
@@ -794,6 +795,23 @@ inline StepStatus step_blocks(const RuntimeModel<Scalar, Cap>& m, St* states, st
 }
 }  // namespace batch_detail
 
+namespace batch_detail {
+// The checks of step_batch before its blocks: no delay, and families only with FamilyStates.
+template <class Scalar, class Cap, class St>
+inline StepStatus checked_blocks(const RuntimeModel<Scalar, Cap>& m, St* states, std::size_t n,
+                                 const double* angle_rad, const double* rate_radps,
+                                 const double* airspeed_mps, double dt_s, Scalar* out,
+                                 StepStatus* status, BatchKernel kernel) {
+  if (n == 0) return StepStatus::ok;
+  if (!batch_arguments_given(states, angle_rad, rate_radps, airspeed_mps, out))
+    return StepStatus::null_output;
+  if (m.delay != DelayUse::none) return StepStatus::delay_needs_history;
+  if (m.stall != StallUse::none && std::is_same<St, State<Scalar, Cap>>::value)
+    return StepStatus::families_need_state;
+  return step_blocks(m, states, n, angle_rad, rate_radps, airspeed_mps, dt_s, out, status, kernel);
+}
+}  // namespace batch_detail
+
 // Steps n states of one undelayed model with a common dt_s; out receives n rows of
 // m.set.n_coefficients values. See the warnings above for statuses, and "Which instructions"
 // for `kernel`. A model with dynamic-stall families needs FamilyStates (the overload below).
@@ -803,12 +821,7 @@ inline StepStatus step_batch(const RuntimeModel<Scalar, Cap>& m, State<Scalar, C
                              const double* airspeed_mps, double dt_s, Scalar* out,
                              StepStatus* status = nullptr,
                              BatchKernel kernel = BatchKernel::automatic) {
-  if (n == 0) return StepStatus::ok;
-  if (!batch_detail::batch_arguments_given(states, angle_rad, rate_radps, airspeed_mps, out))
-    return StepStatus::null_output;
-  if (m.delay != DelayUse::none) return StepStatus::delay_needs_history;
-  if (m.stall != StallUse::none) return StepStatus::families_need_state;
-  return batch_detail::step_blocks(m, states, n, angle_rad, rate_radps, airspeed_mps, dt_s, out, status, kernel);
+  return batch_detail::checked_blocks(m, states, n, angle_rad, rate_radps, airspeed_mps, dt_s, out, status, kernel);
 }
 
 // The same for FamilyStates (any undelayed model): the report's part on lanes, the families
@@ -819,11 +832,7 @@ inline StepStatus step_batch(const RuntimeModel<Scalar, Cap>& m, FamilyState<Sca
                              const double* airspeed_mps, double dt_s, Scalar* out,
                              StepStatus* status = nullptr,
                              BatchKernel kernel = BatchKernel::automatic) {
-  if (n == 0) return StepStatus::ok;
-  if (!batch_detail::batch_arguments_given(states, angle_rad, rate_radps, airspeed_mps, out))
-    return StepStatus::null_output;
-  if (m.delay != DelayUse::none) return StepStatus::delay_needs_history;
-  return batch_detail::step_blocks(m, states, n, angle_rad, rate_radps, airspeed_mps, dt_s, out, status, kernel);
+  return batch_detail::checked_blocks(m, states, n, angle_rad, rate_radps, airspeed_mps, dt_s, out, status, kernel);
 }
 
 // The same for DelayedStates (any model): one indicial::step per instance.

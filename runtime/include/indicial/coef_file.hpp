@@ -546,14 +546,16 @@ inline bool obeys(const ValueRule& r, double v) {
   return false;
 }
 
-// Exactly N values, each obeying its rule.
+// Exactly N values, each obeying its rule, into *dest[i] (written only if all are good).
 template <int N>
-inline KeyRead read_ruled(Tokens& t, double (&v)[N], const ValueRule (&rules)[N], unsigned bit) {
+inline KeyRead read_ruled(Tokens& t, const ValueRule (&rules)[N], double* const (&dest)[N], unsigned bit) {
+  double v[N];
   const char* reason = "";
   const LoadStatus st = read_numbers(t, v, N, &reason);
   if (st != LoadStatus::ok) return key_read(st, reason, bit);
   for (int i = 0; i < N; ++i)
     if (!obeys(rules[i], v[i])) return key_read(LoadStatus::invalid_value, rules[i].reason, bit);
+  for (int i = 0; i < N; ++i) *dest[i] = v[i];
   return key_read(LoadStatus::ok, "", bit);
 }
 
@@ -562,31 +564,28 @@ constexpr ValueRule any_value{ValueRule::Kind::any, ""};
 // `sep_polar C_Na zero_lift_angle_rad`: the attached polar the Kirchhoff output uses.
 template <class Cap>
 inline KeyRead read_sep_polar(CoefficientModel<double, Cap>& cm, Tokens& t, int*) {
-  double v[2];
+  auto& p = cm.stall.separation;
   static constexpr ValueRule rules[2] = {
       {ValueRule::Kind::positive, "sep_polar: the normal-force slope must be > 0"}, any_value};
-  const KeyRead r = read_ruled(t, v, rules, seen_sep_polar);
-  if (r.status != LoadStatus::ok) return r;
-  cm.stall.separation.normal_force_slope_per_rad = v[0];
-  cm.stall.separation.zero_lift_angle_rad = v[1];
-  return r;
+  return read_ruled(t, rules, {&p.normal_force_slope_per_rad, &p.zero_lift_angle_rad}, seen_sep_polar);
 }
 
 // `sep_f0_point x_rad f0`: one row of the static separation table (strictly increasing x).
 template <class Cap>
 inline KeyRead read_sep_f0_point(CoefficientModel<double, Cap>& cm, Tokens& t, int*) {
   auto& sep = cm.stall.separation;
-  double v[2];
+  double x = 0.0;
+  double f0 = 0.0;
   static constexpr ValueRule rules[2] = {
       any_value, {ValueRule::Kind::unit_interval, "sep_f0_point: f0 must be in [0, 1]"}};
-  const KeyRead r = read_ruled(t, v, rules, 0);
+  const KeyRead r = read_ruled(t, rules, {&x, &f0}, 0);
   if (r.status != LoadStatus::ok) return r;
   if (sep.n_f0 >= Cap::max_table_points)
     return key_read(LoadStatus::over_capacity, "more sep_f0_point rows than the capacity allows", 0);
-  if (sep.n_f0 > 0 && !(v[0] > sep.f0_x_rad[sep.n_f0 - 1]))
+  if (sep.n_f0 > 0 && !(x > sep.f0_x_rad[sep.n_f0 - 1]))
     return key_read(LoadStatus::invalid_value, "sep_f0_point x_rad must be strictly increasing", 0);
-  sep.f0_x_rad[sep.n_f0] = v[0];
-  sep.f0_value[sep.n_f0] = v[1];
+  sep.f0_x_rad[sep.n_f0] = x;
+  sep.f0_value[sep.n_f0] = f0;
   ++sep.n_f0;
   return r;
 }
@@ -603,28 +602,19 @@ inline KeyRead read_sep_f0_corr(CoefficientModel<double, Cap>& cm, Tokens& t, in
 // `sep_time_constants T1 T2` (semichord times l / V).
 template <class Cap>
 inline KeyRead read_sep_time(CoefficientModel<double, Cap>& cm, Tokens& t, int*) {
-  double v[2];
+  auto& p = cm.stall.separation;
   static constexpr ValueRule rules[2] = {
       {ValueRule::Kind::positive, "sep_time_constants: T1 must be > 0"},
       {ValueRule::Kind::non_negative, "sep_time_constants: T2 must be >= 0"}};
-  const KeyRead r = read_ruled(t, v, rules, seen_sep_time);
-  if (r.status != LoadStatus::ok) return r;
-  cm.stall.separation.tau1_semichords = v[0];
-  cm.stall.separation.tau2_semichords = v[1];
-  return r;
+  return read_ruled(t, rules, {&p.tau1_semichords, &p.tau2_semichords}, seen_sep_time);
 }
 
 // `sep_cp k0 k1 k2`: the centre-of-pressure shape of the output.
 template <class Cap>
 inline KeyRead read_sep_cp(CoefficientModel<double, Cap>& cm, Tokens& t, int*) {
-  double v[3];
+  auto& p = cm.stall.separation;
   static constexpr ValueRule rules[3] = {any_value, any_value, any_value};
-  const KeyRead r = read_ruled(t, v, rules, seen_sep_cp);
-  if (r.status != LoadStatus::ok) return r;
-  cm.stall.separation.cp_k0 = v[0];
-  cm.stall.separation.cp_k1 = v[1];
-  cm.stall.separation.cp_k2 = v[2];
-  return r;
+  return read_ruled(t, rules, {&p.cp_k0, &p.cp_k1, &p.cp_k2}, seen_sep_cp);
 }
 
 // `vortex_shedding C_N1 width`, `vortex_time_constants T_v T_vl`, `vortex_clock width reset`
@@ -633,8 +623,7 @@ enum class VortexItem : int { shedding = 0, time_constants = 1, clock = 2, outpu
 
 template <class Cap, VortexItem Item>
 inline KeyRead read_vortex(CoefficientModel<double, Cap>& cm, Tokens& t, int*) {
-  auto& vx = cm.stall.vortex;
-  double v[2];
+  auto& v = cm.stall.vortex;
   static constexpr ValueRule shedding[2] = {
       {ValueRule::Kind::positive, "vortex_shedding: C_N1 must be > 0"},
       {ValueRule::Kind::positive, "vortex_shedding: the width must be > 0"}};
@@ -645,23 +634,16 @@ inline KeyRead read_vortex(CoefficientModel<double, Cap>& cm, Tokens& t, int*) {
       {ValueRule::Kind::positive, "vortex_clock: the width must be > 0"},
       {ValueRule::Kind::positive, "vortex_clock: the reset time must be > 0"}};
   static constexpr ValueRule output[2] = {any_value, any_value};
-  const ValueRule (&rules)[2] = Item == VortexItem::shedding ? shedding
-                                : Item == VortexItem::time_constants ? times
-                                : Item == VortexItem::clock ? clock : output;
-  const unsigned bit = Item == VortexItem::shedding ? seen_vortex_shedding
-                       : Item == VortexItem::time_constants ? seen_vortex_time
-                       : Item == VortexItem::clock ? seen_vortex_clock : seen_vortex_output;
-  const KeyRead r = read_ruled(t, v, rules, bit);
-  if (r.status != LoadStatus::ok) return r;
-  double* first = Item == VortexItem::shedding ? &vx.shedding_threshold
-                  : Item == VortexItem::time_constants ? &vx.decay_semichords
-                  : Item == VortexItem::clock ? &vx.clock_width_semichords : &vx.lift_gain;
-  double* second = Item == VortexItem::shedding ? &vx.shedding_width
-                   : Item == VortexItem::time_constants ? &vx.travel_semichords
-                   : Item == VortexItem::clock ? &vx.clock_reset_semichords : &vx.cp_travel;
-  *first = v[0];
-  *second = v[1];
-  return r;
+  switch (Item) {
+    case VortexItem::shedding:
+      return read_ruled(t, shedding, {&v.shedding_threshold, &v.shedding_width}, seen_vortex_shedding);
+    case VortexItem::time_constants:
+      return read_ruled(t, times, {&v.decay_semichords, &v.travel_semichords}, seen_vortex_time);
+    case VortexItem::clock:
+      return read_ruled(t, clock, {&v.clock_width_semichords, &v.clock_reset_semichords}, seen_vortex_clock);
+    case VortexItem::output: break;
+  }
+  return read_ruled(t, output, {&v.lift_gain, &v.cp_travel}, seen_vortex_output);
 }
 
 template <class Cap>
