@@ -29,7 +29,7 @@
 // --------
 // 1. parse_coef_file keeps a whole ModelSet<double, Cap> on the stack (it parses into a local
 //    and copies it out only on success, so *out is untouched on refusal). With
-//    DefaultCapacity that is 9176 bytes (GCC 12, x86-64); call it at initialisation, not from an interrupt.
+//    DefaultCapacity that is 13376 bytes (1.4 KB of it per coefficient for the dynamic-stall parameters) (GCC 12, x86-64); call it at initialisation, not from an interrupt.
 // 2. The parser checks the file (syntax, capacity, finite values, ordering, the checksum), not
 //    the dynamics: that b_j(x) > 0 over the envelope is checked by Predictor::load
 //    (runtime.hpp, validate_for_runtime). Use the Predictor, not the bare parser, to run.
@@ -1178,7 +1178,7 @@ WriteStatus write_coef_file(const ModelSet<double, Cap>& m, char* buffer, std::s
 // ------------------------------------------------------------------------------------------
 
 // Parses (no heap), validates and converts a coefficient file into a RuntimeModel; *out is
-// written only on success. About 28 KB of stack with DefaultCapacity (runtime.hpp warning 1).
+// written only on success. About 40 KB of stack with DefaultCapacity (runtime.hpp warning 1).
 template <class Scalar, class Cap>
 LoadStatus load_runtime_model(const char* text, std::size_t length, RuntimeModel<Scalar, Cap>* out,
                               ParseDiagnostic* diag = nullptr) {

@@ -37,7 +37,7 @@
  * 3. A state must be written by indicial_reset before its first step (a zeroed state answers
  *    INDICIAL_ERROR_NOT_RESET; uninitialised memory is undefined), and belongs to the model it
  *    was reset with.
- * 4. indicial_model_load keeps about 28 KB on the stack (the parser's and the validated model):
+ * 4. indicial_model_load keeps about 40 KB on the stack (the parser's and the validated model):
  *    load at initialisation, not from an interrupt.
  * 5. Angles in rad, rates in rad/s, airspeed in m/s, time in s. Inputs per axis as in the C++
  *    runtime: pitch alpha, q; roll phi, p; yaw psi, r.

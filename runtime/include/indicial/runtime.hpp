@@ -111,7 +111,7 @@
 // 1. A model is validated once: make_runtime_model / Predictor::load validate and convert;
 //    a RuntimeModel built elsewhere (codegen) must pass check_runtime_model before its first
 //    step (step() itself trusts the model). Loading from text keeps up to three ModelSets on
-//    the stack (about 28 KB with DefaultCapacity, double): load at initialisation, not from
+//    the stack (about 40 KB with DefaultCapacity, double): load at initialisation, not from
 //    an interrupt. A refused load leaves the predictor as it was (old model, old state).
 // 2. After a load, step() refuses (StepStatus::not_reset) until reset() sets the steady
 //    state; a default-constructed State is "never reset" too.
@@ -459,7 +459,7 @@ inline LoadStatus check_delay_capacity(const ModelSet<Scalar, Cap>& m, ParseDiag
 
 // Validates a model (validate_for_runtime, the delay against the history capacity), converts
 // it to Scalar and derives the step constants; *out is written only on success. Keeps one
-// RuntimeModel<Scalar, Cap> on the stack (about 9 KB for double and DefaultCapacity).
+// RuntimeModel<Scalar, Cap> on the stack (about 13 KB for double and DefaultCapacity).
 template <class Scalar, class Cap>
 inline LoadStatus make_runtime_model(const ModelSet<double, Cap>& in, RuntimeModel<Scalar, Cap>* out,
                                      ParseDiagnostic* diag = nullptr) {
