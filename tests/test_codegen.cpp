@@ -147,7 +147,8 @@ TEST_CASE("the generated dynamic-stall header runs bit for bit like the text fil
     REQUIRE(indicial::step(dynamic_stall_lift_moment, state, in, 0.001, b) == indicial::StepStatus::ok);
     CHECK(std::memcmp(a.value, b, 2 * sizeof(double)) == 0);
   }
-  CHECK(std::memcmp(&from_text.snapshot().stall, &state.stall, sizeof state.stall) == 0);
+  const P::Snapshot snap = from_text.snapshot();
+  CHECK(std::memcmp(&snap.stall, &state.stall, sizeof state.stall) == 0);
   // A changed family parameter is caught by the check (the step constants say families).
   auto changed = dynamic_stall_lift_moment;
   changed.stall = indicial::StallUse::none;
