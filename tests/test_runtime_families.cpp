@@ -135,7 +135,7 @@ TEST_CASE("step with families equals a direct loop over model.hpp's updates, bit
   CHECK(max_vortex > 0.05);
 }
 
-TEST_CASE("a family model refuses a plain State; a FamilyState of a model without families steps as a State") {
+TEST_CASE("a family model refuses a plain State, a FamilyState of a model without families steps as a State") {
   const Model fam = runtime_of(indicial::test_models::lift_and_moment_stall());
   indicial::State<double, Cap> plain;
   REQUIRE(indicial::reset(fam, plain, 0.2, kAirspeed) == StepStatus::ok);
@@ -252,7 +252,7 @@ TEST_CASE("coefficient file: bad family values are refused with their line and r
   }
 }
 
-TEST_CASE("validation refuses infeasible family parameters built in code; the old model stays") {
+TEST_CASE("validation refuses infeasible family parameters built in code, the old model stays") {
   indicial::Predictor<double> p;
   REQUIRE(p.load(indicial::test_models::lift_and_moment_stall()) == LoadStatus::ok);
   REQUIRE(p.reset(0.2, kAirspeed) == StepStatus::ok);
