@@ -25,7 +25,8 @@
 //    later use raises indicial.ClosedError.
 // 4. Capacity: a model the default runtime capacity holds is stepped with DefaultCapacity
 //    (the C++ benchmarks' configuration), a larger one with FitCapacity. A model with a
-//    delay is stepped with DelayedStates (step_batch's one-instance-at-a-time overload).
+//    delay is stepped with DelayedStates (step_batch's one-instance-at-a-time overload), one
+//    with dynamic-stall families with FamilyStates.
 #include <atomic>
 #include <memory>
 
@@ -78,6 +79,15 @@ std::unique_ptr<BatchCore> make_core(const ModelHolder& h, std::size_t n) {
   return core;
 }
 
+// The state type step_batch needs for the model: a delay history (stepped one instance at a
+// time), the dynamic-stall families' states, or the plain lag states.
+template <class Cap>
+std::unique_ptr<BatchCore> make_core_for(const ModelHolder& h, std::size_t n, bool delayed, bool families) {
+  if (delayed) return make_core<Cap, DelayedState<double, Cap>>(h, n);
+  if (families) return make_core<Cap, FamilyState<double, Cap>>(h, n);
+  return make_core<Cap, State<double, Cap>>(h, n);
+}
+
 // Marks a stepper busy for the duration of a call (warning 3).
 class Busy {
  public:
@@ -97,15 +107,15 @@ class BatchStepper {
   BatchStepper(const ModelPtr& model, std::size_t n) : model_(model) {
     if (!model) throw ClosedError("BatchStepper: no model");
     if (n == 0) throw InputError("BatchStepper", 0, "needs at least one instance (n >= 1)");
-    const bool small = model->acceptance.capacity == RuntimeCapacity::default_capacity;
-    bool delayed = false;
-    for (int c = 0; c < model->set->n_coefficients; ++c) delayed = delayed || model->set->coefficients[c].delay_s != 0.0;
-    if (small)
-      core_ = delayed ? make_core<DefaultCapacity, DelayedState<double, DefaultCapacity>>(*model, n)
-                      : make_core<DefaultCapacity, State<double, DefaultCapacity>>(*model, n);
+    bool delayed = false, families = false;
+    for (int c = 0; c < model->set->n_coefficients; ++c) {
+      delayed = delayed || model->set->coefficients[c].delay_s != 0.0;
+      families = families || model->set->coefficients[c].stall.families != StallFamilies::none;
+    }
+    if (model->acceptance.capacity == RuntimeCapacity::default_capacity)
+      core_ = make_core_for<DefaultCapacity>(*model, n, delayed, families);
     else
-      core_ = delayed ? make_core<FitCapacity, DelayedState<double, FitCapacity>>(*model, n)
-                      : make_core<FitCapacity, State<double, FitCapacity>>(*model, n);
+      core_ = make_core_for<FitCapacity>(*model, n, delayed, families);
     status_.assign(n, StepStatus::not_reset);
     outputs_ = py::array_t<double>({static_cast<py::ssize_t>(n), static_cast<py::ssize_t>(core_->n_out)});
     std::fill(outputs_.mutable_data(), outputs_.mutable_data() + outputs_.size(), 0.0);
