@@ -10,13 +10,18 @@
 #include <boost/numeric/odeint.hpp>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
 #include <random>
 #include <string>
 #include <vector>
 
 #include "estimate/fit_internal.hpp"
+#include "indicial/fitter/error.hpp"
 #include "indicial/fitter/experiment_toml.hpp"
 #include "indicial/fitter/fit.hpp"
+#include "indicial/fitter/model_merge.hpp"
+#include "indicial/fitter/report.hpp"
 #include "indicial/model.hpp"
 
 using namespace indicial;
@@ -167,4 +172,54 @@ TEST_CASE("fit stall families recovers a seeded odeint truth within 3 bounds") {
   // The written model is the runtime's feasible model with the families.
   CHECK(fit.model.coefficients[0].stall.families == StallFamilies::separation_and_vortex);
   CHECK(check_stall_parameters(fit.model.coefficients[0].stall) == StallCheck::valid);
+  // Fitter and runtime agree: model.coef (with the families' keys) replayed by the runtime's
+  // Predictor from each cycle's sample-0 states (lags and stall) reproduces the fit's output.
+  const RuntimeCheck rc = replay_in_runtime(fit, e, coef_file_text(fit.model, "stall.coef"));
+  MESSAGE("runtime replay: " << rc.samples_compared << " samples, max |runtime - fitter| " << rc.max_abs_difference
+                             << " " << rc.detail);
+  CHECK(rc.load_status == LoadStatus::ok);
+  CHECK(rc.samples_compared == 12 * 127);
+  CHECK(rc.steps_not_ok == 0);
+  CHECK(rc.max_abs_difference < 1e-12);
+}
+
+// The experiment file's stall keys: read, defaults, refusals, and written back.
+TEST_CASE("experiment stall keys are read, refused without stall, and written back") {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "indicial-test-fit-stall";
+  std::filesystem::create_directories(dir);
+  {
+    std::ofstream s(dir / "static.csv");
+    s << "alpha_deg,CL\n";
+    for (int a = -10; a <= 30; ++a) s << a << "," << polar_lift(a * kDeg) << "\n";
+    std::ofstream r(dir / "run.csv");
+    r << "time_s,alpha_deg,CL\n";
+    for (int i = 0; i < 64; ++i) {
+      const double a = 12.0 + 8.0 * std::sin(2 * kPi * i / 64.0);
+      r << i * 0.01 << "," << a << "," << polar_lift(a * kDeg) << "\n";
+    }
+  }
+  auto write_toml = [&](const std::string& model) {
+    std::ofstream t(dir / "e.toml");
+    t << "axis = \"pitch\"\ncoefficient = \"CL\"\nreference_length_m = 0.275\nairspeed_mps = 30.0\n"
+         "runs = [\"run.csv\"]\n[static]\ntable = \"static.csv\"\n[rotary]\npolynomial = [0.0]\n[model]\n"
+      << model;
+  };
+  write_toml("stall = \"separation_and_vortex\"\nstall_T1_start = 2.5\nstall_f0_correction_degree = 1\n");
+  const Experiment e = load_experiment((dir / "e.toml").string());
+  CHECK(e.model.stall.families == StallFamilies::separation_and_vortex);
+  CHECK(e.model.stall.tau1_start == 2.5);
+  CHECK(e.model.stall.polar_column == "CL");
+  CHECK(e.model.stall.polar_x_rad.size() == 41);  // the [static] table: it models CL
+  CHECK(e.model.stall.f0_correction.powers == std::vector<int>{0, 1});
+  const std::string back = write_experiment_toml(e, {});
+  CHECK(back.find("stall = \"separation_and_vortex\"") != std::string::npos);
+  CHECK(back.find("stall_T1_start = 2.5") != std::string::npos);
+  CHECK(back.find("stall_f0_correction_degree = 1") != std::string::npos);
+  // A stall key without stall, and an unknown family, are refused with the file and line.
+  write_toml("stall_T1_start = 2.5\n");
+  CHECK_THROWS_WITH_AS(load_experiment((dir / "e.toml").string()),
+                       doctest::Contains("is used only with model.stall"), InputError);
+  write_toml("stall = \"vortex\"\n");
+  CHECK_THROWS_AS(load_experiment((dir / "e.toml").string()), InputError);
+  std::filesystem::remove_all(dir);
 }

@@ -2,6 +2,7 @@
 """Held-out validation of the dynamic-stall families on the Glasgow NACA 0012 cycles (issue 22).
 
 Usage: tools/validate-stall.sh DATA_DIR [INDICIAL] > docs/validation-stall.md
+       python3 tools/validate_stall.py --static-polar DATA_DIR static.csv   (the polar only)
 DATA_DIR is the Glasgow development set (README there: Green & Giuni, University of Glasgow
 dynamic-stall database, campaigns 4-6); nothing of it is copied into the repository. The
 script writes every intermediate file into a temporary directory, runs `indicial fit` and
@@ -104,6 +105,12 @@ def rms(a, b):
 
 
 def main():
+    if len(sys.argv) == 4 and sys.argv[1] == '--static-polar':
+        # Only the static polar (step 2 above), as a [static] table / model.stall_polar CSV.
+        data = sys.argv[2]
+        catalog = list(csv.DictReader(open(os.path.join(data, 'catalog.csv'))))
+        static_polar(data, catalog, sys.argv[3])
+        return
     data = sys.argv[1]
     exe = sys.argv[2] if len(sys.argv) > 2 else 'indicial'
     catalog = list(csv.DictReader(open(os.path.join(data, 'catalog.csv'))))
@@ -153,7 +160,7 @@ def main():
                 if not ok:
                     res[f'{kind}_{coef}'] = float('nan')
                     continue
-                pred = list(csv.DictReader(open(out)))
+                pred = list(csv.DictReader(line for line in open(out) if not line.startswith('#')))
                 res[f'{kind}_{coef}'] = rms([float(p[f'{coef}_pred']) for p in pred], meas)
                 res[f'qs_{coef}'] = rms([float(p[f'{coef}_quasi_steady']) for p in pred], meas) \
                     if f'{coef}_quasi_steady' in pred[0] else float('nan')
@@ -180,8 +187,9 @@ def report(results, polar, fit_runs, models):
     for key in (('CL', 'report'), ('CL', 'extended'), ('Cm', 'report'), ('Cm', 'extended')):
         fj = models.get(key + ('json',))
         if fj:
-            oe = fj.get('output_error', {})
-            p(f'* fit {key[0]} {key[1]}: {oe.get("termination", "?")}, s(v) = {fj.get("fit_error", float("nan")):.4g}')
+            p(f'* fit {key[0]} {key[1]}: {fj.get("termination", "?")}, s(v) = {fj.get("fit_error", float("nan")):.4g}, '
+              f'{fj.get("n_parameters", "?")} parameters, {fj.get("iterations", "?")} iterations, '
+              f'runtime replay: {fj.get("runtime_check", {})}')
         else:
             p(f'* fit {key[0]} {key[1]}: FAILED (see stderr)')
     p('')
