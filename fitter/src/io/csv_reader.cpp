@@ -16,7 +16,7 @@
 #include "indicial/fitter/did_you_mean.hpp"
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/io.hpp"
-#include "mat_file.hpp"
+#include "io/mat_file.hpp"
 
 namespace indicial {
 namespace {

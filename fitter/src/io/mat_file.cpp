@@ -17,7 +17,7 @@
 // 1. matio reports problems through its log; the messages of a failed open are captured and
 //    put into the error (a thread-local buffer: the readers may run in parallel).
 // 2. v7.3 files are HDF5: they need matio built with HDF5 (Debian's libmatio11 is).
-#include "mat_file.hpp"
+#include "io/mat_file.hpp"
 
 #include <matio.h>
 
