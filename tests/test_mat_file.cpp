@@ -4,6 +4,7 @@
 // the CSV; and every kind of missing or mistyped variable is refused naming the variable.
 #include <matio.h>
 
+#include <cmath>
 #include <cstdio>
 #include <doctest/doctest.h>
 #include <filesystem>
@@ -12,9 +13,10 @@
 #include <vector>
 
 #include "cli_test_support.hpp"
+#include "indicial/fitter/csv_reader.hpp"
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/experiment.hpp"
-#include "indicial/fitter/io.hpp"
+#include "indicial/fitter/experiment_toml.hpp"
 
 namespace fs = std::filesystem;
 using indicial::testing::run_indicial;
@@ -121,6 +123,26 @@ TEST_CASE("mat: v5 and v7.3, variables or one struct, give the CSV's run bit for
     CHECK(mat.coefficient == csv.coefficient);
     CHECK(mat.time_grid == csv.time_grid);
   }
+}
+
+TEST_CASE("mat: an experiment (what fit and diagnose load) takes .mat runs as it takes CSVs") {
+  const auto cols = run_columns();
+  write_csv(cols, dir() / "e.csv");
+  write_mat(cols, dir() / "e.mat", MAT_FT_MAT73, Layout::one_struct);
+  auto experiment = [](const std::string& run) {
+    const fs::path p = dir() / ("experiment-" + run + ".toml");
+    std::ofstream(p) << "axis = \"pitch\"\ncoefficient = \"Cm\"\nreference_length_m = 0.3765\n"
+                        "airspeed_mps = 17.667762\nruns = [\"" << run << "\"]\n[static]\n"
+                        "polynomial = [0.0, 0.42]\n";
+    return indicial::load_experiment(p.string());
+  };
+  const indicial::Experiment from_csv = experiment("e.csv");
+  const indicial::Experiment from_mat = experiment("e.mat");
+  REQUIRE(from_mat.runs.size() == 1);
+  CHECK(from_mat.runs[0].time_s == from_csv.runs[0].time_s);
+  CHECK(from_mat.runs[0].motion_angle_rad == from_csv.runs[0].motion_angle_rad);
+  CHECK(from_mat.runs[0].rate_radps == from_csv.runs[0].rate_radps);
+  CHECK(from_mat.runs[0].coefficient == from_csv.runs[0].coefficient);
 }
 
 TEST_CASE("mat: indicial predict on a .mat writes what it writes for the CSV") {
