@@ -139,11 +139,13 @@ class BatchStepper {
     const Inputs v = airspeed_inputs(airspeed);
     py::array_t<double> target = out.is_none() ? outputs_ : checked_out(out, {core().n}, core().n_out);
     double* o = target.mutable_data();
+    StepStatus first = StepStatus::ok;
     {
       py::gil_scoped_release release;
-      core_->step(a.data, r.data, v.data, dt_s, o, status_.data());
+      first = core_->step(a.data, r.data, v.data, dt_s, o, status_.data());
     }
-    raise_first_refusal(errors, "step");
+    if (!stepped(first)) raise_first_refusal(errors, "step");  // step_batch returns the first refusal
+    else if (errors != "raise" && errors != "keep") throw InputError("errors", 0, "expected 'raise' or 'keep'");
     return target;
   }
 
@@ -231,6 +233,16 @@ class BatchStepper {
   Inputs inputs(Slot slot, const py::handle& value, const char* name) {
     if (PyFloat_Check(value.ptr()) || PyLong_Check(value.ptr())) return constant(slot, value.cast<double>());
     Inputs in;
+    // The common case first, with no conversion call at all: the caller's C-contiguous float64
+    // array of one value per instance, read in place.
+    if (py::isinstance<DoubleArray>(value)) {
+      auto a = py::reinterpret_borrow<DoubleArray>(value);
+      if (a.ndim() == 1 && a.shape(0) == static_cast<py::ssize_t>(core().n)) {
+        in.keep = std::move(a);
+        in.data = in.keep.data();
+        return in;
+      }
+    }
     in.keep = as_doubles(value, name);
     if (in.keep.ndim() == 0) return constant(slot, *in.keep.data());
     if (in.keep.ndim() != 1 || in.keep.shape(0) != static_cast<py::ssize_t>(core().n))
