@@ -1,12 +1,18 @@
-// `indicial codegen MODEL.coef --out FILE.hpp [--force] [--name IDENT] [--namespace NS]`: turns
-// a coefficient file into a C++17 header holding the model as a constexpr
-// indicial::RuntimeModel<double, DefaultCapacity> NS::IDENT (NS defaults to
-// indicial_generated), so that an embedded target steps it in place (it lives in read-only
-// memory; the header includes runtime.hpp and no parser) and never parses text.
+// `indicial codegen MODEL.coef --out FILE.hpp [--force] [--name IDENT] [--namespace NS]
+// [--scalar double|float]`: turns a coefficient file into a C++17 header holding the model as
+// a constexpr indicial::RuntimeModel<double, DefaultCapacity> NS::IDENT (NS defaults to
+// indicial_generated; --scalar float gives RuntimeModel<float, DefaultCapacity>, the model
+// Predictor<float> and State<float> step, e.g. on a Cortex-M4F), so that an embedded target
+// steps it in place (it lives in read-only memory; the header includes runtime.hpp and no
+// parser) and never parses text.
 //
 // The file is parsed by the runtime's own parser (runtime/include/indicial/coef_file.hpp) and
 // validated like Predictor::load does; every number is written in its shortest round-trip
 // form, so the generated model is bit-identical to the parsed one (tests/test_codegen.cpp).
+// A float model is the one make_runtime_model<float> builds from the parsed file (every
+// Scalar value converted by static_cast<float>, a static table's second derivatives
+// recomputed in float), written as shortest round-trip float literals: bit-identical to
+// Predictor<float>::load of the same text.
 // The model is built by a constexpr function (assignments into a default-constructed
 // ModelSet) rather than one aggregate initialiser, which keeps the header readable and
 // independent of the order of ModelSet's members.
@@ -32,6 +38,7 @@ struct CodegenOptions {
   std::string out;
   std::string name;
   std::string name_space = "indicial_generated";
+  std::string scalar = "double";
   bool force = false;
 };
 
@@ -45,6 +52,22 @@ std::string literal(double v) {
   if (s.find_first_of(".e") == std::string::npos) s += ".0";
   return s;
 }
+
+// A float as a C++ float literal (shortest round-trip digits and the f suffix).
+std::string literal(float v) {
+  char buf[40];
+  const std::to_chars_result r = std::to_chars(buf, buf + sizeof buf, v);
+  std::string s(buf, r.ptr);
+  if (s.find_first_of(".e") == std::string::npos) s += ".0";
+  return s + "f";
+}
+
+template <class Scalar>
+const char* scalar_name();
+template <>
+const char* scalar_name<double>() { return "double"; }
+template <>
+const char* scalar_name<float>() { return "float"; }
 
 bool is_identifier(const std::string& s) {
   if (s.empty() || (s[0] >= '0' && s[0] <= '9')) return false;
@@ -98,8 +121,8 @@ std::string identifier_from_path(const std::string& path) {
   return stem;
 }
 
-template <int P, int K>
-void emit_spline(std::string& o, const std::string& lhs, const indicial::Spline<double, P, K>& s) {
+template <class Scalar, int P, int K>
+void emit_spline(std::string& o, const std::string& lhs, const indicial::Spline<Scalar, P, K>& s) {
   if (s.n_powers == 0 && s.n_knots == 0) return;
   o += "  " + lhs + ".n_powers = " + std::to_string(s.n_powers) + ";\n";
   for (int i = 0; i < s.n_powers; ++i)
@@ -115,7 +138,8 @@ void emit_spline(std::string& o, const std::string& lhs, const indicial::Spline<
 
 // The step constants of the RuntimeModel (derive_step_constants' values, computed by the
 // tool with the same function the runtime uses to check them).
-void emit_step_constants(std::string& o, const indicial::RuntimeModel<double, Cap>& r) {
+template <class Scalar>
+void emit_step_constants(std::string& o, const indicial::RuntimeModel<Scalar, Cap>& r) {
   o += "  r.x_min_rad = " + literal(r.x_min_rad) + ";\n";
   o += "  r.x_max_rad = " + literal(r.x_max_rad) + ";\n";
   o += "  r.angle_factor = " + literal(r.angle_factor) + ";\n";
@@ -125,8 +149,9 @@ void emit_step_constants(std::string& o, const indicial::RuntimeModel<double, Ca
        (r.delay == indicial::DelayUse::delayed ? "delayed" : "none") + ";\n";
 }
 
+template <class Scalar>
 void emit_coefficient(std::string& o, const std::string& p,
-                      const indicial::CoefficientModel<double, Cap>& cm) {
+                      const indicial::CoefficientModel<Scalar, Cap>& cm) {
   o += "  // " + std::string(cm.name) + "\n";
   for (int i = 0; cm.name[i] != '\0'; ++i)
     o += "  " + p + ".name[" + std::to_string(i) + "] = '" + cm.name[i] + "';\n";
@@ -157,12 +182,14 @@ void emit_coefficient(std::string& o, const std::string& p,
   o += "  " + p + ".delay_s = " + literal(cm.delay_s) + ";\n";
 }
 
-std::string generate(const indicial::RuntimeModel<double, Cap>& r, const std::string& ident,
+template <class Scalar>
+std::string generate(const indicial::RuntimeModel<Scalar, Cap>& r, const std::string& ident,
                      const std::string& ns, const std::string& source_name, std::uint32_t crc) {
-  const Set& m = r.set;
+  const indicial::ModelSet<Scalar, Cap>& m = r.set;
   char crc_hex[16];
   std::snprintf(crc_hex, sizeof crc_hex, "%08x", static_cast<unsigned>(crc));
-  const std::string type = "indicial::RuntimeModel<double, indicial::DefaultCapacity>";
+  const std::string scalar = scalar_name<Scalar>();
+  const std::string type = "indicial::RuntimeModel<" + scalar + ", indicial::DefaultCapacity>";
   std::string o;
   o += "// Generated by `indicial codegen` from " + source_name + " (checksum " + crc_hex +
        "). Do not edit:\n"
@@ -171,16 +198,16 @@ std::string generate(const indicial::RuntimeModel<double, Cap>& r, const std::st
        "//   #include \"" + ident + ".hpp\"   // includes indicial/runtime.hpp, no parser\n"
        "//   const auto& model = " + ns + "::" + ident + ";   // in read-only memory, never copied\n"
        "//   indicial::check_runtime_model(model);            // once, at start: LoadStatus::ok\n"
-       "//   indicial::State<double, indicial::DefaultCapacity> state;  // per instance\n"
+       "//   indicial::State<" + scalar + ", indicial::DefaultCapacity> state;  // per instance\n"
        "//   indicial::reset(model, state, angle_rad, airspeed_mps);  // then indicial::step(...)\n"
-       "//   // or: indicial::Predictor<> p; p.use(model);   (p.load(model) copies it)\n"
+       "//   // or: indicial::Predictor<" + scalar + "> p; p.use(model);\n"
        "#pragma once\n\n"
        "#include \"indicial/runtime.hpp\"\n\n"
        "namespace " + ns + " {\n"
        "namespace codegen_detail {\n"
        "constexpr " + type + " make_" + ident + "() {\n"
        "  " + type + " r{};\n"
-       "  indicial::ModelSet<double, indicial::DefaultCapacity>& m = r.set;\n";
+       "  indicial::ModelSet<" + scalar + ", indicial::DefaultCapacity>& m = r.set;\n";
   o += std::string("  m.axis = indicial::Axis::") + indicial::axis_name(m.axis) + ";\n";
   o += "  m.reference_length_m = " + literal(m.reference_length_m) + ";\n";
   o += "  m.airspeed_mps = " + literal(m.airspeed_mps) + ";\n";
@@ -221,12 +248,23 @@ void run_codegen(const CodegenOptions& o) {
   }
   const std::size_t at = text.rfind("checksum ");
   const std::uint32_t crc = crc32(text.data(), at == std::string::npos ? 0 : at);
-  const std::string header = generate(*model, ident, o.name_space,
-                                      std::filesystem::path(o.model_path).filename().string(), crc);
+  const std::string source = std::filesystem::path(o.model_path).filename().string();
+  std::string header;
+  if (o.scalar == "float") {
+    // The float model exactly as Predictor<float>::load builds it from the same text.
+    auto model_f = std::make_unique<RuntimeModel<float, Cap>>();
+    const LoadStatus sf = make_runtime_model(model->set, model_f.get(), &diag);
+    if (sf != LoadStatus::ok)
+      throw InputError(o.model_path, 0, std::string(diag.reason) + " in float (" + to_string(sf) + ")");
+    header = generate(*model_f, ident, o.name_space, source, crc);
+  } else {
+    header = generate(*model, ident, o.name_space, source, crc);
+  }
   write_file_atomically(o.out, header, o.force ? Overwrite::replace : Overwrite::refuse);
-  std::printf("codegen: wrote %s (%s::%s: %s, %d coefficient%s)\n", o.out.c_str(),
+  std::printf("codegen: wrote %s (%s::%s: %s, %d coefficient%s, %s)\n", o.out.c_str(),
               o.name_space.c_str(), ident.c_str(), axis_name(model->set.axis),
-              model->set.n_coefficients, model->set.n_coefficients == 1 ? "" : "s");
+              model->set.n_coefficients, model->set.n_coefficients == 1 ? "" : "s",
+              o.scalar.c_str());
 }
 
 const indicial::tools::RegisterCommand register_codegen([](CLI::App& app) {
@@ -237,7 +275,9 @@ const indicial::tools::RegisterCommand register_codegen([](CLI::App& app) {
       "indicial::RuntimeModel<double, indicial::DefaultCapacity> NS::IDENT` (read-only memory,\n"
       "stepped in place: indicial::step(NS::IDENT, state, ...) or Predictor::use(NS::IDENT); no\n"
       "parsing, the header includes only indicial/runtime.hpp). The file is parsed and validated\n"
-      "exactly as Predictor::load does; refusals are reported as FILE:LINE: reason (status).");
+      "exactly as Predictor::load does; refusals are reported as FILE:LINE: reason (status).\n"
+      "--scalar float writes RuntimeModel<float, ...> (Predictor<float>, State<float>; the model\n"
+      "Predictor<float>::load builds from the same text, bit for bit).");
   sub->add_option("MODEL", opt->model_path, "coefficient file (.coef)")->required();
   sub->add_option("--out", opt->out, "header to write")->required();
   sub->add_option("--name", opt->name,
@@ -245,6 +285,9 @@ const indicial::tools::RegisterCommand register_codegen([](CLI::App& app) {
                   "tailless_model_2)");
   sub->add_option("--namespace", opt->name_space,
                   "namespace of the generated model (default: indicial_generated)");
+  sub->add_option("--scalar", opt->scalar,
+                  "double (default) or float: the Scalar of the generated RuntimeModel")
+      ->check(CLI::IsMember({"double", "float"}));
   sub->add_flag("--force", opt->force, "replace an existing header");
   sub->callback([opt]() { run_codegen(*opt); });
 });

@@ -5,6 +5,8 @@
 #                                      gnuplot (report plots)
 #   tools/install-deps.sh fuzz         plus clang 14 with libFuzzer (tools/run-fuzz.sh)
 #   tools/install-deps.sh bench        plus Google Benchmark, python3 and valgrind (bench/run_all.sh)
+#   tools/install-deps.sh cortex-m     plus the Arm bare-metal GCC with newlib and libstdc++, and
+#                                      QEMU's Arm system emulator (tools/run-cortex-m.sh)
 #   tools/install-deps.sh fuzz bench   both extras
 #
 # Nothing is installed when every package asked for is already there (no apt-get update).
@@ -22,7 +24,9 @@ for extra in "$@"; do
   case "$extra" in
     fuzz) packages+=(clang libclang-rt-14-dev) ;;  # clang 14 with libFuzzer and its sanitizer runtimes
     bench) packages+=(libbenchmark-dev python3 valgrind) ;;
-    *) echo "install-deps: unknown extra '$extra' (expected fuzz or bench)" >&2; exit 2 ;;
+    cortex-m) packages+=(gcc-arm-none-eabi libnewlib-arm-none-eabi libstdc++-arm-none-eabi-newlib
+                         qemu-system-arm python3) ;;
+    *) echo "install-deps: unknown extra '$extra' (expected fuzz, bench or cortex-m)" >&2; exit 2 ;;
   esac
 done
 
