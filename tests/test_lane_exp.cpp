@@ -145,7 +145,8 @@ long count_lane_scalar_differences(const std::vector<S>& args) {
     for (int i = 0; i < indicial::batch_block; ++i) x[i] = args[(b + std::size_t(i)) % args.size()];
     const bd::LaneArray<S, R> e = bd::lane_exp(x);
     for (int i = 0; i < indicial::batch_block; ++i) {
-      const S one = indicial::exp_on<S, S, indicial::detail::ScalarBitCast<S>>(x[i]);
+      S one;
+      indicial::exp_on<S, S, indicial::detail::ScalarBitCast<S>>(x[i], &one);
       const S lane = e[i];
       if (std::memcmp(&one, &lane, sizeof one) != 0 && !(std::isnan(one) && std::isnan(lane))) ++differ;
     }

@@ -41,7 +41,8 @@ c++ -std=c++17 -O2 -ffp-contract=off -Wall -Wextra -Iruntime/include -Ishared/in
 "$out/host_check" motion "$out/motion.bin"
 
 # ---- the two model inputs: the generated float model and the .coef text -------------------------
-"$indicial" codegen "$model_coef" --scalar float --name firmware_model --out "$out/generated_model.hpp" --force
+"$indicial" codegen "$model_coef" --scalar float --capacity tight --name firmware_model \
+  --out "$out/generated_model.hpp" --force
 { printf 'R"coef('; cat "$model_coef"; printf ')coef"\n'; } > "$out/model_text.inc"
 
 # ---- cross build ------------------------------------------------------------------------------

@@ -132,6 +132,7 @@ std::int64_t ulp_distance(float a, float b) {
 
 template <class Scalar>
 struct HostRun {
+  int count = 0;  // the model's coefficients
   std::vector<int> status;
   std::vector<Scalar> value;  // n_steps + 1 rows of max_coefficients
 };
@@ -145,6 +146,7 @@ HostRun<Scalar> run_host(const std::string& text, const std::vector<MotionSample
     std::exit(2);
   }
   HostRun<Scalar> r;
+  r.count = p.coefficient_count();
   r.value.assign(m.size() * max_coefficients, Scalar(0));
   r.status.push_back(static_cast<int>(p.reset(m[0].angle_rad, m[0].airspeed_mps)));
   typename indicial::Predictor<Scalar>::Outputs out;
@@ -187,7 +189,7 @@ int compare(const char* coef_path, const char* motion_path, const char* target_p
     }
     if (k == 0 || (target[k].status != 0 && target[k].status != 1)) continue;
     ++stepped;
-    for (int c = 0; c < max_coefficients; ++c) {
+    for (int c = 0; c < hf.count; ++c) {
       const float t = target[k].value[c];
       const float f = hf.value[k * max_coefficients + c];
       const double d = hd.value[k * max_coefficients + c];

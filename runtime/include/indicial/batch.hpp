@@ -255,11 +255,12 @@ INDICIAL_LANE_INLINE bool lane_any(const LaneMask<S, R>& m) {
 }
 
 // A lane vector's bit pattern and back: model.hpp's exp_on on a Part of lanes.
-template <class Part, class PartBits>
+// (Bits is declared here: a vector typedef passed as a template argument loses its vector_size.)
+template <class S, class Part>
 struct LaneBitCast {
-  using Bits = PartBits;
-  INDICIAL_LANE_INLINE static Bits to(const Part& v) { return (Bits)v; }
-  INDICIAL_LANE_INLINE static Part from(const Bits& b) { return (Part)b; }
+  typedef typename ExpConstants<S>::Bits Bits __attribute__((vector_size(sizeof(Part))));
+  INDICIAL_LANE_INLINE static void to(const Part& v, Bits* b) { *b = (Bits)v; }
+  INDICIAL_LANE_INLINE static void from(const Bits& b, Part* v) { *v = (Part)b; }
 };
 
 // exp lane-wise: model.hpp's exp_on, the float single step's exponential, on each part of
@@ -272,9 +273,8 @@ struct LaneBitCast {
 template <class S, int R>
 INDICIAL_LANE_INLINE LaneArray<S, R> lane_exp(const LaneArray<S, R>& x) {
   using Part = typename LaneArray<S, R>::Part;
-  typedef typename ExpConstants<S>::Bits Bits __attribute__((vector_size(sizeof(Part))));
   LaneArray<S, R> r;
-  for (int k = 0; k < LaneArray<S, R>::parts; ++k) r.p[k] = exp_on<S, Part, LaneBitCast<Part, Bits>>(x.p[k]);
+  for (int k = 0; k < LaneArray<S, R>::parts; ++k) exp_on<S, Part, LaneBitCast<S, Part>>(x.p[k], &r.p[k]);
   return r;
 }
 #else
@@ -362,7 +362,7 @@ inline bool lane_any(const LaneMask<S, R>& m) {
 template <class S, int R>
 inline LaneArray<S, R> lane_exp(const LaneArray<S, R>& x) {
   LaneArray<S, R> r;
-  for (int i = 0; i < batch_block; ++i) r.v[i] = exp_on<S, S, detail::ScalarBitCast<S>>(x.v[i]);
+  for (int i = 0; i < batch_block; ++i) exp_on<S, S, detail::ScalarBitCast<S>>(x.v[i], &r.v[i]);
   return r;
 }
 #endif

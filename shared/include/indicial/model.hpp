@@ -524,24 +524,18 @@ namespace detail {
 template <class S>
 struct ScalarBitCast {
   using Bits = typename ExpConstants<S>::Bits;
-  static Bits to(S v) {
-    Bits b;
-    std::memcpy(&b, &v, sizeof b);
-    return b;
-  }
-  static S from(Bits b) {
-    S v;
-    std::memcpy(&v, &b, sizeof v);
-    return v;
-  }
+  static void to(const S& v, Bits* b) { std::memcpy(b, &v, sizeof *b); }
+  static void from(const Bits& b, S* v) { std::memcpy(v, &b, sizeof *v); }
 };
 }  // namespace detail
 
-// exp of v, v one S or a vector of S (GCC/Clang vector extension: the same operators, a
+// *r = exp of v, v one S or a vector of S (GCC/Clang vector extension: the same operators, a
 // comparison gives a lane mask and ?: selects lane by lane). BitCast converts between Part
-// and its bit pattern (BitCast::Bits, one unsigned integer per element).
+// and its bit pattern (BitCast::Bits, one unsigned integer per element): to(part, &bits),
+// from(bits, &part). (Out parameters: a vector returned by value would change the ABI with
+// the register width, -Wpsabi.)
 template <class S, class Part, class BitCast>
-INDICIAL_HOT_INLINE Part exp_on(const Part& v) {
+INDICIAL_HOT_INLINE void exp_on(const Part& v, Part* r) {
   using C = ExpConstants<S>;
   using Bits = typename BitCast::Bits;
   S inverse_factorial[C::degree + 1];
@@ -556,14 +550,20 @@ INDICIAL_HOT_INLINE Part exp_on(const Part& v) {
   for (int d = C::degree - 1; d >= 0; --d) poly = poly * reduced + inverse_factorial[d];
   const Part half_shifted = n * S(0.5) + shifter;  // n1 = round(n / 2), n2 = n - n1
   const Part n2 = n - (half_shifted - shifter);
-  const Bits n1_bits = BitCast::to(half_shifted) - BitCast::to(shifter);  // n1 modulo 2^bits
-  const Bits n2_bits = BitCast::to(n2 + shifter) - BitCast::to(shifter);
-  Part e = poly * BitCast::from((n1_bits + bias) << C::mantissa_bits) *
-           BitCast::from((n2_bits + bias) << C::mantissa_bits);
+  Bits half_shifted_bits, n2_shifted_bits, shifter_bits;
+  BitCast::to(half_shifted, &half_shifted_bits);
+  BitCast::to(n2 + shifter, &n2_shifted_bits);
+  BitCast::to(shifter, &shifter_bits);
+  const Bits n1_bits = half_shifted_bits - shifter_bits;  // n1 modulo 2^bits
+  const Bits n2_bits = n2_shifted_bits - shifter_bits;
+  Part two_n1, two_n2;
+  BitCast::from((n1_bits + bias) << C::mantissa_bits, &two_n1);
+  BitCast::from((n2_bits + bias) << C::mantissa_bits, &two_n2);
+  Part e = poly * two_n1 * two_n2;
   e = v > C::overflow_above ? Part{} + std::numeric_limits<S>::infinity() : e;
   e = v < C::underflow_below ? Part{} : e;
   e = v != v ? v + v : e;
-  return e;
+  *r = e;
 }
 
 namespace detail {
@@ -575,7 +575,9 @@ inline Scalar step_exp(const Scalar& x) {
   return exp(x);
 }
 INDICIAL_HOT_INLINE float step_exp(const float& x) {
-  return exp_on<float, float, ScalarBitCast<float>>(x);
+  float r;
+  exp_on<float, float, ScalarBitCast<float>>(x, &r);
+  return r;
 }
 }  // namespace detail
 
