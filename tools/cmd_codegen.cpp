@@ -25,6 +25,7 @@
 #include <filesystem>
 #include <memory>
 #include <string>
+#include <type_traits>
 
 #include "command.hpp"
 #include "indicial/coef_file.hpp"
@@ -47,32 +48,19 @@ struct CodegenOptions {
   bool force = false;
 };
 
-// A double as a C++ literal that converts back to exactly the same double: the shortest
-// round-trip digits, with ".0" appended where they would otherwise read as an int (which
-// would also lose the sign of -0).
-std::string literal(double v) {
+// A double (or float) as a C++ literal that converts back to exactly the same value: the
+// shortest round-trip digits, with ".0" appended where they would otherwise read as an int
+// (which would also lose the sign of -0), and the f suffix for a float.
+template <class T>
+std::string shortest_digits(T v) {
   char buf[40];
   const std::to_chars_result r = std::to_chars(buf, buf + sizeof buf, v);
   std::string s(buf, r.ptr);
   if (s.find_first_of(".e") == std::string::npos) s += ".0";
   return s;
 }
-
-// A float as a C++ float literal (shortest round-trip digits and the f suffix).
-std::string literal(float v) {
-  char buf[40];
-  const std::to_chars_result r = std::to_chars(buf, buf + sizeof buf, v);
-  std::string s(buf, r.ptr);
-  if (s.find_first_of(".e") == std::string::npos) s += ".0";
-  return s + "f";
-}
-
-template <class Scalar>
-const char* scalar_name();
-template <>
-const char* scalar_name<double>() { return "double"; }
-template <>
-const char* scalar_name<float>() { return "float"; }
+std::string literal(double v) { return shortest_digits(v); }
+std::string literal(float v) { return shortest_digits(v) + "f"; }
 
 bool is_identifier(const std::string& s) {
   if (s.empty() || (s[0] >= '0' && s[0] <= '9')) return false;
@@ -220,7 +208,7 @@ std::string generate(const indicial::RuntimeModel<Scalar, Cap>& r, const std::st
   const indicial::ModelSet<Scalar, Cap>& m = r.set;
   char crc_hex[16];
   std::snprintf(crc_hex, sizeof crc_hex, "%08x", static_cast<unsigned>(crc));
-  const std::string scalar = scalar_name<Scalar>();
+  const std::string scalar = std::is_same<Scalar, float>::value ? "float" : "double";
   const std::string cap = ident + "_capacity";
   const std::string type = "indicial::RuntimeModel<" + scalar + ", " + cap + ">";
   std::string o;

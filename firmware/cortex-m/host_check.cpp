@@ -9,7 +9,7 @@
 // (default 0: bit-identical) from the host's Predictor<float>, and prints the largest
 // differences from the host's Predictor<double>.
 //
-// The motion (MotionHeader / MotionSample of replay.cpp, little-endian):
+// The motion (replay_format.hpp):
 //   segment 0, 1000 steps: the benchmarks' motion (bench/bench_models.hpp): alpha = 35 + 35
 //     sin(2 pi t) deg, q its rate, dt = 1 ms, V = V_ref: the instruction counts compare with
 //     the host's callgrind counts of the same model.
@@ -30,30 +30,14 @@
 
 #include "indicial/coef_file.hpp"
 #include "indicial/runtime.hpp"
+#include "replay_format.hpp"
 
 namespace {
 
-constexpr int max_segments = 8;
 constexpr int max_coefficients = indicial::DefaultCapacity::max_coefficients;
-
-struct MotionHeader {
-  char magic[8];
-  std::uint32_t n_steps;
-  std::uint32_t n_segments;
-  std::uint32_t segment_end[max_segments];
-};
-
-struct MotionSample {
-  double angle_rad;
-  double rate_radps;
-  double airspeed_mps;
-  double dt_s;
-};
-
-struct OutputRecord {
-  std::int32_t status;
-  float value[max_coefficients];
-};
+using fw::MotionHeader;
+using fw::MotionSample;
+using fw::OutputRecord;
 
 constexpr double pi = 3.14159265358979323846;
 constexpr double reference_airspeed_mps = 17.667762;

@@ -21,6 +21,7 @@
 #include <cstdint>
 
 #include "instruction_counter.hpp"
+#include "replay_format.hpp"
 #include "semihosting.hpp"
 
 #if INDICIAL_FW_VARIANT == 3
@@ -58,28 +59,11 @@ const char model_text[] =
 #error "INDICIAL_FW_VARIANT must be 1 (codegen_state), 2 (codegen_predictor) or 3 (coef_text)"
 #endif
 
-// ---- the replay files (host_check.cpp writes and reads the same layouts) ----------------
+// ---- the replay files (replay_format.hpp) ----------------------------------------------------
 constexpr int max_steps = 4096;
-constexpr int max_segments = 8;
-
-struct MotionHeader {
-  char magic[8];  // "IMOTION1"
-  std::uint32_t n_steps;
-  std::uint32_t n_segments;
-  std::uint32_t segment_end[max_segments];  // exclusive step index where each segment ends
-};
-
-struct MotionSample {  // sample 0 is the reset; step k uses sample k
-  double angle_rad;
-  double rate_radps;
-  double airspeed_mps;
-  double dt_s;
-};
-
-struct OutputRecord {
-  std::int32_t status;
-  float value[3];  // the model's coefficients first (at most 3, Capacity's limit)
-};
+using fw::MotionHeader;
+using fw::MotionSample;
+using fw::OutputRecord;
 
 // The harness's buffers, kept in their own section (.replay): not part of the runtime's RAM.
 __attribute__((section(".replay"))) MotionHeader header;
@@ -261,7 +245,7 @@ bool read_motion() {
   const char magic[8] = {'I', 'M', 'O', 'T', 'I', 'O', 'N', '1'};
   for (int i = 0; i < 8; ++i) ok = ok && header.magic[i] == magic[i];
   ok = ok && header.n_steps >= 1 && header.n_steps <= max_steps && header.n_segments >= 1 &&
-       header.n_segments <= max_segments && header.segment_end[header.n_segments - 1] == header.n_steps + 1;
+       header.n_segments <= fw::max_segments && header.segment_end[header.n_segments - 1] == header.n_steps + 1;
   ok = ok && fw::read_file(h, motion, (header.n_steps + 1) * sizeof(MotionSample)) == 0;
   fw::close_file(h);
   return ok;
