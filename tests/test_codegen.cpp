@@ -64,9 +64,9 @@ std::string write(const Set& m) {
 
 template <class Scalar>
 void compare_runs(const std::string& text, const indicial::RuntimeModel<Scalar, indicial::DefaultCapacity>& generated) {
-  using P = indicial::Predictor<Scalar>;
-  P from_text;
-  P from_header;
+  using Pred = indicial::Predictor<Scalar>;
+  Pred from_text;
+  Pred from_header;
   indicial::ParseDiagnostic diag;
   REQUIRE(from_text.load(text.data(), text.size(), &diag) == indicial::LoadStatus::ok);
   REQUIRE(from_header.use(generated) == indicial::LoadStatus::ok);  // in place, no copy
@@ -78,8 +78,8 @@ void compare_runs(const std::string& text, const indicial::RuntimeModel<Scalar, 
     const double t = 0.002 * k;
     const double w = 2 * kPi * 1.0;
     const indicial::MotionInput in{0.61 + 0.61 * std::sin(w * t), 0.61 * w * std::cos(w * t), 20.0};
-    typename P::Outputs a;
-    typename P::Outputs b;
+    typename Pred::Outputs a;
+    typename Pred::Outputs b;
     REQUIRE(from_text.step(in, 0.002, &a) == indicial::StepStatus::ok);
     REQUIRE(from_header.step(in, 0.002, &b) == indicial::StepStatus::ok);
     REQUIRE(a.count == b.count);
@@ -90,8 +90,8 @@ void compare_runs(const std::string& text, const indicial::RuntimeModel<Scalar, 
     ++steps;
   }
   CHECK(steps == 1500);
-  const typename P::Snapshot sa = from_text.snapshot();
-  const typename P::Snapshot sb = from_header.snapshot();
+  const typename Pred::Snapshot sa = from_text.snapshot();
+  const typename Pred::Snapshot sb = from_header.snapshot();
   CHECK(std::memcmp(&sa, &sb, sizeof sa) == 0);
 }
 

@@ -122,8 +122,10 @@ int coefficient_count() {
 #endif
 }
 
-// One step, out of line so that its instructions are counted apart from the loop's.
-__attribute__((noinline)) std::int32_t step_once(const MotionSample& s, OutputRecord* r) {
+// One step, out of line so that its instructions are counted apart from the loop's; flattened
+// like the one-time calls (the constant model's unused paths -- the dynamic-stall families of a
+// model without them -- fold away).
+FW_ONE_TIME_CALL std::int32_t step_once(const MotionSample& s, OutputRecord* r) {
   const indicial::MotionInput in{s.angle_rad, s.rate_radps, s.airspeed_mps};
 #if INDICIAL_FW_VARIANT == 1
   return static_cast<std::int32_t>(indicial::step(model, state, in, s.dt_s, r->value));
