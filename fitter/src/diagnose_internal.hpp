@@ -103,7 +103,7 @@ int choose_family(const std::vector<FamilyResult>& fr, const DiagnoseOptions& o,
 // Per-run held-out mean square errors of one model: for every run r the model is fitted to the
 // other runs (started from `start`, its full fit; run r's initial states dropped, the others
 // renumbered) and the runtime predicts run r (periodic: its periodic steady state; otherwise
-// from the steady state at its first sample). ok = false when some fold cannot be scored (its
+// from a least-squares lag-1 initial state). ok = false when some fold cannot be scored (its
 // fit failed or is rank deficient -- a term the other runs do not determine -- or the runtime
 // refuses it); `message` says which and why.
 struct HeldOut {
@@ -115,7 +115,9 @@ using FoldFit = std::function<FitResult(const Experiment&, const ModelConfig&, c
 HeldOut held_out_errors(const Experiment& w, const ModelConfig& m, const Estimates& start, int threads,
                         const FoldFit& fit);
 // The paired comparison (HeldOutTest in diagnose.hpp): d_r = ln(mse_with_r / mse_without_r);
-// enters when mean d + SE(d) < 0 and mean d < ln(1 - min_gain).
+// enters when mean d + SE(d) < 0, mean d < ln(1 - min_gain) and the runs it improves pass a
+// sign test at 1/8 (sign_test_passes).
+bool sign_test_passes(int improved, int runs);
 HeldOutTest held_out_test(Effect effect, const std::string& terms, const char* stage, const HeldOut& without,
                           const HeldOut& with, double min_gain);
 

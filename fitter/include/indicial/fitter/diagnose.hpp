@@ -121,8 +121,9 @@ struct DiagnoseOptions {
   double alpha = 0.01;               // family-wise significance level per round
   RuleChoice rule = RuleChoice::automatic;  // automatic: leave_one_run_out with >= cv_min_runs runs
   int cv_min_runs = 3;               // runs needed for the leave-one-run-out rule
-  double cv_min_gain = 0.01;         // a term must lower the held-out mean square error by at least
-                                     // this fraction (on top of one standard error)
+  double cv_min_gain = 0.05;         // a term must lower the held-out mean square error by at least
+                                     // this fraction (and by one standard error, on a sign test's
+                                     // share of the runs: docs/diagnose.md)
   int threads = 2;                   // fits run in parallel (candidates of a scan, held-out folds)
   int max_steps = 6;                 // effects added at most
   double knot_spacing_deg = 5.0;     // scan grid of knot positions (model angle x)
@@ -135,9 +136,10 @@ struct DiagnoseOptions {
 
 // A candidate's prediction of runs left out of its fit, against the model without it: for
 // every run r, both models are fitted to the other runs (warm start: their full fits) and
-// predict run r with the runtime (periodic runs at their periodic steady state, others from
-// the steady state at the first sample). It enters when mean_log_ratio + standard_error < 0
-// and mean_log_ratio < ln(1 - cv_min_gain).
+// predict run r with the runtime (periodic runs at their periodic steady state; others from a
+// lag-1 initial state fitted to run r, the one number the fitter also estimates per run). It
+// enters when mean_log_ratio + standard_error < 0, mean_log_ratio < ln(1 - cv_min_gain) and
+// runs_improved passes a sign test at 1/8 (all of 3, 4 of 4, 5 of 6, 8 of 10).
 struct HeldOutTest {
   Effect effect = Effect::bias;
   std::string terms;                 // the terms with it (`; `-separated)
@@ -146,6 +148,7 @@ struct HeldOutTest {
   std::vector<double> rms_with;      // per run: held-out RMS with it
   double mean_log_ratio = 0.0;       // mean over runs of ln(MSE_with / MSE_without)
   double standard_error = 0.0;       // of that mean: sd / sqrt(runs)
+  int runs_improved = 0;             // runs with a lower held-out error with it
   bool enters = false;
   std::string message;               // why it could not be tested (a fold fit failed, ...)
 };
