@@ -15,7 +15,7 @@
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/io.hpp"
 #include "indicial/fitter/output.hpp"
-#include "toml_reader.hpp"
+#include "io/toml_reader.hpp"
 
 namespace fs = std::filesystem;
 
