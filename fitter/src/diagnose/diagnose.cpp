@@ -19,7 +19,7 @@
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/io.hpp"
 #include "indicial/runtime.hpp"
-#include "parallel_for.hpp"
+#include "diagnose/parallel_for.hpp"
 
 namespace indicial {
 
@@ -573,10 +573,11 @@ void record_step(DiagnoseResult& d, const DiagnoseRound& rd, const FamilyResult&
   d.fits.push_back(std::move(last.fit));
 }
 
-// leave_one_run_out's choice among the families that entered: the lowest mean held-out log
-// ratio against the base; every family within one standard error of it is named with it, and
-// the step is the one with the fewest parameters among them, then the lower ratio (the one-
-// standard-error rule).
+// leave_one_run_out's choice among the families that entered (the one-standard-error rule):
+// the best is the lowest mean held-out log ratio against the round's model; every family
+// within one standard error of it is as good on these runs, and among those the step is the
+// one with the fewest added parameters, then the lower ratio; the others within are named
+// with it (`indistinguishable`).
 int choose_family_held_out(const std::vector<FamilyResult>& fr, std::vector<Effect>& tied) {
   int best = -1;
   for (std::size_t i = 0; i < fr.size(); ++i)

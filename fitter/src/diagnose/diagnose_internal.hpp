@@ -115,9 +115,9 @@ using FoldFit = std::function<FitResult(const Experiment&, const ModelConfig&, c
 HeldOut held_out_errors(const Experiment& w, const ModelConfig& m, const Estimates& start, int threads,
                         const FoldFit& fit);
 // The paired comparison (HeldOutTest in diagnose.hpp): d_r = ln(mse_with_r / mse_without_r);
-// enters when mean d + SE(d) < 0, mean d < ln(1 - min_gain) and the runs it improves pass a
-// sign test at 1/8 (sign_test_passes).
-bool sign_test_passes(int improved, int runs);
+// enters when mean d + SE(d) < 0, mean d < ln(1 - min_gain) and it improves more than half of
+// the runs (majority_improved).
+bool majority_improved(int improved, int runs);
 HeldOutTest held_out_test(Effect effect, const std::string& terms, const char* stage, const HeldOut& without,
                           const HeldOut& with, double min_gain);
 

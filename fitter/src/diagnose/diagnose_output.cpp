@@ -278,7 +278,7 @@ std::string report_markdown(const DiagnoseResult& d, const Experiment& e, const 
             ? fmt::format("**Noise from replication** (`{}`): {} -- sigma {}, lag-1 correlation {:.2f}.\n\n",
                           noise_source_name(d.replication.source), d.replication.detail, num(d.replication.sigma),
                           d.replication.lag1_correlation)
-            : "**No replication**: " + d.replication.detail +
+            : "**Noise**: " + d.replication.detail +
                   ". The levels below are the residual's short-lag structure, which is noise only where the "
                   "model is right; they are not used as the noise.\n\n";
   md += fmt::format("| | value |\n|---|---|\n| initial fit error s(v) | {} |\n| noise level (initial "
