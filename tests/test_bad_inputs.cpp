@@ -233,7 +233,10 @@ TEST_CASE("TOML: unknown (misspelt) key") {
                      "a_knots_deg, a_powers, b1_degree, b1_knots_deg, b1_powers, b2_degree, b2_knots_deg, "
                      "b2_powers, b3_degree, b3_knots_deg, b3_powers, bias, delay, "
                      "delay_start_s, further_lag_start, lags, rotary_correction_degree, "
-                     "rotary_correction_knots_deg, rotary_correction_powers, static_correction_degree, "
+                     "rotary_correction_knots_deg, rotary_correction_powers, stall, stall_CN1_start, "
+                     "stall_T1_start, stall_T2_start, stall_Tv_start, stall_Tvl_start, stall_attached_max_deg, "
+                     "stall_f0_correction_degree, stall_f0_correction_knots_deg, stall_f0_correction_powers, "
+                     "stall_polar, stall_polar_column, static_correction_degree, "
                      "static_correction_knots_deg, static_correction_powers, structure)");
 }
 TEST_CASE("TOML: mistyped value") {
@@ -324,8 +327,8 @@ TEST_CASE("coefficient file: corrupted (one digit changed)") {
                           }() + ")");
 }
 TEST_CASE("coefficient file: wrong version") {
-  expect_coef_refusal(with_checksum(replace_once(body_of(model_one_text()), "indicial-coef 1", "indicial-coef 2")),
-                      ":1: unsupported file version (this runtime reads version 1) (wrong_version)");
+  expect_coef_refusal(with_checksum(replace_once(body_of(model_one_text()), "indicial-coef 1", "indicial-coef 3")),
+                      ":1: unsupported file version (this runtime reads versions 1 and 2) (wrong_version)");
 }
 TEST_CASE("coefficient file: over capacity") {
   std::string knots;

@@ -28,13 +28,6 @@ const char* motion_base(Axis axis) {
   return axis == Axis::pitch ? "alpha" : axis == Axis::roll ? "phi" : "psi";
 }
 
-std::string trim(const std::string& s) {
-  std::size_t b = 0, e = s.size();
-  while (b < e && (s[b] == ' ' || s[b] == '\t' || s[b] == '\r')) ++b;
-  while (e > b && (s[e - 1] == ' ' || s[e - 1] == '\t' || s[e - 1] == '\r')) --e;
-  return s.substr(b, e - b);
-}
-
 std::string fmt_num(double v) {
   char buf[64];
   std::snprintf(buf, sizeof buf, "%.6g", v);
@@ -176,8 +169,16 @@ Prediction predict_periodic(const ModelSet<double, FitCapacity>& model, const st
   const double wrap_dt_s = (time_s.back() - time_s.front()) / static_cast<double>(n - 1);
   auto ignore = [](std::size_t, const PeriodicPredictor::Outputs&) {};
   predictor->reset(motion_angle_rad[0], airspeed_mps);
-  // Warm-up cycle: fills a delayed coefficient's history with the cycle's own angles.
-  step_cycle(*predictor, time_s, motion_angle_rad, rate_radps, airspeed_mps, closed, wrap_dt_s, model_label, ignore);
+  // Warm-up cycle: fills a delayed coefficient's history with the cycle's own angles. With
+  // dynamic-stall families, 3 cycles: their states are nonlinear in the motion (no affine
+  // closure as for the lags), and the fitter takes a periodic run's stall state after 3 cycles
+  // from the steady state at the first sample (fit_output_error.cpp, kStallWarmupCycles);
+  // the lag fixed point below does not depend on how many cycles came before.
+  bool families = false;
+  for (int c = 0; c < model.n_coefficients; ++c)
+    families = families || model.coefficients[c].stall.families != StallFamilies::none;
+  for (int w = 0; w < (families ? 3 : 1); ++w)
+    step_cycle(*predictor, time_s, motion_angle_rad, rate_radps, airspeed_mps, closed, wrap_dt_s, model_label, ignore);
   const PeriodicPredictor::Snapshot start = predictor->snapshot();
   auto cycle_end_from = [&](double y_start) {
     PeriodicPredictor::Snapshot s = start;
@@ -204,9 +205,10 @@ Prediction predict_periodic(const ModelSet<double, FitCapacity>& model, const st
   const double l_over_v_s = airspeed_scaling(m.airspeed_mps, m.reference_length_m, airspeed_mps).l_over_v_s;
   for (int c = 0; c < m.n_coefficients; ++c) {
     // The output at sample 0 at the fixed-point state (a closed cycle's last step gives it too).
+    const double x0 = std::min(std::max(p.x_rad[0], m.x_min_rad), m.x_max_rad);
     p.coefficients[static_cast<std::size_t>(c)].predicted[0] =
-        coefficient_output(m.coefficients[c], std::min(std::max(p.x_rad[0], m.x_min_rad), m.x_max_rad),
-                           rate_radps[0], l_over_v_s, fixed.y[c]);
+        coefficient_output(m.coefficients[c], x0, rate_radps[0], l_over_v_s, fixed.y[c]) +
+        stall_output(m.coefficients[c].stall, x0, fixed.stall[c]);
   }
   step_cycle(*predictor, time_s, motion_angle_rad, rate_radps, airspeed_mps, closed, wrap_dt_s, model_label,
              [&](std::size_t i, const PeriodicPredictor::Outputs& out) {
@@ -237,27 +239,6 @@ ModelSet<double, FitCapacity> read_model_file(const std::string& path) {
     throw InputError(path, static_cast<long>(diag.line),
                      std::string(diag.reason) + " (" + to_string(st) + ")");
   return *m;
-}
-
-std::string motion_column_name(const std::string& csv_path, Axis axis) {
-  std::ifstream in(csv_path);
-  if (!in) throw InputError(csv_path, 0, "cannot open");
-  std::string line;
-  long line_no = 0;
-  while (std::getline(in, line)) {
-    ++line_no;
-    const std::string t = trim(line);
-    if (t.empty() || t[0] == '#') continue;
-    std::stringstream ss(t);
-    std::string cell;
-    const std::string base = motion_base(axis);
-    while (std::getline(ss, cell, ',')) {
-      cell = trim(cell);
-      if (cell == base + "_deg" || cell == base + "_rad") return cell;
-    }
-    throw InputError(csv_path, line_no, "missing column '" + base + "_deg' or '" + base + "_rad'");
-  }
-  throw InputError(csv_path, 0, "no header row");
 }
 
 std::string prediction_csv(const Prediction& p, const std::string& angle_column,
