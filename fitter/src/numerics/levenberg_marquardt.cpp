@@ -1,23 +1,13 @@
-// fit_levenberg_marquardt.cpp -- the Levenberg-Marquardt loop (see the header).
-//
-// One outer iteration: the Jacobian at x, A = J'J, g = J'r, the Cramer-Rao bounds from A's
-// pseudo-inverse; then damped steps (A + lambda diag(A)) d = -g, lambda times 10 after each
-// rejection and divided by 10 after an acceptance. Converged: an accepted step with relative
-// cost change below cost_tolerance AND every parameter step below step_tolerance bounds, or a
-// first (least-damped) trial already below step_tolerance bounds that does not lower the cost
-// (the cost cannot decrease further within round-off).
-#include "estimate/fit_levenberg_marquardt.hpp"
-
-#include <Eigen/Eigenvalues>
+// numerics/levenberg_marquardt.cpp -- the Levenberg-Marquardt loop (see the header).
+#include "numerics/levenberg_marquardt.hpp"
 
 #include <algorithm>
 #include <cmath>
-#include <fmt/format.h>
 #include <limits>
 
-namespace indicial::fit_detail {
+namespace indicial::numerics {
 
-bool LevenbergMarquardtOptions::IsValid(std::string* error) const {
+bool LevenbergMarquardt::Options::IsValid(std::string* error) const {
   auto fail = [&](const char* what) {
     if (error) *error = what;
     return false;
@@ -32,42 +22,8 @@ bool LevenbergMarquardtOptions::IsValid(std::string* error) const {
   return true;
 }
 
-InfoAnalysis analyse_information(const Eigen::MatrixXd& A, double sv_cutoff) {
-  const Eigen::Index p = A.rows();
-  InfoAnalysis r;
-  r.in_null_space.assign(static_cast<std::size_t>(p), false);
-  Eigen::VectorXd d = A.diagonal().cwiseMax(0.0).cwiseSqrt();
-  Eigen::VectorXd dinv(p);
-  for (Eigen::Index i = 0; i < p; ++i) dinv(i) = d(i) > 0.0 ? 1.0 / d(i) : 0.0;
-  Eigen::MatrixXd As = dinv.asDiagonal() * A * dinv.asDiagonal();
-  // Why: a parameter whose column of J is exactly zero has no information at all; give it a
-  // unit diagonal so the eigen-analysis puts it (alone) in the null space.
-  for (Eigen::Index i = 0; i < p; ++i)
-    if (d(i) == 0.0) As(i, i) = 0.0;
-  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(As);
-  const Eigen::VectorXd& ev = es.eigenvalues();  // ascending
-  const double emax = ev(p - 1);
-  // Cut-off on singular values of the scaled J = sqrt(eigenvalues of the scaled A).
-  const double cut = sv_cutoff * sv_cutoff * emax;
-  Eigen::MatrixXd pin = Eigen::MatrixXd::Zero(p, p);
-  for (Eigen::Index k = 0; k < p; ++k) {
-    const Eigen::VectorXd vk = es.eigenvectors().col(k);
-    if (ev(k) > cut && emax > 0.0) {
-      pin += vk * vk.transpose() / ev(k);
-      ++r.rank;
-    } else {
-      for (Eigen::Index i = 0; i < p; ++i)
-        if (vk(i) * vk(i) > 0.01) r.in_null_space[static_cast<std::size_t>(i)] = true;
-    }
-  }
-  for (Eigen::Index i = 0; i < p; ++i)
-    if (d(i) == 0.0) r.in_null_space[static_cast<std::size_t>(i)] = true;
-  r.pinv = dinv.asDiagonal() * pin * dinv.asDiagonal();
-  return r;
-}
-
 LevenbergMarquardt::LevenbergMarquardt(const LeastSquaresProblem& p)
-    : problem_(p), ldlt_(p.num_parameters()) {
+    : problem_(p), ldlt_(p.num_parameters()), information_(p.num_parameters(), Covariance::Options{}) {
   const Eigen::Index n = p.num_parameters(), m = p.num_residuals();
   r_.resize(m);
   r_trial_.resize(m);
@@ -77,55 +33,62 @@ LevenbergMarquardt::LevenbergMarquardt(const LeastSquaresProblem& p)
   A_damped_.resize(n, n);
 }
 
-LevenbergMarquardtSummary LevenbergMarquardt::Solve(const LevenbergMarquardtOptions& o,
-                                                    Eigen::VectorXd& x) {
-  LevenbergMarquardtSummary s;
+const LevenbergMarquardt::Summary& LevenbergMarquardt::Solve(const Options& o, Eigen::VectorXd& x) {
+  summary_.status = Status::converged;
+  summary_.iterations = 0;
+  summary_.log.clear();
+  summary_.infeasible_trials = 0;
+  summary_.boundary = Boundary::interior;
+  summary_.options_error.clear();
   cost_ = std::numeric_limits<double>::infinity();
+  if (!o.IsValid(&summary_.options_error)) {
+    summary_.status = Status::invalid_options;
+    summary_.initial_cost = summary_.cost = cost_;
+    return summary_;
+  }
+  information_ = Covariance(problem_.num_parameters(), Covariance::Options{o.sv_cutoff, 0.01});
+  summary_.log.reserve(static_cast<std::size_t>(o.max_iterations));
   if (problem_.residuals(x, r_)) cost_ = 0.5 * r_.squaredNorm();
-  s.initial_cost = cost_;
-  s.cost = cost_;
+  summary_.initial_cost = cost_;
+  summary_.cost = cost_;
   if (!std::isfinite(cost_)) {
-    s.termination = Termination::diverged;
-    s.message = "the start point cannot be evaluated (non-finite residuals); nothing estimated";
-    return s;
+    summary_.status = Status::start_not_evaluable;
+    return summary_;
   }
   lambda_ = o.initial_damping;
   for (int iteration = 1;; ++iteration) {
     if (iteration > o.max_iterations) {
-      s.termination = Termination::iteration_limit;
-      s.message = fmt::format("iteration limit ({}) reached before convergence; best estimate "
-                              "kept", o.max_iterations);
+      summary_.status = Status::iteration_limit;
       break;
     }
-    s.iterations = iteration;
-    const int infeasible_before = s.infeasible_trials;
-    const std::size_t accepted_before = s.log.size();
-    const Outcome out = iterate(o, iteration, x, s);
+    summary_.iterations = iteration;
+    const int infeasible_before = summary_.infeasible_trials;
+    const std::size_t accepted_before = summary_.log.size();
+    const Outcome out = iterate(o, iteration, x);
     // On the boundary: the last steps tried from the solution went to infeasible points.
-    if (s.log.size() > accepted_before) s.boundary = FeasibilityBoundary::interior;
-    else if (s.infeasible_trials > infeasible_before) s.boundary = FeasibilityBoundary::active;
+    if (summary_.log.size() > accepted_before) summary_.boundary = Boundary::interior;
+    else if (summary_.infeasible_trials > infeasible_before) summary_.boundary = Boundary::active;
     if (out != Outcome::stepped) break;
   }
-  s.cost = cost_;
-  return s;
+  summary_.cost = cost_;
+  return summary_;
 }
 
 // One outer iteration: `stepped` after an accepted step that did not pass the convergence
-// tests, otherwise the termination (set in s).
-LevenbergMarquardt::Outcome LevenbergMarquardt::iterate(const LevenbergMarquardtOptions& o,
-                                                        int iteration, Eigen::VectorXd& x,
-                                                        LevenbergMarquardtSummary& s) {
+// tests, otherwise `finished` with summary_.status set.
+LevenbergMarquardt::Outcome LevenbergMarquardt::iterate(const Options& o, int iteration,
+                                                        Eigen::VectorXd& x) {
   if (!problem_.jacobian(x, r_, J_)) {
-    s.termination = Termination::diverged;
-    s.message = "sensitivities became non-finite; best estimate kept";
-    return Outcome::diverged;
+    summary_.status = Status::jacobian_not_finite;
+    return Outcome::finished;
   }
   A_.noalias() = J_.transpose() * J_;
   g_.noalias() = J_.transpose() * r_;
-  const InfoAnalysis info = analyse_information(A_, o.sv_cutoff);
+  information_.Compute(A_);
+  const Eigen::MatrixXd& pinv = information_.pseudo_inverse();
   const double s2 = 2.0 * cost_ / static_cast<double>(problem_.num_residuals());
   for (Eigen::Index i = 0; i < bound_.size(); ++i)
-    bound_(i) = std::sqrt(std::max(0.0, s2 * info.pinv(i, i)));
+    bound_(i) = std::sqrt(std::max(0.0, s2 * pinv(i, i)));
   diag_ = A_.diagonal();
   const double dmax = diag_.maxCoeff();
   // Why the floor: a zero column (unidentifiable parameter) would make the damped matrix
@@ -138,46 +101,42 @@ LevenbergMarquardt::Outcome LevenbergMarquardt::iterate(const LevenbergMarquardt
     delta_ = ldlt_.solve(-g_);
     double step_in_bounds = 0.0;
     for (Eigen::Index i = 0; i < delta_.size(); ++i)
-      if (!info.in_null_space[static_cast<std::size_t>(i)] && bound_(i) > 0.0)
+      if (!information_.in_null_space(static_cast<int>(i)) && bound_(i) > 0.0)
         step_in_bounds = std::max(step_in_bounds, std::abs(delta_(i)) / bound_(i));
     double trial_cost = std::numeric_limits<double>::infinity();
-    try_step(x, s, &trial_cost);
-    if (trial_cost < cost_) {
+    if (try_step(x, &trial_cost) && trial_cost < cost_) {
       const double rel = (cost_ - trial_cost) / cost_;
       x = trial_;
       cost_ = trial_cost;
-      s.log.push_back({iteration, cost_, lambda_, step_in_bounds});
+      summary_.log.push_back({iteration, cost_, lambda_, step_in_bounds});
       lambda_ = std::max(lambda_ * 0.1, 1e-10);
       if (rel < o.cost_tolerance && step_in_bounds < o.step_tolerance) {
-        s.termination = Termination::converged;
-        return Outcome::converged;
+        summary_.status = Status::converged;
+        return Outcome::finished;
       }
       return Outcome::stepped;
     }
     // Why: when even the least-damped step is already negligible against the bounds, the
     // cost cannot go lower within round-off: we are at the minimum.
     if (first_trial && step_in_bounds < o.step_tolerance) {
-      s.termination = Termination::converged;
-      return Outcome::converged;
+      summary_.status = Status::converged;
+      return Outcome::finished;
     }
     lambda_ *= 10.0;
     if (lambda_ > o.max_damping) {
-      s.termination = Termination::diverged;
-      s.message = "no damped Gauss-Newton step lowered the cost (damping above its limit); "
-                  "best estimate kept";
-      return Outcome::diverged;
+      summary_.status = Status::damping_limit;
+      return Outcome::finished;
     }
   }
 }
 
-// The cost at x + delta_ (infinite when the step is not finite, the point infeasible or not
-// evaluable); trial_ holds the point.
-bool LevenbergMarquardt::try_step(const Eigen::VectorXd& x, LevenbergMarquardtSummary& s,
-                                  double* trial_cost) {
+// Whether x + delta_ could be evaluated (a finite step to a feasible point with residuals);
+// then *trial_cost is its cost. trial_ holds the point.
+bool LevenbergMarquardt::try_step(const Eigen::VectorXd& x, double* trial_cost) {
   trial_ = x + delta_;
   if (!delta_.allFinite()) return false;
   if (!problem_.feasible(trial_)) {
-    ++s.infeasible_trials;
+    ++summary_.infeasible_trials;
     return false;
   }
   if (!problem_.residuals(trial_, r_trial_)) return false;
@@ -185,4 +144,4 @@ bool LevenbergMarquardt::try_step(const Eigen::VectorXd& x, LevenbergMarquardtSu
   return true;
 }
 
-}  // namespace indicial::fit_detail
+}  // namespace indicial::numerics
