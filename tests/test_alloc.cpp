@@ -23,6 +23,8 @@
 #error "test_alloc counts malloc through glibc's __libc_malloc; port the wrapper for this libc"
 #endif
 
+TEST_SUITE_BEGIN("unit");  // the ctest label (tests/CMakeLists.txt)
+
 namespace {
 std::atomic<long> g_new_calls{0};
 std::atomic<long> g_malloc_calls{0};

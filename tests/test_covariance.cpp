@@ -13,6 +13,8 @@
 
 #include "numerics/covariance.hpp"
 
+TEST_SUITE_BEGIN("unit");  // the ctest label (tests/CMakeLists.txt)
+
 using indicial::numerics::Covariance;
 
 namespace {

@@ -8,6 +8,8 @@
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/fit.hpp"
 
+TEST_SUITE_BEGIN("unit");  // the ctest label (tests/CMakeLists.txt)
+
 using namespace indicial;
 
 namespace {

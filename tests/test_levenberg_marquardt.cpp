@@ -10,6 +10,8 @@
 #include "levenberg_marquardt_problems.hpp"
 #include "numerics/levenberg_marquardt.hpp"
 
+TEST_SUITE_BEGIN("unit");  // the ctest label (tests/CMakeLists.txt)
+
 using indicial::numerics::LevenbergMarquardt;
 using indicial::testing::MeanProblem;
 using indicial::testing::RosenbrockProblem;
