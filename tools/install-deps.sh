@@ -20,6 +20,7 @@ packages=(
   libzip-dev          # `indicial fmu` writes the FMU package (a zip) with libzip
   libxml2-dev unzip   # the FMU test's own importer: unzip the package, parse modelDescription.xml
   octave liboctave-dev  # the MEX stepper: built with mkoctfile --mex, tested under octave-cli
+  libmatio-dev        # runs from MATLAB .mat files (v5 and v7.3: Debian's matio is built with HDF5)
 )
 for extra in "$@"; do
   case "$extra" in

@@ -34,6 +34,7 @@ struct Run {
   long experiment_line = 0;          // the line of its `runs` entry (0: not from an experiment)
   std::vector<double> time_s;
   std::vector<double> motion_angle_rad;   // alpha (pitch), phi (roll), psi (yaw)
+  std::string angle_column;               // the column it was read from ("alpha_deg", ...)
   std::vector<double> rate_radps;         // q, p or r: from the file, or smoothed derivative
   bool rate_from_file = false;
   std::vector<double> coefficient;        // measured C_a
