@@ -1,4 +1,5 @@
-// Zero heap allocations in the runtime: load (from text), reset and 10000 steps, counted by
+// Zero heap allocations in the runtime: load (from text), reset and 10000 steps; none per
+// iteration in the fitter's Levenberg-Marquardt solver. Counted by
 // replacing every global operator new / delete and, on glibc, malloc / calloc / realloc /
 // free themselves (so a std::from_chars or libm call that used malloc would be seen too).
 // Uses CHECK/REQUIRE, never assert(), so it counts in Release (NDEBUG) builds as well.
@@ -10,14 +11,19 @@
 #include <cstdlib>
 #include <new>
 
+#include <Eigen/Core>
+
 #include "indicial/coef_file.hpp"
 #include "indicial/runtime.hpp"
+#include "levenberg_marquardt_problems.hpp"
 #include "runtime_test_models.hpp"
 #include "test_support.hpp"
 
 #if !defined(__GLIBC__)
 #error "test_alloc counts malloc through glibc's __libc_malloc; port the wrapper for this libc"
 #endif
+
+TEST_SUITE_BEGIN("unit");  // the ctest label (tests/CMakeLists.txt)
 
 namespace {
 std::atomic<long> g_new_calls{0};
@@ -188,4 +194,30 @@ TEST_CASE("load (text), reset and 10000 steps allocate nothing") {
   CHECK(step_allocations == 0);
   CHECK(bad_steps == 0);
   CHECK(std::isfinite(checksum));
+}
+
+// The fitter's Levenberg-Marquardt solver (numerics/levenberg_marquardt.hpp): after setup
+// (the constructor's workspace, Solve's log reserve) its iterations allocate nothing. Two solves
+// that stop at the iteration limit after 4 and after 16 iterations must allocate equally: one
+// allocation per iteration (as SelfAdjointEigenSolver made before numerics/covariance.cpp
+// replaced it) would differ by 12.
+TEST_CASE("Levenberg-Marquardt: no allocation per iteration after setup") {
+  indicial::testing::RosenbrockProblem p;
+  long per_solve[2] = {0, 0};
+  int iterations[2] = {0, 0};
+  for (int i = 0; i < 2; ++i) {
+    indicial::numerics::LevenbergMarquardt lm(p);
+    indicial::numerics::LevenbergMarquardt::Options o;
+    o.max_iterations = i == 0 ? 4 : 16;
+    Eigen::VectorXd x(2);
+    x << -1.2, 1.0;
+    const long before = allocations();
+    const indicial::numerics::LevenbergMarquardt::Summary& s = lm.Solve(o, x);
+    per_solve[i] = allocations() - before;
+    iterations[i] = s.iterations;
+    CHECK(s.status == indicial::numerics::LevenbergMarquardt::Status::iteration_limit);
+  }
+  CHECK(iterations[0] == 4);
+  CHECK(iterations[1] == 16);
+  CHECK(per_solve[0] == per_solve[1]);
 }

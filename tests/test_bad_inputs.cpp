@@ -32,6 +32,8 @@
 #include "indicial/coef_file.hpp"
 #include "test_support.hpp"
 
+TEST_SUITE_BEGIN("cli");  // the ctest label (tests/CMakeLists.txt)
+
 namespace fs = std::filesystem;
 
 namespace {

@@ -20,6 +20,8 @@
 #include "indicial/fitter/report.hpp"
 #include "indicial/runtime.hpp"
 
+TEST_SUITE_BEGIN("cli");  // the ctest label (tests/CMakeLists.txt)
+
 namespace fs = std::filesystem;
 
 namespace {

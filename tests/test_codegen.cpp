@@ -28,6 +28,8 @@
 #include "cli_test_support.hpp"
 #include "test_support.hpp"
 
+TEST_SUITE_BEGIN("cli");  // the ctest label (tests/CMakeLists.txt)
+
 using indicial_generated::dynamic_stall_lift_moment;
 using indicial_generated::synthetic_lift_moment;
 using indicial_generated::tailless_model_1;

@@ -8,6 +8,8 @@
 #include "indicial/fitter/output.hpp"
 #include "runtime_test_models.hpp"
 
+TEST_SUITE_BEGIN("unit");  // the ctest label (tests/CMakeLists.txt)
+
 namespace {
 
 using Set = indicial::ModelSet<double, indicial::DefaultCapacity>;

@@ -8,6 +8,8 @@
 
 #include "diagnose_test_common.hpp"
 
+TEST_SUITE_BEGIN("statistical");  // the ctest label (tests/CMakeLists.txt)
+
 using namespace indicial;
 using namespace indicial::testing;
 

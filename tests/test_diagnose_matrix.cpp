@@ -12,6 +12,8 @@
 #include "diagnose_test_matrix.hpp"
 #include "fit_test_data.hpp"
 
+TEST_SUITE_BEGIN("statistical");  // the ctest label (tests/CMakeLists.txt)
+
 using namespace indicial;
 using namespace indicial::testing;
 

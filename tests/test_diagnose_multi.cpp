@@ -20,6 +20,8 @@
 #include "indicial/fitter/simulate.hpp"
 #include "indicial/runtime.hpp"
 
+TEST_SUITE_BEGIN("cli");  // the ctest label (tests/CMakeLists.txt)
+
 namespace fs = std::filesystem;
 using namespace indicial;
 using namespace indicial::testing;

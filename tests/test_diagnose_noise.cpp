@@ -14,6 +14,8 @@
 #include "diagnose_test_matrix.hpp"
 #include "fit_test_data.hpp"
 
+TEST_SUITE_BEGIN("unit");  // the ctest label (tests/CMakeLists.txt)
+
 using namespace indicial;
 using namespace indicial::testing;
 

@@ -11,6 +11,8 @@
 #include "diagnose_test_data.hpp"
 #include "indicial/fitter/diagnose.hpp"
 
+TEST_SUITE_BEGIN("statistical");  // the ctest label (tests/CMakeLists.txt)
+
 using namespace indicial;
 using namespace indicial::testing;
 

@@ -13,6 +13,8 @@
 #include "diagnose_test_common.hpp"
 #include "diagnose_test_matrix.hpp"
 
+TEST_SUITE_BEGIN("cli");  // the ctest label (tests/CMakeLists.txt)
+
 namespace fs = std::filesystem;
 using namespace indicial;
 using namespace indicial::testing;

@@ -10,6 +10,8 @@
 
 #include "diagnose/diagnose_internal.hpp"
 
+TEST_SUITE_BEGIN("unit");  // the ctest label (tests/CMakeLists.txt)
+
 using namespace indicial;
 using indicial::diagnose_detail::choose_family;
 

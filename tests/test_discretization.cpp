@@ -19,6 +19,8 @@
 #include "runtime_test_models.hpp"
 #include "test_support.hpp"
 
+TEST_SUITE_BEGIN("unit");  // the ctest label (tests/CMakeLists.txt)
+
 namespace {
 
 using indicial::testing::kPi;

@@ -14,6 +14,8 @@
 #include "indicial/fitter/validation_realistic.hpp"
 #include "test_support.hpp"
 
+TEST_SUITE_BEGIN("cli");  // the ctest label (tests/CMakeLists.txt)
+
 namespace ds = indicial::dynamic_stall;
 
 namespace {

@@ -19,6 +19,8 @@
 #include "indicial/fitter/io.hpp"
 #include "indicial/runtime.hpp"
 
+TEST_SUITE_BEGIN("cli");  // the ctest label (tests/CMakeLists.txt)
+
 namespace fs = std::filesystem;
 
 namespace {

@@ -20,6 +20,8 @@
 #include "indicial/fitter/runtime_limits.hpp"
 #include "test_support.hpp"
 
+TEST_SUITE_BEGIN("cli");  // the ctest label (tests/CMakeLists.txt)
+
 using namespace indicial;
 
 namespace {

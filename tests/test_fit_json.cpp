@@ -8,6 +8,8 @@
 #include "indicial/fitter/fit.hpp"
 #include "indicial/fitter/report.hpp"
 
+TEST_SUITE_BEGIN("unit");  // the ctest label (tests/CMakeLists.txt)
+
 TEST_CASE("fit.json carries the output-error solver's feasibility boundary and infeasible trials") {
   indicial::Experiment e;
   e.coefficient = "Cm";

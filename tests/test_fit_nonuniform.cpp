@@ -19,6 +19,8 @@
 
 #include "fit_test_data.hpp"
 
+TEST_SUITE_BEGIN("unit");  // the ctest label (tests/CMakeLists.txt)
+
 using namespace indicial;
 using indicial::testing::find_estimate;
 

@@ -1,5 +1,5 @@
-// Parameter identity (ParamId: names made and read in one place each) and the output-error
-// solver's feasibility hook (fitter/src/estimate/fit_levenberg_marquardt.hpp).
+// Parameter identity (ParamId: names made and read in one place each; fit_params.cpp). The
+// solver's tests are test_levenberg_marquardt.cpp.
 #include <doctest/doctest.h>
 
 #include <Eigen/Core>
@@ -8,8 +8,9 @@
 #include <unordered_map>
 #include <vector>
 
-#include "estimate/fit_levenberg_marquardt.hpp"
 #include "indicial/fitter/fit.hpp"
+
+TEST_SUITE_BEGIN("unit");  // the ctest label (tests/CMakeLists.txt)
 
 using namespace indicial;
 
@@ -84,65 +85,4 @@ TEST_CASE("parameter identity: a knot is where it is, not its number") {
   m[a_at_06] = 5;
   CHECK(m.size() == 2);
   CHECK(m[a_at_05_first] == 2);
-}
-
-namespace {
-
-// r_i = x - target_i: the least-squares minimum is the mean of the targets (3.05 here).
-struct MeanProblem final : fit_detail::LeastSquaresProblem {
-  std::vector<double> targets{2.9, 3.1, 3.0, 3.2, 3.05, 2.95, 3.1, 3.0, 3.15, 3.05};
-  double upper = 0.0;  // feasible: x <= upper (0: no limit)
-  int num_parameters() const override { return 1; }
-  int num_residuals() const override { return static_cast<int>(targets.size()); }
-  bool residuals(const Eigen::VectorXd& x, Eigen::VectorXd& r) const override {
-    r.resize(num_residuals());
-    for (int i = 0; i < num_residuals(); ++i) r(i) = x(0) - targets[static_cast<std::size_t>(i)];
-    return true;
-  }
-  bool jacobian(const Eigen::VectorXd& x, Eigen::VectorXd& r, Eigen::MatrixXd& J) const override {
-    J = Eigen::MatrixXd::Ones(num_residuals(), 1);
-    return residuals(x, r);
-  }
-  bool feasible(const Eigen::VectorXd& x) const override { return upper == 0.0 || x(0) <= upper; }
-};
-
-}  // namespace
-
-TEST_CASE("Levenberg-Marquardt: options are validated, the minimum is found") {
-  fit_detail::LevenbergMarquardtOptions o;
-  std::string why;
-  CHECK(o.IsValid(&why));
-  o.max_damping = o.initial_damping / 2;
-  CHECK_FALSE(o.IsValid(&why));
-  CHECK(why.find("max_damping") != std::string::npos);
-
-  MeanProblem p;
-  fit_detail::LevenbergMarquardt lm(p);
-  Eigen::VectorXd x = Eigen::VectorXd::Zero(1);
-  const auto s = lm.Solve(fit_detail::LevenbergMarquardtOptions{}, x);
-  CHECK(s.termination == Termination::converged);
-  CHECK(x(0) == doctest::Approx(3.05).epsilon(1e-9));
-  CHECK(s.infeasible_trials == 0);
-  CHECK(s.boundary == FeasibilityBoundary::interior);
-}
-
-TEST_CASE("Levenberg-Marquardt: an infeasible trial is rejected like a cost increase") {
-  MeanProblem p;
-  p.upper = 2.0;  // the unconstrained minimum 3.05 is not admissible
-  fit_detail::LevenbergMarquardt lm(p);
-  Eigen::VectorXd x = Eigen::VectorXd::Zero(1);
-  const auto s = lm.Solve(fit_detail::LevenbergMarquardtOptions{}, x);
-  INFO("x = " << x(0) << ", " << s.message);
-  CHECK(x(0) <= 2.0);          // never left the admissible set
-  CHECK(x(0) > 2.0 - 1e-3);    // and went as far as it allows
-  CHECK(s.infeasible_trials > 0);
-  CHECK(s.boundary == FeasibilityBoundary::active);
-  CHECK(s.cost < s.initial_cost);
-  // An interior start with the limit beyond the minimum: never on the boundary.
-  p.upper = 10.0;
-  fit_detail::LevenbergMarquardt lm2(p);
-  Eigen::VectorXd x2 = Eigen::VectorXd::Zero(1);
-  const auto s2 = lm2.Solve(fit_detail::LevenbergMarquardtOptions{}, x2);
-  CHECK(s2.boundary == FeasibilityBoundary::interior);
-  CHECK(x2(0) == doctest::Approx(3.05).epsilon(1e-9));
 }

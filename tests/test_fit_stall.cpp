@@ -24,6 +24,8 @@
 #include "indicial/fitter/report.hpp"
 #include "indicial/model.hpp"
 
+TEST_SUITE_BEGIN("unit");  // the ctest label (tests/CMakeLists.txt)
+
 using namespace indicial;
 
 namespace {

@@ -17,6 +17,8 @@
 #include "fit_test_data.hpp"
 #include "indicial/fitter/fit.hpp"
 
+TEST_SUITE_BEGIN("unit");  // the ctest label (tests/CMakeLists.txt)
+
 using namespace indicial;
 
 namespace {

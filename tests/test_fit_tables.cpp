@@ -10,6 +10,8 @@
 #include "fit_test_data.hpp"
 #include "indicial/fitter/fit.hpp"
 
+TEST_SUITE_BEGIN("unit");  // the ctest label (tests/CMakeLists.txt)
+
 using namespace indicial;
 
 namespace {

@@ -27,6 +27,8 @@
 #include "fmu_layout.hpp"
 #include "indicial/indicial.h"
 
+TEST_SUITE_BEGIN("cli");  // the ctest label (tests/CMakeLists.txt)
+
 namespace fs = std::filesystem;
 using indicial::testing::run_indicial;
 using indicial::testing::slurp;

@@ -20,6 +20,8 @@
 #include "indicial/runtime.hpp"
 #include "test_support.hpp"
 
+TEST_SUITE_BEGIN("cli");  // the ctest label (tests/CMakeLists.txt)
+
 namespace {
 
 using indicial::testing::kPi;

@@ -23,6 +23,8 @@
 #include "fit_test_data.hpp"
 #include "test_support.hpp"
 
+TEST_SUITE_BEGIN("unit");  // the ctest label (tests/CMakeLists.txt)
+
 namespace {
 
 using indicial::testing::kPi;

@@ -38,6 +38,8 @@
 #include "indicial/fitter/provenance.hpp"
 #include "test_support.hpp"
 
+TEST_SUITE_BEGIN("cli");  // the ctest label (tests/CMakeLists.txt)
+
 namespace fs = std::filesystem;
 using indicial::testing::TempDir;
 using nlohmann::json;

@@ -20,6 +20,8 @@
 #include "indicial/fitter/simulate.hpp"
 #include "test_support.hpp"
 
+TEST_SUITE_BEGIN("unit");  // the ctest label (tests/CMakeLists.txt)
+
 namespace fs = std::filesystem;
 
 // Checks that message m contains s, showing m when it does not.

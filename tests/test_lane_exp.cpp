@@ -12,6 +12,8 @@
 
 #include "indicial/batch.hpp"
 
+TEST_SUITE_BEGIN("unit");  // the ctest label (tests/CMakeLists.txt)
+
 namespace {
 
 namespace bd = indicial::batch_detail;

@@ -18,6 +18,8 @@
 #include "indicial/fitter/experiment.hpp"
 #include "indicial/fitter/experiment_toml.hpp"
 
+TEST_SUITE_BEGIN("cli");  // the ctest label (tests/CMakeLists.txt)
+
 namespace fs = std::filesystem;
 using indicial::testing::run_indicial;
 using indicial::testing::slurp;

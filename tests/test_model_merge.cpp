@@ -12,6 +12,8 @@
 #include "indicial/fitter/simulate.hpp"
 #include "indicial/runtime.hpp"
 
+TEST_SUITE_BEGIN("cli");  // the ctest label (tests/CMakeLists.txt)
+
 namespace {
 
 using Model = indicial::ModelSet<double, indicial::FitCapacity>;

@@ -36,6 +36,8 @@ constexpr int kSeeds = 200;
 constexpr Statistics kStatistics = Statistics::checked;
 #endif
 
+TEST_SUITE_BEGIN("cli");  // the ctest label (tests/CMakeLists.txt)
+
 using indicial::testing::slurp;
 
 // kSeeds seeds of `case_name` at SNR 40 from first_seed; checks that every seed was fitted

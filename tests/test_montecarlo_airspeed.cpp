@@ -14,6 +14,8 @@
 #include "indicial/fitter/montecarlo.hpp"
 #include "indicial/fitter/simulate.hpp"
 
+TEST_SUITE_BEGIN("unit");  // the ctest label (tests/CMakeLists.txt)
+
 using namespace indicial;
 
 namespace {

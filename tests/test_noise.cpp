@@ -9,6 +9,8 @@
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/simulate.hpp"
 
+TEST_SUITE_BEGIN("unit");  // the ctest label (tests/CMakeLists.txt)
+
 namespace {
 
 struct SampleStats {

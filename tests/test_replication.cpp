@@ -10,6 +10,8 @@
 #include "indicial/fitter/replication.hpp"
 #include "indicial/fitter/simulate.hpp"
 
+TEST_SUITE_BEGIN("unit");  // the ctest label (tests/CMakeLists.txt)
+
 using namespace indicial;
 
 namespace {

@@ -54,6 +54,8 @@
 #define INDICIAL_ROBUSTNESS_SANITIZED 0
 #endif
 
+TEST_SUITE_BEGIN("statistical");  // the ctest label (tests/CMakeLists.txt)
+
 namespace {
 
 using indicial::MotionInput;

@@ -12,6 +12,8 @@
 #include "runtime_test_models.hpp"
 #include "test_support.hpp"
 
+TEST_SUITE_BEGIN("unit");  // the ctest label (tests/CMakeLists.txt)
+
 namespace {
 
 using Set = indicial::ModelSet<double, indicial::DefaultCapacity>;

@@ -13,6 +13,8 @@
 #include "indicial/runtime.hpp"
 #include "runtime_test_models.hpp"
 
+TEST_SUITE_BEGIN("unit");  // the ctest label (tests/CMakeLists.txt)
+
 namespace {
 
 using Cap = indicial::DefaultCapacity;

@@ -18,6 +18,8 @@
 #include "cli_test_support.hpp"
 #include "test_support.hpp"
 
+TEST_SUITE_BEGIN("unit");  // the ctest label (tests/CMakeLists.txt)
+
 namespace {
 
 using Cap = indicial::DefaultCapacity;

@@ -15,6 +15,8 @@
 #include "indicial/runtime.hpp"
 #include "test_support.hpp"
 
+TEST_SUITE_BEGIN("cli");  // the ctest label (tests/CMakeLists.txt)
+
 namespace fs = std::filesystem;
 namespace ds = indicial::dynamic_stall;
 

@@ -16,6 +16,8 @@
 #error "this file must be compiled with -fno-exceptions -fno-rtti"
 #endif
 
+TEST_SUITE_BEGIN("unit");  // the ctest label (tests/CMakeLists.txt)
+
 namespace {
 // Table I, Model II as coefficient-file text, written by the runtime's own writer from the
 // one definition (tailless_model.hpp; the same bytes as examples/tailless-model-2.coef).

@@ -22,6 +22,8 @@
 #include "indicial/fitter/simulate.hpp"
 #include "test_support.hpp"
 
+TEST_SUITE_BEGIN("cli");  // the ctest label (tests/CMakeLists.txt)
+
 namespace fs = std::filesystem;
 
 namespace {

@@ -9,6 +9,8 @@
 #include "indicial/fitter/simulate.hpp"
 #include "test_support.hpp"
 
+TEST_SUITE_BEGIN("unit");  // the ctest label (tests/CMakeLists.txt)
+
 namespace {
 
 using indicial::testing::kPi;

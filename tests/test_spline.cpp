@@ -11,6 +11,8 @@
 
 #include "indicial/model.hpp"
 
+TEST_SUITE_BEGIN("unit");  // the ctest label (tests/CMakeLists.txt)
+
 using AD = Eigen::AutoDiffScalar<Eigen::VectorXd>;
 
 // Explicit instantiation: every template of the model must compile for each scalar type.

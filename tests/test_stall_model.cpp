@@ -16,6 +16,8 @@
 #include "indicial/model.hpp"
 #include "test_support.hpp"
 
+TEST_SUITE_BEGIN("unit");  // the ctest label (tests/CMakeLists.txt)
+
 namespace {
 
 using indicial::testing::kPi;

@@ -125,6 +125,12 @@ void print_fit_summary(const FitCliOptions& o, const indicial::Experiment& e, co
   std::fflush(stdout);
 }
 
+// What to do when the output-error start cannot be propagated (OutputErrorSummary::start).
+constexpr const char* start_advice =
+    ". What to do: give that start value (fit --start-value NAME=VALUE), start from a constant b1 (b1_degree = 0, "
+    "no b1 knots), fewer a(x) terms, or --stepwise-refinement output_error; check the angle and rate units and "
+    "columns";
+
 // The warning line of a fit that did not converge and its exit status (0: none).
 int termination_exit(const FitCliOptions& o, const indicial::FitOptions& fo, const indicial::FitResult& r,
                      const std::string& what) {
@@ -139,7 +145,8 @@ int termination_exit(const FitCliOptions& o, const indicial::FitOptions& fo, con
       return 0;
     case Termination::diverged:
       std::fprintf(stderr, "indicial: warning: %s: the output-error iteration diverged; the best estimate "
-                   "was written to %s: %s\n", what.c_str(), o.out.c_str(), oe.message.c_str());
+                   "was written to %s: %s%s\n", what.c_str(), o.out.c_str(), oe.message.c_str(),
+                   oe.start == StartOutcome::not_propagated ? start_advice : "");
       return static_cast<int>(FitExit::diverged);
     case Termination::rank_deficient: {
       std::string names;

@@ -206,11 +206,92 @@ const char* indicial_status_string(int status) {
   if (status == INDICIAL_OK) return "ok";
   if (status == INDICIAL_ANGLE_CLAMPED) return "angle_clamped";
   if (status == INDICIAL_ERROR_MISALIGNED) return "misaligned_storage";
+  if (status == INDICIAL_ERROR_STORAGE_TOO_SMALL) return "storage_too_small";
   if (status <= -101 && status >= -(100 + static_cast<int>(indicial::LoadStatus::unstable_lag)))
     return indicial::to_string(static_cast<indicial::LoadStatus>(-status - 100));
   if (status <= -2 && status >= -static_cast<int>(indicial::StepStatus::families_need_state))
     return indicial::to_string(static_cast<indicial::StepStatus>(-status));
   return "unknown_status";
+}
+
+// ---- Typed handles: the same storage, the untyped functions above do the work. -----------
+// The handle types are never defined: a handle is the storage's address, converted back to
+// void* here (a pointer to an incomplete struct type round-trips through void*).
+
+// The project's version, given by CMake (INDICIAL_VERSION_STRING, the root project(VERSION));
+// a build that compiles this file by hand without it reports "unknown".
+#ifndef INDICIAL_VERSION_STRING
+#define INDICIAL_VERSION_STRING "unknown"
+#endif
+const char* indicial_version(void) { return INDICIAL_VERSION_STRING; }
+
+int indicial_model_init(void* storage, size_t storage_bytes, const char* text, size_t length,
+                        char* error, size_t error_length, indicial_model** model) {
+  if (model != nullptr) *model = nullptr;
+  indicial::ParseDiagnostic diag;
+  if (model == nullptr) {
+    diag.reason = "no handle to write given";
+    write_error(error, error_length, diag, indicial::LoadStatus::null_argument);
+    return INDICIAL_ERROR_NULL_ARGUMENT;
+  }
+  if (storage != nullptr && storage_bytes < sizeof(CModel)) {
+    diag.reason = "model storage smaller than indicial_model_bytes()";
+    write_error(error, error_length, diag, indicial::LoadStatus::null_argument);
+    return INDICIAL_ERROR_STORAGE_TOO_SMALL;
+  }
+  const int s = indicial_model_load(storage, text, length, error, error_length);
+  if (s == INDICIAL_OK) *model = static_cast<indicial_model*>(storage);
+  return s;
+}
+
+int indicial_model_output_count(const indicial_model* model) {
+  return indicial_model_outputs(model);
+}
+
+const char* indicial_model_output_label(const indicial_model* model, int i) {
+  return indicial_model_output_name(model, i);
+}
+
+size_t indicial_model_state_bytes(const indicial_model* model) {
+  return indicial_state_bytes(model);
+}
+
+double indicial_model_airspeed_mps(const indicial_model* model) {
+  return indicial_model_reference_airspeed_mps(model);
+}
+
+int indicial_state_init(const indicial_model* model, void* storage, size_t storage_bytes,
+                        double angle_rad, double airspeed_mps, indicial_state** state) {
+  if (state == nullptr) return INDICIAL_ERROR_NULL_ARGUMENT;
+  *state = nullptr;
+  int status = 0;
+  if (loaded(model, &status) == nullptr) return status;
+  if (storage != nullptr && storage_bytes < indicial_state_bytes(model))
+    return INDICIAL_ERROR_STORAGE_TOO_SMALL;
+  const int s = indicial_reset(model, storage, angle_rad, airspeed_mps);
+  if (s >= 0) *state = static_cast<indicial_state*>(storage);
+  return s;
+}
+
+int indicial_state_reset(const indicial_model* model, indicial_state* state, double angle_rad,
+                         double airspeed_mps) {
+  return indicial_reset(model, state, angle_rad, airspeed_mps);
+}
+
+int indicial_state_step(const indicial_model* model, indicial_state* state, double angle_rad,
+                        double rate_radps, double airspeed_mps, double dt_s, double* out) {
+  return indicial_step(model, state, angle_rad, rate_radps, airspeed_mps, dt_s, out);
+}
+
+int indicial_state_evaluate(const indicial_model* model, const indicial_state* state,
+                            double rate_radps, double airspeed_mps, double* out) {
+  return indicial_evaluate(model, state, rate_radps, airspeed_mps, out);
+}
+
+int indicial_state_step_batch(const indicial_model* model, indicial_state* states, size_t n,
+                              const double* angle_rad, const double* rate_radps,
+                              const double* airspeed_mps, double dt_s, double* out) {
+  return indicial_step_batch(model, states, n, angle_rad, rate_radps, airspeed_mps, dt_s, out);
 }
 
 }  // extern "C"

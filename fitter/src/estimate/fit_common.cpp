@@ -75,54 +75,6 @@ void update_rotary(std::vector<PreparedRun>& runs, const SplineD& rotary) {
   }
 }
 
-// ------------------------------------------------------------------------------------------
-int choose_correlation_lag(const Eigen::VectorXd& v, const std::vector<std::size_t>& starts,
-                           const FitOptions& o) {
-  const int cap = std::max(0, o.max_correlation_lag);
-  if (o.colored_lag_rule == ColoredLagRule::fixed) return cap;
-  const double n = static_cast<double>(v.size());
-  double r0 = v.squaredNorm() / n;
-  if (!(r0 > 0.0)) return 0;
-  // Why this rule: for white residuals the sample autocorrelation R(k)/R(0) is approximately
-  // N(0, 1/N); the window extends while |R(k)| exceeds two of those standard deviations, i.e.
-  // while the correlation is distinguishable from zero, so white residuals get (almost) the
-  // white bounds and colored ones the lags over which their correlation lives.
-  const double threshold = 2.0 * r0 / std::sqrt(n);
-  for (int k = 1; k <= cap; ++k) {
-    double rk = 0.0;
-    for (std::size_t s = 0; s + 1 < starts.size(); ++s) {
-      for (std::size_t i = starts[s]; i + static_cast<std::size_t>(k) < starts[s + 1]; ++i)
-        rk += v[static_cast<Eigen::Index>(i)] * v[static_cast<Eigen::Index>(i) + k];
-    }
-    rk /= n;
-    if (std::abs(rk) < threshold) return k - 1;
-  }
-  return cap;
-}
-
-Eigen::MatrixXd colored_middle(const Eigen::MatrixXd& G, const Eigen::VectorXd& v,
-                               const std::vector<std::size_t>& starts, int lag) {
-  const Eigen::Index p = G.cols();
-  const double n = static_cast<double>(v.size());
-  Eigen::MatrixXd mid = Eigen::MatrixXd::Zero(p, p);
-  for (int k = 0; k <= lag; ++k) {
-    double rk = 0.0;
-    Eigen::MatrixXd cross = Eigen::MatrixXd::Zero(p, p);
-    for (std::size_t s = 0; s + 1 < starts.size(); ++s) {
-      const auto b = static_cast<Eigen::Index>(starts[s]);
-      const auto len = static_cast<Eigen::Index>(starts[s + 1] - starts[s]) - k;
-      if (len <= 0) continue;
-      rk += v.segment(b, len).dot(v.segment(b + k, len));
-      cross.noalias() += G.middleRows(b, len).transpose() * G.middleRows(b + k, len);
-    }
-    rk /= n;
-    // R(-k) = R(k): the pair sums for +k and -k are transposes of each other.
-    if (k == 0) mid += rk * cross;
-    else mid += rk * (cross + cross.transpose());
-  }
-  return mid;
-}
-
 void refuse_zero_columns(const Eigen::MatrixXd& X, const std::vector<std::string>& names,
                          const std::string& context_file) {
   for (Eigen::Index j = 0; j < X.cols(); ++j) {
@@ -190,7 +142,7 @@ LinearFit least_squares(const Eigen::MatrixXd& X, const Eigen::VectorXd& z,
   f.lag = choose_correlation_lag(f.residual, starts, o);
   // The sandwich with R(k) normalised by N; scale by N / (N - p) like s^2 so that the colored
   // bound reduces to the white one for white residuals.
-  const Eigen::MatrixXd mid = colored_middle(X, f.residual, starts, f.lag) *
+  const Eigen::MatrixXd mid = numerics::Covariance::correlated_middle(X, f.residual, starts, f.lag) *
                               (static_cast<double>(n) / static_cast<double>(n - p));
   f.cov_colored = xtx_inv * mid * xtx_inv;
   return f;

@@ -15,6 +15,7 @@
 #include "indicial/fitter/experiment.hpp"
 #include "indicial/fitter/fit.hpp"
 #include "indicial/model.hpp"
+#include "numerics/covariance.hpp"
 
 namespace indicial::fit_detail {
 
@@ -273,13 +274,16 @@ std::vector<double> y_e_derivative(const PreparedRun& r, int half_window, int or
 // ------------------------------------------------------------------------------------------
 // Linear algebra helpers.
 // ------------------------------------------------------------------------------------------
-// Residual autocorrelation pooled over segments [starts[i], starts[i+1]) and the lag window.
-int choose_correlation_lag(const Eigen::VectorXd& v, const std::vector<std::size_t>& starts,
-                           const FitOptions& o);
-// The middle of the Morelli-Klein sandwich: sum over segments of
-// sum_{|k| <= lag} R(k) sum_i g_i g_{i+k}'  with g_i the i-th row of G.
-Eigen::MatrixXd colored_middle(const Eigen::MatrixXd& G, const Eigen::VectorXd& v,
-                               const std::vector<std::size_t>& starts, int lag);
+// The colored-residual lag window of FitOptions (numerics::Covariance::correlation_lag over
+// segments [starts[i], starts[i+1])). The sandwich's middle is
+// numerics::Covariance::correlated_middle.
+inline int choose_correlation_lag(const Eigen::VectorXd& v, const std::vector<std::size_t>& starts,
+                                  const FitOptions& o) {
+  using Rule = numerics::Covariance::LagRule;
+  return numerics::Covariance::correlation_lag(
+      v, starts, o.max_correlation_lag,
+      o.colored_lag_rule == ColoredLagRule::fixed ? Rule::fixed : Rule::automatic);
+}
 
 struct LinearFit {
   Eigen::VectorXd beta;

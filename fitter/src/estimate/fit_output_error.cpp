@@ -26,7 +26,7 @@
 #include <limits>
 
 #include "estimate/fit_internal.hpp"
-#include "estimate/fit_levenberg_marquardt.hpp"
+#include "numerics/levenberg_marquardt.hpp"
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/runtime_limits.hpp"
 
@@ -202,7 +202,7 @@ std::vector<double> stall_output_series(const CoefficientModel<double, Cap>& m, 
 // The output-error problem for the Levenberg-Marquardt solver: theta in ParameterLayout order,
 // residual v = C - C_model with C_model from model.hpp's coefficient_output of the model at
 // theta (model_at), the lag states propagated by the runtime's update.
-class OutputErrorProblem final : public LeastSquaresProblem {
+class OutputErrorProblem final : public numerics::LeastSquaresProblem {
  public:
   OutputErrorProblem(const ParameterLayout& L, const OutputErrorData& d,
                      const FeasibilityPredicate& feasible)
@@ -367,14 +367,46 @@ void check_sizes(const ParameterLayout& L, const Eigen::VectorXd& theta0, std::s
                                           "samples than parameters", n_samples, L.size()));
 }
 
-LevenbergMarquardtOptions solver_options(const FitOptions& o) {
-  LevenbergMarquardtOptions lm;
+numerics::LevenbergMarquardt::Options solver_options(const FitOptions& o) {
+  numerics::LevenbergMarquardt::Options lm;
   lm.max_iterations = o.max_iterations;
   lm.cost_tolerance = o.cost_tolerance;
   lm.step_tolerance = o.step_tolerance;
   lm.max_damping = o.max_damping;
   lm.sv_cutoff = o.sv_cutoff;
   return lm;
+}
+
+// The fit's termination for the solver's status (invalid options are refused before).
+Termination termination_of(numerics::LevenbergMarquardt::Status s) {
+  using Status = numerics::LevenbergMarquardt::Status;
+  switch (s) {
+    case Status::converged: return Termination::converged;
+    case Status::iteration_limit: return Termination::iteration_limit;
+    case Status::start_not_evaluable:
+    case Status::jacobian_not_finite:
+    case Status::damping_limit:
+    case Status::invalid_options: return Termination::diverged;
+  }
+  return Termination::diverged;
+}
+
+// One line on what the solver did (fit.json's output_error message; empty when converged).
+std::string solver_message(const numerics::LevenbergMarquardt::Summary& s,
+                           const numerics::LevenbergMarquardt::Options& o) {
+  using Status = numerics::LevenbergMarquardt::Status;
+  switch (s.status) {
+    case Status::converged: return "";
+    case Status::iteration_limit:
+      return fmt::format("iteration limit ({}) reached before convergence; best estimate kept", o.max_iterations);
+    case Status::start_not_evaluable:
+      return "the start point cannot be evaluated (non-finite residuals); nothing estimated";
+    case Status::jacobian_not_finite: return "sensitivities became non-finite; best estimate kept";
+    case Status::damping_limit:
+      return "no damped Gauss-Newton step lowered the cost (damping above its limit); best estimate kept";
+    case Status::invalid_options: return "solver options refused: " + s.options_error;
+  }
+  return "";
 }
 
 // Cramer-Rao bounds (white and colored) at the estimate, identifiability and the final
@@ -393,16 +425,17 @@ void estimate_covariance(const OutputErrorProblem& problem, const FitOptions& o,
   problem.evaluate(res.theta, v, &res.y_model);
   const double s2 = v.squaredNorm() / static_cast<double>(v.size());
   sum.fit_error = std::sqrt(s2);
-  const InfoAnalysis info = analyse_information(J.transpose() * J, o.sv_cutoff);
-  sum.rank = info.rank;
+  numerics::Covariance info(static_cast<int>(J.cols()), numerics::Covariance::Options{o.sv_cutoff, 0.01});
+  info.Compute(J.transpose() * J);
+  sum.rank = info.rank();
   // Cramer-Rao: M = J'J / s^2, bounds sqrt(diag(M^-1)).
-  Eigen::MatrixXd cw = s2 * info.pinv;
+  Eigen::MatrixXd cw = info.white(s2);
   sum.correlation_lag = choose_correlation_lag(v, problem.starts(), o);
   Eigen::MatrixXd cc =
-      info.pinv * colored_middle(J, v, problem.starts(), sum.correlation_lag) * info.pinv;
+      info.colored(numerics::Covariance::correlated_middle(J, v, problem.starts(), sum.correlation_lag));
   const double nan = std::numeric_limits<double>::quiet_NaN();
   for (Eigen::Index i = 0; i < cw.rows(); ++i) {
-    if (!info.in_null_space[static_cast<std::size_t>(i)]) continue;
+    if (!info.in_null_space(static_cast<int>(i))) continue;
     res.identifiability[static_cast<std::size_t>(i)] = Identifiability::not_identifiable;
     sum.unidentifiable.push_back(res.names[static_cast<std::size_t>(i)]);
     // Why NaN: a null-space direction has no finite variance; printing the pseudo-inverse's
@@ -418,7 +451,7 @@ void estimate_covariance(const OutputErrorProblem& problem, const FitOptions& o,
     std::string list;
     for (const auto& n : sum.unidentifiable) list += (list.empty() ? "" : ", ") + n;
     sum.message = fmt::format("information matrix is rank deficient (rank {} of {}); not "
-                              "identifiable: {}{}", info.rank, cw.rows(), list,
+                              "identifiable: {}{}", info.rank(), cw.rows(), list,
                               sum.message.empty() ? "" : "; " + sum.message);
     sum.termination = Termination::rank_deficient;
   } else if (sum.termination == Termination::converged) {
@@ -427,16 +460,14 @@ void estimate_covariance(const OutputErrorProblem& problem, const FitOptions& o,
   }
 }
 
-// Why the start values cannot be propagated, naming the values and what to do (issue 12: an
-// exit 4 must say which start value failed). Checks, in order: a non-finite start value, a
+// Why the start values cannot be propagated, naming the values (issue 12: an exit 4 must say
+// which start value failed; what to do is the front end's to say, from
+// OutputErrorSummary::start). Checks, in order: a non-finite start value, a
 // lag decay rate not positive on the envelope (the b_j terms' start values), the first run
 // without a periodic steady state or with a non-finite output.
 std::string start_failure_message(const ParameterLayout& L, const OutputErrorData& d, const Eigen::VectorXd& theta,
                                   double lo, double hi) {
-  const std::string what_to_do =
-      "; nothing estimated. What to do: give that start value (fit --start-value NAME=VALUE), start from a "
-      "constant b1 (b1_degree = 0, no b1 knots), fewer a(x) terms, or --stepwise-refinement output_error; check "
-      "the angle and rate units and columns";
+  const std::string what_to_do = "; nothing estimated";
   const std::vector<std::string> names = L.names();
   for (Eigen::Index k = 0; k < theta.size(); ++k)
     if (!std::isfinite(theta(k)))
@@ -565,17 +596,22 @@ MLResult fit_output_error(const UnsteadyStructure& s, const OutputErrorData& d,
   res.names = L.names();
   res.theta = theta0;
   const std::string projected = project_start(L, d, lo, hi, res.theta);
-  LevenbergMarquardt solver(problem);
-  const LevenbergMarquardtSummary lm = solver.Solve(solver_options(o), res.theta);
+  numerics::LevenbergMarquardt solver(problem);
+  const numerics::LevenbergMarquardt::Options lm_options = solver_options(o);
+  const numerics::LevenbergMarquardt::Summary& lm = solver.Solve(lm_options, res.theta);
+  if (lm.status == numerics::LevenbergMarquardt::Status::invalid_options)
+    throw InputError(d.context_file, 0, "output-error solver options: " + lm.options_error);
   OutputErrorSummary& sum = res.summary;
   sum.n_samples = static_cast<std::size_t>(problem.num_residuals());
   sum.n_parameters = L.size();
-  sum.termination = lm.termination;
+  sum.termination = termination_of(lm.status);
   sum.iterations = lm.iterations;
   sum.cost = lm.cost;
-  sum.log = lm.log;
-  sum.message = lm.message;
-  sum.boundary = lm.boundary;
+  for (const numerics::LevenbergMarquardt::Step& st : lm.log)
+    sum.log.push_back({st.iteration, st.cost, st.damping, st.max_step_in_bounds});
+  sum.message = solver_message(lm, lm_options);
+  sum.boundary = lm.boundary == numerics::LevenbergMarquardt::Boundary::active ? FeasibilityBoundary::active
+                                                                                 : FeasibilityBoundary::interior;
   sum.infeasible_trials = lm.infeasible_trials;
   if (!projected.empty()) sum.message = projected + (sum.message.empty() ? "" : "; " + sum.message);
   const Eigen::Index P = L.size();
@@ -583,6 +619,7 @@ MLResult fit_output_error(const UnsteadyStructure& s, const OutputErrorData& d,
   res.cov_colored = res.cov_white;
   res.identifiability.assign(static_cast<std::size_t>(P), Identifiability::identified);
   if (!std::isfinite(lm.cost)) {
+    sum.start = StartOutcome::not_propagated;
     sum.message = start_failure_message(L, d, res.theta, lo, hi);
     if (!projected.empty()) sum.message = projected + "; " + sum.message;
     sum.fit_error = std::numeric_limits<double>::quiet_NaN();

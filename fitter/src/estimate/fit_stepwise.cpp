@@ -11,7 +11,7 @@
 // and F accepts nearly every candidate. With StepwiseSignificance::colored_residuals (the
 // default) each F is multiplied by var_white / var_colored of the term's estimate in the fit
 // that holds it, var_colored being Morelli & Klein's sandwich (fit_common.cpp's
-// colored_middle, the lags by choose_correlation_lag): F_c = estimate^2 / var_colored. When
+// numerics::Covariance::correlated_middle, the lags by choose_correlation_lag): F_c = estimate^2 / var_colored. When
 // the residuals show no significant autocorrelation (lag window 0) F is left bit-identical.
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
@@ -88,10 +88,10 @@ Eigen::VectorXd colored_factors(const Eigen::MatrixXd& Xs, const Eigen::MatrixXd
   const double s2 = residual.squaredNorm() / (n - static_cast<double>(k));
   for (Eigen::Index i = 0; i < k; ++i) {
     // var_colored of estimate i is w' M w, w = (X'X)^-1 e_i, M the sandwich's middle; as
-    // colored_middle of the single column X w (n x lag work, not n x k^2 x lag). Scaled by
+    // correlated_middle of the single column X w (n x lag work, not n x k^2 x lag). Scaled by
     // N / (N - k) like s^2, as least_squares does.
     const Eigen::MatrixXd u = Xset * Ginv.col(i);
-    const double var_c = colored_middle(u, residual, starts, lag)(0, 0) * n / (n - static_cast<double>(k));
+    const double var_c = numerics::Covariance::correlated_middle(u, residual, starts, lag)(0, 0) * n / (n - static_cast<double>(k));
     const double var_w = s2 * Ginv(i, i);
     if (var_c > 0.0 && var_w > 0.0) factor(i) = var_w / var_c;
   }

@@ -8,7 +8,8 @@
  * the storage of the model and of every state, sized by the functions below. No exceptions
  * cross it; every call returns a status.
  *
- * Usage
+ * Usage (the untyped functions of the first version; the typed handles below, since 0.2, are
+ * the same calls with a model and a state that cannot be swapped)
  * -----
  *   double* model = malloc(indicial_model_bytes());          (or a static double array)
  *   char error[128];
@@ -76,6 +77,7 @@ extern "C" {
 #define INDICIAL_ERROR_UNSUPPORTED_FEATURE (-109)
 #define INDICIAL_ERROR_UNSTABLE_LAG (-110)
 #define INDICIAL_ERROR_MISALIGNED (-200)         /* model or state storage not double-aligned */
+#define INDICIAL_ERROR_STORAGE_TOO_SMALL (-201)  /* typed init: storage_bytes below the size needed */
 
 /* Bytes of storage for one model (the same for every model). */
 size_t indicial_model_bytes(void);
@@ -124,6 +126,65 @@ int indicial_step_batch(const void* model, void* states, size_t n, const double*
 
 /* "ok", "angle_clamped", "checksum_mismatch", ...: a static string for any status. */
 const char* indicial_status_string(int status);
+
+/* ------------------------------------------------------------------------------------------
+ * Typed handles (since 0.2). The functions above take the model's and the state's storage as
+ * void*, so a state passed where the model belongs (or the reverse) compiles and is refused
+ * only at run time. The functions below take distinct opaque handle types: a mix-up is a
+ * compile error in C++ and, in C, a constraint violation that C compilers diagnose (an error
+ * with -Werror or -Werror=incompatible-pointer-types, the default since GCC 14). A handle is
+ * the address of the caller's storage, typed: it is valid as long as that storage is, and it
+ * converts to void*, so handles may be passed to the untyped functions above too.
+ *
+ *   static double model_storage[4096], state_storage[64];
+ *   indicial_model* model = NULL;
+ *   indicial_state* state = NULL;
+ *   if (indicial_model_init(model_storage, sizeof model_storage, text, text_length, error,
+ *                           sizeof error, &model) != 0) { puts(error); }
+ *   indicial_state_init(model, state_storage, sizeof state_storage, alpha_rad, airspeed_mps,
+ *                       &state);
+ *   int s = indicial_state_step(model, state, alpha_rad, q_radps, airspeed_mps, dt_s, out);
+ * ------------------------------------------------------------------------------------------ */
+typedef struct indicial_model indicial_model; /* opaque: a loaded model in caller storage */
+typedef struct indicial_state indicial_state; /* opaque: one instance's state */
+
+/* The library's version, "MAJOR.MINOR.PATCH" (the project's version; `indicial --version`
+ * prints the same), a static string. INDICIAL_C_API is the interface's own level: 1 the
+ * untyped functions, 2 adds the typed handles and indicial_version. */
+#define INDICIAL_C_API 2
+const char* indicial_version(void);
+
+/* Loads text into storage of storage_bytes bytes (at least indicial_model_bytes(), aligned for
+ * a double) as indicial_model_load does; *model is the handle on success, NULL on error
+ * (INDICIAL_ERROR_STORAGE_TOO_SMALL when storage_bytes is too small). */
+int indicial_model_init(void* storage, size_t storage_bytes, const char* text, size_t length,
+                        char* error, size_t error_length, indicial_model** model);
+
+/* indicial_model_outputs, indicial_model_output_name and indicial_state_bytes on a handle. */
+int indicial_model_output_count(const indicial_model* model);
+const char* indicial_model_output_label(const indicial_model* model, int i);
+size_t indicial_model_state_bytes(const indicial_model* model);
+
+/* indicial_model_reference_airspeed_mps on a handle. */
+double indicial_model_airspeed_mps(const indicial_model* model);
+
+/* Resets storage of storage_bytes bytes (at least indicial_model_state_bytes(model), aligned
+ * for a double) as a state of model at the motion angle; *state is the handle on success,
+ * NULL on error (INDICIAL_ERROR_STORAGE_TOO_SMALL when storage_bytes is too small). */
+int indicial_state_init(const indicial_model* model, void* storage, size_t storage_bytes,
+                        double angle_rad, double airspeed_mps, indicial_state** state);
+
+/* indicial_reset, indicial_step, indicial_evaluate and indicial_step_batch on handles; states of a batch are n
+ * consecutive states, each indicial_model_state_bytes(model) bytes, the first at `states`. */
+int indicial_state_reset(const indicial_model* model, indicial_state* state, double angle_rad,
+                         double airspeed_mps);
+int indicial_state_step(const indicial_model* model, indicial_state* state, double angle_rad,
+                        double rate_radps, double airspeed_mps, double dt_s, double* out);
+int indicial_state_evaluate(const indicial_model* model, const indicial_state* state,
+                            double rate_radps, double airspeed_mps, double* out);
+int indicial_state_step_batch(const indicial_model* model, indicial_state* states, size_t n,
+                              const double* angle_rad, const double* rate_radps,
+                              const double* airspeed_mps, double dt_s, double* out);
 
 #ifdef __cplusplus
 }

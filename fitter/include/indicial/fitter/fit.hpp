@@ -318,8 +318,13 @@ struct OutputErrorIteration {
 
 // Whether the estimate sits on the boundary of the admissible models (the output-error
 // solver's feasibility predicate rejected the steps tried from it), see
-// fitter/src/estimate/fit_levenberg_marquardt.hpp.
+// fitter/src/numerics/levenberg_marquardt.hpp.
 enum class FeasibilityBoundary { interior, active };
+
+// Whether the output-error start could be propagated (its lags decay and its outputs are
+// finite). not_propagated: nothing was estimated; the message names the start value that
+// failed, and a front end says what to do (the command line: --start-value, a simpler start).
+enum class StartOutcome { propagated, not_propagated };
 
 struct OutputErrorSummary {
   Termination termination = Termination::converged;
@@ -334,6 +339,7 @@ struct OutputErrorSummary {
   std::vector<OutputErrorIteration> log;
   FeasibilityBoundary boundary = FeasibilityBoundary::interior;
   int infeasible_trials = 0;      // trial steps rejected as inadmissible models
+  StartOutcome start = StartOutcome::propagated;
   std::string message;            // one line: what happened (for reports and the CLI)
 };
 
