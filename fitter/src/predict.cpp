@@ -28,13 +28,6 @@ const char* motion_base(Axis axis) {
   return axis == Axis::pitch ? "alpha" : axis == Axis::roll ? "phi" : "psi";
 }
 
-std::string trim(const std::string& s) {
-  std::size_t b = 0, e = s.size();
-  while (b < e && (s[b] == ' ' || s[b] == '\t' || s[b] == '\r')) ++b;
-  while (e > b && (s[e - 1] == ' ' || s[e - 1] == '\t' || s[e - 1] == '\r')) --e;
-  return s.substr(b, e - b);
-}
-
 std::string fmt_num(double v) {
   char buf[64];
   std::snprintf(buf, sizeof buf, "%.6g", v);
@@ -237,27 +230,6 @@ ModelSet<double, FitCapacity> read_model_file(const std::string& path) {
     throw InputError(path, static_cast<long>(diag.line),
                      std::string(diag.reason) + " (" + to_string(st) + ")");
   return *m;
-}
-
-std::string motion_column_name(const std::string& csv_path, Axis axis) {
-  std::ifstream in(csv_path);
-  if (!in) throw InputError(csv_path, 0, "cannot open");
-  std::string line;
-  long line_no = 0;
-  while (std::getline(in, line)) {
-    ++line_no;
-    const std::string t = trim(line);
-    if (t.empty() || t[0] == '#') continue;
-    std::stringstream ss(t);
-    std::string cell;
-    const std::string base = motion_base(axis);
-    while (std::getline(ss, cell, ',')) {
-      cell = trim(cell);
-      if (cell == base + "_deg" || cell == base + "_rad") return cell;
-    }
-    throw InputError(csv_path, line_no, "missing column '" + base + "_deg' or '" + base + "_rad'");
-  }
-  throw InputError(csv_path, 0, "no header row");
 }
 
 std::string prediction_csv(const Prediction& p, const std::string& angle_column,

@@ -139,7 +139,9 @@ MotionSpec parse_motion_spec(const std::string& spec, Axis axis) {
   const std::string rest = spec.substr(colon + 1);
   MotionSpec m;
   if (kind == "csv") {
-    const Run run = read_run_csv(rest, axis, "", CoefficientPresence::optional);
+    RunCsvOptions read;
+    read.frequency_source = FrequencySource::none;
+    const Run run = read_run_csv(rest, axis, "", CoefficientPresence::optional, read);
     m.kind = MotionKind::samples;
     m.time_s = run.time_s;
     m.angle_rad = run.motion_angle_rad;

@@ -34,6 +34,7 @@ struct Run {
   long experiment_line = 0;          // the line of its `runs` entry (0: not from an experiment)
   std::vector<double> time_s;
   std::vector<double> motion_angle_rad;   // alpha (pitch), phi (roll), psi (yaw)
+  std::string motion_column;              // its column as ours ("alpha_deg", "phi_rad"), for echoing
   std::vector<double> rate_radps;         // q, p or r: from the file, or smoothed derivative
   bool rate_from_file = false;
   std::vector<double> coefficient;        // measured C_a
@@ -44,6 +45,11 @@ struct Run {
   double frequency_hz = 0.0;              // the cycle's frequency; 0 when not given
   TimeGrid time_grid = TimeGrid::uniform;
   TimeSource time_source = TimeSource::time_column;
+  // A run of several files whose columns are at their own phases (runs entry `files = [...]`,
+  // phase_resample.hpp): the files as named in the experiment, and the grid's size; path is
+  // then their names joined by " + ". Empty for a run of one file.
+  std::vector<std::string> source_files;
+  int resampled_points = 0;
   std::vector<std::string> notes;         // one-line notes of the reader (ignored columns, ...)
   std::vector<std::string> warnings;      // plausible mistakes (radians in a degree column, ...)
   double dt_s() const { return time_s.size() > 1 ? time_s[1] - time_s[0] : 0.0; }

@@ -118,10 +118,6 @@ void score_coefficients(Prediction& p);
 // Reads a coefficient file (parse_coef_file, FitCapacity); throws InputError(path, line, ...).
 ModelSet<double, FitCapacity> read_model_file(const std::string& path);
 
-// The motion column of a run CSV as written in its header (e.g. "alpha_deg", "phi_rad");
-// throws InputError when absent. Used to echo the angle "as given".
-std::string motion_column_name(const std::string& csv_path, Axis axis);
-
 // predict's CSV: time_s, the angle column (angle_column: "<base>_deg" or "<base>_rad"), then
 // per coefficient <c>_pred, <c>_quasi_steady and, where measured, <c>. Metrics go into the
 // comment lines as well.
