@@ -27,7 +27,7 @@
 //
 // Warnings
 // --------
-// 1. ml_iteration uses the fitter's private interface (fitter/src/fit_internal.hpp:
+// 1. ml_iteration uses the fitter's private interface (fitter/src/estimate/fit_internal.hpp:
 //    prepare_runs, run_equation_error, fit_output_error) to time one stage in isolation.
 // 2. The 1e6-sample case simulates 10^4 s of motion first (a few seconds, not timed).
 #include <benchmark/benchmark.h>
@@ -42,7 +42,7 @@
 #include <thread>
 #include <vector>
 
-#include "../fitter/src/fit_internal.hpp"
+#include "estimate/fit_internal.hpp"
 #include "indicial/fitter/fit.hpp"
 #include "indicial/fitter/simulate.hpp"
 

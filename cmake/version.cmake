@@ -3,7 +3,7 @@
 # The version is the root CMakeLists.txt's project(VERSION); nothing else spells it. Included
 # from fitter/CMakeLists.txt: it generates, in the build tree (PROJECT_BINARY_DIR/generated),
 #   indicial/fitter/version.hpp   INDICIAL_VERSION "X.Y.Z" (at configure time), included by
-#                                 fitter/src/provenance.cpp
+#                                 fitter/src/io/provenance.cpp
 #   indicial/fitter/commit.hpp    INDICIAL_COMMIT "abcdef123456[-dirty]" or "unknown", by the
 #                                 target indicial_commit_header at every build
 # commit.hpp is rewritten only when the commit changes, and only tools/build_commit.cpp

@@ -309,7 +309,7 @@ TEST_CASE("init writes a commented template with every key, refuses to overwrite
   const CliRun r = run_cli("init '" + f.string() + "'");
   REQUIRE_MESSAGE(r.exit_code == 0, r.err);
   const std::string t = slurp(f);
-  // Every key the experiment reader accepts (fitter/src/io.cpp), set or commented out.
+  // Every key the experiment reader accepts (fitter/src/io/io.cpp), set or commented out.
   for (const char* key :
        {"axis", "coefficient", "reference_length_m", "airspeed_mps", "alpha0_deg", "runs", "[static]",
         "polynomial", "table", "[rotary]", "estimate", "degree", "knots_deg", "prior_knots_deg",

@@ -8,7 +8,7 @@
 #include <algorithm>
 #include <vector>
 
-#include "../fitter/src/diagnose_internal.hpp"
+#include "diagnose/diagnose_internal.hpp"
 
 using namespace indicial;
 using indicial::diagnose_detail::choose_family;

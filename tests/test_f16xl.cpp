@@ -6,7 +6,7 @@
 // in RMS error and in Theil's inequality coefficient.
 //
 // The static curves of these cases are ASSUMED (the report gives none): see
-// fitter/src/cases_f16xl.cpp and docs/validation-prediction.md.
+// fitter/src/simulate/cases_f16xl.cpp and docs/validation-prediction.md.
 #include <doctest/doctest.h>
 
 #include <cmath>

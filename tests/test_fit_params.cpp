@@ -1,5 +1,5 @@
 // Parameter identity (ParamId: names made and read in one place each) and the output-error
-// solver's feasibility hook (fitter/src/fit_levenberg_marquardt.hpp).
+// solver's feasibility hook (fitter/src/estimate/fit_levenberg_marquardt.hpp).
 #include <doctest/doctest.h>
 
 #include <Eigen/Core>
@@ -8,7 +8,7 @@
 #include <unordered_map>
 #include <vector>
 
-#include "../fitter/src/fit_levenberg_marquardt.hpp"
+#include "estimate/fit_levenberg_marquardt.hpp"
 #include "indicial/fitter/fit.hpp"
 
 using namespace indicial;

@@ -17,6 +17,9 @@ packages=(
   libeigen3-dev libboost-dev libtomlplusplus-dev libcli11-dev libfmt-dev nlohmann-json3-dev
   libssl-dev   # OpenSSL's libcrypto: SHA-256 of the input files (provenance)
   doctest-dev gnuplot-nox
+  libzip-dev          # `indicial fmu` writes the FMU package (a zip) with libzip
+  libxml2-dev unzip   # the FMU test's own importer: unzip the package, parse modelDescription.xml
+  octave liboctave-dev  # the MEX stepper: built with mkoctfile --mex, tested under octave-cli
 )
 for extra in "$@"; do
   case "$extra" in

@@ -4,6 +4,7 @@
 // -fno-exceptions -fno-rtti; no heap.
 #include "indicial/indicial.h"
 
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
 
@@ -107,6 +108,12 @@ const char* indicial_model_output_name(const void* model, int i) {
   return m->set.coefficients[i].name;
 }
 
+double indicial_model_reference_airspeed_mps(const void* model) {
+  int status = 0;
+  const Model* m = loaded(model, &status);
+  return m == nullptr ? 0.0 : static_cast<double>(m->set.airspeed_mps);
+}
+
 size_t indicial_state_bytes(const void* model) {
   int status = 0;
   const Model* m = loaded(model, &status);
@@ -137,6 +144,29 @@ int indicial_step(const void* model, void* state, double angle_rad, double rate_
   if (m->delay == indicial::DelayUse::none)
     return c_status(indicial::step(*m, *static_cast<PlainState*>(state), in, dt_s, out));
   return c_status(indicial::step(*m, *static_cast<RingState*>(state), in, dt_s, out));
+}
+
+int indicial_evaluate(const void* model, const void* state, double rate_radps,
+                      double airspeed_mps, double* out) {
+  int status = 0;
+  const Model* m = loaded(model, &status);
+  if (m == nullptr) return status;
+  if (state == nullptr) return INDICIAL_ERROR_NULL_ARGUMENT;
+  if (!aligned(state)) return INDICIAL_ERROR_MISALIGNED;
+  // Both state types begin with the plain State (DelayedState derives from it).
+  const PlainState& s = *static_cast<const PlainState*>(state);
+  const indicial::MotionInput in{0.0, rate_radps, airspeed_mps};
+  const indicial::StepStatus checked = indicial::detail::check_step_input(s.phase, in, 1.0, out);
+  if (checked != indicial::StepStatus::ok) return c_status(checked);
+  const auto v = indicial::detail::airspeed_terms(*m, s, airspeed_mps);
+  double value[Cap::max_coefficients] = {};
+  for (int c = 0; c < m->set.n_coefficients; ++c) {
+    value[c] = indicial::coefficient_output(m->set.coefficients[c], s.x_prev_rad, rate_radps,
+                                            v.l_over_v_s, s.y[c]);
+    if (!std::isfinite(value[c])) return INDICIAL_ERROR_NON_FINITE_RESULT;
+  }
+  for (int c = 0; c < m->set.n_coefficients; ++c) out[c] = value[c];
+  return INDICIAL_OK;
 }
 
 int indicial_step_batch(const void* model, void* states, size_t n, const double* angle_rad,

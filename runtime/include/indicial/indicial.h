@@ -89,6 +89,10 @@ int indicial_model_outputs(const void* model);
 /* Name of output i ("CL", "Cm", ...), or NULL if i is out of range or nothing is loaded. */
 const char* indicial_model_output_name(const void* model, int i);
 
+/* The airspeed the model was identified at (m/s; its steps accept any airspeed > 0), or 0 if
+ * nothing is loaded. */
+double indicial_model_reference_airspeed_mps(const void* model);
+
 /* Bytes of storage for one state of this model (0 if nothing is loaded). */
 size_t indicial_state_bytes(const void* model);
 
@@ -98,6 +102,13 @@ int indicial_reset(const void* model, void* state, double angle_rad, double airs
 /* One step of dt_s to this sample; out receives indicial_model_outputs(model) values. */
 int indicial_step(const void* model, void* state, double angle_rad, double rate_radps,
                   double airspeed_mps, double dt_s, double* out);
+
+/* The outputs at the state's current sample without stepping: its (clamped) angle and lag
+ * states, with this rate and airspeed -- e.g. the outputs at the first sample, just after
+ * indicial_reset (what `indicial predict` writes there). Changes nothing; out receives
+ * indicial_model_outputs(model) values only if every one is finite. */
+int indicial_evaluate(const void* model, const void* state, double rate_radps,
+                      double airspeed_mps, double* out);
 
 /* n instances of one model: states are n consecutive states of indicial_state_bytes(model)
  * bytes each, as indicial_reset writes them; out receives n rows of

@@ -368,6 +368,77 @@ inline Scalar static_value(const StaticCurve<Scalar, P, K, T>& c, const Scalar& 
 }
 
 // ------------------------------------------------------------------------------------------
+// Dynamic stall: the separation and leading-edge-vortex families (issue 22). PARAMETERS here
+// (they are part of CoefficientModel); the STATE, the discrete update, the continuous
+// derivatives and the output maps are at the end of this file, under "Dynamic stall:
+// equations", whose essay gives the equations, units and choices.
+// ------------------------------------------------------------------------------------------
+// Which families a coefficient carries. The vortex is fed by the separation state, so it
+// never comes alone. none: the report's model, exactly as before (no state is stepped).
+enum class StallFamilies : int { none = 0, separation = 1, separation_and_vortex = 2 };
+
+inline constexpr const char* stall_families_name(StallFamilies f) {
+  return f == StallFamilies::none ? "none"
+         : f == StallFamilies::separation ? "separation" : "separation_and_vortex";
+}
+
+// The separation-point family (Goman-Khrabrov state, Kirchhoff output).
+//   parameter                       unit           fitter name   coefficient-file key
+//   normal_force_slope_per_rad      1/rad          (polar)       sep_polar C_Na alpha0_rad
+//   zero_lift_angle_rad             rad            (polar)       sep_polar
+//   f0 table (x_rad, value)         rad, 1         (polar)       sep_f0_point x_rad f0 (rows)
+//   f0_correction spline            1, x in rad    f0c_{i}, f0cK{j}  sep_f0_corr_poly / _knot
+//   tau1_semichords  T1             l/V            T1            sep_time_constants T1 T2
+//   tau2_semichords  T2             l/V            T2            sep_time_constants
+//   cp_k0, cp_k1, cp_k2             1              k0, k1, k2    sep_cp k0 k1 k2
+// The polar items are derived from the static lift polar (kirchhoff_separation, below) and
+// are not fitted; T1, T2, the f0 correction and k0..k2 are.
+template <class Scalar, class Cap>
+struct SeparationParameters {
+  using SplineT = Spline<Scalar, Cap::max_powers, Cap::max_knots>;
+  Scalar normal_force_slope_per_rad = Scalar(0);  // C_Na of the attached polar
+  Scalar zero_lift_angle_rad = Scalar(0);         // alpha_0 of the attached polar
+  int n_f0 = 0;                                   // rows of the static separation table
+  double f0_x_rad[Cap::max_table_points] = {};    // strictly increasing
+  Scalar f0_value[Cap::max_table_points] = {};    // in [0, 1]; linear between rows
+  SplineT f0_correction;                          // fitted, ADDED to the table, then clipped
+  Scalar tau1_semichords = Scalar(3);             // T1 > 0: relaxation of f
+  Scalar tau2_semichords = Scalar(0);             // T2 >= 0: lag of the forcing angle
+  Scalar cp_k0 = Scalar(0);                       // output shape h(f) = k0 + k1 (1 - f)
+  Scalar cp_k1 = Scalar(0);                       //              + k2 4 f^2 (1 - f^2)
+  Scalar cp_k2 = Scalar(0);
+};
+
+// The leading-edge-vortex family (Beddoes-Leishman vortex lift, smooth switches).
+//   parameter                 unit        fitter name   coefficient-file key
+//   shedding_threshold  C_N1  1           CN1           vortex_shedding C_N1 width
+//   shedding_width            1 (C_N)     (structure)   vortex_shedding
+//   decay_semichords    T_v   l/V         Tv            vortex_time_constants Tv Tvl
+//   travel_semichords   T_vl  l/V         Tvl           vortex_time_constants
+//   clock_width_semichords    l/V         (structure)   vortex_clock width reset
+//   clock_reset_semichords    l/V         (structure)   vortex_clock
+//   lift_gain           c_v   1           cv            vortex_output c_v x_v
+//   cp_travel           x_v   1 (chords)  xv            vortex_output
+template <class Scalar>
+struct VortexParameters {
+  Scalar shedding_threshold = Scalar(1.3);    // C_N1 > 0: |C_N'| above it sheds
+  double shedding_width = 0.05;               // > 0: width of the shedding switch, in C_N
+  Scalar decay_semichords = Scalar(6);        // T_v > 0: decay of the vortex lift
+  Scalar travel_semichords = Scalar(7);       // T_vl > 0: time to convect over the chord
+  double clock_width_semichords = 0.5;        // > 0: width of the at-the-trailing-edge switch
+  double clock_reset_semichords = 1.0;        // > 0: the clock's return to 0 off the criterion
+  Scalar lift_gain = Scalar(0);               // c_v: the vortex lift's weight in the output
+  Scalar cp_travel = Scalar(0);               // x_v: centre-of-pressure travel of the vortex
+};
+
+template <class Scalar, class Cap>
+struct StallModel {
+  StallFamilies families = StallFamilies::none;
+  SeparationParameters<Scalar, Cap> separation;
+  VortexParameters<Scalar> vortex;
+};
+
+// ------------------------------------------------------------------------------------------
 // One coefficient's model.
 // ------------------------------------------------------------------------------------------
 template <class Scalar, class Cap>
@@ -389,6 +460,7 @@ struct CoefficientModel {
   LagState<Scalar, Cap> lags[Cap::max_lags];
   Scalar con = Scalar(0);      // constant in the first state equation, 1/s at V_ref
   Scalar delay_s = Scalar(0);  // pure delay of the unsteady forcing, s at V_ref
+  StallModel<Scalar, Cap> stall;  // dynamic-stall families (none by default)
 };
 
 template <class Scalar, class Cap>
@@ -821,6 +893,379 @@ inline void lag_derivatives(const CoefficientModel<Scalar, Cap>& m, const Scalar
     ydot[j] = -spline_value(m.lags[j].b, x_rad) * time_scale * y[j] - gain * forcing;
     if (j == 0) ydot[j] = ydot[j] + m.con * time_scale;
   }
+}
+
+
+// ==========================================================================================
+// Dynamic stall: equations (issue 22)
+// ==========================================================================================
+// Two families of states join the report's model of one coefficient, as a DELTA on top of it:
+//
+//   C(t) = C_a(x) + dC_a(x) + (l/V) C_aq(x) rate + sum_j y_j            (the report's model)
+//        + N(x) [ K(f) h(f) - K(f0(x)) h(f0(x)) ]                       (separation family)
+//        + C_v,lift (c_v - x_v xi(tau_v))                               (vortex family)
+//
+// Separation (Goman & Khrabrov 1994; the Kirchhoff output of Leishman & Beddoes 1989):
+//   T1 (l/V) f' + f = f0c(x - T2 (l/V) x')                              (state f in [0, 1])
+//   f0c(x) = clip_[0,1]( f0(x) + df0(x) )      f0: the static table, df0: a fitted spline
+//   N(x)   = C_Na (x - alpha_0)                the attached normal force (a line)
+//   K(f)   = ((1 + sqrt f) / 2)^2              Kirchhoff's flow factor
+//   h(f)   = k0 + k1 (1 - f) + k2 4 f^2 (1 - f^2)    the output's shape: for a lift
+//            coefficient k0 ~ 1 (k1, k2 small corrections); for a moment about the quarter
+//            chord C_m = C_N x_cp(f), x_cp(f) = k0 + k1 (1 - f) + k2 4 f^2 (1 - f^2), the
+//            centre-of-pressure travel of Leishman & Beddoes (their K0, K1, K2). Deviation:
+//            their bump sin(pi f^2) is replaced by the polynomial 4 f^2 (1 - f^2), which has
+//            the same zeros (f = 0, 1), the same peak (1 at f^2 = 1/2) and differs by < 0.06;
+//            k2 is fitted, and a polynomial costs the runtime's step no sin() (issue 22 item 6).
+// The output is ZERO at f = f0c(x): at steady state (x' = 0, f -> f0c(x)) the static curve
+// C_a(x) stays exact and the report's model is unchanged; the family only adds what the lag of
+// the separation point does. Every coefficient carries its own f (identified from its own
+// measurement; the C_L and C_m blocks of one model set are fitted apart, as their lags are).
+//
+// The static separation f0(x) (Kirchhoff inversion, kirchhoff_separation below): from the
+// static lift polar C(x) and its attached line N(x) = C_Na (x - alpha_0),
+//   f0 = (2 sqrt(C / N) - 1)^2,  with C / N clipped to [1/4, 1] first  (so f0 in [0, 1]):
+//   C / N >= 1 (at or above the line: attached) gives 1, C / N <= 1/4 (K(0) = 1/4: the
+//   fully separated Kirchhoff lift, or a polar of the other sign than its line) gives 0;
+//   |x - alpha_0| below 1e-6 rad (N ~ 0, C / N is 0/0) gives 1: the flow there is attached.
+// C_Na and alpha_0 are the least-squares line through the polar's ATTACHED part (the fitter:
+// the rows with |x| <= the experiment's attached_max_deg, default 8 deg; docs/formats.md). The
+// inversion is done once, offline, into the f0 table (rows at the polar's angles); the
+// runtime interpolates it LINEARLY (monotone between rows: a table in [0, 1] stays in it; the
+// angle is clamped to the first / last row). The fitted correction df0(x) is an ordinary
+// Spline; the sum is clipped to [0, 1] (zero derivative where clipped).
+//
+// Vortex (Beddoes & Leishman, with smooth switches):
+//   C_N'   = N(x - T2 (l/V) x')        the lagged attached normal force (T2 plays the role of
+//                                      Beddoes-Leishman's pressure lag T_p)
+//   g      = S((|C_N'| - C_N1) / w)    the SHEDDING CRITERION |C_N'| > C_N1, as a logistic
+//                                      switch S(u) = 1 / (1 + e^-u) of width w (C_N units)
+//   tau_v' = (V/l) [ g - (1 - g) tau_v / T_r ]   the vortex clock, in semichords: runs while
+//                                      the criterion holds, returns to 0 (time T_r) off it
+//   C_v    = N(x) (1 - K(f))           attached minus separated circulatory normal force
+//   v'     = g s dC_v/dt - (V/l) (2 - s) v / T_v,   s = S((T_vl - tau_v) / w_t)
+//            the vortex lift: fed by the growth of C_v while the criterion holds and the
+//            vortex is over the chord (tau_v < T_vl), decaying with T_v, twice as fast once
+//            it has passed the trailing edge (Leishman & Beddoes' T_v / 2; 2 - s = 1 + S(-u))
+//   xi     = 3 r^2 - 2 r^3,  r = clamp(tau_v / T_vl, 0, 1)    (C1-smooth at r = 0 and 1)
+//   output: v (c_v - x_v xi(tau_v)); for the lift c_v ~ 1, x_v = 0; for the moment about the
+//           quarter chord c_v ~ 0 and x_v ~ 0.4: the moment break as the vortex convects aft.
+//           Deviation: Beddoes-Leishman's x_cp,v = 0.2 (1 - cos(pi r)) is x_v (1 - cos(pi r))
+//           / 2 with x_v = 0.4; the smoothstep 3 r^2 - 2 r^3 has the same ends, slopes 0 at
+//           both, the same midpoint, differs by < 0.01, and costs no cos().
+// Why smooth switches rather than the Beddoes-Leishman state machine (a clock reset, a feed
+// cut-off, a decay doubled by if's): the fitter identifies C_N1, T_v and T_vl by output error
+// (Levenberg-Marquardt with autodiff sensitivities); a discrete switch gives a piecewise-
+// constant cost in C_N1 and T_vl with zero derivative almost everywhere. The widths w, w_t and
+// the reset time T_r are structure (plain double, not fitted; defaults 0.05, 0.5 and 1.0,
+// written in the coefficient file). As w, w_t, T_r -> 0 the equations become the state
+// machine's. At steady state v -> 0 (C_v is constant), so the static curve stays exact.
+//
+// Units and time scaling. T1, T2, T_v, T_vl, T_r, w_t are DIMENSIONLESS, in semichord times
+// l / V (l = the model set's reference_length_m, c / 2 in pitch; V the CURRENT airspeed): a
+// cycle at reduced frequency k = omega l / V is the same curve at every airspeed. The step
+// works in h = dt V / l = dt_s / l_over_v_s (AirspeedScaling::l_over_v_s). x' is taken as the
+// angle's slope over the step, (x1 - x0) / dt (the angle is piecewise linear in time between
+// samples, as everywhere in this model), so no rate input is needed and the lag of the forcing
+// angle over the step is T2 (x1 - x0) / h.
+//
+// The discrete update (advance_stall), order 2, explicit, in this sequence:
+//   f:     EXACT for a forcing u = f0c(x_e) linear in time over the step (u0, u1 at its ends,
+//          x_e = x - T2 (x1 - x0) / h):  f1 = e f0 + (phi1(z) - e) u0 + (1 - phi1(z)) u1,
+//          z = h / T1, e = exp(-z). The three weights are >= 0 and sum to 1: f1 is a convex
+//          combination of f0, u0, u1 and stays in [0, 1] without clipping.
+//   tau_v: exponential integrator with the shedding switch at the step's midpoint (g at the
+//          mean lagged angle, (x_e0 + x_e1) / 2: the midpoint rule):
+//          z_c = h (1 - g) / T_r, tau1 = exp(-z_c) tau0 + phi1(z_c) h g.
+//   v:     as advance_lags: v1 = exp(-z_v) v0 + phi1(z_v) G (C_v(x1, f1) - C_v(x0, f0)),
+//          the feed integral taken exactly as the difference of C_v, the feed gate
+//          G = g s and the decay z_v = h (2 - s) / T_v at the mid clock (tau0 + tau1) / 2,
+//          s = S((T_vl - tau_mid) / w_t) (1 + S(-u) = 2 - S(u): one exponential).
+// Local error O(h^3) (the forcing's curvature over the step, the midpoint gates), so global
+// order 2 (tests/test_stall_model.cpp measures it against Boost.Odeint of stall_derivatives).
+// Cost: 5 exp and 4 sqrt per coefficient and step (update and output); no sin / cos.
+// Non-smooth points: the clipping of f0c, |C_N'| at C_N' = 0, the clamp in xi (C1 there) and
+// sqrt f at f = 0 (K is evaluated with sqrt f := 0 for f <= 0, so an autodiff type gets a
+// finite derivative there).
+//
+// State: StallState, three Scalars per coefficient (f, v, tau_v). reset: stall_steady_state
+// (f = f0c(x), v = 0, tau_v = 0). Feasible set (check_stall_parameters): T1 > 0, T2 >= 0,
+// T_v > 0, T_vl > 0, C_N1 > 0, the widths and T_r > 0, an f0 table of >= 2 strictly
+// increasing rows with values in [0, 1], everything finite.
+// The coefficient-file keys and fitter names are in the parameter structs' tables above.
+template <class Scalar>
+struct StallState {
+  Scalar separation_point = Scalar(1);         // f, in [0, 1] (1 attached, 0 separated)
+  Scalar vortex_lift = Scalar(0);              // v = C_N,v, dimensionless normal force
+  Scalar vortex_clock_semichords = Scalar(0);  // tau_v, in l / V
+};
+
+// The two outputs apart (diagnose's signatures, plots); stall_output is their sum.
+template <class Scalar>
+struct StallOutput {
+  Scalar separation = Scalar(0);
+  Scalar vortex = Scalar(0);
+};
+
+namespace detail {
+// S(u) = 1 / (1 + exp(-u)), written so that exp never overflows (no inf / inf, and an autodiff
+// type gets a finite derivative for every finite u).
+template <class Scalar>
+inline Scalar logistic(const Scalar& u) {
+  using std::exp;
+  if (u >= Scalar(0)) return Scalar(1) / (Scalar(1) + exp(-u));
+  const Scalar e = exp(u);
+  return e / (Scalar(1) + e);
+}
+// sqrt f for f > 0, 0 otherwise (see the essay: finite derivative at f = 0).
+template <class Scalar>
+inline Scalar sqrt_nonnegative(const Scalar& f) {
+  using std::sqrt;
+  if (f > Scalar(0)) return sqrt(f);
+  return Scalar(0);
+}
+template <class Scalar>
+inline Scalar clip_unit(const Scalar& f) {
+  if (f < Scalar(0)) return Scalar(0);
+  if (f > Scalar(1)) return Scalar(1);
+  return f;
+}
+template <class Scalar>
+inline Scalar abs_value(const Scalar& v) {
+  if (v < Scalar(0)) return -v;
+  return v;
+}
+}  // namespace detail
+
+// K(f) = ((1 + sqrt f) / 2)^2.
+template <class Scalar>
+inline Scalar kirchhoff_factor(const Scalar& f) {
+  const Scalar r = (Scalar(1) + detail::sqrt_nonnegative(f)) * Scalar(0.5);
+  return r * r;
+}
+
+// The Kirchhoff inversion of one static-polar row (offline; see the essay): f0 in [0, 1].
+inline double kirchhoff_separation(double coefficient, double normal_force_slope_per_rad,
+                                   double alpha_rad, double zero_lift_angle_rad) {
+  const double da = alpha_rad - zero_lift_angle_rad;
+  const double n = normal_force_slope_per_rad * da;
+  if (std::abs(da) < 1e-6 || !(std::abs(n) > 0.0)) return 1.0;
+  double ratio = coefficient / n;
+  ratio = ratio < 0.25 ? 0.25 : (ratio > 1.0 ? 1.0 : ratio);
+  const double s = 2.0 * std::sqrt(ratio) - 1.0;
+  return s * s;
+}
+
+// The static separation table f0(x), linear between rows, clamped at the ends.
+template <class Scalar, class Cap>
+inline Scalar separation_table_value(const SeparationParameters<Scalar, Cap>& p, const Scalar& x) {
+  const int n = p.n_f0;
+  if (n < 1) return Scalar(1);
+  if (!(x > Scalar(p.f0_x_rad[0]))) return p.f0_value[0];
+  if (!(x < Scalar(p.f0_x_rad[n - 1]))) return p.f0_value[n - 1];
+  int lo = 0, hi = n - 1;  // binary search: f0_x_rad[lo] <= x < f0_x_rad[hi]
+  while (hi - lo > 1) {
+    const int mid = (lo + hi) / 2;
+    if (x < Scalar(p.f0_x_rad[mid])) hi = mid; else lo = mid;
+  }
+  const Scalar w = (x - Scalar(p.f0_x_rad[lo])) / Scalar(p.f0_x_rad[hi] - p.f0_x_rad[lo]);
+  return (Scalar(1) - w) * p.f0_value[lo] + w * p.f0_value[hi];
+}
+
+// f0c(x) = clip_[0,1](f0(x) + df0(x)).
+template <class Scalar, class Cap>
+inline Scalar static_separation(const SeparationParameters<Scalar, Cap>& p, const Scalar& x) {
+  return detail::clip_unit(Scalar(separation_table_value(p, x) + spline_value(p.f0_correction, x)));
+}
+
+// N(x) = C_Na (x - alpha_0).
+template <class Scalar, class Cap>
+inline Scalar attached_normal_force(const SeparationParameters<Scalar, Cap>& p, const Scalar& x) {
+  return p.normal_force_slope_per_rad * (x - p.zero_lift_angle_rad);
+}
+
+// K(f) h(f), the separation output per unit N.
+template <class Scalar, class Cap>
+inline Scalar separation_shape(const SeparationParameters<Scalar, Cap>& p, const Scalar& f) {
+  const Scalar f2 = f * f;
+  const Scalar h = p.cp_k0 + p.cp_k1 * (Scalar(1) - f) + p.cp_k2 * Scalar(4) * f2 * (Scalar(1) - f2);
+  return kirchhoff_factor(f) * h;
+}
+
+// g = S((|C_N'| - C_N1) / w) at the lagged angle x_e.
+template <class Scalar, class Cap>
+inline Scalar shedding_switch(const StallModel<Scalar, Cap>& m, const Scalar& lagged_x_rad) {
+  const Scalar cn = attached_normal_force(m.separation, lagged_x_rad);
+  return detail::logistic(Scalar((detail::abs_value(cn) - m.vortex.shedding_threshold) /
+                                 Scalar(m.vortex.shedding_width)));
+}
+
+// The feed gate s = S((T_vl - tau_v) / w_t); the decay factor is 1 + S(-u) = 2 - s.
+template <class Scalar>
+inline Scalar vortex_on_chord(const VortexParameters<Scalar>& p, const Scalar& clock) {
+  return detail::logistic(Scalar((p.travel_semichords - clock) / Scalar(p.clock_width_semichords)));
+}
+
+// xi(tau_v) = 3 r^2 - 2 r^3, r = clamp(tau_v / T_vl, 0, 1).
+template <class Scalar>
+inline Scalar vortex_position(const VortexParameters<Scalar>& p, const Scalar& clock) {
+  Scalar r = clock / p.travel_semichords;
+  if (r > Scalar(1)) r = Scalar(1);
+  if (r < Scalar(0)) r = Scalar(0);
+  return r * r * (Scalar(3) - Scalar(2) * r);
+}
+
+// C_v = N(x) (1 - K(f)).
+template <class Scalar, class Cap>
+inline Scalar vortex_feed(const SeparationParameters<Scalar, Cap>& p, const Scalar& x,
+                          const Scalar& f) {
+  return attached_normal_force(p, x) * (Scalar(1) - kirchhoff_factor(f));
+}
+
+// The steady state at angle x (reset): f = f0c(x), no vortex, clock at 0.
+template <class Scalar, class Cap>
+inline void stall_steady_state(const StallModel<Scalar, Cap>& m, const Scalar& x_rad,
+                               StallState<Scalar>* s) {
+  s->separation_point = static_separation(m.separation, x_rad);
+  s->vortex_lift = Scalar(0);
+  s->vortex_clock_semichords = Scalar(0);
+}
+
+// One step of the stall states. l_over_v_s = l / V at the step's airspeed (airspeed_scaling).
+template <class Scalar>
+struct StallStep {
+  Scalar x0_rad;
+  Scalar x1_rad;
+  Scalar dt_s;        // > 0 (the runtime checks it before stepping)
+  Scalar l_over_v_s;  // > 0
+};
+
+// Advances f, tau_v and v over one step, in place (see the essay). families == none: nothing.
+template <class Scalar, class Cap>
+inline void advance_stall(const StallModel<Scalar, Cap>& m, const StallStep<Scalar>& g,
+                          StallState<Scalar>* s) {
+  using std::exp;
+  if (m.families == StallFamilies::none) return;
+  const SeparationParameters<Scalar, Cap>& p = m.separation;
+  const Scalar h = g.dt_s / g.l_over_v_s;  // the step in semichords
+  const Scalar lag = p.tau2_semichords * (g.x1_rad - g.x0_rad) / h;
+  const Scalar xe0 = g.x0_rad - lag;
+  const Scalar xe1 = g.x1_rad - lag;
+  const Scalar u0 = static_separation(p, xe0);
+  const Scalar u1 = static_separation(p, xe1);
+  const Scalar z = h / p.tau1_semichords;
+  const Scalar e = exp(-z);
+  const Scalar w = phi1(z, e);
+  const Scalar f0 = s->separation_point;
+  const Scalar f1 = e * f0 + (w - e) * u0 + (Scalar(1) - w) * u1;
+  s->separation_point = f1;
+  if (m.families != StallFamilies::separation_and_vortex) return;
+  const VortexParameters<Scalar>& v = m.vortex;
+  const Scalar gate = shedding_switch(m, Scalar((xe0 + xe1) * Scalar(0.5)));
+  const Scalar clock0 = s->vortex_clock_semichords;
+  const Scalar zc = h * (Scalar(1) - gate) / Scalar(v.clock_reset_semichords);
+  const Scalar ec = exp(-zc);
+  const Scalar clock1 = ec * clock0 + phi1(zc, ec) * h * gate;
+  s->vortex_clock_semichords = clock1;
+  const Scalar on_chord = vortex_on_chord(v, Scalar((clock0 + clock1) * Scalar(0.5)));
+  const Scalar feed_gate = gate * on_chord;
+  const Scalar zv = h * (Scalar(2) - on_chord) / v.decay_semichords;
+  const Scalar ev = exp(-zv);
+  const Scalar feed = vortex_feed(p, g.x1_rad, f1) - vortex_feed(p, g.x0_rad, f0);
+  s->vortex_lift = ev * s->vortex_lift + phi1(zv, ev) * feed_gate * feed;
+}
+
+// The outputs at angle x with state s, apart (a delta on top of the report's model).
+template <class Scalar, class Cap>
+inline StallOutput<Scalar> stall_output_parts(const StallModel<Scalar, Cap>& m, const Scalar& x_rad,
+                                              const StallState<Scalar>& s) {
+  StallOutput<Scalar> o;
+  if (m.families == StallFamilies::none) return o;
+  const SeparationParameters<Scalar, Cap>& p = m.separation;
+  const Scalar f_static = static_separation(p, x_rad);
+  o.separation = attached_normal_force(p, x_rad) *
+                 (separation_shape(p, s.separation_point) - separation_shape(p, f_static));
+  if (m.families != StallFamilies::separation_and_vortex) return o;
+  o.vortex = s.vortex_lift * (m.vortex.lift_gain -
+                              m.vortex.cp_travel * vortex_position(m.vortex, s.vortex_clock_semichords));
+  return o;
+}
+
+template <class Scalar, class Cap>
+inline Scalar stall_output(const StallModel<Scalar, Cap>& m, const Scalar& x_rad,
+                           const StallState<Scalar>& s) {
+  const StallOutput<Scalar> o = stall_output_parts(m, x_rad, s);
+  return o.separation + o.vortex;
+}
+
+// The continuous-time right-hand side, for reference integrators and tests only: d/dt of
+// (f, v, tau_v) given the angle, its rate and l / V. Meant for f > 0 (K'(f) is infinite at 0;
+// there it is taken as 0).
+template <class Scalar, class Cap>
+inline void stall_derivatives(const StallModel<Scalar, Cap>& m, const Scalar& x_rad,
+                              const Scalar& xdot_radps, const Scalar& l_over_v_s,
+                              const StallState<Scalar>& s, StallState<Scalar>* ds) {
+  const SeparationParameters<Scalar, Cap>& p = m.separation;
+  const Scalar per_s = Scalar(1) / l_over_v_s;  // V / l
+  const Scalar xe = x_rad - p.tau2_semichords * l_over_v_s * xdot_radps;
+  const Scalar f = s.separation_point;
+  const Scalar fdot = (static_separation(p, xe) - f) * per_s / p.tau1_semichords;
+  *ds = StallState<Scalar>{Scalar(0), Scalar(0), Scalar(0)};
+  if (m.families == StallFamilies::none) return;
+  ds->separation_point = fdot;
+  if (m.families != StallFamilies::separation_and_vortex) return;
+  const VortexParameters<Scalar>& v = m.vortex;
+  const Scalar gate = shedding_switch(m, xe);
+  const Scalar clock = s.vortex_clock_semichords;
+  ds->vortex_clock_semichords =
+      per_s * (gate - (Scalar(1) - gate) * clock / Scalar(v.clock_reset_semichords));
+  const Scalar sq = detail::sqrt_nonnegative(f);
+  const Scalar dk_df = sq > Scalar(0) ? Scalar((Scalar(1) + Scalar(1) / sq) * Scalar(0.25)) : Scalar(0);
+  const Scalar feed_rate = p.normal_force_slope_per_rad * xdot_radps * (Scalar(1) - kirchhoff_factor(f)) -
+                           attached_normal_force(p, x_rad) * dk_df * fdot;
+  const Scalar on_chord = vortex_on_chord(v, clock);
+  ds->vortex_lift = gate * on_chord * feed_rate -
+                    per_s * (Scalar(2) - on_chord) * s.vortex_lift / v.decay_semichords;
+}
+
+// The runtime's feasible set (see the essay); the fitter keeps its trial models inside it.
+enum class StallCheck : int {
+  valid = 0,
+  nonpositive_time_constant,  // T1, T_v, T_vl <= 0, T2 < 0, or a width / reset <= 0
+  nonpositive_threshold,      // C_N1 <= 0
+  bad_separation_table,       // < 2 rows, rows not strictly increasing, a value outside [0, 1]
+  not_finite                  // a NaN or infinite parameter
+};
+
+template <class Scalar, class Cap>
+inline StallCheck check_stall_parameters(const StallModel<Scalar, Cap>& m) {
+  using std::isfinite;
+  if (m.families == StallFamilies::none) return StallCheck::valid;
+  const SeparationParameters<Scalar, Cap>& p = m.separation;
+  const double vals[] = {double(p.normal_force_slope_per_rad), double(p.zero_lift_angle_rad),
+                         double(p.tau1_semichords), double(p.tau2_semichords), double(p.cp_k0),
+                         double(p.cp_k1), double(p.cp_k2)};
+  for (double d : vals) if (!isfinite(d)) return StallCheck::not_finite;
+  if (!(p.tau1_semichords > Scalar(0)) || p.tau2_semichords < Scalar(0))
+    return StallCheck::nonpositive_time_constant;
+  if (p.n_f0 < 2 || p.n_f0 > Cap::max_table_points) return StallCheck::bad_separation_table;
+  for (int i = 0; i < p.n_f0; ++i) {
+    if (!isfinite(p.f0_x_rad[i]) || !isfinite(double(p.f0_value[i]))) return StallCheck::not_finite;
+    if (p.f0_value[i] < Scalar(0) || p.f0_value[i] > Scalar(1)) return StallCheck::bad_separation_table;
+    if (i > 0 && !(p.f0_x_rad[i] > p.f0_x_rad[i - 1])) return StallCheck::bad_separation_table;
+  }
+  if (m.families != StallFamilies::separation_and_vortex) return StallCheck::valid;
+  const VortexParameters<Scalar>& v = m.vortex;
+  const double vv[] = {double(v.shedding_threshold), v.shedding_width, double(v.decay_semichords),
+                       double(v.travel_semichords), v.clock_width_semichords,
+                       v.clock_reset_semichords, double(v.lift_gain), double(v.cp_travel)};
+  for (double d : vv) if (!isfinite(d)) return StallCheck::not_finite;
+  if (!(v.decay_semichords > Scalar(0)) || !(v.travel_semichords > Scalar(0)) ||
+      !(v.shedding_width > 0.0) || !(v.clock_width_semichords > 0.0) ||
+      !(v.clock_reset_semichords > 0.0))
+    return StallCheck::nonpositive_time_constant;
+  if (!(v.shedding_threshold > Scalar(0))) return StallCheck::nonpositive_threshold;
+  return StallCheck::valid;
 }
 
 

@@ -6,7 +6,7 @@
 // the residuals still hold, and names the effect the model lacks, with statistics:
 //
 //   1. Fit the configured model; residuals per run; the noise level from the residuals'
-//      short-lag structure (estimate_noise_level below: an AR(1) noise model fitted to the
+//      short-lag structure (estimate_noise_level, noise_level.hpp: an AR(1) noise model fitted to the
 //      first and second differences of the residual, which the noise passes and the smooth,
 //      low-frequency model error of a tunnel motion does not).
 //   2. Every candidate of the vocabulary (interface.md) is a concrete extension of the model
@@ -79,12 +79,13 @@
 
 #include "indicial/fitter/experiment.hpp"
 #include "indicial/fitter/fit.hpp"
+#include "indicial/fitter/noise_level.hpp"
 #include "indicial/fitter/output.hpp"
 #include "indicial/fitter/report.hpp"
 
 namespace indicial {
 
-// The effects diagnose can name. Each has ONE entry in the registry (fitter/src/
+// The effects diagnose can name. Each has ONE entry in the registry (fitter/src/diagnose/
 // diagnose_effects.cpp: name, description, how it is written to the model, its residual
 // signature, the experiment that separates it, its candidate generator); the count, --help
 // list and report descriptions come from there.
@@ -201,15 +202,6 @@ struct DiagnoseRound {
   bool check_only = false;             // the round after max_steps: tested, nothing added
 };
 
-// The measurement noise as an AR(1) process n[k] = phi n[k-1] + e[k] (white: phi = 0).
-struct NoiseEstimate {
-  double sigma = 0.0;                  // marginal standard deviation, pooled over runs
-  double lag1_correlation = 0.0;       // phi, in [0, 0.98], pooled over runs
-  double white_equivalent = 0.0;       // sqrt(mean d2^2 / 6): the white noise of the same
-                                       // second-difference power (= sigma for white noise)
-  std::vector<double> run_sigma;       // per run (marginal, with the pooled phi)
-};
-
 // Why the procedure stopped.
 enum class DiagnoseStop {
   nothing_significant,  // the last round found no significant candidate
@@ -236,20 +228,6 @@ struct DiagnoseResult {
   std::string still_significant;       // stopped == max_steps: the effect still significant
   std::vector<std::string> ill_conditioned;  // final parameters whose bound exceeds |value|
 };
-
-// The noise level of residual series (one per run), pooled over runs, from their first and
-// second differences d1[k] = v[k+1] - v[k], d2[k] = v[k+1] - 2 v[k] + v[k-1], as AR(1) noise
-// of marginal variance s^2 and lag-1 correlation phi:
-//   phi = 1 + 2 r1(d1)                  (r1 = sum d1[k] d1[k-1] / sum d1^2; E r1 = -(1 - phi) / 2)
-//   s^2 = mean d2^2 / (2 (1 - phi) (3 - phi))   (E d2^2 = 2 (1 - phi) (3 - phi) s^2)
-//   white_equivalent^2 = mean d2^2 / 6          (the estimate before issue 13's item 3)
-// Why differences: a model error that is smooth on the scale of the sample step (motion
-// frequency f, step dt) is attenuated by (2 pi f dt)^2 in d1 and (2 pi f dt)^4 in d2 (4e-3
-// and 2.4e-5 at 1 Hz, 100 samples/s), the noise is not; the gains on AR(1) noise are known
-// exactly. Why AR(1): the LR test's kappa assumes it too (warning 2); for white noise phi is
-// ~0 and s is the white level. The white-equivalent level reads AR(1) phi = 0.8 noise at 0.38
-// of its marginal level (docs/diagnose.md, "Noise estimate", for the measured errors).
-NoiseEstimate estimate_noise_level(const std::vector<RunSeries>& runs);
 
 // The whole workflow (see the essay). Throws InputError for bad input (as fit_experiment).
 DiagnoseResult diagnose_experiment(const Experiment& e, const DiagnoseOptions& o);

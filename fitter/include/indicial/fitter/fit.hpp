@@ -310,7 +310,7 @@ struct OutputErrorIteration {
 
 // Whether the estimate sits on the boundary of the admissible models (the output-error
 // solver's feasibility predicate rejected the steps tried from it), see
-// fitter/src/fit_levenberg_marquardt.hpp.
+// fitter/src/estimate/fit_levenberg_marquardt.hpp.
 enum class FeasibilityBoundary { interior, active };
 
 struct OutputErrorSummary {

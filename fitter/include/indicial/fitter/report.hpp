@@ -110,7 +110,7 @@ nlohmann::json with_provenance_and_warnings(nlohmann::json j, const ReportOption
 
 // Warnings about a finished fit, one line each (empty when there is nothing to say):
 //  * the fit error s(v) more than kFitErrorNoiseRatio (3) times the noise level estimated
-//    from the data (estimate_noise_level, diagnose.hpp: its white-equivalent level, from the
+//    from the data (estimate_noise_level, noise_level.hpp: its white-equivalent level, from the
 //    second difference of each run's residual, which passes the noise and removes a smooth
 //    model error; AR(1) noise with phi above ~0.85 reads below its level there, so a complete
 //    model can warn on such noise: the message gives phi). A ratio that high

@@ -20,7 +20,7 @@
 //   std::vector<double> sigma = indicial::add_measurement_noise(runs, 40.0, 7);   // SNR, seed
 //   indicial::write_simulation_case(c, "out/", 40.0, 7, indicial::Overwrite::refuse);
 //
-// Adding a built-in case: add an entry to simulation_cases() in fitter/src/simulate.cpp: the
+// Adding a built-in case: add an entry to simulation_cases() in fitter/src/simulate/simulate.cpp: the
 // truth ModelSet, its motions, the run file names and the experiment configuration to write.
 //
 // Warnings

@@ -6,7 +6,7 @@
 // cost change below cost_tolerance AND every parameter step below step_tolerance bounds, or a
 // first (least-damped) trial already below step_tolerance bounds that does not lower the cost
 // (the cost cannot decrease further within round-off).
-#include "fit_levenberg_marquardt.hpp"
+#include "estimate/fit_levenberg_marquardt.hpp"
 
 #include <Eigen/Eigenvalues>
 

@@ -10,7 +10,7 @@
 #include <stdexcept>
 #include <tuple>
 
-#include "fit_internal.hpp"
+#include "estimate/fit_internal.hpp"
 
 namespace indicial {
 

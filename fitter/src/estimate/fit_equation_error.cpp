@@ -15,7 +15,7 @@
 #include <cmath>
 #include <fmt/format.h>
 
-#include "fit_internal.hpp"
+#include "estimate/fit_internal.hpp"
 #include "indicial/fitter/error.hpp"
 
 namespace indicial::fit_detail {

@@ -20,7 +20,7 @@
 #include <cmath>
 #include <limits>
 
-#include "fit_internal.hpp"
+#include "estimate/fit_internal.hpp"
 
 namespace indicial::fit_detail {
 

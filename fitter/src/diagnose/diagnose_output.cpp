@@ -5,8 +5,8 @@
 #include <cmath>
 #include <fmt/format.h>
 
-#include "diagnose_internal.hpp"
-#include "fit_internal.hpp"
+#include "diagnose/diagnose_internal.hpp"
+#include "estimate/fit_internal.hpp"
 #include "indicial/fitter/io.hpp"
 
 namespace indicial {

@@ -16,7 +16,7 @@
 #include "indicial/fitter/io.hpp"
 #include "indicial/fitter/output.hpp"
 #include "indicial/fitter/phase_resample.hpp"
-#include "toml_reader.hpp"
+#include "io/toml_reader.hpp"
 
 namespace fs = std::filesystem;
 

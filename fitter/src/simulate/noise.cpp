@@ -7,7 +7,7 @@
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/io.hpp"
 #include "indicial/fitter/simulate.hpp"
-#include "spec_keys.hpp"
+#include "simulate/spec_keys.hpp"
 
 namespace indicial {
 namespace {

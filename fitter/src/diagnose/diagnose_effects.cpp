@@ -7,8 +7,8 @@
 #include <fmt/format.h>
 #include <stdexcept>
 
-#include "diagnose_internal.hpp"
-#include "fit_internal.hpp"
+#include "diagnose/diagnose_internal.hpp"
+#include "estimate/fit_internal.hpp"
 
 namespace indicial {
 namespace diagnose_detail {

@@ -25,8 +25,8 @@
 #include <fmt/format.h>
 #include <limits>
 
-#include "fit_internal.hpp"
-#include "fit_levenberg_marquardt.hpp"
+#include "estimate/fit_internal.hpp"
+#include "estimate/fit_levenberg_marquardt.hpp"
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/runtime_limits.hpp"
 

@@ -12,11 +12,11 @@
 #include <string>
 #include <vector>
 
-#include "indicial/fitter/diagnose.hpp"
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/experiment_toml.hpp"
 #include "indicial/fitter/io.hpp"
 #include "indicial/fitter/model_merge.hpp"
+#include "indicial/fitter/noise_level.hpp"
 #include "indicial/runtime.hpp"
 
 namespace fs = std::filesystem;
@@ -182,7 +182,7 @@ std::vector<std::string> fit_warnings(const FitResult& r, const Experiment& e) {
   std::vector<std::string> w;
   const NoiseEstimate noise = estimate_noise_level(r.runs);
   // Why the white-equivalent level: a model error leaks into the marginal (AR(1)) level and
-  // would hide itself; the second difference does not pass it (diagnose.hpp).
+  // would hide itself; the second difference does not pass it (noise_level.hpp).
   const double level = noise.white_equivalent;
   if (std::isfinite(r.fit_error) && level > 0.0 && r.fit_error > kFitErrorNoiseRatio * level) {
     w.push_back(fmt::format(

@@ -27,7 +27,7 @@
 #include <string>
 #include <vector>
 
-#include "fit_internal.hpp"
+#include "estimate/fit_internal.hpp"
 #include "indicial/fitter/error.hpp"
 
 namespace indicial::fit_detail {

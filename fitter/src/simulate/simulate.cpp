@@ -15,7 +15,7 @@
 #include "indicial/coef_file.hpp"
 #include "indicial/fitter/tailless_model.hpp"
 #include "indicial/fitter/io.hpp"
-#include "spec_keys.hpp"
+#include "simulate/spec_keys.hpp"
 
 namespace indicial {
 namespace {
@@ -404,7 +404,7 @@ SimulationCase tailless_case(TaillessB1 kind) {
 
 }  // namespace
 
-// Cases defined in their own files (fitter/src/cases_f16xl.cpp).
+// Cases defined in their own files (fitter/src/simulate/cases_f16xl.cpp).
 std::vector<SimulationCase> f16xl_like_cases();
 std::vector<SimulationCase> lateral_cases();
 

@@ -10,7 +10,7 @@
 #include <fmt/format.h>
 #include <limits>
 
-#include "fit_internal.hpp"
+#include "estimate/fit_internal.hpp"
 #include "indicial/fitter/error.hpp"
 
 namespace indicial {

@@ -1,0 +1,347 @@
+// The dynamic-stall families of shared/include/indicial/model.hpp (issue 22): the Kirchhoff
+// inversion and its clipping, the steady state (the static curve stays exact), f in [0, 1]
+// for any step, the discrete update advance_stall against a Boost.Odeint Dormand-Prince
+// integration of stall_derivatives (error and measured order), double against float, the
+// autodiff sensitivities the fitter uses against central finite differences, the feasible set.
+#include <doctest/doctest.h>
+
+#include <Eigen/Core>
+#include <unsupported/Eigen/AutoDiff>
+#include <array>
+#include <boost/numeric/odeint.hpp>
+#include <cmath>
+#include <cstdio>
+#include <vector>
+
+#include "indicial/model.hpp"
+#include "test_support.hpp"
+
+namespace {
+
+using indicial::testing::kPi;
+constexpr double kDeg = kPi / 180.0;
+using Cap = indicial::FitCapacity;
+
+// Leishman & Beddoes' exponential static separation (NACA 0012, alpha1 = 15.25 deg), as the
+// static table of the tests, every 0.5 deg from -12 to 40 deg.
+double bl_f0(double alpha_rad) {
+  const double a = std::abs(alpha_rad) / kDeg;
+  if (a <= 15.25) return 1.0 - 0.3 * std::exp((a - 15.25) / 3.0);
+  return 0.04 + 0.66 * std::exp((15.25 - a) / 2.3);
+}
+
+template <class S>
+indicial::StallModel<S, Cap> test_model(indicial::StallFamilies families) {
+  indicial::StallModel<S, Cap> m;
+  m.families = families;
+  auto& p = m.separation;
+  p.normal_force_slope_per_rad = S(6.28);
+  p.zero_lift_angle_rad = S(0.2 * kDeg);
+  p.n_f0 = 0;
+  for (double a = -12.0; a <= 40.0 + 1e-9; a += 0.5) {
+    p.f0_x_rad[p.n_f0] = a * kDeg;
+    p.f0_value[p.n_f0] = S(bl_f0(a * kDeg));
+    ++p.n_f0;
+  }
+  p.f0_correction.n_powers = 2;
+  p.f0_correction.power_coef[0] = S(0.01);
+  p.f0_correction.power_coef[1] = S(-0.05);
+  p.tau1_semichords = S(3.0);
+  p.tau2_semichords = S(1.7);
+  p.cp_k0 = S(1.0);
+  p.cp_k1 = S(-0.1);
+  p.cp_k2 = S(0.05);
+  m.vortex.shedding_threshold = S(1.3);
+  m.vortex.decay_semichords = S(6.0);
+  m.vortex.travel_semichords = S(7.0);
+  m.vortex.lift_gain = S(1.0);
+  m.vortex.cp_travel = S(0.4);
+  return m;
+}
+
+struct Motion {
+  double mean_rad = 12.0 * kDeg;
+  double amplitude_rad = 10.0 * kDeg;
+  double omega_radps = 0.0;
+  double alpha(double t) const { return mean_rad - amplitude_rad * std::cos(omega_radps * t); }
+  double alphadot(double t) const { return amplitude_rad * omega_radps * std::sin(omega_radps * t); }
+};
+
+// Reference: Dormand-Prince 5(4), abs/rel 1e-12, to each sample time.
+std::vector<indicial::StallState<double>> reference(const indicial::StallModel<double, Cap>& m,
+                                                    const Motion& mo, double l_over_v_s,
+                                                    double dt_s, int n) {
+  using State = std::array<double, 3>;
+  namespace odeint = boost::numeric::odeint;
+  indicial::StallState<double> s0;
+  indicial::stall_steady_state(m, mo.alpha(0.0), &s0);
+  State y{s0.separation_point, s0.vortex_lift, s0.vortex_clock_semichords};
+  std::vector<indicial::StallState<double>> out{s0};
+  auto rhs = [&](const State& x, State& dxdt, double t) {
+    const indicial::StallState<double> s{x[0], x[1], x[2]};
+    indicial::StallState<double> d;
+    indicial::stall_derivatives(m, mo.alpha(t), mo.alphadot(t), l_over_v_s, s, &d);
+    dxdt = {d.separation_point, d.vortex_lift, d.vortex_clock_semichords};
+  };
+  auto stepper = odeint::make_controlled(1e-12, 1e-12, odeint::runge_kutta_dopri5<State>());
+  for (int k = 0; k < n; ++k) {
+    odeint::integrate_adaptive(stepper, rhs, y, k * dt_s, (k + 1) * dt_s, dt_s / 4);
+    out.push_back({y[0], y[1], y[2]});
+  }
+  return out;
+}
+
+template <class S>
+std::vector<indicial::StallState<S>> discrete(const indicial::StallModel<S, Cap>& m,
+                                              const Motion& mo, double l_over_v_s, double dt_s,
+                                              int n) {
+  indicial::StallState<S> s;
+  indicial::stall_steady_state(m, S(mo.alpha(0.0)), &s);
+  std::vector<indicial::StallState<S>> out{s};
+  for (int k = 0; k < n; ++k) {
+    const indicial::StallStep<S> g{S(mo.alpha(k * dt_s)), S(mo.alpha((k + 1) * dt_s)), S(dt_s),
+                                   S(l_over_v_s)};
+    indicial::advance_stall(m, g, &s);
+    out.push_back(s);
+  }
+  return out;
+}
+
+// Max over the samples of |output_d - output_ref| (the coefficient, what a user sees).
+double max_output_error(const indicial::StallModel<double, Cap>& m, const Motion& mo,
+                        double l_over_v_s, double dt_s, int n) {
+  const auto ref = reference(m, mo, l_over_v_s, dt_s, n);
+  const auto dis = discrete(m, mo, l_over_v_s, dt_s, n);
+  double err = 0.0;
+  for (int k = 0; k <= n; ++k) {
+    const double x = mo.alpha(k * dt_s);
+    err = std::max(err, std::abs(indicial::stall_output(m, x, dis[static_cast<std::size_t>(k)]) -
+                                 indicial::stall_output(m, x, ref[static_cast<std::size_t>(k)])));
+  }
+  return err;
+}
+
+}  // namespace
+
+TEST_CASE("kirchhoff inversion recovers f and clips to the unit interval") {
+  const double cna = 6.28, a0 = 0.5 * kDeg;
+  for (double f = 0.0; f <= 1.0; f += 0.05) {
+    for (double a : {-8.0, 5.0, 14.0, 25.0}) {
+      const double x = a * kDeg;
+      const double c = cna * (x - a0) * indicial::kirchhoff_factor(f);
+      CHECK(indicial::kirchhoff_separation(c, cna, x, a0) == doctest::Approx(f).epsilon(1e-9));
+    }
+  }
+  const double x = 10.0 * kDeg;
+  CHECK(indicial::kirchhoff_separation(2.0 * cna * (x - a0), cna, x, a0) == 1.0);  // above line
+  CHECK(indicial::kirchhoff_separation(0.1 * cna * (x - a0), cna, x, a0) == 0.0);  // below K(0)
+  CHECK(indicial::kirchhoff_separation(-1.0, cna, x, a0) == 0.0);                   // other sign
+  CHECK(indicial::kirchhoff_separation(0.3, cna, a0, a0) == 1.0);                   // N = 0
+}
+
+TEST_CASE_TEMPLATE("stall steady state keeps the static curve exact", S, double, float) {
+  for (auto fam : {indicial::StallFamilies::separation, indicial::StallFamilies::separation_and_vortex}) {
+    const auto m = test_model<S>(fam);
+    for (double a : {-5.0, 8.0, 16.0, 22.0, 35.0}) {
+      const S x = S(a * kDeg);
+      indicial::StallState<S> s;
+      indicial::stall_steady_state(m, x, &s);
+      CHECK(indicial::stall_output(m, x, s) == S(0));
+      for (int k = 0; k < 500; ++k) indicial::advance_stall(m, {x, x, S(0.001), S(0.01)}, &s);
+      // f stays at f0c(x) to rounding, no vortex lift is fed at a fixed angle.
+      CHECK(std::abs(double(s.separation_point - indicial::static_separation(m.separation, x))) < 1e-6);
+      // The feed is the difference of C_v at two f equal to rounding.
+      CHECK(std::abs(double(s.vortex_lift)) < (sizeof(S) == 8 ? 1e-12 : 1e-5));
+      CHECK(std::abs(double(indicial::stall_output(m, x, s))) < 1e-5);
+    }
+  }
+  // No family: nothing is stepped, the output is 0.
+  auto none = test_model<S>(indicial::StallFamilies::none);
+  indicial::StallState<S> s{S(0.3), S(0.2), S(1.0)};
+  indicial::advance_stall(none, {S(0.1), S(0.3), S(0.01), S(0.01)}, &s);
+  CHECK(s.separation_point == S(0.3));
+  CHECK(indicial::stall_output(none, S(0.2), s) == S(0));
+}
+
+TEST_CASE_TEMPLATE("stall separation point stays in the unit interval for any step", S, double, float) {
+  const auto m = test_model<S>(indicial::StallFamilies::separation_and_vortex);
+  unsigned seed = 12345u;
+  auto uniform = [&seed]() {
+    seed = seed * 1664525u + 1013904223u;
+    return (seed >> 8) / double(1u << 24);
+  };
+  indicial::StallState<S> s;
+  indicial::stall_steady_state(m, S(0.0), &s);
+  double x0 = 0.0;
+  for (int k = 0; k < 20000; ++k) {
+    const double x1 = (-15.0 + 60.0 * uniform()) * kDeg;
+    const double dt = std::pow(10.0, -5.0 + 5.0 * uniform());
+    indicial::advance_stall(m, {S(x0), S(x1), S(dt), S(0.01)}, &s);
+    REQUIRE(s.separation_point >= S(0));
+    REQUIRE(s.separation_point <= S(1));
+    REQUIRE(std::isfinite(double(s.vortex_lift)));
+    REQUIRE(s.vortex_clock_semichords >= S(0));
+    x0 = x1;
+  }
+}
+
+// Deep stall (mean 15, amplitude 10 deg, k = 0.1) at 30 m/s with l = 0.275 m: the vortex is
+// shed and convected every cycle. The discrete update against the reference, over two cycles.
+TEST_CASE("advance stall is second order against an odeint integration") {
+  const double l_over_v = 0.275 / 30.0;
+  Motion mo;
+  mo.mean_rad = 15.0 * kDeg;
+  mo.omega_radps = 0.1 / l_over_v;
+  const double period = 2.0 * kPi / mo.omega_radps;
+  for (auto fam : {indicial::StallFamilies::separation, indicial::StallFamilies::separation_and_vortex}) {
+    const auto m = test_model<double>(fam);
+    // The vortex really is shed: the clock passes T_vl and the vortex lift is not small.
+    if (fam == indicial::StallFamilies::separation_and_vortex) {
+      const auto states = discrete(m, mo, l_over_v, period / 2000, 4000);
+      double vmax = 0, cmax = 0;
+      for (const auto& s : states) {
+        vmax = std::max(vmax, s.vortex_lift);
+        cmax = std::max(cmax, s.vortex_clock_semichords);
+      }
+      CHECK(vmax > 0.2);
+      CHECK(cmax > 7.0);
+    }
+    std::vector<double> err;
+    for (int n : {500, 1000, 2000, 4000}) err.push_back(max_output_error(m, mo, l_over_v, 2 * period / n, n));
+    for (std::size_t i = 0; i < err.size(); ++i) std::printf("stall %s n=%d err %.3e\n",
+        indicial::stall_families_name(fam), 500 << i, err[i]);
+    CHECK(err.back() < 2e-5);
+    // The order over the three halvings: single halvings scatter (2.2 .. 1.5) because the
+    // forcing has kinks (the linear f0 table's rows every 0.5 deg, the clipping), where one
+    // step's error is O(h^2) with a constant that depends on where the kink falls in the step.
+    const double order = std::log2(err.front() / err.back()) / 3.0;
+    std::printf("  measured order over three halvings %.2f\n", order);
+    CHECK(order > 1.8);
+  }
+}
+
+TEST_CASE("stall update in float follows double") {
+  const double l_over_v = 0.275 / 40.0;
+  Motion mo;
+  mo.omega_radps = 0.05 / l_over_v;
+  const double period = 2.0 * kPi / mo.omega_radps;
+  const auto md = test_model<double>(indicial::StallFamilies::separation_and_vortex);
+  const auto mf = test_model<float>(indicial::StallFamilies::separation_and_vortex);
+  const int n = 2000;
+  const auto d = discrete(md, mo, l_over_v, period / 1000, n);
+  const auto f = discrete(mf, mo, l_over_v, period / 1000, n);
+  double err = 0.0;
+  for (int k = 0; k <= n; ++k) {
+    const double x = mo.alpha(k * period / 1000);
+    err = std::max(err, std::abs(indicial::stall_output(md, x, d[std::size_t(k)]) -
+                                 double(indicial::stall_output(mf, float(x), f[std::size_t(k)]))));
+  }
+  std::printf("stall float vs double: max output difference %.2e\n", err);
+  CHECK(err < 1e-4);
+}
+
+// The fitter's sensitivities: Eigen forward autodiff through advance_stall and stall_output,
+// against central differences of the double code, for every fitted parameter.
+TEST_CASE("stall autodiff sensitivities match finite differences") {
+  using AD = Eigen::AutoDiffScalar<Eigen::Matrix<double, 12, 1>>;
+  const double l_over_v = 0.275 / 30.0;
+  Motion mo;
+  mo.mean_rad = 14.0 * kDeg;
+  mo.omega_radps = 0.08 / l_over_v;
+  const double dt = 2.0 * kPi / mo.omega_radps / 256;
+  const auto base = test_model<double>(indicial::StallFamilies::separation_and_vortex);
+  // Parameter i of the vector -> its slot in a model of scalar T.
+  auto set = [](auto& m, int i, const auto& v) {
+    auto& p = m.separation;
+    switch (i) {
+      case 0: p.tau1_semichords = v; break;
+      case 1: p.tau2_semichords = v; break;
+      case 2: p.cp_k0 = v; break;
+      case 3: p.cp_k1 = v; break;
+      case 4: p.cp_k2 = v; break;
+      case 5: p.f0_correction.power_coef[1] = v; break;
+      case 6: m.vortex.shedding_threshold = v; break;
+      case 7: m.vortex.decay_semichords = v; break;
+      case 8: m.vortex.travel_semichords = v; break;
+      case 9: m.vortex.lift_gain = v; break;
+      case 10: m.vortex.cp_travel = v; break;
+      default: p.f0_correction.power_coef[0] = v; break;
+    }
+  };
+  const double theta[12] = {3.0, 1.7, 1.0, -0.1, 0.05, -0.05, 1.3, 6.0, 7.0, 1.0, 0.4, 0.01};
+  // Sum of outputs over 1.5 cycles, weighted to mix the samples.
+  auto objective = [&](auto m) {
+    using T = std::decay_t<decltype(m.separation.cp_k0)>;
+    indicial::StallState<T> s;
+    indicial::stall_steady_state(m, T(mo.alpha(0)), &s);
+    T sum = T(0);
+    for (int k = 0; k < 384; ++k) {
+      indicial::advance_stall(m, {T(mo.alpha(k * dt)), T(mo.alpha((k + 1) * dt)), T(dt), T(l_over_v)}, &s);
+      sum = sum + T(std::sin(0.05 * k)) * indicial::stall_output(m, T(mo.alpha((k + 1) * dt)), s);
+    }
+    return sum;
+  };
+  indicial::StallModel<AD, Cap> ma;
+  // Convert the double model, then seed the parameters.
+  ma.families = base.families;
+  ma.separation.normal_force_slope_per_rad = AD(base.separation.normal_force_slope_per_rad);
+  ma.separation.zero_lift_angle_rad = AD(base.separation.zero_lift_angle_rad);
+  ma.separation.n_f0 = base.separation.n_f0;
+  for (int i = 0; i < base.separation.n_f0; ++i) {
+    ma.separation.f0_x_rad[i] = base.separation.f0_x_rad[i];
+    ma.separation.f0_value[i] = AD(base.separation.f0_value[i]);
+  }
+  ma.separation.f0_correction.n_powers = 2;
+  for (int i = 0; i < 12; ++i) {
+    AD a(theta[i]);
+    a.derivatives().setZero();
+    a.derivatives()(i) = 1.0;
+    set(ma, i, a);
+  }
+  // Zero-fill the derivative vectors of the constants the model holds (fixed size: they are).
+  const AD j = objective(ma);
+  for (int i = 0; i < 12; ++i) {
+    const double hstep = 1e-6 * std::max(1.0, std::abs(theta[i]));
+    auto mp = base, mm = base;
+    set(mp, i, theta[i] + hstep);
+    set(mm, i, theta[i] - hstep);
+    const double fd = (objective(mp) - objective(mm)) / (2 * hstep);
+    INFO("parameter " << i << " autodiff " << j.derivatives()(i) << " fd " << fd);
+    CHECK(j.derivatives()(i) == doctest::Approx(fd).epsilon(1e-5).scale(1.0));
+  }
+}
+
+TEST_CASE("check stall parameters names the infeasible models") {
+  using indicial::StallCheck;
+  auto m = test_model<double>(indicial::StallFamilies::separation_and_vortex);
+  CHECK(indicial::check_stall_parameters(m) == StallCheck::valid);
+  auto b = m;
+  b.separation.tau1_semichords = 0.0;
+  CHECK(indicial::check_stall_parameters(b) == StallCheck::nonpositive_time_constant);
+  b = m;
+  b.separation.tau2_semichords = -0.1;
+  CHECK(indicial::check_stall_parameters(b) == StallCheck::nonpositive_time_constant);
+  b = m;
+  b.vortex.travel_semichords = -1.0;
+  CHECK(indicial::check_stall_parameters(b) == StallCheck::nonpositive_time_constant);
+  b = m;
+  b.vortex.shedding_threshold = 0.0;
+  CHECK(indicial::check_stall_parameters(b) == StallCheck::nonpositive_threshold);
+  b = m;
+  b.separation.f0_value[3] = 1.2;
+  CHECK(indicial::check_stall_parameters(b) == StallCheck::bad_separation_table);
+  b = m;
+  b.separation.f0_x_rad[4] = b.separation.f0_x_rad[3];
+  CHECK(indicial::check_stall_parameters(b) == StallCheck::bad_separation_table);
+  b = m;
+  b.separation.n_f0 = 1;
+  CHECK(indicial::check_stall_parameters(b) == StallCheck::bad_separation_table);
+  b = m;
+  b.separation.cp_k1 = std::nan("");
+  CHECK(indicial::check_stall_parameters(b) == StallCheck::not_finite);
+  // The vortex's parameters do not matter to a separation-only model.
+  b = m;
+  b.families = indicial::StallFamilies::separation;
+  b.vortex.decay_semichords = -1.0;
+  CHECK(indicial::check_stall_parameters(b) == StallCheck::valid);
+}
