@@ -373,6 +373,20 @@ TEST_CASE("the simulator's experiment file round-trips through the reader") {
   CHECK(e2.model.a.knots_rad == e.model.a.knots_rad);
 }
 
+TEST_CASE("knots written in degrees read back bit for bit, in their shortest digits (12, not 12.000000000000002)") {
+  indicial::Experiment e = indicial::load_experiment((runs_dir() / "experiment.toml").string());
+  // 12 deg as the reader makes it, a knot computed in rad (diagnose's candidates), and 1/3 deg.
+  e.model.a.knots_rad = {12.0 * (kPi / 180.0), 0.35, (1.0 / 3.0) * (kPi / 180.0) + 0.5};
+  e.model.b1.knots_rad = {0.6};
+  const std::string text = indicial::write_experiment_toml(e, {});
+  INFO(text);
+  CHECK(text.find("a_knots_deg = [12, ") != std::string::npos);
+  CHECK(text.find("12.000000000000002") == std::string::npos);
+  const indicial::Experiment back = indicial::load_experiment(write_exp("knots_back.toml", text));
+  CHECK(back.model.a.knots_rad == e.model.a.knots_rad);
+  CHECK(back.model.b1.knots_rad == e.model.b1.knots_rad);
+}
+
 TEST_CASE("model extension keys (what diagnose adds): read, written back, and refused when wrong") {
   const std::string t = kInterfaceExample;
   const std::string ext = replace(t, "bias = false",

@@ -108,6 +108,8 @@ void run_predict(const PredictOptions& o) {
                                                   : "predicted with the runtime (indicial::Predictor), reset "
                                                     "to the steady state at the first sample"};
   for (const auto& l : lines) comments.push_back(l);
+  const std::vector<std::string> warnings = prediction_warnings(p);
+  for (const auto& w : warnings) comments.push_back("warning: " + w);
   if (!o.plot.empty()) {
     write_prediction_plot(p, o.plot, "indicial predict: " + std::filesystem::path(o.data_path).filename().string(),
                           overwrite);
@@ -118,6 +120,7 @@ void run_predict(const PredictOptions& o) {
   std::printf("predict: %zu samples, %zu coefficient(s) -> %s\n", p.time_s.size(),
               p.coefficients.size(), o.out.c_str());
   for (const auto& l : lines) std::printf("predict: %s\n", l.c_str());
+  tools::print_warnings(warnings);
   if (!metrics_path.empty()) std::printf("predict: metrics -> %s\n", metrics_path.c_str());
   if (!o.plot.empty()) std::printf("predict: plot -> %s\n", o.plot.c_str());
 }

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -794,9 +795,22 @@ std::string toml_string(const std::string& s) {
   }
   return out + "\"";
 }
+// The shortest decimal of degrees that the reader (value * kDegToRad) turns back into `rad` bit
+// for bit. Why: a knot read as 12 deg and written as rad * kRadToDeg reads 12.000000000000002
+// (180/pi and pi/180 are not exact inverses in double); the shortest round-tripping digits
+// write 12, and any angle still reads back to the same radians.
+std::string degrees_text(double rad) {
+  for (int digits = 1; digits <= 17; ++digits) {
+    char buf[40];
+    std::snprintf(buf, sizeof buf, "%.*g", digits, rad * kRadToDeg);
+    if (std::strtod(buf, nullptr) * kDegToRad == rad) return buf;
+  }
+  return format_double(rad * kRadToDeg);
+}
 std::string number_list(const std::vector<double>& v, double factor) {
   std::string out = "[";
-  for (std::size_t i = 0; i < v.size(); ++i) out += (i ? ", " : "") + format_double(v[i] * factor);
+  for (std::size_t i = 0; i < v.size(); ++i)
+    out += (i ? ", " : "") + (factor == kRadToDeg ? degrees_text(v[i]) : format_double(v[i] * factor));
   return out + "]";
 }
 std::string power_terms(const std::string& name, const std::vector<int>& powers) {
@@ -839,7 +853,7 @@ std::string write_experiment_toml(const Experiment& e, const std::vector<std::st
   out += "coefficient = " + toml_string(e.coefficient) + "\n";
   out += "reference_length_m = " + format_double(e.reference_length_m) + "\n";
   out += "airspeed_mps = " + format_double(e.airspeed_mps) + "\n";
-  if (e.axis != Axis::pitch) out += "alpha0_deg = " + format_double(e.alpha0_rad * kRadToDeg) + "\n";
+  if (e.axis != Axis::pitch) out += "alpha0_deg = " + degrees_text(e.alpha0_rad) + "\n";
   out += "runs = [";
   for (std::size_t i = 0; i < e.runs.size(); ++i) {
     out += i ? ", " : "";

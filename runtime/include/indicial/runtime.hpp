@@ -90,9 +90,14 @@
 //    an interrupt. A refused load leaves the predictor as it was (old model, old state).
 // 2. After a load, step() refuses (StepStatus::not_reset) until reset() sets the steady
 //    state; a default-constructed State is "never reset" too.
-// 3. An angle outside the fitted envelope [x_min_rad, x_max_rad] is clamped to it and
-//    reported as StepStatus::angle_clamped; outputs are still produced (with the clamped
-//    angle; the rate is used as given). The unsteady forcing stops while clamped.
+// 3. An angle outside the fitted envelope [x_min_rad, x_max_rad] is reported as
+//    StepStatus::angle_clamped and outputs are still produced (finite, never NaN): the
+//    unsteady term is held at the envelope's edge (its forcing a(x) x' stops while outside, so
+//    the lags relax toward their steady state at the edge with b_j(edge)); every fitted term
+//    (a polynomial static curve, the static correction, the rotary term) is evaluated at the
+//    edge; a static TABLE is evaluated at the true angle over its own rows (held at its first
+//    or last row beyond them). The rate is used as given. Decided in model.hpp's
+//    coefficient_output; the batch, the C API, predict and the fit's replay all step here.
 // 4. Bad input (NaN, Inf, dt_s <= 0, dt_s > max_step_dt_s, airspeed <= 0) returns its own
 //    status and changes neither the state nor the outputs. If finite input would produce a
 //    non-finite output (absurd magnitudes, e.g. airspeed 1e-300), step() returns
@@ -492,8 +497,9 @@ struct DelayedState : State<Scalar, Cap> {
 namespace detail {
 template <class Scalar>
 struct Clamped {
-  Scalar x_rad;
+  Scalar x_rad;       // the model angle clamped to the envelope (the unsteady term's)
   StepStatus status;  // ok or angle_clamped
+  Scalar model_x_rad; // the model angle itself (a static table's, model.hpp coefficient_output)
 };
 
 // Model angle from the motion angle (not yet clamped), in Scalar.
@@ -514,9 +520,9 @@ inline Clamped<Scalar> clamp_model_angle(const RuntimeModel<Scalar, Cap>& m, dou
   const Scalar x = model_angle_of(m, motion_angle_rad);
   // Why the clamp: the splines are fitted inside the envelope only; outside it a polynomial
   // extrapolates without data behind it.
-  if (x < m.x_min_rad) return {m.x_min_rad, StepStatus::angle_clamped};
-  if (x > m.x_max_rad) return {m.x_max_rad, StepStatus::angle_clamped};
-  return {x, StepStatus::ok};
+  if (x < m.x_min_rad) return {m.x_min_rad, StepStatus::angle_clamped, x};
+  if (x > m.x_max_rad) return {m.x_max_rad, StepStatus::angle_clamped, x};
+  return {x, StepStatus::ok, x};
 }
 
 template <class Scalar>
@@ -569,7 +575,7 @@ struct StepResult {
 // any number is not finite. forcing == nullptr: no delay (the forcing angle is the angle).
 template <class Scalar, class Cap>
 inline StepStatus advance_coefficients(const RuntimeModel<Scalar, Cap>& m, const State<Scalar, Cap>& s,
-                                       Scalar x1, Scalar rate, Scalar dt_s,
+                                       Scalar x1, Scalar table_x1, Scalar rate, Scalar dt_s,
                                        const AirspeedTerms<Scalar>& v,
                                        const DelayedForcing<Scalar, Cap>* forcing,
                                        StepResult<Scalar, Cap>* r) {
@@ -593,7 +599,7 @@ inline StepStatus advance_coefficients(const RuntimeModel<Scalar, Cap>& m, const
     }
     evaluate_step_end(cm, g.x1_rad, g.forcing_x1_rad, &r->end[c]);
     advance_lags_between(cm, g, *end0, r->end[c], r->y[c]);
-    r->value[c] = coefficient_output(cm, x1, rate, v.l_over_v_s, r->y[c]);
+    r->value[c] = coefficient_output(cm, x1, table_x1, rate, v.l_over_v_s, r->y[c]);
     if (!std::isfinite(r->value[c])) return StepStatus::non_finite_result;
     for (int j = 0; j < cm.n_lags; ++j)
       if (!std::isfinite(r->y[c][j])) return StepStatus::non_finite_result;
@@ -699,7 +705,7 @@ inline StepStatus step(const RuntimeModel<Scalar, Cap>& m, State<Scalar, Cap>& s
   const detail::Clamped<Scalar> clamp = detail::clamp_model_angle(m, in.motion_angle_rad);
   const detail::AirspeedTerms<Scalar> v = detail::airspeed_terms(m, s, in.airspeed_mps);
   detail::StepResult<Scalar, Cap> r;
-  const StepStatus st = detail::advance_coefficients(m, s, clamp.x_rad, Scalar(in.rate_radps),
+  const StepStatus st = detail::advance_coefficients(m, s, clamp.x_rad, clamp.model_x_rad, Scalar(in.rate_radps),
                                                      Scalar(dt_s), v,
                                                      static_cast<const detail::DelayedForcing<Scalar, Cap>*>(nullptr), &r);
   if (st != StepStatus::ok) return st;
@@ -763,7 +769,7 @@ inline StepStatus step(const RuntimeModel<Scalar, Cap>& m, DelayedState<Scalar, 
     forcing.x1_rad[c] = Scalar(delayed_angle(view, t1_s, d_s[c]));
   }
   detail::StepResult<Scalar, Cap> r;
-  const StepStatus st = detail::advance_coefficients(m, s, clamp.x_rad, Scalar(in.rate_radps),
+  const StepStatus st = detail::advance_coefficients(m, s, clamp.x_rad, clamp.model_x_rad, Scalar(in.rate_radps),
                                                      Scalar(dt_s), v, &forcing, &r);
   if (st != StepStatus::ok) return st;
   detail::commit(m, r, clamp.x_rad, v, &s, out);

@@ -110,7 +110,8 @@ void set_data_range(Experiment& experiment);
 // defaults, frequency_hz (a phase-column run), airspeed_mps and time_grid. Knots are written in degrees,
 // polynomials as given. Writes a_degree / b1_degree when the powers are 0..n-1 and
 // a_powers / b1_powers otherwise. load_experiment(write_experiment_toml(e)) gives back e's
-// configuration (to the last bit for the polynomials, within 1 ulp for knots).
+// configuration (to the last bit; angles in degrees are written with the shortest digits that read back
+// to the same radians: a knot read as 12 deg is written 12, not 12.000000000000002).
 std::string write_experiment_toml(const Experiment& experiment,
                                   const std::vector<std::string>& comment_lines);
 
