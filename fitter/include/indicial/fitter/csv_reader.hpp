@@ -21,7 +21,15 @@
 // Dialects: the delimiter is the most frequent of tab, ';' and ',' in the header line; a UTF-8
 // byte-order mark is dropped; double quotes around a name or cell are removed. With ';' or tab
 // delimiters a cell with one ',' and no '.' is a decimal comma ("0,25" = 0.25; a note says
-// so); with ',' delimiters it cannot occur (the cell would be split).
+// so); with ',' delimiters it cannot occur (the cell would be split). A database's text file
+// reads as it is (CsvDialect, docs/formats.md "Database text files"): whitespace-separated
+// fields, '%' comments, the column names in the comment line above the first numeric row.
+// Lift and drag from body-axis forces: with the coefficient CL or CD absent and the columns
+// Cnormal and Ctangential present (after the [columns] map), CL = Cn cos(alpha) + Ct
+// sin(alpha), CD = Cn sin(alpha) - Ct cos(alpha) with the run's own alpha (pitch only). Our Cn
+// is the yawing moment: a file's unmapped `Cn` beside a chord-force column is refused as the
+// coefficient Cn (unless [columns] Cn = "Cn" declares it) and named in the missing-column
+// message for CL/CD.
 //
 // Warnings
 // --------
