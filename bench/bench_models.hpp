@@ -7,6 +7,7 @@
 //   * Model I:   a(x) with 3 powers + 2 knots (power 2), b1 constant           (Table I)
 //   * Model II:  the same a(x), b1(x) = 1 power + 4 knots (power 1)            (Table I)
 //   * two lags:  Model II plus a second lag with its own b2(x) (1 power + 2 knots) and gain c2
+//   * stall2:    Model II plus both dynamic-stall families on C_L and on C_m (issue 22)
 // C_m is Table I exactly. The report gives no C_L model for Example 1, so C_L uses the same
 // structure with plausible delta-wing numbers: the cost of a step depends on the structure
 // (number of powers, knots, lags), not on the values, as long as the angle crosses the knots the
@@ -37,10 +38,11 @@ namespace bench {
 
 using Cap = DefaultCapacity;
 
-enum class ModelKind : int { model_i = 0, model_ii = 1, two_lags = 2 };
+enum class ModelKind : int { model_i = 0, model_ii = 1, two_lags = 2, model_ii_stall = 3 };
 
 inline const char* model_kind_name(ModelKind k) {
-  return k == ModelKind::model_i ? "model1" : k == ModelKind::model_ii ? "model2" : "twolag";
+  return k == ModelKind::model_i ? "model1" : k == ModelKind::model_ii ? "model2"
+         : k == ModelKind::two_lags ? "twolag" : "stall2";
 }
 
 constexpr double kReferenceLengthM = tailless_reference_length_m;  // l / V = 0.02131 s (Table I)
@@ -60,6 +62,36 @@ void add_knot(Spline<Scalar, P, K>& s, double knot_rad, int power, double coef) 
   ++s.n_knots;
 }
 
+// Both dynamic-stall families (model.hpp's StallModel, issue 22) with Leishman & Beddoes'
+// NACA 0012 constants (C_Na 6.47 -- here 2.6 for this wing's C_L --, f0 with its break at
+// 15.25 deg, T1 = 3, T2 = 1.7, C_N1 = 1.31, T_v = 6, T_vl = 7; C_m's centre of pressure K0,
+// K1, K2 = 0.0025, -0.135, 0.04 and vortex travel 0.2), the f0 table every 2 deg over the
+// motion's 0..70 deg (36 rows), so the motion crosses separation, shedding and reattachment.
+template <class Scalar>
+void add_stall_families(StallModel<Scalar, Cap>& st, bool lift) {
+  const double pi = 3.14159265358979323846;
+  st.families = StallFamilies::separation_and_vortex;
+  auto& p = st.separation;
+  p.normal_force_slope_per_rad = Scalar(lift ? 2.6 : 6.47);
+  p.n_f0 = 36;
+  for (int i = 0; i < p.n_f0; ++i) {
+    const double a_deg = 2.0 * i;
+    p.f0_x_rad[i] = a_deg * pi / 180.0;
+    p.f0_value[i] = Scalar(a_deg <= 15.25 ? 1.0 - 0.3 * std::exp((a_deg - 15.25) / 3.0)
+                                          : 0.04 + 0.66 * std::exp((15.25 - a_deg) / 2.3));
+  }
+  p.tau1_semichords = Scalar(3.0);
+  p.tau2_semichords = Scalar(1.7);
+  p.cp_k0 = Scalar(lift ? 1.0 : 0.0025);
+  p.cp_k1 = Scalar(lift ? 0.0 : -0.135);
+  p.cp_k2 = Scalar(lift ? 0.0 : 0.04);
+  st.vortex.shedding_threshold = Scalar(1.31);
+  st.vortex.decay_semichords = Scalar(6.0);
+  st.vortex.travel_semichords = Scalar(7.0);
+  st.vortex.lift_gain = Scalar(lift ? 1.0 : 0.0);
+  st.vortex.cp_travel = Scalar(lift ? 0.0 : 0.2);
+}
+
 // C_m is Table I (tailless_model.hpp); C_L takes Table I's structure with its own values and
 // C_m's b1 (the cost of a step depends on the structure, not the values).
 template <class Scalar>
@@ -76,6 +108,7 @@ void fill_coefficient(CoefficientModel<Scalar, Cap>& m, const char* name, bool l
     m.a.knot_coef[0] = Scalar(-9.0);
     m.a.knot_coef[1] = Scalar(7.0);
   }
+  if (kind == ModelKind::model_ii_stall) add_stall_families(m.stall, lift);
   if (kind == ModelKind::two_lags) {
     m.n_lags = 2;
     set_poly(m.lags[1].b, {15.0});

@@ -8,6 +8,9 @@
 //   state/<model>/<scalar>     indicial::step(model, State, ...): the stateless core on a
 //                              shared RuntimeModel (what Predictor::step wraps)
 //   c/<model>/double           indicial_step, the C interface (indicial/indicial.h)
+//   state/stall2/<scalar>      indicial::step(model, FamilyState, ...) of Model II with both
+//   step/stall2/double,        dynamic-stall families on C_L and C_m (issue 22); its goal is
+//   c/stall2/double            state/stall2/double <= 2 x state/model2/double in one run
 //   model/<model>/<scalar>     advance_lags + coefficient_output straight from model.hpp, i.e.
 //                              the step without the runtime's input checks and bookkeeping
 //   floor/<model>/<scalar>     only the work no implementation can avoid: per coefficient the
@@ -103,7 +106,7 @@ class PredictorStepper {
 // Predictor::step wraps; the checks, clamp and copy-then-commit are the same).
 // c/: the same through the C interface (indicial_step, indicial/indicial.h).
 // ------------------------------------------------------------------------------------------
-template <class Scalar>
+template <class Scalar, class St = indicial::State<Scalar, Cap>>
 class StateStepper {
  public:
   explicit StateStepper(ModelKind kind) : model_(std::make_unique<indicial::RuntimeModel<Scalar, Cap>>()) {
@@ -123,7 +126,7 @@ class StateStepper {
 
  private:
   std::unique_ptr<indicial::RuntimeModel<Scalar, Cap>> model_;
-  indicial::State<Scalar, Cap> state_;
+  St state_;
   Scalar out_[Cap::max_coefficients] = {};
   unsigned long long bad_steps_ = 0;
 };
@@ -131,7 +134,7 @@ class StateStepper {
 class CStepper {
  public:
   explicit CStepper(ModelKind kind) : model_(indicial_model_bytes() / sizeof(double) + 1) {
-    char text[8192];
+    char text[16384];
     std::size_t n = 0;
     if (indicial::write_coef_file(ib::make_model_set<double>(kind), text, sizeof text, &n) !=
             indicial::WriteStatus::ok ||
@@ -377,6 +380,16 @@ void register_scalar() {
   }
 }
 
+// Model II with both dynamic-stall families (issue 22): the stateless core on a FamilyState,
+// the Predictor and the C interface.
+void register_stall() {
+  const ModelKind k = ModelKind::model_ii_stall;
+  register_variant<double, StateStepper<double, indicial::FamilyState<double, Cap>>>("state/stall2/double", 1000, k);
+  register_variant<float, StateStepper<float, indicial::FamilyState<float, Cap>>>("state/stall2/float", 1000, k);
+  register_variant<double, PredictorStepper<double>>("step/stall2/double", 1000, k);
+  register_variant<double, CStepper>("c/stall2/double", 1000, k);
+}
+
 // Checks that Predictor::step (double) gives the same numbers as the model.hpp update, so that
 // step/ and model/ time the same computation.
 bool check_step_matches_model() {
@@ -440,6 +453,14 @@ int callgrind_main(const std::string& name, std::size_t steps) {
     table.push_back({"floor/" + m + "/double", [=] { return callgrind_run<double, FloorStepper<double>>(steps, k); }});
     table.push_back({"floor/" + m + "/float", [=] { return callgrind_run<float, FloorStepper<float>>(steps, k); }});
   }
+  const ModelKind stall = ModelKind::model_ii_stall;
+  table.push_back({"state/stall2/double", [=] {
+                     return callgrind_run<double, StateStepper<double, indicial::FamilyState<double, Cap>>>(steps, stall);
+                   }});
+  table.push_back({"state/stall2/float", [=] {
+                     return callgrind_run<float, StateStepper<float, indicial::FamilyState<float, Cap>>>(steps, stall);
+                   }});
+  table.push_back({"c/stall2/double", [=] { return callgrind_run<double, CStepper>(steps, stall); }});
   for (const auto& [n, fn] : table)
     if (n == name) return fn();
   std::fprintf(stderr, "unknown variant %s\n", name.c_str());
@@ -457,6 +478,7 @@ int main(int argc, char** argv) {
   for (ModelKind k : {ModelKind::model_i, ModelKind::model_ii, ModelKind::two_lags})
     register_variant<double, CStepper>(std::string("c/") + ib::model_kind_name(k) + "/double", 1000, k);
   register_variant<double, Rk4Stepper<double>>("rk4/model2/double", 1000, ModelKind::model_ii);
+  register_stall();
   register_variant<double, ConvolutionStepper<double>>("conv1s/model2/double", 3000,
                                                         ModelKind::model_ii, std::size_t{1000});
   register_variant<double, ConvolutionStepper<double>>("conv10s/model2/double", 30000,

@@ -54,8 +54,8 @@ echo "== bench_step"
 "$bin/bench_step" "${gb_flags[@]}" --benchmark_min_time=0.2 \
   --benchmark_out="$out/step.json" | grep -E '_median|^-' || true
 
-echo "== C vs C++ and state vs floor, Model II, interleaved (random order, medians)"
-"$bin/bench_step" --benchmark_filter='^(state|c|floor)/model2/double$' \
+echo "== C vs C++, state vs floor and the dynamic-stall step, Model II, interleaved (random order, medians)"
+"$bin/bench_step" --benchmark_filter='^((state|c|floor)/model2|state/stall2)/double$' \
   --benchmark_enable_random_interleaving=true --benchmark_repetitions="$((reps * 3))" \
   --benchmark_min_time=0.1 --benchmark_report_aggregates_only=true --benchmark_format=console \
   --benchmark_out_format=json --benchmark_out="$out/interleaved.json" | grep -E '_median' || true
@@ -66,7 +66,8 @@ if [[ "${SKIP_CALLGRIND:-0}" != 1 ]] && command -v valgrind >/dev/null; then
   : >"$out/callgrind.txt"
   for v in step/model1/double step/model2/double step/twolag/double step/model2/float \
            state/model2/double c/model2/double model/model2/double \
-           floor/model1/double floor/model2/double floor/twolag/double floor/model2/float; do
+           floor/model1/double floor/model2/double floor/twolag/double floor/model2/float \
+           state/stall2/double state/stall2/float; do
     f="$out/callgrind.$(echo "$v" | tr / _).out"
     valgrind --tool=callgrind --instr-atstart=no --callgrind-out-file="$f" \
       "$bin/bench_step" --callgrind "$v" "$steps" >/dev/null 2>&1

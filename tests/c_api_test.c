@@ -3,8 +3,9 @@
  *   c_api_test INDICIAL_EXE SOURCE_DIR WORK_DIR
  * Loads examples/synthetic-lift-moment.coef (C_L and C_m in one model), steps it on a motion,
  * runs `indicial predict` on the same motion and compares every sample to 1e-12; steps a batch
- * of instances and compares with single steps to 1e-12 relative; checks the refusals. Prints
- * one line per failure and exits 1 if any. */
+ * of instances and compares with single steps to 1e-12 relative; checks the refusals. Then the
+ * same comparisons for examples/dynamic-stall-lift-moment.coef (both dynamic-stall families on
+ * C_L and C_m, a deep-stall motion). Prints one line per failure and exits 1 if any. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -40,15 +41,20 @@ static size_t read_file(const char* path, char* buffer, size_t capacity) {
   return n;
 }
 
+/* The motion: mean + amplitude sin(2 pi frequency t + phase), inside the model's envelope. */
+static double motion_mean_rad = 0.6;
+static double motion_amplitude_rad = 0.45;
+static double motion_hz = 1.1;
+
 static double angle_at(int k, double phase) {
   const double t = dt_s * k;
-  return 0.6 + 0.45 * sin(2.0 * 3.14159265358979323846 * 1.1 * t + phase);
+  return motion_mean_rad + motion_amplitude_rad * sin(2.0 * 3.14159265358979323846 * motion_hz * t + phase);
 }
 
 static double rate_at(int k, double phase) {
   const double t = dt_s * k;
-  const double w = 2.0 * 3.14159265358979323846 * 1.1;
-  return 0.45 * w * cos(w * t + phase);
+  const double w = 2.0 * 3.14159265358979323846 * motion_hz;
+  return motion_amplitude_rad * w * cos(w * t + phase);
 }
 
 static int close_to(double a, double b, double tolerance) {
@@ -186,6 +192,40 @@ static void check_refusals(const char* text, size_t length) {
   CHECK(strcmp(indicial_status_string(-9999), "unknown_status") == 0);
 }
 
+/* The dynamic-stall example: a version-2 file, family states in the state (more bytes than a
+ * plain state, at most 256), the same comparisons on a deep-stall cycle (10..24 deg at 4 Hz
+ * and 19.5 m/s: k = 0.19). */
+static void check_families(const char* exe, const char* source_dir, const char* work) {
+  static char text[max_text];
+  char path[1024], error[128];
+  size_t length, plain_bytes;
+  snprintf(path, sizeof path, "%s/examples/dynamic-stall-lift-moment.coef", source_dir);
+  length = read_file(path, text, sizeof text);
+  CHECK(length > 0 && length < sizeof text);
+  plain_bytes = indicial_state_bytes(model_storage);
+  CHECK(indicial_model_load(model_storage, text, length, error, sizeof error) == INDICIAL_OK);
+  CHECK(indicial_model_outputs(model_storage) == 2);
+  CHECK(indicial_state_bytes(model_storage) > plain_bytes);
+  CHECK(indicial_state_bytes(model_storage) <= 256);
+  printf("c_api_test: dynamic-stall state %u bytes (without families %u)\n",
+         (unsigned)indicial_state_bytes(model_storage), (unsigned)plain_bytes);
+  motion_mean_rad = 0.2967;
+  motion_amplitude_rad = 0.1222;
+  motion_hz = 4.0;
+  check_against_cli(exe, path, work);
+  check_batch();
+  {
+    /* indicial_evaluate after a step gives that step's outputs (families included). */
+    double stepped[3], evaluated[3];
+    CHECK(indicial_reset(model_storage, single_storage, angle_at(0, 0.0), airspeed_mps) == INDICIAL_OK);
+    CHECK(indicial_step(model_storage, single_storage, angle_at(1, 0.0), rate_at(1, 0.0), airspeed_mps,
+                        dt_s, stepped) == INDICIAL_OK);
+    CHECK(indicial_evaluate(model_storage, single_storage, rate_at(1, 0.0), airspeed_mps, evaluated) ==
+          INDICIAL_OK);
+    CHECK(memcmp(stepped, evaluated, 2 * sizeof(double)) == 0);
+  }
+}
+
 int main(int argc, char** argv) {
   static char text[max_text];
   char model_path[1024];
@@ -215,6 +255,7 @@ int main(int argc, char** argv) {
   check_against_cli(argv[1], model_path, argv[3]);
   check_batch();
   check_refusals(text, length);
+  check_families(argv[1], argv[2], argv[3]);
   if (failures != 0) {
     fprintf(stderr, "c_api_test: %d check(s) failed\n", failures);
     return 1;

@@ -107,7 +107,7 @@ void* volatile g_void_sink = nullptr;
 using indicial::testing::kPi;
 
 // The file text lives in static storage before counting starts.
-char g_text[8192];
+char g_text[16384];
 std::size_t g_text_length = 0;
 
 indicial::Predictor<double> g_predictor;  // static storage: large, not on the heap either
@@ -136,6 +136,8 @@ TEST_CASE("load (text), reset and 10000 steps allocate nothing") {
   // Cm's forcing delayed by 30 ms (31 samples at 1 ms): the delay history and its ring
   // wrap-around run too, and must not allocate either.
   m.coefficients[1].delay_s = 0.03;
+  // CL carries both dynamic-stall families (a version-2 file): their steps allocate nothing.
+  m.coefficients[0].stall = indicial::test_models::lift_and_moment_stall().coefficients[0].stall;
   const long before_write = allocations();
   const indicial::WriteStatus ws = indicial::write_coef_file(m, g_text, sizeof g_text, &g_text_length);
   const long write_allocations = allocations() - before_write;

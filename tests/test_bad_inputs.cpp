@@ -324,8 +324,8 @@ TEST_CASE("coefficient file: corrupted (one digit changed)") {
                           }() + ")");
 }
 TEST_CASE("coefficient file: wrong version") {
-  expect_coef_refusal(with_checksum(replace_once(body_of(model_one_text()), "indicial-coef 1", "indicial-coef 2")),
-                      ":1: unsupported file version (this runtime reads version 1) (wrong_version)");
+  expect_coef_refusal(with_checksum(replace_once(body_of(model_one_text()), "indicial-coef 1", "indicial-coef 3")),
+                      ":1: unsupported file version (this runtime reads versions 1 and 2) (wrong_version)");
 }
 TEST_CASE("coefficient file: over capacity") {
   std::string knots;

@@ -264,7 +264,7 @@ TEST_CASE("damaged files are refused, each with its own status, and *out is unto
     }
   }
   SUBCASE("wrong version") {
-    expect(replace_once(good, "indicial-coef 1", "indicial-coef 2"), LoadStatus::wrong_version);
+    expect(replace_once(good, "indicial-coef 1", "indicial-coef 3"), LoadStatus::wrong_version);
     expect(replace_once(good, "indicial-coef 1", "bogus-format 1"), LoadStatus::syntax_error);
   }
   SUBCASE("over capacity") {

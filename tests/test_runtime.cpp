@@ -43,7 +43,8 @@ std::string text_of(const Set& m) {
 }  // namespace
 
 // Sum of the member sizes of a Snapshot (a DelayedState): the State's Scalars (lag states,
-// cached step ends, previous angle, airspeed terms) and ints, then the ring's doubles (time,
+// cached step ends, previous angle, airspeed terms) and ints, the FamilyState's dynamic-stall
+// states and their pad, then the ring's doubles (time,
 // delay cache, history times), Scalars (history angles) and ints.
 template <class Pred, class Cap>
 std::size_t snapshot_member_bytes() {
@@ -52,7 +53,9 @@ std::size_t snapshot_member_bytes() {
   const std::size_t state_scalars = Cap::max_coefficients * Cap::max_lags +
                                     Cap::max_coefficients * (1 + Cap::max_lags) + 4;
   const std::size_t doubles = 2 + Cap::max_coefficients + Cap::max_delay_samples;
+  const std::size_t family_scalars = Cap::max_coefficients * (sizeof(indicial::StallState<Scalar>) / sizeof(Scalar));
   return state_scalars * sizeof(Scalar) + sizeof(int) + sizeof(S{}.reserved) +
+         family_scalars * sizeof(Scalar) + sizeof(S{}.stall_reserved) +
          doubles * sizeof(double) + Cap::max_delay_samples * sizeof(Scalar) + 3 * sizeof(int) +
          sizeof(S{}.history_reserved);
 }

@@ -10,6 +10,7 @@
 #include "indicial/coef_file.hpp"
 #include "indicial/fitter/tailless_model.hpp"
 #include "indicial/runtime.hpp"
+#include "runtime_test_models.hpp"
 
 #if defined(__cpp_exceptions) || defined(__GXX_RTTI)
 #error "this file must be compiled with -fno-exceptions -fno-rtti"
@@ -63,4 +64,32 @@ TEST_CASE("load from a char buffer, reset, step without exceptions or RTTI") {
   std::memcpy(damaged, kModelTwo, sizeof kModelTwo);
   damaged[std::strlen("indicial-coef 1\naxis pitch\nreference_length_m 0.37")] = '8';
   CHECK(p.load(damaged, std::strlen(damaged)) == indicial::LoadStatus::checksum_mismatch);
+}
+
+TEST_CASE("dynamic-stall families load, reset and step without exceptions or RTTI, double and float") {
+  static char text[16384];
+  std::size_t n = 0;
+  REQUIRE(indicial::write_coef_file(indicial::test_models::lift_and_moment_stall(), text, sizeof text, &n) ==
+          indicial::WriteStatus::ok);
+  indicial::RuntimeModel<double, indicial::DefaultCapacity> md;
+  indicial::RuntimeModel<float, indicial::DefaultCapacity> mf;
+  REQUIRE(indicial::load_runtime_model(text, n, &md) == indicial::LoadStatus::ok);
+  REQUIRE(indicial::load_runtime_model(text, n, &mf) == indicial::LoadStatus::ok);
+  indicial::FamilyState<double, indicial::DefaultCapacity> sd;
+  indicial::FamilyState<float, indicial::DefaultCapacity> sf;
+  REQUIRE(indicial::reset(md, sd, 0.2, 30.0) == indicial::StepStatus::ok);
+  REQUIRE(indicial::reset(mf, sf, 0.2, 30.0) == indicial::StepStatus::ok);
+  double od[3];
+  float of[3];
+  double worst = 0.0;
+  double min_f = 1.0;
+  for (int k = 1; k <= 1000; ++k) {
+    const double a = 0.3 + 0.12 * std::sin(0.025 * k);
+    REQUIRE(indicial::step(md, sd, {a, 0.0, 30.0}, 0.001, od) == indicial::StepStatus::ok);
+    REQUIRE(indicial::step(mf, sf, {a, 0.0, 30.0}, 0.001, of) == indicial::StepStatus::ok);
+    for (int c = 0; c < 2; ++c) worst = std::fmax(worst, std::fabs(double(of[c]) - od[c]));
+    min_f = std::fmin(min_f, sd.stall[0].separation_point);
+  }
+  CHECK(min_f < 0.5);  // the cycle separates
+  CHECK(worst < 1e-3);
 }

@@ -1,6 +1,6 @@
 // runtime/src/indicial_c.cpp -- the C interface (indicial/indicial.h) over the C++ runtime:
-// RuntimeModel<double, DefaultCapacity> in caller storage, State or DelayedState per
-// instance (by the model's delay use), statuses mapped to the header's numbers. Compiled with
+// RuntimeModel<double, DefaultCapacity> in caller storage, State, FamilyState or DelayedState
+// per instance (by the model's delay and dynamic-stall family use), statuses mapped to the header's numbers. Compiled with
 // -fno-exceptions -fno-rtti; no heap.
 #include "indicial/indicial.h"
 
@@ -17,6 +17,7 @@ namespace {
 using Cap = indicial::DefaultCapacity;
 using Model = indicial::RuntimeModel<double, Cap>;
 using PlainState = indicial::State<double, Cap>;
+using FamState = indicial::FamilyState<double, Cap>;
 using RingState = indicial::DelayedState<double, Cap>;
 
 // What the caller's model storage holds: a marker that a load succeeded, then the model.
@@ -118,7 +119,8 @@ size_t indicial_state_bytes(const void* model) {
   int status = 0;
   const Model* m = loaded(model, &status);
   if (m == nullptr) return 0;
-  return m->delay == indicial::DelayUse::none ? sizeof(PlainState) : sizeof(RingState);
+  if (m->delay != indicial::DelayUse::none) return sizeof(RingState);
+  return m->stall != indicial::StallUse::none ? sizeof(FamState) : sizeof(PlainState);
 }
 
 int indicial_reset(const void* model, void* state, double angle_rad, double airspeed_mps) {
@@ -128,9 +130,11 @@ int indicial_reset(const void* model, void* state, double angle_rad, double airs
   if (state == nullptr) return INDICIAL_ERROR_NULL_ARGUMENT;
   if (!aligned(state)) return INDICIAL_ERROR_MISALIGNED;
   // A refused reset changes nothing (reset() checks before it writes).
-  if (m->delay == indicial::DelayUse::none)
-    return c_status(indicial::reset(*m, *static_cast<PlainState*>(state), angle_rad, airspeed_mps));
-  return c_status(indicial::reset(*m, *static_cast<RingState*>(state), angle_rad, airspeed_mps));
+  if (m->delay != indicial::DelayUse::none)
+    return c_status(indicial::reset(*m, *static_cast<RingState*>(state), angle_rad, airspeed_mps));
+  if (m->stall != indicial::StallUse::none)
+    return c_status(indicial::reset(*m, *static_cast<FamState*>(state), angle_rad, airspeed_mps));
+  return c_status(indicial::reset(*m, *static_cast<PlainState*>(state), angle_rad, airspeed_mps));
 }
 
 int indicial_step(const void* model, void* state, double angle_rad, double rate_radps,
@@ -141,9 +145,11 @@ int indicial_step(const void* model, void* state, double angle_rad, double rate_
   if (state == nullptr) return INDICIAL_ERROR_NULL_ARGUMENT;
   if (!aligned(state)) return INDICIAL_ERROR_MISALIGNED;
   const indicial::MotionInput in{angle_rad, rate_radps, airspeed_mps};
-  if (m->delay == indicial::DelayUse::none)
-    return c_status(indicial::step(*m, *static_cast<PlainState*>(state), in, dt_s, out));
-  return c_status(indicial::step(*m, *static_cast<RingState*>(state), in, dt_s, out));
+  if (m->delay != indicial::DelayUse::none)
+    return c_status(indicial::step(*m, *static_cast<RingState*>(state), in, dt_s, out));
+  if (m->stall != indicial::StallUse::none)
+    return c_status(indicial::step(*m, *static_cast<FamState*>(state), in, dt_s, out));
+  return c_status(indicial::step(*m, *static_cast<PlainState*>(state), in, dt_s, out));
 }
 
 int indicial_evaluate(const void* model, const void* state, double rate_radps,
@@ -153,8 +159,12 @@ int indicial_evaluate(const void* model, const void* state, double rate_radps,
   if (m == nullptr) return status;
   if (state == nullptr) return INDICIAL_ERROR_NULL_ARGUMENT;
   if (!aligned(state)) return INDICIAL_ERROR_MISALIGNED;
-  // Both state types begin with the plain State (DelayedState derives from it).
+  // Every state type begins with the plain State (FamilyState and DelayedState derive from
+  // it); a model with dynamic-stall families has a FamilyState (or a DelayedState, derived
+  // from it), whose family outputs join the coefficients as in a step.
   const PlainState& s = *static_cast<const PlainState*>(state);
+  const FamState* families =
+      m->stall != indicial::StallUse::none ? static_cast<const FamState*>(state) : nullptr;
   const indicial::MotionInput in{0.0, rate_radps, airspeed_mps};
   const indicial::StepStatus checked = indicial::detail::check_step_input(s.phase, in, 1.0, out);
   if (checked != indicial::StepStatus::ok) return c_status(checked);
@@ -163,6 +173,9 @@ int indicial_evaluate(const void* model, const void* state, double rate_radps,
   for (int c = 0; c < m->set.n_coefficients; ++c) {
     value[c] = indicial::coefficient_output(m->set.coefficients[c], s.x_prev_rad, rate_radps,
                                             v.l_over_v_s, s.y[c]);
+    if (families != nullptr && m->set.coefficients[c].stall.families != indicial::StallFamilies::none)
+      value[c] = value[c] + indicial::stall_output(m->set.coefficients[c].stall, s.x_prev_rad,
+                                                   families->stall[c]);
     if (!std::isfinite(value[c])) return INDICIAL_ERROR_NON_FINITE_RESULT;
   }
   for (int c = 0; c < m->set.n_coefficients; ++c) out[c] = value[c];
@@ -179,10 +192,13 @@ int indicial_step_batch(const void* model, void* states, size_t n, const double*
                 airspeed_mps == nullptr))
     return INDICIAL_ERROR_NULL_ARGUMENT;
   if (states != nullptr && !aligned(states)) return INDICIAL_ERROR_MISALIGNED;
-  if (m->delay == indicial::DelayUse::none)
-    return c_status(indicial::step_batch(*m, static_cast<PlainState*>(states), n, angle_rad,
+  if (m->delay != indicial::DelayUse::none)
+    return c_status(indicial::step_batch(*m, static_cast<RingState*>(states), n, angle_rad,
                                          rate_radps, airspeed_mps, dt_s, out));
-  return c_status(indicial::step_batch(*m, static_cast<RingState*>(states), n, angle_rad,
+  if (m->stall != indicial::StallUse::none)
+    return c_status(indicial::step_batch(*m, static_cast<FamState*>(states), n, angle_rad,
+                                         rate_radps, airspeed_mps, dt_s, out));
+  return c_status(indicial::step_batch(*m, static_cast<PlainState*>(states), n, angle_rad,
                                        rate_radps, airspeed_mps, dt_s, out));
 }
 
@@ -192,7 +208,7 @@ const char* indicial_status_string(int status) {
   if (status == INDICIAL_ERROR_MISALIGNED) return "misaligned_storage";
   if (status <= -101 && status >= -(100 + static_cast<int>(indicial::LoadStatus::unstable_lag)))
     return indicial::to_string(static_cast<indicial::LoadStatus>(-status - 100));
-  if (status <= -2 && status >= -static_cast<int>(indicial::StepStatus::delay_needs_history))
+  if (status <= -2 && status >= -static_cast<int>(indicial::StepStatus::families_need_state))
     return indicial::to_string(static_cast<indicial::StepStatus>(-status));
   return "unknown_status";
 }

@@ -50,7 +50,9 @@
 //    clamped, else ok; pass `status` (n entries) to get every instance's.
 // 2. A model with a delay is stepped one instance at a time (DelayedState overload): the
 //    history lookups do not vectorise. A static TABLE curve is evaluated lane by lane (its
-//    binary search); everything else of the step is vectorised.
+//    binary search), and so are the dynamic-stall families (FamilyState overload: model.hpp's
+//    advance_stall branches on values and is not written on the lane policy; their states
+//    are bit for bit single steps'); everything else of the step is vectorised.
 // 3. Translation units compiled for different targets may be linked together: everything
 //    here sits in an inline namespace named after the target (lanes_sse2, lanes_avx2_fma, ...),
 //    so the linker never swaps one target's copy of an inline function for another's.
@@ -64,6 +66,7 @@
 #include <cstdint>
 #include <cstring>
 #include <limits>
+#include <type_traits>
 
 #include "indicial/runtime.hpp"
 
@@ -502,8 +505,8 @@ struct BlockLanes {
 // The input checks of indicial::step for each lane of a full block, and the model angle with
 // its clamp status. A refused lane gets finite substitutes (angle 0, rate 0, its cached
 // airspeed): it is computed with its block and dropped.
-template <class Scalar, class Cap, int R>
-INDICIAL_LANE_INLINE void check_lanes(const RuntimeModel<Scalar, Cap>& m, const State<Scalar, Cap>* s,
+template <class Scalar, class Cap, int R, class St>
+INDICIAL_LANE_INLINE void check_lanes(const RuntimeModel<Scalar, Cap>& m, const St* s,
                                       const double* angle_rad, const double* rate_radps,
                                       const double* airspeed_mps, double dt_s, const void* out,
                                       BlockLanes<Scalar, Cap, R>* b) {
@@ -534,8 +537,8 @@ INDICIAL_LANE_INLINE void check_lanes(const RuntimeModel<Scalar, Cap>& m, const 
 // The state's quantities the step reads (a gather from the array of States; only the
 // coefficients and lags the model has), and the airspeed terms (model.hpp's airspeed_scaling,
 // with airspeed_terms' cache test as a select).
-template <class Scalar, class Cap, int R>
-INDICIAL_LANE_INLINE void load_lanes(const RuntimeModel<Scalar, Cap>& m, const State<Scalar, Cap>* s,
+template <class Scalar, class Cap, int R, class St>
+INDICIAL_LANE_INLINE void load_lanes(const RuntimeModel<Scalar, Cap>& m, const St* s,
                                      Scalar dt_s, BlockLanes<Scalar, Cap, R>* b) {
   using V = LaneArray<Scalar, R>;
   gather_lanes(&b->x0_rad, [&](int i) { return s[i].x_prev_rad; });
@@ -611,11 +614,58 @@ INDICIAL_LANE_INLINE void scatter_lane(const RuntimeModel<Scalar, Cap>& m, const
   s->l_over_v_s = b.l_over_v_s[i];
 }
 
+// The dynamic-stall families of a block (FamilyState only): model.hpp's advance_stall and
+// stall_output lane by lane, on the lanes' own angles and airspeed terms -- the scalar step's
+// code and exp, so the family states are bit for bit a single step's (their update branches
+// on values: it is not on the lane policy); the output joins the lane's value. A plain State
+// has none: the empty overloads compile to nothing.
+template <class St>
+struct BlockFamilies {};
+template <class Scalar, class Cap>
+struct BlockFamilies<FamilyState<Scalar, Cap>> {
+  StallState<Scalar> stall[batch_block][Cap::max_coefficients];
+};
+
+template <class Scalar, class Cap, int R>
+INDICIAL_LANE_INLINE void advance_lane_families(const RuntimeModel<Scalar, Cap>&, const State<Scalar, Cap>*,
+                                                Scalar, BlockLanes<Scalar, Cap, R>*,
+                                                BlockFamilies<State<Scalar, Cap>>*) {}
+
+template <class Scalar, class Cap, int R>
+inline void advance_lane_families(const RuntimeModel<Scalar, Cap>& m, const FamilyState<Scalar, Cap>* s,
+                                  Scalar dt_s, BlockLanes<Scalar, Cap, R>* b,
+                                  BlockFamilies<FamilyState<Scalar, Cap>>* f) {
+  for (int i = 0; i < batch_block; ++i) {
+    if (!b->active[i]) continue;
+    const StallStep<Scalar> g{b->x0_rad[i], b->x1_rad[i], dt_s, b->l_over_v_s[i]};
+    for (int c = 0; c < m.set.n_coefficients; ++c) {
+      Scalar value = b->value[c][i];
+      if (!indicial::detail::advance_families(m.set.coefficients[c], s[i].stall[c], g,
+                                              &f->stall[i][c], &value))
+        b->finite_test[i] = std::numeric_limits<Scalar>::quiet_NaN();
+      b->value[c][i] = value;
+    }
+  }
+  // x - x: 0 for a finite value, NaN otherwise (as advance_lanes' test).
+  for (int c = 0; c < m.set.n_coefficients; ++c) b->finite_test = b->finite_test + (b->value[c] - b->value[c]);
+}
+
+template <class Scalar, class Cap>
+INDICIAL_LANE_INLINE void scatter_lane_families(const RuntimeModel<Scalar, Cap>&, const BlockFamilies<State<Scalar, Cap>>&,
+                                                int, State<Scalar, Cap>*) {}
+
+template <class Scalar, class Cap>
+INDICIAL_LANE_INLINE void scatter_lane_families(const RuntimeModel<Scalar, Cap>& m,
+                                                const BlockFamilies<FamilyState<Scalar, Cap>>& f, int i,
+                                                FamilyState<Scalar, Cap>* s) {
+  for (int c = 0; c < m.set.n_coefficients; ++c) s->stall[c] = f.stall[i][c];
+}
+
 // One full block of batch_block instances; status receives batch_block statuses. Lanes that
 // did not step (refused, or a non-finite result) are not written: their States keep their
 // bytes and their out rows are untouched.
-template <int R, class Scalar, class Cap>
-INDICIAL_LANE_INLINE void step_block(const RuntimeModel<Scalar, Cap>& m, State<Scalar, Cap>* s,
+template <int R, class Scalar, class Cap, class St>
+INDICIAL_LANE_INLINE void step_block(const RuntimeModel<Scalar, Cap>& m, St* s,
                                      const double* angle_rad, const double* rate_radps,
                                      const double* airspeed_mps, double dt_s, Scalar* out,
                                      StepStatus* status) {
@@ -624,6 +674,8 @@ INDICIAL_LANE_INLINE void step_block(const RuntimeModel<Scalar, Cap>& m, State<S
   load_lanes(m, s, Scalar(dt_s), &b);
   b.finite_test = lane_constant<Scalar, R>(Scalar(0));
   for (int c = 0; c < m.set.n_coefficients; ++c) advance_lanes(m.set.coefficients[c], c, &b);
+  BlockFamilies<St> families;
+  advance_lane_families(m, s, Scalar(dt_s), &b, &families);
   const auto not_finite = b.finite_test != b.finite_test;
   const bool all_step = b.all_active && !lane_any(not_finite);
   const std::size_t n_out = static_cast<std::size_t>(m.set.n_coefficients);
@@ -637,29 +689,30 @@ INDICIAL_LANE_INLINE void step_block(const RuntimeModel<Scalar, Cap>& m, State<S
       }
     }
     scatter_lane(m, b, i, &s[i], out + static_cast<std::size_t>(i) * n_out);
+    scatter_lane_families(m, families, i, &s[i]);
   }
 }
 
 // The kernels: step_block for the portable target, and compiled for AVX2 (flatten: every call
 // in it is inlined, so that the whole step is compiled for that target).
-template <class Scalar, class Cap>
-INDICIAL_LANE_FLATTEN inline void step_block_portable(const RuntimeModel<Scalar, Cap>& m, State<Scalar, Cap>* s,
+template <class Scalar, class Cap, class St>
+INDICIAL_LANE_FLATTEN inline void step_block_portable(const RuntimeModel<Scalar, Cap>& m, St* s,
                                                       const double* angle_rad, const double* rate_radps,
                                                       const double* airspeed_mps, double dt_s, Scalar* out,
                                                       StepStatus* status) {
   step_block<portable_lane_bytes>(m, s, angle_rad, rate_radps, airspeed_mps, dt_s, out, status);
 }
 #if INDICIAL_AVX2_KERNEL
-template <class Scalar, class Cap>
+template <class Scalar, class Cap, class St>
 __attribute__((target("avx2"), flatten)) inline void step_block_avx2(
-    const RuntimeModel<Scalar, Cap>& m, State<Scalar, Cap>* s, const double* angle_rad,
+    const RuntimeModel<Scalar, Cap>& m, St* s, const double* angle_rad,
     const double* rate_radps, const double* airspeed_mps, double dt_s, Scalar* out, StepStatus* status) {
   step_block<32>(m, s, angle_rad, rate_radps, airspeed_mps, dt_s, out, status);
 }
 #endif
 
-template <class Scalar, class Cap>
-inline void step_block_with(BatchKernel kernel, const RuntimeModel<Scalar, Cap>& m, State<Scalar, Cap>* s,
+template <class Scalar, class Cap, class St>
+inline void step_block_with(BatchKernel kernel, const RuntimeModel<Scalar, Cap>& m, St* s,
                             const double* angle_rad, const double* rate_radps,
                             const double* airspeed_mps, double dt_s, Scalar* out, StepStatus* status) {
 #if INDICIAL_AVX2_KERNEL
@@ -674,11 +727,11 @@ inline void step_block_with(BatchKernel kernel, const RuntimeModel<Scalar, Cap>&
 
 // The last k < batch_block instances: copied into a full block whose other lanes repeat the
 // first instance (their results are dropped), stepped, and the k copied back.
-template <class Scalar, class Cap>
-inline void step_partial_block(BatchKernel kernel, const RuntimeModel<Scalar, Cap>& m, State<Scalar, Cap>* s,
+template <class Scalar, class Cap, class St>
+inline void step_partial_block(BatchKernel kernel, const RuntimeModel<Scalar, Cap>& m, St* s,
                                int k, const double* angle_rad, const double* rate_radps,
                                const double* airspeed_mps, double dt_s, Scalar* out, StepStatus* status) {
-  State<Scalar, Cap> states[batch_block];
+  St states[batch_block];
   double angle[batch_block], rate[batch_block], airspeed[batch_block];
   Scalar rows[batch_block * Cap::max_coefficients];
   StepStatus lane_status[batch_block];
@@ -714,19 +767,13 @@ inline StepStatus combine(StepStatus so_far, StepStatus lane) {
 }
 }  // namespace batch_detail
 
-// Steps n states of one undelayed model with a common dt_s; out receives n rows of
-// m.set.n_coefficients values. See the warnings above for statuses, and "Which instructions"
-// for `kernel`.
-template <class Scalar, class Cap>
-inline StepStatus step_batch(const RuntimeModel<Scalar, Cap>& m, State<Scalar, Cap>* states, std::size_t n,
-                             const double* angle_rad, const double* rate_radps,
-                             const double* airspeed_mps, double dt_s, Scalar* out,
-                             StepStatus* status = nullptr,
-                             BatchKernel kernel = BatchKernel::automatic) {
-  if (n == 0) return StepStatus::ok;
-  if (!batch_detail::batch_arguments_given(states, angle_rad, rate_radps, airspeed_mps, out))
-    return StepStatus::null_output;
-  if (m.delay != DelayUse::none) return StepStatus::delay_needs_history;
+namespace batch_detail {
+// The blocks of step_batch over an array of St (State or FamilyState).
+template <class Scalar, class Cap, class St>
+inline StepStatus step_blocks(const RuntimeModel<Scalar, Cap>& m, St* states, std::size_t n,
+                              const double* angle_rad, const double* rate_radps,
+                              const double* airspeed_mps, double dt_s, Scalar* out,
+                              StepStatus* status, BatchKernel kernel) {
   const BatchKernel use = batch_kernel_in_use(kernel);
   StepStatus result = StepStatus::ok;
   const std::size_t n_out = static_cast<std::size_t>(m.set.n_coefficients);
@@ -747,6 +794,47 @@ inline StepStatus step_batch(const RuntimeModel<Scalar, Cap>& m, State<Scalar, C
     }
   }
   return result;
+}
+}  // namespace batch_detail
+
+namespace batch_detail {
+// The checks of step_batch before its blocks: no delay, and families only with FamilyStates.
+template <class Scalar, class Cap, class St>
+inline StepStatus checked_blocks(const RuntimeModel<Scalar, Cap>& m, St* states, std::size_t n,
+                                 const double* angle_rad, const double* rate_radps,
+                                 const double* airspeed_mps, double dt_s, Scalar* out,
+                                 StepStatus* status, BatchKernel kernel) {
+  if (n == 0) return StepStatus::ok;
+  if (!batch_arguments_given(states, angle_rad, rate_radps, airspeed_mps, out))
+    return StepStatus::null_output;
+  if (m.delay != DelayUse::none) return StepStatus::delay_needs_history;
+  if (m.stall != StallUse::none && std::is_same<St, State<Scalar, Cap>>::value)
+    return StepStatus::families_need_state;
+  return step_blocks(m, states, n, angle_rad, rate_radps, airspeed_mps, dt_s, out, status, kernel);
+}
+}  // namespace batch_detail
+
+// Steps n states of one undelayed model with a common dt_s; out receives n rows of
+// m.set.n_coefficients values. See the warnings above for statuses, and "Which instructions"
+// for `kernel`. A model with dynamic-stall families needs FamilyStates (the overload below).
+template <class Scalar, class Cap>
+inline StepStatus step_batch(const RuntimeModel<Scalar, Cap>& m, State<Scalar, Cap>* states, std::size_t n,
+                             const double* angle_rad, const double* rate_radps,
+                             const double* airspeed_mps, double dt_s, Scalar* out,
+                             StepStatus* status = nullptr,
+                             BatchKernel kernel = BatchKernel::automatic) {
+  return batch_detail::checked_blocks(m, states, n, angle_rad, rate_radps, airspeed_mps, dt_s, out, status, kernel);
+}
+
+// The same for FamilyStates (any undelayed model): the report's part on lanes, the families
+// lane by lane (see BlockFamilies): within 1e-12 of single steps in double, as above.
+template <class Scalar, class Cap>
+inline StepStatus step_batch(const RuntimeModel<Scalar, Cap>& m, FamilyState<Scalar, Cap>* states,
+                             std::size_t n, const double* angle_rad, const double* rate_radps,
+                             const double* airspeed_mps, double dt_s, Scalar* out,
+                             StepStatus* status = nullptr,
+                             BatchKernel kernel = BatchKernel::automatic) {
+  return batch_detail::checked_blocks(m, states, n, angle_rad, rate_radps, airspeed_mps, dt_s, out, status, kernel);
 }
 
 // The same for DelayedStates (any model): one indicial::step per instance.

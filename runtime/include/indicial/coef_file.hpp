@@ -1,4 +1,4 @@
-// indicial/coef_file.hpp -- the coefficient file (.coef, version 1): parse, validate, write.
+// indicial/coef_file.hpp -- the coefficient file (.coef, versions 1 and 2): parse, validate, write.
 //
 // What it is for
 // --------------
@@ -29,7 +29,7 @@
 // --------
 // 1. parse_coef_file keeps a whole ModelSet<double, Cap> on the stack (it parses into a local
 //    and copies it out only on success, so *out is untouched on refusal). With
-//    DefaultCapacity that is 9176 bytes (GCC 12, x86-64); call it at initialisation, not from an interrupt.
+//    DefaultCapacity that is 13376 bytes (1.4 KB of it per coefficient for the dynamic-stall parameters) (GCC 12, x86-64); call it at initialisation, not from an interrupt.
 // 2. The parser checks the file (syntax, capacity, finite values, ordering, the checksum), not
 //    the dynamics: that b_j(x) > 0 over the envelope is checked by Predictor::load
 //    (runtime.hpp, validate_for_runtime). Use the Predictor, not the bare parser, to run.
@@ -43,12 +43,18 @@
 //    (Versions before delay support refused a nonzero delay with unsupported_feature; that
 //    value is kept in the enums so their numbering and callers stay valid, but nothing
 //    returns it now.)
+// 6. Version 2 is version 1 plus the dynamic-stall families' keys (sep_*, vortex_*; model.hpp's
+//    StallModel), allowed only in a file that says `indicial-coef 2`. The writer writes
+//    version 2 only for a model with a family: every other model is written byte for byte as
+//    before. A family is carried by a block that gives any of its keys, and then must give
+//    every key it needs (checked at end_coefficient).
 #pragma once
 
 #include <charconv>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <initializer_list>
 #include <system_error>
 
 #include "indicial/model.hpp"
@@ -80,8 +86,11 @@ inline constexpr const char* to_string(WriteStatus s) {
   return "unknown_write_status";
 }
 
-// The format version this header reads and writes.
+// The format versions this header reads and writes: version 1 is the report's model; version 2
+// adds the dynamic-stall families' keys (sep_*, vortex_*), and is written only for a model
+// that uses a family, so a model without one is written byte for byte as before (version 1).
 inline constexpr int coef_file_version = 1;
+inline constexpr int coef_file_version_stall = 2;
 
 // ------------------------------------------------------------------------------------------
 // CRC-32 (IEEE 802.3, reflected polynomial 0xEDB88320, as zlib's crc32()).
@@ -316,6 +325,14 @@ enum SeenBit : unsigned {
   seen_a_poly = 1u << 8,
   seen_con = 1u << 9,
   seen_delay = 1u << 10,
+  seen_sep_polar = 1u << 11,       // the dynamic-stall families' keys (version 2)
+  seen_sep_time = 1u << 12,
+  seen_sep_cp = 1u << 13,
+  seen_sep_corr_poly = 1u << 14,
+  seen_vortex_shedding = 1u << 15,
+  seen_vortex_time = 1u << 20,
+  seen_vortex_clock = 1u << 21,
+  seen_vortex_output = 1u << 22,
   seen_lag_poly0 = 1u << 16,  // + j for lag j (up to 4 lags)
   seen_lag_gain0 = 1u << 24,  // + j
 };
@@ -508,10 +525,132 @@ inline KeyRead read_delay(CoefficientModel<double, Cap>& cm, Tokens& t, int*) {
   return key_read(LoadStatus::ok, "", seen_delay);
 }
 
+// --- The dynamic-stall families' keys (version 2; model.hpp's StallModel) -----------------
+// Each reads a fixed number of values and checks what one line can check (the ranges); which
+// family a block carries, and that a family's keys are all there, is decided at
+// end_coefficient (close_block).
+
+// What a value must be, with the reason given when it is not.
+struct ValueRule {
+  enum class Kind : int { any = 0, positive = 1, non_negative = 2, unit_interval = 3 } kind;
+  const char* reason;
+};
+
+inline bool obeys(const ValueRule& r, double v) {
+  switch (r.kind) {
+    case ValueRule::Kind::any: return true;
+    case ValueRule::Kind::positive: return v > 0.0;
+    case ValueRule::Kind::non_negative: return v >= 0.0;
+    case ValueRule::Kind::unit_interval: return v >= 0.0 && v <= 1.0;
+  }
+  return false;
+}
+
+// Exactly N values, each obeying its rule, into *dest[i] (written only if all are good).
+template <int N>
+inline KeyRead read_ruled(Tokens& t, const ValueRule (&rules)[N], double* const (&dest)[N], unsigned bit) {
+  double v[N];
+  const char* reason = "";
+  const LoadStatus st = read_numbers(t, v, N, &reason);
+  if (st != LoadStatus::ok) return key_read(st, reason, bit);
+  for (int i = 0; i < N; ++i)
+    if (!obeys(rules[i], v[i])) return key_read(LoadStatus::invalid_value, rules[i].reason, bit);
+  for (int i = 0; i < N; ++i) *dest[i] = v[i];
+  return key_read(LoadStatus::ok, "", bit);
+}
+
+constexpr ValueRule any_value{ValueRule::Kind::any, ""};
+
+// `sep_polar C_Na zero_lift_angle_rad`: the attached polar the Kirchhoff output uses.
+template <class Cap>
+inline KeyRead read_sep_polar(CoefficientModel<double, Cap>& cm, Tokens& t, int*) {
+  auto& p = cm.stall.separation;
+  static constexpr ValueRule rules[2] = {
+      {ValueRule::Kind::positive, "sep_polar: the normal-force slope must be > 0"}, any_value};
+  return read_ruled(t, rules, {&p.normal_force_slope_per_rad, &p.zero_lift_angle_rad}, seen_sep_polar);
+}
+
+// `sep_f0_point x_rad f0`: one row of the static separation table (strictly increasing x).
+template <class Cap>
+inline KeyRead read_sep_f0_point(CoefficientModel<double, Cap>& cm, Tokens& t, int*) {
+  auto& sep = cm.stall.separation;
+  double x = 0.0;
+  double f0 = 0.0;
+  static constexpr ValueRule rules[2] = {
+      any_value, {ValueRule::Kind::unit_interval, "sep_f0_point: f0 must be in [0, 1]"}};
+  const KeyRead r = read_ruled(t, rules, {&x, &f0}, 0);
+  if (r.status != LoadStatus::ok) return r;
+  if (sep.n_f0 >= Cap::max_table_points)
+    return key_read(LoadStatus::over_capacity, "more sep_f0_point rows than the capacity allows", 0);
+  if (sep.n_f0 > 0 && !(x > sep.f0_x_rad[sep.n_f0 - 1]))
+    return key_read(LoadStatus::invalid_value, "sep_f0_point x_rad must be strictly increasing", 0);
+  sep.f0_x_rad[sep.n_f0] = x;
+  sep.f0_value[sep.n_f0] = f0;
+  ++sep.n_f0;
+  return r;
+}
+
+// `sep_f0_corr_poly` / `sep_f0_corr_knot`: the fitted correction of f0.
+template <class Cap, SplineItem Item>
+inline KeyRead read_sep_f0_corr(CoefficientModel<double, Cap>& cm, Tokens& t, int*) {
+  const char* reason = "";
+  auto* s = &cm.stall.separation.f0_correction;
+  const LoadStatus st = Item == SplineItem::poly ? read_poly(t, s, &reason) : read_knot(t, s, &reason);
+  return key_read(st, reason, Item == SplineItem::poly ? seen_sep_corr_poly : 0u);
+}
+
+// `sep_time_constants T1 T2` (semichord times l / V).
+template <class Cap>
+inline KeyRead read_sep_time(CoefficientModel<double, Cap>& cm, Tokens& t, int*) {
+  auto& p = cm.stall.separation;
+  static constexpr ValueRule rules[2] = {
+      {ValueRule::Kind::positive, "sep_time_constants: T1 must be > 0"},
+      {ValueRule::Kind::non_negative, "sep_time_constants: T2 must be >= 0"}};
+  return read_ruled(t, rules, {&p.tau1_semichords, &p.tau2_semichords}, seen_sep_time);
+}
+
+// `sep_cp k0 k1 k2`: the centre-of-pressure shape of the output.
+template <class Cap>
+inline KeyRead read_sep_cp(CoefficientModel<double, Cap>& cm, Tokens& t, int*) {
+  auto& p = cm.stall.separation;
+  static constexpr ValueRule rules[3] = {any_value, any_value, any_value};
+  return read_ruled(t, rules, {&p.cp_k0, &p.cp_k1, &p.cp_k2}, seen_sep_cp);
+}
+
+// `vortex_shedding C_N1 width`, `vortex_time_constants T_v T_vl`, `vortex_clock width reset`
+// (semichord times), `vortex_output c_v x_v`.
+enum class VortexItem : int { shedding = 0, time_constants = 1, clock = 2, output = 3 };
+
+template <class Cap, VortexItem Item>
+inline KeyRead read_vortex(CoefficientModel<double, Cap>& cm, Tokens& t, int*) {
+  auto& v = cm.stall.vortex;
+  static constexpr ValueRule shedding[2] = {
+      {ValueRule::Kind::positive, "vortex_shedding: C_N1 must be > 0"},
+      {ValueRule::Kind::positive, "vortex_shedding: the width must be > 0"}};
+  static constexpr ValueRule times[2] = {
+      {ValueRule::Kind::positive, "vortex_time_constants: T_v must be > 0"},
+      {ValueRule::Kind::positive, "vortex_time_constants: T_vl must be > 0"}};
+  static constexpr ValueRule clock[2] = {
+      {ValueRule::Kind::positive, "vortex_clock: the width must be > 0"},
+      {ValueRule::Kind::positive, "vortex_clock: the reset time must be > 0"}};
+  static constexpr ValueRule output[2] = {any_value, any_value};
+  switch (Item) {
+    case VortexItem::shedding:
+      return read_ruled(t, shedding, {&v.shedding_threshold, &v.shedding_width}, seen_vortex_shedding);
+    case VortexItem::time_constants:
+      return read_ruled(t, times, {&v.decay_semichords, &v.travel_semichords}, seen_vortex_time);
+    case VortexItem::clock:
+      return read_ruled(t, clock, {&v.clock_width_semichords, &v.clock_reset_semichords}, seen_vortex_clock);
+    case VortexItem::output: break;
+  }
+  return read_ruled(t, output, {&v.lift_gain, &v.cp_travel}, seen_vortex_output);
+}
+
 template <class Cap>
 struct BlockKey {
   const char* key;
   KeyRead (*read)(CoefficientModel<double, Cap>&, Tokens&, int* lag_index0);
+  int since_version = 1;  // the file version that introduced the key
 };
 
 template <class Cap>
@@ -531,7 +670,17 @@ inline const BlockKey<Cap>* find_block_key(const char* b, const char* e) {
       {"lag_knot", &read_lag<Cap, LagItem::knot>},
       {"lag_gain", &read_lag<Cap, LagItem::gain>},
       {"con", &read_con<Cap>},
-      {"delay_s", &read_delay<Cap>}};
+      {"delay_s", &read_delay<Cap>},
+      {"sep_polar", &read_sep_polar<Cap>, coef_file_version_stall},
+      {"sep_f0_point", &read_sep_f0_point<Cap>, coef_file_version_stall},
+      {"sep_f0_corr_poly", &read_sep_f0_corr<Cap, SplineItem::poly>, coef_file_version_stall},
+      {"sep_f0_corr_knot", &read_sep_f0_corr<Cap, SplineItem::knot>, coef_file_version_stall},
+      {"sep_time_constants", &read_sep_time<Cap>, coef_file_version_stall},
+      {"sep_cp", &read_sep_cp<Cap>, coef_file_version_stall},
+      {"vortex_shedding", &read_vortex<Cap, VortexItem::shedding>, coef_file_version_stall},
+      {"vortex_time_constants", &read_vortex<Cap, VortexItem::time_constants>, coef_file_version_stall},
+      {"vortex_clock", &read_vortex<Cap, VortexItem::clock>, coef_file_version_stall},
+      {"vortex_output", &read_vortex<Cap, VortexItem::output>, coef_file_version_stall}};
   for (const BlockKey<Cap>& k : keys)
     if (token_is(b, e, k.key)) return &k;
   return nullptr;
@@ -547,6 +696,7 @@ struct BodyState {
   int max_lag_index0 = -1;
   CoefficientModel<double, Cap>* cm = nullptr;  // the open block, if any
   std::size_t block_line = 0;
+  int version = coef_file_version;  // of the version line
 };
 
 template <class Cap>
@@ -599,9 +749,37 @@ inline LoadStatus open_block(BodyState<Cap>& b, Tokens& t, std::size_t line, Par
   return LoadStatus::ok;
 }
 
+// Which dynamic-stall families the block carries, from the keys it gave: a family is used when
+// any of its keys is given, and then every key it needs must be (the vortex needs the
+// separation family too; sep_f0_corr_* are optional).
+template <class Cap>
+inline LoadStatus stall_families_of_block(unsigned seen, CoefficientModel<double, Cap>* cm,
+                                          std::size_t line, ParseDiagnostic* diag) {
+  const unsigned sep_required = seen_sep_polar | seen_sep_time | seen_sep_cp;
+  const unsigned vortex_all = seen_vortex_shedding | seen_vortex_time | seen_vortex_clock | seen_vortex_output;
+  const bool any_sep = (seen & (sep_required | seen_sep_corr_poly)) != 0 ||
+                       cm->stall.separation.n_f0 > 0 || cm->stall.separation.f0_correction.n_knots > 0;
+  const bool any_vortex = (seen & vortex_all) != 0;
+  if (!any_sep && !any_vortex) return LoadStatus::ok;
+  if ((seen & sep_required) != sep_required || cm->stall.separation.n_f0 < 2)
+    return refuse(diag, line,
+                  "the separation family needs sep_polar, sep_time_constants, sep_cp and at least 2 "
+                  "sep_f0_point rows (the vortex family needs it too)",
+                  LoadStatus::syntax_error);
+  if (any_vortex && (seen & vortex_all) != vortex_all)
+    return refuse(diag, line,
+                  "the vortex family needs vortex_shedding, vortex_time_constants, vortex_clock and "
+                  "vortex_output",
+                  LoadStatus::syntax_error);
+  cm->stall.families = any_vortex ? StallFamilies::separation_and_vortex : StallFamilies::separation;
+  return LoadStatus::ok;
+}
+
 template <class Cap>
 inline LoadStatus close_block(BodyState<Cap>& b, Tokens& t, std::size_t line, ParseDiagnostic* diag) {
   if (!t.at_end()) return refuse(diag, line, "extra text after end_coefficient", LoadStatus::syntax_error);
+  const LoadStatus families = stall_families_of_block(b.block_seen, b.cm, line, diag);
+  if (families != LoadStatus::ok) return families;
   auto& sc = b.cm->static_curve;
   b.cm->n_lags = b.max_lag_index0 < 0 ? 1 : b.max_lag_index0 + 1;
   if (sc.kind == StaticKind::table) {
@@ -617,6 +795,9 @@ inline LoadStatus close_block(BodyState<Cap>& b, Tokens& t, std::size_t line, Pa
 template <class Cap>
 inline LoadStatus parse_block_line(BodyState<Cap>& b, const BlockKey<Cap>& key, Tokens& t,
                                    std::size_t line, ParseDiagnostic* diag) {
+  if (key.since_version > b.version)
+    return refuse(diag, line, "a dynamic-stall key (sep_*, vortex_*) needs 'indicial-coef 2'",
+                  LoadStatus::syntax_error);
   int lag = -1;
   const KeyRead r = key.read(*b.cm, t, &lag);
   if (lag > b.max_lag_index0) b.max_lag_index0 = lag;
@@ -668,7 +849,7 @@ inline LoadStatus check_input(const char* text, std::size_t length, const void* 
 
 // 1. The version line: the first line that is not blank or a comment. Checked before the
 //    checksum because another version may protect itself differently.
-inline LoadStatus read_version_line(LineCursor& cur, ParseDiagnostic* diag) {
+inline LoadStatus read_version_line(LineCursor& cur, int* version_out, ParseDiagnostic* diag) {
   const char* b = nullptr;
   const char* e = nullptr;
   std::size_t start = 0;
@@ -683,12 +864,13 @@ inline LoadStatus read_version_line(LineCursor& cur, ParseDiagnostic* diag) {
   int version = 0;
   t.next(&kb, &ke);
   if (!token_is(kb, ke, "indicial-coef"))
-    return refuse(diag, cur.number, "the first line must be 'indicial-coef 1'", LoadStatus::syntax_error);
+    return refuse(diag, cur.number, "the first line must be 'indicial-coef 1' (or 2)", LoadStatus::syntax_error);
   if (!t.next(&kb, &ke) || parse_int(kb, ke, &version, &reason) != LoadStatus::ok || !t.at_end())
     return refuse(diag, cur.number, "bad version line", LoadStatus::syntax_error);
-  if (version != coef_file_version)
-    return refuse(diag, cur.number, "unsupported file version (this runtime reads version 1)",
+  if (version != coef_file_version && version != coef_file_version_stall)
+    return refuse(diag, cur.number, "unsupported file version (this runtime reads versions 1 and 2)",
                   LoadStatus::wrong_version);
+  *version_out = version;
   return LoadStatus::ok;
 }
 
@@ -787,12 +969,14 @@ LoadStatus parse_coef_file(const char* text, std::size_t length, ModelSet<double
   LoadStatus s = check_input(text, length, out, diag);
   if (s != LoadStatus::ok) return s;
   LineCursor cur{text, length};
-  if ((s = read_version_line(cur, diag)) != LoadStatus::ok) return s;
+  int version = coef_file_version;
+  if ((s = read_version_line(cur, &version, diag)) != LoadStatus::ok) return s;
   Frame f;
   f.body_first_line = cur.number + 1;
   f.body_start = cur.pos;
   if ((s = find_checksum(text, cur, &f, diag)) != LoadStatus::ok) return s;
   BodyState<Cap> b;
+  b.version = version;
   if ((s = parse_body(text, f, b, diag)) != LoadStatus::ok) return s;
   *out = b.m;
   if (diag != nullptr) {
@@ -869,6 +1053,42 @@ inline void write_spline(Sink& s, const Spline<double, P, K>& sp, const char* po
 // True for any value other than +0.0 (so -0.0 survives the round trip).
 inline bool differs_from_positive_zero(double v) { return v != 0.0 || std::signbit(v); }
 
+// `key v0 v1 ...\n`
+inline void write_values(Sink& s, const char* key, std::initializer_list<double> values) {
+  s.put(key);
+  for (double v : values) {
+    s.put_char(' ');
+    s.put_double(v);
+  }
+  s.put_char('\n');
+}
+
+// The dynamic-stall families of one block (version 2), in the order of the keys' table.
+template <class Cap>
+inline void write_stall_families(Sink& s, const StallModel<double, Cap>& st) {
+  if (st.families == StallFamilies::none) return;
+  const auto& sep = st.separation;
+  write_values(s, "sep_polar", {sep.normal_force_slope_per_rad, sep.zero_lift_angle_rad});
+  for (int i = 0; i < sep.n_f0; ++i) write_values(s, "sep_f0_point", {sep.f0_x_rad[i], sep.f0_value[i]});
+  write_spline(s, sep.f0_correction, "sep_f0_corr_poly", "sep_f0_corr_knot", 0);
+  write_values(s, "sep_time_constants", {sep.tau1_semichords, sep.tau2_semichords});
+  write_values(s, "sep_cp", {sep.cp_k0, sep.cp_k1, sep.cp_k2});
+  if (st.families != StallFamilies::separation_and_vortex) return;
+  const auto& v = st.vortex;
+  write_values(s, "vortex_shedding", {v.shedding_threshold, v.shedding_width});
+  write_values(s, "vortex_time_constants", {v.decay_semichords, v.travel_semichords});
+  write_values(s, "vortex_clock", {v.clock_width_semichords, v.clock_reset_semichords});
+  write_values(s, "vortex_output", {v.lift_gain, v.cp_travel});
+}
+
+// The version a model is written in: 2 only when a coefficient uses a family.
+template <class Cap>
+inline int file_version_of(const ModelSet<double, Cap>& m) {
+  for (int c = 0; c < m.n_coefficients; ++c)
+    if (m.coefficients[c].stall.families != StallFamilies::none) return coef_file_version_stall;
+  return coef_file_version;
+}
+
 }  // namespace detail
 
 template <class Cap>
@@ -883,7 +1103,7 @@ WriteStatus write_coef_file(const ModelSet<double, Cap>& m, char* buffer, std::s
 
   Sink s{buffer, buffer + capacity};
   s.put("indicial-coef ");
-  s.put_int(coef_file_version);
+  s.put_int(file_version_of(m));
   s.put("\naxis ");
   s.put(axis_name(m.axis));
   s.put("\nreference_length_m ");
@@ -938,6 +1158,7 @@ WriteStatus write_coef_file(const ModelSet<double, Cap>& m, char* buffer, std::s
       s.put_double(cm.delay_s);
       s.put_char('\n');
     }
+    write_stall_families(s, cm.stall);
     s.put("end_coefficient\n");
   }
   if (s.overflow) return WriteStatus::buffer_too_small;
@@ -957,7 +1178,7 @@ WriteStatus write_coef_file(const ModelSet<double, Cap>& m, char* buffer, std::s
 // ------------------------------------------------------------------------------------------
 
 // Parses (no heap), validates and converts a coefficient file into a RuntimeModel; *out is
-// written only on success. About 28 KB of stack with DefaultCapacity (runtime.hpp warning 1).
+// written only on success. About 40 KB of stack with DefaultCapacity (runtime.hpp warning 1).
 template <class Scalar, class Cap>
 LoadStatus load_runtime_model(const char* text, std::size_t length, RuntimeModel<Scalar, Cap>* out,
                               ParseDiagnostic* diag = nullptr) {

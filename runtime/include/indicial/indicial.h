@@ -31,11 +31,13 @@
  *    is refused (INDICIAL_ERROR_MISALIGNED). A model's storage may be shared by any number of
  *    states and threads once loaded (it is read-only after the load).
  * 2. indicial_state_bytes depends on the model: a model with a delay needs the delay history
- *    (about 4.3 KB); without, about 160 bytes. Size states after loading the model.
+ *    (about 4.4 KB); one with dynamic-stall families (a version-2 coefficient file with sep_*
+ *    / vortex_* keys) their states (240 bytes); otherwise 160 bytes. Size states after loading
+ *    the model.
  * 3. A state must be written by indicial_reset before its first step (a zeroed state answers
  *    INDICIAL_ERROR_NOT_RESET; uninitialised memory is undefined), and belongs to the model it
  *    was reset with.
- * 4. indicial_model_load keeps about 28 KB on the stack (the parser's and the validated model):
+ * 4. indicial_model_load keeps about 40 KB on the stack (the parser's and the validated model):
  *    load at initialisation, not from an interrupt.
  * 5. Angles in rad, rates in rad/s, airspeed in m/s, time in s. Inputs per axis as in the C++
  *    runtime: pitch alpha, q; roll phi, p; yaw psi, r.
@@ -62,6 +64,7 @@ extern "C" {
 #define INDICIAL_ERROR_NON_FINITE_RESULT (-9)    /* absurd input would give NaN/Inf: refused */
 #define INDICIAL_ERROR_DELAY_EXCEEDS_HISTORY (-10)
 #define INDICIAL_ERROR_DELAY_NEEDS_HISTORY (-11)
+#define INDICIAL_ERROR_FAMILIES_NEED_STATE (-12) /* C++ only: a family model on a plain State */
 #define INDICIAL_ERROR_EMPTY_INPUT (-101)        /* load: no bytes, or only whitespace */
 #define INDICIAL_ERROR_NULL_ARGUMENT (-102)      /* a required pointer is NULL */
 #define INDICIAL_ERROR_TRUNCATED (-103)

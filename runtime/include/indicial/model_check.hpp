@@ -135,6 +135,46 @@ inline LoadStatus check_spline(const Spline<Scalar, P, K>& s, const char** reaso
   return LoadStatus::ok;
 }
 
+// The dynamic-stall families' parameters: model.hpp's feasible set (check_stall_parameters,
+// the one the fitter keeps its trial models in), a known family choice, the capacity of the
+// separation table and a valid f0 correction spline.
+inline const char* stall_check_reason(StallCheck c) {
+  switch (c) {
+    case StallCheck::valid: return "";
+    case StallCheck::nonpositive_time_constant:
+      return "dynamic stall: every time constant, width and reset time must be > 0 (T2 >= 0)";
+    case StallCheck::nonpositive_threshold: return "vortex_shedding: C_N1 must be > 0";
+    case StallCheck::bad_separation_table:
+      return "sep_f0_point: at least 2 rows, x_rad strictly increasing, f0 in [0, 1]";
+    case StallCheck::not_finite: return "a dynamic-stall parameter is NaN or Inf";
+  }
+  return "unknown dynamic-stall check";
+}
+
+template <class Scalar, class Cap>
+inline LoadStatus check_stall(const StallModel<Scalar, Cap>& st, const char** reason) {
+  if (st.families != StallFamilies::none && st.families != StallFamilies::separation &&
+      st.families != StallFamilies::separation_and_vortex) {
+    *reason = "unknown dynamic-stall family choice";
+    return LoadStatus::invalid_value;
+  }
+  if (st.families == StallFamilies::none) return LoadStatus::ok;
+  if (st.separation.n_f0 > Cap::max_table_points) {
+    *reason = "more sep_f0_point rows than the capacity allows";
+    return LoadStatus::over_capacity;
+  }
+  const StallCheck c = check_stall_parameters(st);
+  if (c != StallCheck::valid) {
+    *reason = stall_check_reason(c);
+    return LoadStatus::invalid_value;
+  }
+  if (!(st.separation.normal_force_slope_per_rad > Scalar(0))) {
+    *reason = "sep_polar: the normal-force slope must be > 0";
+    return LoadStatus::invalid_value;
+  }
+  return check_spline(st.separation.f0_correction, reason);
+}
+
 }  // namespace detail
 
 template <class Scalar, class Cap>
@@ -213,6 +253,7 @@ inline LoadStatus validate_model_set(const ModelSet<Scalar, Cap>& m, ParseDiagno
     if (cm.delay_s < 0.0)
       return refuse(diag, 0, "delay_s must be >= 0 (a delay, not a prediction)",
                     LoadStatus::invalid_value);
+    if ((s = detail::check_stall(cm.stall, &reason)) != LoadStatus::ok) return refuse(diag, 0, reason, s);
   }
   return LoadStatus::ok;
 }

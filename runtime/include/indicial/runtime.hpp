@@ -15,8 +15,9 @@
 //     in read-only memory (flash) and is used in place -- and shared by any number of states.
 //   * State<Scalar, Cap>: per instance, only what changes (lag states, the previous sample's
 //     cached spline ends, the last airspeed's terms): 160 bytes for double and
-//     DefaultCapacity (up to 3 coefficients, 2 lags). DelayedState adds the history ring
-//     that a model with a delay needs (about 4 KB with DefaultCapacity).
+//     DefaultCapacity (up to 3 coefficients, 2 lags). FamilyState adds the dynamic-stall
+//     family states (below), DelayedState the history ring that a model with a delay needs
+//     (about 4 KB with DefaultCapacity).
 // The stateless core is reset(model, state, angle, airspeed) and
 // step(model, state, input, dt, out); step_batch steps N states of one model. Predictor is
 // the convenience of one instance: a model (its own copy, or a shared one by reference) and a
@@ -81,12 +82,36 @@
 // only when the airspeed changes. With Scalar = float every per-step operation is in float
 // (clamp, axis factor, airspeed ratios), except the delayed path's clock, which is double.
 //
+// Dynamic-stall families (issue 22)
+// ---------------------------------
+// A coefficient may carry model.hpp's separation and leading-edge-vortex families
+// (CoefficientModel::stall; the equations, units and feasible set are model.hpp's essay
+// "Dynamic stall: equations"). The runtime steps them and adds nothing of its own:
+//   * the state: model.hpp's StallState per coefficient (separation point, vortex lift,
+//     vortex clock) in a FamilyState, a State plus those (240 bytes for double, 128 for float
+//     with DefaultCapacity). Why a state type of its own rather than room in every State or a
+//     Capacity parameter: a model without families pays nothing (its State stays 160 / 88
+//     bytes) under the same Capacity that codegen and the C API use, as the delay ring lives
+//     only in DelayedState -- which derives from FamilyState, so the Predictor's Snapshot
+//     carries the family states too (Snapshot::stall[c]).
+//   * the step: after each coefficient's lags, advance_stall(cm.stall, StallStep{x0, x1, dt,
+//     l / V}, &state) on the step's clamped angles, and value = coefficient_output(...) +
+//     stall_output(cm.stall, x1, state) -- the fitter's sum, so they agree bit for bit -- all
+//     on copies, committed only if every number is finite; reset sets stall_steady_state.
+//     A family model stepped with a plain State returns StepStatus::families_need_state
+//     (RuntimeModel::stall says whether a model has families).
+//   * validation: validate_model_set applies model.hpp's check_stall_parameters (the feasible
+//     set: positive time constants, f0 in [0, 1], ...); validate_for_runtime also checks the
+//     family outputs finite over the envelope.
+//   * the coefficient file: version 2 keys sep_* and vortex_* (coef_file.hpp,
+//     docs/architecture.md), written only for a model with a family.
+//
 // Warnings
 // --------
 // 1. A model is validated once: make_runtime_model / Predictor::load validate and convert;
 //    a RuntimeModel built elsewhere (codegen) must pass check_runtime_model before its first
 //    step (step() itself trusts the model). Loading from text keeps up to three ModelSets on
-//    the stack (about 28 KB with DefaultCapacity, double): load at initialisation, not from
+//    the stack (about 40 KB with DefaultCapacity, double): load at initialisation, not from
 //    an interrupt. A refused load leaves the predictor as it was (old model, old state).
 // 2. After a load, step() refuses (StepStatus::not_reset) until reset() sets the steady
 //    state; a default-constructed State is "never reset" too.
@@ -146,6 +171,8 @@ enum class StepStatus : int {
                          // history ring holds at this dt and airspeed (see warning 7)
   delay_needs_history,   // a model with a delay stepped with a State (no ring): use a
                          // DelayedState (or Predictor) for it
+  families_need_state,   // a model with dynamic-stall families stepped with a State (no
+                         // family states): use a FamilyState, DelayedState or Predictor
 };
 
 inline constexpr const char* to_string(StepStatus s) {
@@ -162,6 +189,7 @@ inline constexpr const char* to_string(StepStatus s) {
     case StepStatus::non_finite_result: return "non_finite_result";
     case StepStatus::delay_exceeds_history: return "delay_exceeds_history";
     case StepStatus::delay_needs_history: return "delay_needs_history";
+    case StepStatus::families_need_state: return "families_need_state";
   }
   return "unknown_step_status";
 }
@@ -181,6 +209,10 @@ enum class PredictorPhase : int { empty = 0, loaded = 1, running = 2 };
 // Whether a model has a delayed coefficient (then it needs a DelayedState).
 enum class DelayUse : int { none = 0, delayed = 1 };
 
+// Whether a model has a coefficient with dynamic-stall families (then it needs a FamilyState
+// or a DelayedState: a plain State has no room for the family states).
+enum class StallUse : int { none = 0, families = 1 };
+
 // Largest accepted step. The update is stable for any dt, but a step over 1 s at a real-time
 // rate is almost certainly a unit error (milliseconds passed as seconds).
 inline constexpr double max_step_dt_s = 1.0;
@@ -195,6 +227,19 @@ struct is_capacity : std::false_type {};
 template <int P, int K, int L, int T, int C, int D>
 struct is_capacity<Capacity<P, K, L, T, C, D>> : std::true_type {};
 
+// The families' outputs at angle x for the ends of the separation state (f = 0 and 1, a unit
+// vortex over the chord and past it) and the static separation there.
+template <class Scalar, class Cap>
+inline bool stall_values_finite(const StallModel<Scalar, Cap>& st, Scalar x) {
+  if (st.families == StallFamilies::none) return true;
+  if (!std::isfinite(static_separation(st.separation, x))) return false;
+  const StallState<Scalar> ends[2] = {{Scalar(0), Scalar(1), Scalar(0)},
+                                      {Scalar(1), Scalar(1), st.vortex.travel_semichords}};
+  for (const StallState<Scalar>& e : ends)
+    if (!std::isfinite(stall_output(st, x, e))) return false;
+  return true;
+}
+
 template <class Scalar, class Cap>
 inline bool model_values_finite(const CoefficientModel<Scalar, Cap>& cm, Scalar x) {
   Scalar y[Cap::max_lags] = {};
@@ -202,7 +247,8 @@ inline bool model_values_finite(const CoefficientModel<Scalar, Cap>& cm, Scalar 
     if (!std::isfinite(spline_value(cm.lags[j].b, x))) return false;
   }
   return std::isfinite(coefficient_output(cm, x, Scalar(1), Scalar(1), y)) &&
-         std::isfinite(spline_value(cm.a, x)) && std::isfinite(spline_antiderivative(cm.a, x));
+         std::isfinite(spline_value(cm.a, x)) && std::isfinite(spline_antiderivative(cm.a, x)) &&
+         stall_values_finite(cm.stall, x);
 }
 
 template <class Scalar, class Cap>
@@ -268,6 +314,7 @@ struct RuntimeModel {
   Scalar reference_length_m = Scalar(1);
   Scalar airspeed_mps = Scalar(1);  // V_ref
   DelayUse delay = DelayUse::none;
+  StallUse stall = StallUse::none;
 };
 
 // The per-model constants of a RuntimeModel, derived from its set (the one definition, used
@@ -281,8 +328,11 @@ inline void derive_step_constants(RuntimeModel<Scalar, Cap>* m) {
   m->reference_length_m = Scalar(s.reference_length_m);
   m->airspeed_mps = Scalar(s.airspeed_mps);
   m->delay = DelayUse::none;
-  for (int c = 0; c < s.n_coefficients; ++c)
+  m->stall = StallUse::none;
+  for (int c = 0; c < s.n_coefficients; ++c) {
     if (s.coefficients[c].delay_s != Scalar(0)) m->delay = DelayUse::delayed;
+    if (s.coefficients[c].stall.families != StallFamilies::none) m->stall = StallUse::families;
+  }
 }
 
 namespace detail {
@@ -306,6 +356,46 @@ inline bool convert_spline(const Spline<double, P, K>& in, Spline<Scalar, P, K>*
     out->knot_coef[j] = static_cast<Scalar>(in.knot_coef[j]);
     ok = ok && fits<Scalar>(in.knot_coef[j]);
   }
+  return ok;
+}
+
+// The dynamic-stall parameters in Scalar (the structure -- family choice, table angles, switch
+// widths -- stays double, as model.hpp declares it).
+template <class Scalar, class Cap>
+inline bool convert_stall(const StallModel<double, Cap>& a, StallModel<Scalar, Cap>* out) {
+  StallModel<Scalar, Cap>& b = *out;
+  b.families = a.families;
+  const auto& sa = a.separation;
+  auto& sb = b.separation;
+  const double values[] = {sa.normal_force_slope_per_rad, sa.zero_lift_angle_rad, sa.tau1_semichords,
+                           sa.tau2_semichords, sa.cp_k0, sa.cp_k1, sa.cp_k2,
+                           a.vortex.shedding_threshold, a.vortex.decay_semichords,
+                           a.vortex.travel_semichords, a.vortex.lift_gain, a.vortex.cp_travel};
+  bool ok = true;
+  for (double v : values) ok = ok && fits<Scalar>(v);
+  sb.normal_force_slope_per_rad = static_cast<Scalar>(sa.normal_force_slope_per_rad);
+  sb.zero_lift_angle_rad = static_cast<Scalar>(sa.zero_lift_angle_rad);
+  sb.n_f0 = sa.n_f0;
+  for (int i = 0; i < Cap::max_table_points; ++i) {
+    sb.f0_x_rad[i] = sa.f0_x_rad[i];
+    sb.f0_value[i] = static_cast<Scalar>(sa.f0_value[i]);
+  }
+  ok = convert_spline(sa.f0_correction, &sb.f0_correction) && ok;
+  sb.tau1_semichords = static_cast<Scalar>(sa.tau1_semichords);
+  sb.tau2_semichords = static_cast<Scalar>(sa.tau2_semichords);
+  sb.cp_k0 = static_cast<Scalar>(sa.cp_k0);
+  sb.cp_k1 = static_cast<Scalar>(sa.cp_k1);
+  sb.cp_k2 = static_cast<Scalar>(sa.cp_k2);
+  const auto& va = a.vortex;
+  auto& vb = b.vortex;
+  vb.shedding_threshold = static_cast<Scalar>(va.shedding_threshold);
+  vb.shedding_width = va.shedding_width;
+  vb.decay_semichords = static_cast<Scalar>(va.decay_semichords);
+  vb.travel_semichords = static_cast<Scalar>(va.travel_semichords);
+  vb.clock_width_semichords = va.clock_width_semichords;
+  vb.clock_reset_semichords = va.clock_reset_semichords;
+  vb.lift_gain = static_cast<Scalar>(va.lift_gain);
+  vb.cp_travel = static_cast<Scalar>(va.cp_travel);
   return ok;
 }
 
@@ -333,6 +423,7 @@ inline bool convert_coefficient(const CoefficientModel<double, Cap>& a,
   }
   b.con = static_cast<Scalar>(a.con);
   b.delay_s = static_cast<Scalar>(a.delay_s);
+  ok = convert_stall(a.stall, &b.stall) && ok;
   return ok && fits<Scalar>(a.con) && fits<Scalar>(a.delay_s);
 }
 
@@ -373,7 +464,7 @@ inline LoadStatus check_delay_capacity(const ModelSet<Scalar, Cap>& m, ParseDiag
 
 // Validates a model (validate_for_runtime, the delay against the history capacity), converts
 // it to Scalar and derives the step constants; *out is written only on success. Keeps one
-// RuntimeModel<Scalar, Cap> on the stack (about 9 KB for double and DefaultCapacity).
+// RuntimeModel<Scalar, Cap> on the stack (about 13 KB for double and DefaultCapacity).
 template <class Scalar, class Cap>
 inline LoadStatus make_runtime_model(const ModelSet<double, Cap>& in, RuntimeModel<Scalar, Cap>* out,
                                      ParseDiagnostic* diag = nullptr) {
@@ -424,12 +515,15 @@ inline LoadStatus check_runtime_model(const RuntimeModel<Scalar, Cap>& m,
   derived.set.n_coefficients = 0;  // the delay use is checked below, per coefficient
   derive_step_constants(&derived);
   DelayUse delay = DelayUse::none;
-  for (int c = 0; c < m.set.n_coefficients; ++c)
+  StallUse stall = StallUse::none;
+  for (int c = 0; c < m.set.n_coefficients; ++c) {
     if (m.set.coefficients[c].delay_s != 0.0) delay = DelayUse::delayed;
+    if (m.set.coefficients[c].stall.families != StallFamilies::none) stall = StallUse::families;
+  }
   if (!(derived.x_min_rad == m.x_min_rad && derived.x_max_rad == m.x_max_rad &&
         derived.angle_factor == m.angle_factor &&
         derived.reference_length_m == m.reference_length_m &&
-        derived.airspeed_mps == m.airspeed_mps && delay == m.delay))
+        derived.airspeed_mps == m.airspeed_mps && delay == m.delay && stall == m.stall))
     return detail::refuse(diag, 0, "step constants differ from derive_step_constants",
                           LoadStatus::invalid_value);
   return LoadStatus::ok;
@@ -474,11 +568,26 @@ enum class HistoryOrigin : int {
   samples_dropped = 1,     // the ring wrapped: angles older than the oldest sample are gone
 };
 
-// A State plus the delay ring of the last Cap::max_delay_samples (time, clamped model angle)
-// samples, for a model with a delayed coefficient. Times are double (model.hpp warning 5: a
-// delay is a small difference of large times), whatever Scalar is.
+// A State plus the dynamic-stall family states of every coefficient (model.hpp's StallState:
+// separation point, vortex lift, vortex clock), for a model whose coefficients carry families
+// (RuntimeModel::stall). Why a type of its own rather than room in every State: a model
+// without families pays nothing (State<double, DefaultCapacity> stays 160 bytes, the float
+// one 88), with the same Capacity (codegen and the C API keep DefaultCapacity), as the delay
+// ring lives only in DelayedState. 240 bytes for double and DefaultCapacity, 128 for float.
 template <class Scalar, class Cap>
-struct DelayedState : State<Scalar, Cap> {
+struct FamilyState : State<Scalar, Cap> {
+  StallState<Scalar> stall[Cap::max_coefficients] = {};
+  static constexpr int stall_pad_count = detail::pad_ints<Scalar>(
+      static_cast<int>(sizeof(StallState<Scalar>) / sizeof(Scalar)) * Cap::max_coefficients, 0);
+  int stall_reserved[stall_pad_count] = {};  // keeps it free of padding
+};
+
+// A FamilyState plus the delay ring of the last Cap::max_delay_samples (time, clamped model
+// angle) samples, for a model with a delayed coefficient (with or without families). Times are
+// double (model.hpp warning 5: a delay is a small difference of large times), whatever Scalar
+// is.
+template <class Scalar, class Cap>
+struct DelayedState : FamilyState<Scalar, Cap> {
   static constexpr int history_capacity = Cap::max_delay_samples;
   double time_s = 0.0;  // time of the newest sample, counted from reset() (t = 0)
   double delay_airspeed_mps = 0.0;                       // airspeed of the cached delays
@@ -569,15 +678,31 @@ struct StepResult {
   Scalar y[Cap::max_coefficients][Cap::max_lags];
   StepEnd<Scalar, Cap> end[Cap::max_coefficients];
   Scalar value[Cap::max_coefficients];
+  StallState<Scalar> stall[Cap::max_coefficients];  // written only for a model with families
 };
 
+// One coefficient's dynamic-stall families over the step (model.hpp's advance_stall, in
+// place on r's copy) and their output added to the report's; false if a number is not finite.
+template <class Scalar, class Cap>
+inline bool advance_families(const CoefficientModel<Scalar, Cap>& cm, const StallState<Scalar>& s0,
+                             const StallStep<Scalar>& g, StallState<Scalar>* s1, Scalar* value) {
+  *s1 = s0;
+  if (cm.stall.families == StallFamilies::none) return true;
+  advance_stall(cm.stall, g, s1);
+  *value = *value + stall_output(cm.stall, g.x1_rad, *s1);
+  return std::isfinite(s1->separation_point) && std::isfinite(s1->vortex_lift) &&
+         std::isfinite(s1->vortex_clock_semichords);
+}
+
 // The model equations over one step for every coefficient, on copies; non_finite_result if
-// any number is not finite. forcing == nullptr: no delay (the forcing angle is the angle).
+// any number is not finite. forcing == nullptr: no delay (the forcing angle is the angle);
+// stall == nullptr: no families (the model has none).
 template <class Scalar, class Cap>
 inline StepStatus advance_coefficients(const RuntimeModel<Scalar, Cap>& m, const State<Scalar, Cap>& s,
                                        Scalar x1, Scalar table_x1, Scalar rate, Scalar dt_s,
                                        const AirspeedTerms<Scalar>& v,
                                        const DelayedForcing<Scalar, Cap>* forcing,
+                                       const StallState<Scalar>* stall,
                                        StepResult<Scalar, Cap>* r) {
   for (int c = 0; c < m.set.n_coefficients; ++c) {
     const CoefficientModel<Scalar, Cap>& cm = m.set.coefficients[c];
@@ -600,11 +725,22 @@ inline StepStatus advance_coefficients(const RuntimeModel<Scalar, Cap>& m, const
     evaluate_step_end(cm, g.x1_rad, g.forcing_x1_rad, &r->end[c]);
     advance_lags_between(cm, g, *end0, r->end[c], r->y[c]);
     r->value[c] = coefficient_output(cm, x1, table_x1, rate, v.l_over_v_s, r->y[c]);
+    if (stall != nullptr &&
+        !advance_families(cm, stall[c], StallStep<Scalar>{s.x_prev_rad, x1, dt_s, v.l_over_v_s},
+                          &r->stall[c], &r->value[c]))
+      return StepStatus::non_finite_result;
     if (!std::isfinite(r->value[c])) return StepStatus::non_finite_result;
     for (int j = 0; j < cm.n_lags; ++j)
       if (!std::isfinite(r->y[c][j])) return StepStatus::non_finite_result;
   }
   return StepStatus::ok;
+}
+
+// The family states of a step that committed.
+template <class Scalar, class Cap>
+inline void commit_families(const RuntimeModel<Scalar, Cap>& m, const StepResult<Scalar, Cap>& r,
+                            FamilyState<Scalar, Cap>* s) {
+  for (int c = 0; c < m.set.n_coefficients; ++c) s->stall[c] = r.stall[c];
 }
 
 template <class Scalar, class Cap>
@@ -672,12 +808,34 @@ inline StepStatus reset(const RuntimeModel<Scalar, Cap>& m, State<Scalar, Cap>& 
   return clamp.status;
 }
 
+// A FamilyState's reset also sets the family states at rest at the (clamped) angle
+// (model.hpp's stall_steady_state: f = f0c(x), no vortex); a non-finite one refuses the whole
+// reset and restores the State as it was.
+template <class Scalar, class Cap>
+inline StepStatus reset(const RuntimeModel<Scalar, Cap>& m, FamilyState<Scalar, Cap>& s,
+                        double motion_angle_rad, double airspeed_mps) {
+  const State<Scalar, Cap> before = s;
+  State<Scalar, Cap>& base = s;
+  const StepStatus st = reset(m, base, motion_angle_rad, airspeed_mps);
+  if (st != StepStatus::ok && st != StepStatus::angle_clamped) return st;
+  StallState<Scalar> rest[Cap::max_coefficients] = {};
+  for (int c = 0; c < m.set.n_coefficients; ++c) {
+    stall_steady_state(m.set.coefficients[c].stall, s.x_prev_rad, &rest[c]);
+    if (!std::isfinite(rest[c].separation_point)) {
+      base = before;
+      return StepStatus::non_finite_result;
+    }
+  }
+  for (int c = 0; c < Cap::max_coefficients; ++c) s.stall[c] = rest[c];
+  return st;
+}
+
 // A DelayedState's reset also sets its history to "at rest at that angle since forever":
 // one sample at t = 0, the other slots cleared, origin rest_before_oldest.
 template <class Scalar, class Cap>
 inline StepStatus reset(const RuntimeModel<Scalar, Cap>& m, DelayedState<Scalar, Cap>& s,
                         double motion_angle_rad, double airspeed_mps) {
-  const StepStatus st = reset(m, static_cast<State<Scalar, Cap>&>(s), motion_angle_rad, airspeed_mps);
+  const StepStatus st = reset(m, static_cast<FamilyState<Scalar, Cap>&>(s), motion_angle_rad, airspeed_mps);
   if (st != StepStatus::ok && st != StepStatus::angle_clamped) return st;
   for (int i = 0; i < Cap::max_delay_samples; ++i) {
     s.history_time_s[i] = 0.0;
@@ -693,24 +851,49 @@ inline StepStatus reset(const RuntimeModel<Scalar, Cap>& m, DelayedState<Scalar,
   return st;
 }
 
+namespace detail {
+// The undelayed step of a State, with the family states of `families` (nullptr: a model
+// without families).
+template <class Scalar, class Cap>
+inline StepStatus step_undelayed(const RuntimeModel<Scalar, Cap>& m, State<Scalar, Cap>& s,
+                                 FamilyState<Scalar, Cap>* families, const MotionInput& in,
+                                 double dt_s, Scalar* out) {
+  const StepStatus checked = check_step_input(s.phase, in, dt_s, out);
+  if (checked != StepStatus::ok) return checked;
+  if (m.delay != DelayUse::none) return StepStatus::delay_needs_history;
+  if (m.stall != StallUse::none && families == nullptr) return StepStatus::families_need_state;
+  const Clamped<Scalar> clamp = clamp_model_angle(m, in.motion_angle_rad);
+  const AirspeedTerms<Scalar> v = airspeed_terms(m, s, in.airspeed_mps);
+  StepResult<Scalar, Cap> r;
+  const StepStatus st = advance_coefficients(m, s, clamp.x_rad, clamp.model_x_rad, Scalar(in.rate_radps), Scalar(dt_s), v,
+                                             static_cast<const DelayedForcing<Scalar, Cap>*>(nullptr),
+                                             families != nullptr ? families->stall : nullptr, &r);
+  if (st != StepStatus::ok) return st;
+  commit(m, r, clamp.x_rad, v, &s, out);
+  if (families != nullptr) commit_families(m, r, families);
+  return clamp.status;
+}
+}  // namespace detail
+
 // Advances the lag states from the previous sample to this one (dt_s later) and writes the
 // m.set.n_coefficients coefficients at this sample to out[0..]. Anything but ok or
-// angle_clamped changes neither s nor out. A model with a delay needs a DelayedState.
+// angle_clamped changes neither s nor out. A model with a delay needs a DelayedState, one
+// with dynamic-stall families a FamilyState (or a DelayedState).
 template <class Scalar, class Cap>
 inline StepStatus step(const RuntimeModel<Scalar, Cap>& m, State<Scalar, Cap>& s,
                        const MotionInput& in, double dt_s, Scalar* out) {
-  const StepStatus checked = detail::check_step_input(s.phase, in, dt_s, out);
-  if (checked != StepStatus::ok) return checked;
-  if (m.delay != DelayUse::none) return StepStatus::delay_needs_history;
-  const detail::Clamped<Scalar> clamp = detail::clamp_model_angle(m, in.motion_angle_rad);
-  const detail::AirspeedTerms<Scalar> v = detail::airspeed_terms(m, s, in.airspeed_mps);
-  detail::StepResult<Scalar, Cap> r;
-  const StepStatus st = detail::advance_coefficients(m, s, clamp.x_rad, clamp.model_x_rad, Scalar(in.rate_radps),
-                                                     Scalar(dt_s), v,
-                                                     static_cast<const detail::DelayedForcing<Scalar, Cap>*>(nullptr), &r);
-  if (st != StepStatus::ok) return st;
-  detail::commit(m, r, clamp.x_rad, v, &s, out);
-  return clamp.status;
+  return detail::step_undelayed(m, s, static_cast<FamilyState<Scalar, Cap>*>(nullptr), in, dt_s, out);
+}
+
+// The step of a FamilyState: a model without families steps exactly as with a State (the
+// family states are left alone); with families, model.hpp's advance_stall runs after each
+// coefficient's lags and stall_output adds to its value, all on copies, committed only if
+// every number is finite.
+template <class Scalar, class Cap>
+inline StepStatus step(const RuntimeModel<Scalar, Cap>& m, FamilyState<Scalar, Cap>& s,
+                       const MotionInput& in, double dt_s, Scalar* out) {
+  if (m.stall == StallUse::none) return step(m, static_cast<State<Scalar, Cap>&>(s), in, dt_s, out);
+  return detail::step_undelayed(m, s, &s, in, dt_s, out);
 }
 
 namespace detail {
@@ -742,7 +925,7 @@ inline void commit_history(double t1_s, Scalar x1, bool ring_full, DelayedState<
 template <class Scalar, class Cap>
 inline StepStatus step(const RuntimeModel<Scalar, Cap>& m, DelayedState<Scalar, Cap>& s,
                        const MotionInput& in, double dt_s, Scalar* out) {
-  if (m.delay == DelayUse::none) return step(m, static_cast<State<Scalar, Cap>&>(s), in, dt_s, out);
+  if (m.delay == DelayUse::none) return step(m, static_cast<FamilyState<Scalar, Cap>&>(s), in, dt_s, out);
   const StepStatus checked = detail::check_step_input(s.phase, in, dt_s, out);
   if (checked != StepStatus::ok) return checked;
   const detail::Clamped<Scalar> clamp = detail::clamp_model_angle(m, in.motion_angle_rad);
@@ -769,10 +952,13 @@ inline StepStatus step(const RuntimeModel<Scalar, Cap>& m, DelayedState<Scalar, 
     forcing.x1_rad[c] = Scalar(delayed_angle(view, t1_s, d_s[c]));
   }
   detail::StepResult<Scalar, Cap> r;
+  const bool families = m.stall != StallUse::none;
   const StepStatus st = detail::advance_coefficients(m, s, clamp.x_rad, clamp.model_x_rad, Scalar(in.rate_radps),
-                                                     Scalar(dt_s), v, &forcing, &r);
+                                                     Scalar(dt_s), v, &forcing,
+                                                     families ? s.stall : nullptr, &r);
   if (st != StepStatus::ok) return st;
   detail::commit(m, r, clamp.x_rad, v, &s, out);
+  if (families) detail::commit_families(m, r, &s);
   detail::commit_history(t1_s, clamp.x_rad, ring_full, &s);
   s.delay_airspeed_mps = in.airspeed_mps;
   for (int c = 0; c < Cap::max_coefficients; ++c) s.delay_at_airspeed_s[c] = d_s[c];

@@ -34,7 +34,7 @@
 // Warnings
 // 1. Compiled with -fno-exceptions -fno-rtti and no operator new: memory comes from the
 //    importer's allocateMemory / freeMemory only, as FMI 2.0 asks.
-// 2. indicial_model_load keeps about 28 KB on the stack (indicial.h warning 4): importers'
+// 2. indicial_model_load keeps about 40 KB on the stack (indicial.h warning 4): importers'
 //    threads have far more, but fmi2Instantiate must not be called from an interrupt.
 // 3. A clamped angle (status 1) is not an error: the step is done, step_status says 1, and a
 //    warning is logged only when debug logging is on (it can happen at every step).
