@@ -185,8 +185,14 @@ TEST_CASE("a fit error far above the data's noise level warns on stderr and in f
   CHECK(r.err.find("times the noise") == std::string::npos);
   CHECK(r.err.find("not a measurement of the noise") != std::string::npos);
   const nlohmann::json j = nlohmann::json::parse(slurp(out / "fit.json"));
-  REQUIRE(j["warnings"].size() == 1);
+  // The s(v) warning, and (issue 21) the estimates of the wrong model that the data do not
+  // determine (bound > value), flagged by fit as diagnose flags them, with value +- bound.
+  REQUIRE(j["warnings"].size() == 2);
   CHECK(j["warnings"][0].get<std::string>().find("times the short-lag level") != std::string::npos);
+  CHECK(j["warnings"][1].get<std::string>().find("ill-conditioned estimates (Cramer-Rao bound larger than the value): ") !=
+        std::string::npos);
+  CHECK(j["warnings"][1].get<std::string>().find(" +- ") != std::string::npos);
+  CHECK(r.err.find("experiment.toml: ill-conditioned estimates") != std::string::npos);
   // The measured ratio is well past the threshold (about 6 on these data).
   CHECK(j["fit_error"].get<double>() > 3.0 * 0.0036);
 }

@@ -133,7 +133,7 @@ TEST_CASE("a database cycle: % header, whitespace, mapped phase and angle, CL an
   CHECK_FALSE(any_has(m.warnings, "Cn"));
 }
 
-TEST_CASE("the dialect declared in [csv] reads the same; a wrong one is named") {
+TEST_CASE("the dialect declared in [csv] reads the same, a wrong one is named") {
   const Cycle c = database_cycle();
   write("cycle.dat", database_text(c));
   const indicial::Experiment detected = indicial::load_experiment(write("det.toml", experiment("Cm", kMapped)));

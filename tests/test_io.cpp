@@ -895,11 +895,19 @@ TEST_CASE("phase cycles and run conditions: every wrong combination names the li
       write_exp("c9.toml", cycle_experiment(R"({file = "cycle64.csv", frequency_hz = 1.0, airspeed_mps = 30.0})")));
   CHECK(e9.runs.at(0).airspeed_mps == 30.0);
   CHECK(e9.airspeed_mps == 17.667762);
-  // The jittered cycle itself is read, as nonuniform.
+  // The jittered cycle itself is read, as nonuniform, with a note when no grid is declared;
+  // declared uniform (predict --time-grid uniform) it is refused, never silently nonuniform.
   const indicial::Run rj = indicial::read_run_csv((runs_dir() / "cycle_jitter.csv").string(), indicial::Axis::pitch,
                                                   "Cm", indicial::CoefficientPresence::required,
-                                                  indicial::RunCsvOptions{indicial::TimeGrid::uniform, {}, 1.0});
+                                                  indicial::RunCsvOptions{std::nullopt, {}, 1.0});
   CHECK(rj.time_grid == indicial::TimeGrid::nonuniform);
+  CHECK(any_note_has(rj.notes, "'phase_rad' is not uniform even to its printed digits"));
+  CHECK_HAS(error_of([&] {
+              indicial::read_run_csv((runs_dir() / "cycle_jitter.csv").string(), indicial::Axis::pitch, "Cm",
+                                     indicial::CoefficientPresence::required,
+                                     indicial::RunCsvOptions{indicial::TimeGrid::uniform, {}, 1.0});
+            }),
+            "but a uniform grid was declared");
   // Phase outside [0, 2 pi) and time and phase together.
   std::string over = cycle_csv(20, "%.2f");
   over = replace_line(over, 21, "6.30,1,1");

@@ -19,10 +19,10 @@
 // Hermite cubic whose slopes follow the data without the overshoot of a global cubic spline at
 // a stall break (a digitized C_L drop), and third-order accurate on smooth stretches.
 // Measured (tests/test_phase_resample.cpp, a periodic C_L-like history with harmonics 1-3 at
-// 30 irregular phases): max interpolation error 1.0e-2 of the peak-to-peak amplitude (periodic
-// linear interpolation: 2.4e-2); at 60 phases 1.6e-3 (linear: 6.4e-3). Digitizing a printed
-// figure is typically good to 0.5-1 % of the axis, the same order: the interpolation does not
-// dominate at 30+ points per cycle.
+// 30 irregular digitizer phases, worst of 20 draws): max interpolation error 6.3e-3 of the
+// peak-to-peak amplitude (periodic linear interpolation: 1.7e-2); at 60 phases 1.6e-3
+// (linear: 4.4e-3). Digitizing a printed figure is typically good to 0.5-1 % of the axis, the
+// same order: the interpolation does not dominate at 30+ points per cycle.
 //
 // Warnings
 // --------
