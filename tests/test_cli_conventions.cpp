@@ -325,7 +325,9 @@ TEST_CASE("init writes a commented template with every key, refuses to overwrite
         "prior_knot_powers", "prior_knot_coefficients", "[model]", "a_degree", "a_powers", "a_knots_deg",
         "b1_degree", "b1_powers", "b1_knots_deg", "bias", "structure", "lags", "static_correction_degree",
         "static_correction_knots_deg", "rotary_correction_degree", "rotary_correction_knots_deg", "delay",
-        "delay_start_s", "further_lag_start", "[columns]", "[csv]", "delimiter", "comment"}) {
+        "delay_start_s", "further_lag_start", "stall", "stall_polar", "stall_polar_column",
+        "stall_attached_max_deg", "stall_f0_correction_degree", "stall_T1_start", "[columns]", "[csv]",
+        "delimiter", "comment"}) {
     CAPTURE(key);
     const std::string k = key;
     const bool found = k[0] == '[' ? t.find("\n" + k + "\n") != std::string::npos ||

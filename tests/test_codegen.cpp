@@ -149,6 +149,11 @@ TEST_CASE("the generated dynamic-stall header runs bit for bit like the text fil
   }
   const P::Snapshot snap = from_text.snapshot();
   CHECK(std::memcmp(&snap.stall, &state.stall, sizeof state.stall) == 0);
+  // `coef check` names the families.
+  std::string out;
+  CHECK(run("coef check \"" + std::string(INDICIAL_SOURCE_DIR) + "/examples/dynamic-stall-lift-moment.coef\"",
+            &out) == 0);
+  CHECK(out.find("dynamic stall: separation_and_vortex; f0 table of 27 rows") != std::string::npos);
   // A changed family parameter is caught by the check (the step constants say families).
   auto changed = dynamic_stall_lift_moment;
   changed.stall = indicial::StallUse::none;

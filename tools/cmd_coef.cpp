@@ -35,6 +35,19 @@ std::string spline_summary(const indicial::Spline<double, P, K>& s) {
   }
   return r;
 }
+// The dynamic-stall families of a coefficient (version-2 files), one line.
+void print_stall_summary(const indicial::StallModel<double, indicial::DefaultCapacity>& st) {
+  if (st.families == indicial::StallFamilies::none) return;
+  const auto& p = st.separation;
+  std::printf("    dynamic stall: %s; f0 table of %d rows, C_Na %g /rad, T1 %g, T2 %g (semichords)",
+              indicial::stall_families_name(st.families), p.n_f0, p.normal_force_slope_per_rad,
+              p.tau1_semichords, p.tau2_semichords);
+  if (st.families == indicial::StallFamilies::separation_and_vortex)
+    std::printf("; vortex C_N1 %g, T_v %g, T_vl %g", st.vortex.shedding_threshold,
+                st.vortex.decay_semichords, st.vortex.travel_semichords);
+  std::printf("\n");
+}
+
 
 void run_check(const std::string& path) {
   using namespace indicial;
@@ -74,6 +87,7 @@ void run_check(const std::string& path) {
     std::printf("\n");
     for (int j = 0; j < cm.n_lags; ++j)
       std::printf("    b%d(x): %s, gain %g\n", j + 1, spline_summary(cm.lags[j].b).c_str(), cm.lags[j].gain);
+    print_stall_summary(cm.stall);
   }
 }
 

@@ -130,6 +130,28 @@ const std::vector<KeyDoc>& key_docs() {
       {"model", "further_lag_start", "with lags >= 2: \"estimated\" (each run's lags 2.. start from an estimated\n"
                                      "state) or \"at_rest\" (from 0). Default \"estimated\".",
        "further_lag_start = \"estimated\""},
+      {"model", "stall", "dynamic-stall families (docs/formats.md, model.hpp): \"none\", \"separation\" (a\n"
+                         "separation state f, T1 (l/V) f' + f = f0(x - T2 (l/V) x'), output C_Na (x - alpha_0)\n"
+                         "[K(f) h(f) - K(f0) h(f0)]: parameters T1, T2, k0, k1, k2) or \"separation_and_vortex\"\n"
+                         "(plus a leading-edge vortex: CN1, Tv, Tvl, cv, xv). Default \"none\".",
+       "stall = \"none\""},
+      {"model", "stall_polar", "with stall: the static LIFT polar f0(x) comes from (Kirchhoff inversion): a CSV with\n"
+                               "alpha_deg and the column stall_polar_column. Default: the [static] table when\n"
+                               "coefficient is that column.",
+       "stall_polar = \"static-lift.csv\""},
+      {"model", "stall_polar_column", "with stall: the polar's lift column. Default \"CL\".",
+       "stall_polar_column = \"CL\""},
+      {"model", "stall_attached_max_deg", "with stall: polar rows with |x| <= this (deg) are its attached part,\n"
+                                          "whose least-squares line gives C_Na and alpha_0. Default 8.",
+       "stall_attached_max_deg = 8.0"},
+      {"model", "stall_f0_correction_degree", "with stall: a fitted correction of f0(x), powers 0..degree\n"
+                                              "(stall_f0_correction_powers, stall_f0_correction_knots_deg as for\n"
+                                              "a(x); parameters f0c_i, f0cK j). Default none.",
+       "stall_f0_correction_degree = 1"},
+      {"model", "stall_T1_start", "with stall: start values, in semichord times l/V (T1, T2, Tv, Tvl) and C_N\n"
+                                  "(stall_CN1_start; default where f0 falls below 0.7). Defaults T1 3, T2 1.5,\n"
+                                  "Tv 6, Tvl 7 (Beddoes-Leishman's NACA 0012).",
+       "stall_T1_start = 3.0"},
   };
   return docs;
 }

@@ -79,7 +79,7 @@ void run_predict(const PredictOptions& o) {
   tools::print_warnings(run.warnings);
   // A phase column is one ensemble-averaged cycle: periodic whether or not --periodic is given.
   const bool periodic = o.periodic || run.time_source == TimeSource::phase_column;
-  const std::string angle_column = run.motion_column;  // echoed in the unit the file used
+  const std::string angle_column = run.angle_column;  // echoed in the unit the file used
 
   require_runtime_accepts(*model, o.model_path, ModelFile::read);  // a refused model names the file
   Prediction p = periodic ? predict_periodic(*model, run.time_s, run.motion_angle_rad, run.rate_radps, airspeed,

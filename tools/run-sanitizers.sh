@@ -7,11 +7,12 @@
 #   INDICIAL_ASAN_BUILD_DIR=/tmp/x INDICIAL_JOBS=2 tools/run-sanitizers.sh
 #
 # RelWithDebInfo at -O1 (with line tables only, -g1): fast enough to run the suite, still
-# precise stack traces. Benchmarks are not built. -DINDICIAL_SANITIZE=ON leaves out
-# tests/test_alloc.cpp, which replaces malloc/free (forwarding to glibc's __libc_malloc) and
-# operator new: that bypasses ASan's allocator, so ASan would see frees of memory it never
-# allocated, and the allocation count is not a question for a sanitizer run anyway (the normal
-# build runs it).
+# precise stack traces. Benchmarks are not built, nor the Python module (an extension loaded
+# into an uninstrumented interpreter would need the ASan runtime preloaded).
+# -DINDICIAL_SANITIZE=ON leaves out tests/test_alloc.cpp, which replaces malloc/free
+# (forwarding to glibc's __libc_malloc) and operator new: that bypasses ASan's allocator, so
+# ASan would see frees of memory it never allocated, and the allocation count is not a
+# question for a sanitizer run anyway (the normal build runs it).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build_dir=${INDICIAL_ASAN_BUILD_DIR:-build-asan}
@@ -21,7 +22,8 @@ san="-fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-poin
 start=$(date +%s)
 cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   -DCMAKE_CXX_FLAGS="$san" -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1" \
-  -DCMAKE_EXE_LINKER_FLAGS="$san" -DINDICIAL_BUILD_BENCH=OFF -DINDICIAL_SANITIZE=ON
+  -DCMAKE_EXE_LINKER_FLAGS="$san" -DINDICIAL_BUILD_BENCH=OFF -DINDICIAL_SANITIZE=ON \
+  -DINDICIAL_BUILD_PYTHON=OFF
 cmake --build "$build_dir" -j"$jobs"
 built=$(date +%s)
 

@@ -142,6 +142,16 @@ void describe_estimates(Scored& s, Effect effect) {
     case Effect::bias:
       s.score.detail = fmt::format("con = {:.4g} 1/s", estimate_of(f, param_id(ParamKind::con), nan));
       break;
+    case Effect::separation_lag:
+      s.score.detail = fmt::format("T1 = {:.4g}, T2 = {:.4g} (l/V)", estimate_of(f, param_id(ParamKind::stall_tau1), nan),
+                                   estimate_of(f, param_id(ParamKind::stall_tau2), nan));
+      break;
+    case Effect::vortex_shedding:
+      s.score.detail = fmt::format("CN1 = {:.4g}, Tv = {:.4g}, Tvl = {:.4g} (l/V)",
+                                   estimate_of(f, param_id(ParamKind::shedding_threshold), nan),
+                                   estimate_of(f, param_id(ParamKind::vortex_decay), nan),
+                                   estimate_of(f, param_id(ParamKind::vortex_travel), nan));
+      break;
     default: break;
   }
 }

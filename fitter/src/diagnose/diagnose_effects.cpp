@@ -137,6 +137,41 @@ void gen_static_error(const CandidateContext& ctx, std::vector<CandidateSpec>& o
   add_grid_knots(ctx, Effect::static_error, SplineFamily::static_correction, out);
 }
 
+// The dynamic-stall families (model.hpp "Dynamic stall"; issue 22) need the static lift polar:
+// the model's own, or the experiment's static table when the experiment models the lift (CL).
+// Without one there is no candidate (a Cm experiment names the polar with model.stall_polar).
+bool stall_candidate(const CandidateContext& ctx, StallFamilies families, Effect effect,
+                     std::vector<CandidateSpec>& out) {
+  const StallConfig& have = ctx.model.stall;
+  CandidateSpec c;
+  c.effect = effect;
+  c.config = ctx.model;
+  StallConfig& s = c.config.stall;
+  if (have.polar_x_rad.empty()) {
+    const StaticConfig& st = ctx.experiment.static_curve;
+    if (st.kind != StaticKind::table || ctx.experiment.coefficient != s.polar_column) return false;
+    s.polar_path = st.table_path;
+    s.polar_x_rad = st.table_x_rad;
+    s.polar_lift = st.table_value;
+  }
+  s.families = families;
+  c.term = families == StallFamilies::separation ? "T1, T2, k0, k1, k2" : "CN1, Tv, Tvl, cv, xv";
+  c.detail = stall_families_name(families);
+  out.push_back(c);
+  return true;
+}
+
+void gen_separation_lag(const CandidateContext& ctx, std::vector<CandidateSpec>& out) {
+  if (ctx.model.stall.families != StallFamilies::none) return;
+  stall_candidate(ctx, StallFamilies::separation, Effect::separation_lag, out);
+}
+
+// The vortex is fed by the separation state: the candidate adds both when neither is there.
+void gen_vortex_shedding(const CandidateContext& ctx, std::vector<CandidateSpec>& out) {
+  if (ctx.model.stall.families == StallFamilies::separation_and_vortex) return;
+  stall_candidate(ctx, StallFamilies::separation_and_vortex, Effect::vortex_shedding, out);
+}
+
 // ---- parameter identity -------------------------------------------------------------------
 // Every structural and output parameter of a configuration, with the knot numbers of THAT
 // configuration (what its fit names them).
@@ -205,6 +240,26 @@ const std::vector<EffectEntry>& effect_registry() {
         "slow (quasi-static) sweeps or held angles: a static error remains, an unsteady one "
         "vanishes"},
        SplineFamily::static_correction, gen_static_error},
+      {{Effect::separation_lag, "separation_lag",
+        "the trailing-edge separation point lags the angle (dynamic stall without a vortex)",
+        "the separation family: state f, T1 (l/V) f' + f = f0(x - T2 (l/V) x'), Kirchhoff output "
+        "(model.stall = \"separation\"; coefficient-file sep_* keys)",
+        "hysteresis only at and above the static stall angle, lift higher on the upstroke (delayed "
+        "stall) and lower on the downstroke (slow reattachment), the loop widening with the reduced "
+        "frequency; none in attached flow",
+        "oscillations at several mean angles through the static stall angle and at several reduced "
+        "frequencies: below stall it is silent, a lag's hysteresis is not"},
+       SplineFamily::none, gen_separation_lag},
+      {{Effect::vortex_shedding, "vortex_shedding",
+        "a leading-edge vortex is shed past a criterion and convected over the chord",
+        "the vortex family on the separation family: vortex lift fed by N(x) (1 - K(f)), shed past "
+        "|C_N'| > CN1, decaying with Tv, convected in Tvl (model.stall = \"separation_and_vortex\"; "
+        "vortex_* keys)",
+        "a lift overshoot above the static maximum on the upstroke past stall, then a sharp nose-down "
+        "pitching-moment break that comes later in the cycle as the reduced frequency grows",
+        "deep-stall oscillations at several reduced frequencies: the overshoot and the moment break "
+        "move with the convection time Tvl, a separation lag's hysteresis has neither"},
+       SplineFamily::none, gen_vortex_shedding},
   };
   // Why: Effect values index this table (effect_entry); a missing or misplaced entry is a bug.
   static const bool checked = [] {

@@ -26,7 +26,11 @@ namespace {
 std::vector<ParamId> ee_terms(const UnsteadyStructure& s) {
   std::vector<ParamId> out;
   for (const ParamId& t : structural_terms(s))
-    if (t.lag == 0 && t.kind != ParamKind::gain && t.kind != ParamKind::delay) out.push_back(t);
+    // Lag 1's a(x), b1(x) and con: the equation error's regressors (eq. 22). The further lags,
+    // the delay and the dynamic-stall parameters are estimated by output error only.
+    if (t.lag == 0 && (t.kind == ParamKind::a_power || t.kind == ParamKind::a_knot ||
+                       t.kind == ParamKind::b_power || t.kind == ParamKind::b_knot || t.kind == ParamKind::con))
+      out.push_back(t);
   return out;
 }
 

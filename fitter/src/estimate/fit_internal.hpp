@@ -47,6 +47,18 @@ enum class DelayTerm { absent, estimated };
 // it (target y_E of eq. 12, the a priori C_aq already subtracted).
 enum class RotaryRole { replaces_a_priori, corrects_a_priori };
 
+// The dynamic-stall part of a structure (model.hpp "Dynamic stall"): which families, the
+// static separation derived from the lift polar (not estimated: stall_polar.cpp), the terms of
+// the fitted f0 correction; every other stall parameter is one scalar (structural_terms).
+struct StallStructure {
+  StallFamilies families = StallFamilies::none;
+  double normal_force_slope_per_rad = 0.0;
+  double zero_lift_angle_rad = 0.0;
+  std::vector<double> f0_x_rad, f0_value;
+  SplineTerms f0_correction;
+  double shedding_threshold_start = 1.0;  // N(x) where f0 first falls below 0.7 (above alpha_0)
+};
+
 struct UnsteadyStructure {
   SplineTerms a;
   // b[j] = b_{j+1}(x), one per lag (at least one; at most Cap::max_lags). Each lag j >= 1 also
@@ -64,6 +76,7 @@ struct UnsteadyStructure {
   DelayTerm delay = DelayTerm::absent;
   // Lags 2..: initial state per run estimated, or 0 (experiment.hpp LagStart).
   LagStart further_lag_start = LagStart::estimated;
+  StallStructure stall;
   int lags() const { return static_cast<int>(b.size()); }
   int y0_per_run() const { return further_lag_start == LagStart::at_rest ? 1 : lags(); }
 };
@@ -72,6 +85,15 @@ struct UnsteadyStructure {
 // order. Structural (they drive the states): a powers, a knots, b1 powers, b1 knots, con, then
 // per further lag: b powers, b knots, gain; then delay.
 std::vector<ParamId> structural_terms(const UnsteadyStructure& s);
+// The stall part of a structure from the experiment's configuration: the attached line and
+// the Kirchhoff table from the lift polar (stall_polar.cpp). Throws InputError (naming the
+// polar file, or context_file) for a polar without an attached part.
+StallStructure stall_structure(const StallConfig& c, const std::string& context_file);
+// The stall output of every sample of run r with model m (0 without families), as the fit
+// propagates it (fit_output_error.cpp); *initial: the stall state at sample 0 (the periodic
+// state of a periodic run).
+std::vector<double> stall_outputs(const CoefficientModel<double, Cap>& m, const PreparedRun& r,
+                                  StallState<double>* initial);
 // Output terms (linear in the output): the rotary terms, then the static correction terms.
 std::vector<ParamId> output_terms(const UnsteadyStructure& s);
 std::vector<ParamId> rotary_terms(const SplineTerms& pool);        // Caq_{i}, CaqK{j}
@@ -139,6 +161,24 @@ void shape_spline(const SplineTerms& t, Spline<S, Cap::max_powers, Cap::max_knot
   }
 }
 
+// The dynamic-stall part of a model from its structure: families, polar, f0 table, the f0
+// correction's shape; the estimated scalars are set by set_parameter.
+template <class S>
+void shape_stall(const StallStructure& t, StallModel<S, Cap>& m) {
+  m = StallModel<S, Cap>{};
+  m.families = t.families;
+  if (t.families == StallFamilies::none) return;
+  SeparationParameters<S, Cap>& p = m.separation;
+  p.normal_force_slope_per_rad = S(t.normal_force_slope_per_rad);
+  p.zero_lift_angle_rad = S(t.zero_lift_angle_rad);
+  p.n_f0 = static_cast<int>(t.f0_x_rad.size());
+  for (std::size_t i = 0; i < t.f0_x_rad.size(); ++i) {
+    p.f0_x_rad[i] = t.f0_x_rad[i];
+    p.f0_value[i] = S(t.f0_value[i]);
+  }
+  shape_spline(t.f0_correction, p.f0_correction);
+}
+
 // Writes the value of one unsteady parameter into its slot of a model shaped by
 // ParameterLayout::build_unsteady (output terms and initial states have no slot there).
 template <class S>
@@ -151,6 +191,19 @@ void set_parameter(const ParamId& id, const S& v, CoefficientModel<S, Cap>& m) {
     case ParamKind::con: m.con = v; break;
     case ParamKind::gain: m.lags[id.lag].gain = v; break;
     case ParamKind::delay: m.delay_s = v; break;
+    case ParamKind::stall_tau1: m.stall.separation.tau1_semichords = v; break;
+    case ParamKind::stall_tau2: m.stall.separation.tau2_semichords = v; break;
+    case ParamKind::f0_power: m.stall.separation.f0_correction.power_coef[id.power] = v; break;
+    case ParamKind::f0_knot: m.stall.separation.f0_correction.knot_coef[id.knot] = v; break;
+    case ParamKind::stall_cp:
+      (id.power == 0 ? m.stall.separation.cp_k0
+                     : id.power == 1 ? m.stall.separation.cp_k1 : m.stall.separation.cp_k2) = v;
+      break;
+    case ParamKind::shedding_threshold: m.stall.vortex.shedding_threshold = v; break;
+    case ParamKind::vortex_decay: m.stall.vortex.decay_semichords = v; break;
+    case ParamKind::vortex_travel: m.stall.vortex.travel_semichords = v; break;
+    case ParamKind::vortex_lift: m.stall.vortex.lift_gain = v; break;
+    case ParamKind::vortex_cp: m.stall.vortex.cp_travel = v; break;
     default: break;
   }
 }
@@ -165,6 +218,7 @@ void ParameterLayout::build_unsteady(const S* structural, CoefficientModel<S, Ca
   }
   m.con = S(0);
   m.delay_s = S(0);
+  shape_stall(s_.stall, m.stall);
   for (int k = 0; k < n_struct_; ++k) set_parameter(ids_[static_cast<std::size_t>(k)], structural[k], m);
 }
 

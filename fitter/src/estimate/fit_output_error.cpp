@@ -153,6 +153,52 @@ void propagate(const CoefficientModel<S, Cap>& m, const PreparedRun& r, DelayTer
   }
 }
 
+// The dynamic-stall states of run r (model.hpp "Dynamic stall"), sample by sample: emit(i, s)
+// with the state at sample i. They start at stall_steady_state of the first sample. A periodic
+// run first goes through kStallWarmupCycles cycles from there, so its sample-0 state is the
+// periodic state to the warm-up's accuracy (the stall states are nonlinear in the motion, so
+// the lags' affine closure does not apply; each cycle shrinks the start's trace by
+// exp(-cycle / T) with cycle >= 37 semichord times at k <= 0.17: three cycles leave < 1e-6 of
+// it for T <= 6, the Beddoes-Leishman constants). The stall states do not depend on the lags
+// (both are driven by the angle only), so they are propagated apart and their output added:
+// C = coefficient_output(lags) + stall_output, the runtime's sum (runtime.hpp), bit for bit.
+constexpr int kStallWarmupCycles = 3;
+
+template <class S, class Emit>
+void propagate_stall(const StallModel<S, Cap>& m, const PreparedRun& r, Emit&& emit) {
+  StallState<S> s;
+  stall_steady_state(m, S(r.x[0]), &s);
+  const std::size_t n = r.x.size();
+  auto step = [&](std::size_t k0, std::size_t k1, double dt_s) {
+    advance_stall(m, StallStep<S>{S(r.x[k0]), S(r.x[k1]), S(dt_s), S(r.l_over_v_s)}, &s);
+  };
+  if (r.periodic) {
+    const bool closed = closes_on_last_sample(r);
+    for (int c = 0; c < kStallWarmupCycles; ++c) {
+      for (std::size_t k = 0; k + 1 < n; ++k) step(k, k + 1, r.step_s(k));
+      if (!closed) step(n - 1, 0, r.wrap_step_s());
+    }
+  }
+  emit(std::size_t{0}, static_cast<const StallState<S>&>(s));
+  for (std::size_t k = 0; k + 1 < n; ++k) {
+    step(k, k + 1, r.step_s(k));
+    emit(k + 1, static_cast<const StallState<S>&>(s));
+  }
+}
+
+// The stall output of every sample of run r (zeros without families); the state at sample 0
+// in *initial when given.
+std::vector<double> stall_output_series(const CoefficientModel<double, Cap>& m, const PreparedRun& r,
+                                        StallState<double>* initial = nullptr) {
+  std::vector<double> out(r.x.size(), 0.0);
+  if (m.stall.families == StallFamilies::none) return out;
+  propagate_stall(m.stall, r, [&](std::size_t i, const StallState<double>& s) {
+    if (i == 0 && initial) *initial = s;
+    out[i] = stall_output(m.stall, r.x[i], s);
+  });
+  return out;
+}
+
 // The output-error problem for the Levenberg-Marquardt solver: theta in ParameterLayout order,
 // residual v = C - C_model with C_model from model.hpp's coefficient_output of the model at
 // theta (model_at), the lag states propagated by the runtime's update.
@@ -223,10 +269,12 @@ bool OutputErrorProblem::evaluate(const Eigen::VectorXd& theta, Eigen::VectorXd&
     }
     const auto base = static_cast<Eigen::Index>(starts_[ri]);
     if (y_model) (*y_model)[ri].resize(r.x.size());
+    const std::vector<double> stall = stall_output_series(m, r);
     propagate(m, r, delay, y, [&](std::size_t i, const double* yi) {
       v(base + static_cast<Eigen::Index>(i)) =
-          r.coef[i] - coefficient_output(m, r.x[i], r.rate[i], r.l_over_v_s, yi);
-      if (y_model) (*y_model)[ri][i] = lag_sum(yi, m.n_lags);
+          r.coef[i] - (coefficient_output(m, r.x[i], r.rate[i], r.l_over_v_s, yi) + stall[i]);
+      // With dynamic-stall families the unsteady part is the lags plus the stall output.
+      if (y_model) (*y_model)[ri][i] = lag_sum(yi, m.n_lags) + stall[i];
     });
   }
   return v.allFinite();
@@ -275,13 +323,24 @@ bool OutputErrorProblem::jacobian_n(const Eigen::VectorXd& theta, Eigen::VectorX
       for (int j = 0; j < L_.y0_per_run(); ++j) y[j] = seeded(theta(off + j), ns + j);
     }
     const auto base = static_cast<Eigen::Index>(starts_[ri]);
+    // The stall output's sensitivities (the stall parameters are structural), and its value
+    // from the double model, as evaluate() computes it.
+    const std::vector<double> stall = stall_output_series(md, r);
+    std::vector<ADN> stall_ad;
+    if (m.stall.families != StallFamilies::none) {
+      stall_ad.resize(r.x.size());
+      propagate_stall(m.stall, r, [&](std::size_t i, const StallState<ADN>& s) {
+        stall_ad[i] = stall_output(m.stall, ADN(r.x[i]), s);
+      });
+    }
     propagate(m, r, delay, y, [&](std::size_t i, const ADN* yi) {
       const Eigen::Index row = base + static_cast<Eigen::Index>(i);
       double y_value[Cap::max_lags] = {};
       ADN sum = yi[0];
       for (int j = 1; j < m.n_lags; ++j) sum = sum + yi[j];
+      if (!stall_ad.empty()) sum = sum + stall_ad[i];
       for (int j = 0; j < m.n_lags; ++j) y_value[j] = yi[j].value();
-      v(row) = r.coef[i] - coefficient_output(md, r.x[i], r.rate[i], r.l_over_v_s, y_value);
+      v(row) = r.coef[i] - (coefficient_output(md, r.x[i], r.rate[i], r.l_over_v_s, y_value) + stall[i]);
       const auto& d = sum.derivatives();
       for (int k = 0; k < ns; ++k) J(row, k) = -d(k);
       for (int k = out.begin; k < out.end; ++k)
@@ -467,6 +526,11 @@ CoefficientModel<double, Cap> model_at(const ParameterLayout& L, const Eigen::Ve
   return m;
 }
 
+std::vector<double> stall_outputs(const CoefficientModel<double, Cap>& m, const PreparedRun& r,
+                                  StallState<double>* initial) {
+  return stall_output_series(m, r, initial);
+}
+
 ParameterEstimate MLResult::estimate(int i) const {
   const auto k = static_cast<std::size_t>(i);
   ParameterEstimate pe;
@@ -489,7 +553,9 @@ MLResult fit_output_error(const UnsteadyStructure& s, const OutputErrorData& d,
   // min_lag_decay) is rejected like a cost increase; an infeasible start is projected first.
   const double lo = d.envelope.min_rad, hi = d.envelope.max_rad;
   const FeasibilityPredicate decaying = [&](const CoefficientModel<double, Cap>& m) {
-    return lag_decay_positive(m, lo, hi) && (!feasible || feasible(m));
+    // The runtime's feasible set of the stall families (positive time constants, f0 in [0, 1]).
+    return lag_decay_positive(m, lo, hi) && check_stall_parameters(m.stall) == StallCheck::valid &&
+           (!feasible || feasible(m));
   };
   OutputErrorProblem problem(L, d, decaying);
   check_sizes(L, theta0, static_cast<std::size_t>(problem.num_residuals()), d.context_file);

@@ -17,7 +17,7 @@ namespace indicial {
 namespace {
 bool is_knot(ParamKind k) {
   return k == ParamKind::a_knot || k == ParamKind::b_knot || k == ParamKind::rotary_knot ||
-         k == ParamKind::static_knot;
+         k == ParamKind::static_knot || k == ParamKind::f0_knot;
 }
 // The identity fields: a knot is where it is (not its display number); run only for states.
 auto identity(const ParamId& p) {
@@ -59,6 +59,16 @@ std::string parameter_name(const ParamId& id) {
       const std::string run = "y0_" + std::to_string(id.run + 1);
       return id.lag == 0 ? run : run + "_" + lag;
     }
+    case ParamKind::stall_tau1: return "T1";
+    case ParamKind::stall_tau2: return "T2";
+    case ParamKind::f0_power: return "f0c_" + power;
+    case ParamKind::f0_knot: return "f0cK" + knot;
+    case ParamKind::stall_cp: return "k" + power;
+    case ParamKind::shedding_threshold: return "CN1";
+    case ParamKind::vortex_decay: return "Tv";
+    case ParamKind::vortex_travel: return "Tvl";
+    case ParamKind::vortex_lift: return "cv";
+    case ParamKind::vortex_cp: return "xv";
   }
   return "?";
 }
@@ -87,6 +97,15 @@ struct NameScanner {
 // Reads the kind and numbers; parse_parameter_name checks the result by printing it back.
 bool scan_name(NameScanner& c, ParamId& r) {
   if (c.literal("con")) { r.kind = ParamKind::con; return true; }
+  // The dynamic-stall names (before the numbered prefixes: "cv" is no gain c{k}).
+  struct Whole { const char* text; ParamKind kind; };
+  static const Whole whole[] = {{"T1", ParamKind::stall_tau1},       {"T2", ParamKind::stall_tau2},
+                                {"CN1", ParamKind::shedding_threshold}, {"Tvl", ParamKind::vortex_travel},
+                                {"Tv", ParamKind::vortex_decay},     {"cv", ParamKind::vortex_lift},
+                                {"xv", ParamKind::vortex_cp}};
+  for (const Whole& w : whole)
+    if (c.literal(w.text)) { r.kind = w.kind; return true; }
+  if (c.literal("k")) { r.kind = ParamKind::stall_cp; r.power = c.number(); return true; }
   if (c.literal("delay_s")) { r.kind = ParamKind::delay; return true; }
   if (c.literal("y0_")) {
     r.kind = ParamKind::initial_state;
@@ -98,6 +117,7 @@ bool scan_name(NameScanner& c, ParamId& r) {
   static const Prefix numbered[] = {
       {"CaqK", ParamKind::rotary_knot}, {"Caq_", ParamKind::rotary_power},
       {"dCaK", ParamKind::static_knot}, {"dCa_", ParamKind::static_power},
+      {"f0cK", ParamKind::f0_knot},     {"f0c_", ParamKind::f0_power},
       {"a", ParamKind::a_power},        {"A", ParamKind::a_knot},
       {"c", ParamKind::gain}};
   for (const Prefix& p : numbered) {
@@ -135,6 +155,7 @@ bool parse_parameter_name(const std::string& name, ParamId* id) {
   if (!scan_name(c, r) || c.pos != name.size()) return false;
   if (r.lag < 0 || r.run < 0 || r.knot < 0 || r.power < 0) return false;
   if (r.kind == ParamKind::gain && r.lag < 1) return false;
+  if (r.kind == ParamKind::stall_cp && r.power > 2) return false;
   if (is_knot(r.kind)) r.knot_rad = std::numeric_limits<double>::quiet_NaN();
   // Why print it back: one spelling per parameter ("b1_01", "B1_2" and "y0_1_1" are not names).
   if (parameter_name(r) != name) return false;
@@ -195,6 +216,22 @@ std::vector<ParamId> structural_terms(const UnsteadyStructure& s) {
     if (j > 0) t.push_back(single(ParamKind::gain, j));
   }
   if (s.delay == DelayTerm::estimated) t.push_back(single(ParamKind::delay));
+  // The dynamic-stall families: structural too (the output depends on their states).
+  if (s.stall.families != StallFamilies::none) {
+    t.push_back(single(ParamKind::stall_tau1));
+    t.push_back(single(ParamKind::stall_tau2));
+    add_spline_terms(t, s.stall.f0_correction, ParamKind::f0_power, ParamKind::f0_knot, 0);
+    for (int k = 0; k < 3; ++k) {
+      ParamId cp = single(ParamKind::stall_cp);
+      cp.power = k;
+      t.push_back(cp);
+    }
+  }
+  if (s.stall.families == StallFamilies::separation_and_vortex) {
+    for (ParamKind k : {ParamKind::shedding_threshold, ParamKind::vortex_decay,
+                        ParamKind::vortex_travel, ParamKind::vortex_lift, ParamKind::vortex_cp})
+      t.push_back(single(k));
+  }
   return t;
 }
 
@@ -248,6 +285,7 @@ UnsteadyStructure structure_from_config(const ModelConfig& m) {
   if (s.rotary.size() > 0) s.rotary_role = RotaryRole::corrects_a_priori;
   s.delay = m.delay == DelayEstimation::estimated ? DelayTerm::estimated : DelayTerm::absent;
   s.further_lag_start = m.further_lag_start;
+  s.stall = stall_structure(m.stall, m.stall.polar_path);
   return s;
 }
 

@@ -38,8 +38,30 @@ void check_experiment(const Experiment& e) {
 // Why these defaults: a further lag starts faster than lag 1 (k times b1_0) with a small gain,
 // so its sensitivities are non-zero and distinct from lag 1's at the start; y0 starts at y_E of
 // the run's first sample (the other lags at rest).
+// The dynamic-stall parameters start at the Beddoes-Leishman NACA 0012 constants (in semichord
+// times l / V, so the same at every airspeed; experiment keys stall_*_start), C_N1 where the
+// static separation falls below 0.7 (stall_polar.cpp), and the output terms at the form's own
+// shape: a lift (CL) k0 = 1, c_v = 1; a moment (Cm) Beddoes-Leishman's K1 = -0.135,
+// K2 = 0.04 and x_v = 0.4 (their x_cp,v); any other coefficient 0.
 double default_start(const ParamId& id, double b1_0, const std::vector<PreparedRun>& runs,
-                     double delay_start_s) {
+                     const Experiment& e, const StallStructure& stall) {
+  const bool lift = e.coefficient == "CL";
+  const bool moment = e.coefficient == "Cm";
+  const StallConfig& sc = e.model.stall;
+  switch (id.kind) {
+    case ParamKind::stall_tau1: return sc.tau1_start;
+    case ParamKind::stall_tau2: return sc.tau2_start;
+    case ParamKind::stall_cp:
+      return id.power == 0 ? (lift ? 1.0 : 0.0)
+                           : !moment ? 0.0 : id.power == 1 ? -0.135 : 0.04;
+    case ParamKind::shedding_threshold: return stall.shedding_threshold_start;
+    case ParamKind::vortex_decay: return sc.decay_start;
+    case ParamKind::vortex_travel: return sc.travel_start;
+    case ParamKind::vortex_lift: return lift ? 1.0 : 0.0;
+    case ParamKind::vortex_cp: return moment ? 0.4 : 0.0;
+    default: break;
+  }
+  const double delay_start_s = e.model.delay_start_s;
   switch (id.kind) {
     case ParamKind::b_power:
       return id.lag > 0 && id.power == 0 ? 4.0 * std::abs(b1_0) * (id.lag + 1) : 0.0;
@@ -64,7 +86,7 @@ Eigen::VectorXd start_values(const ParameterLayout& L, const std::vector<Prepare
   for (int i = 0; i < L.size(); ++i) {
     const ParamId& id = L.ids()[static_cast<std::size_t>(i)];
     const auto it = std::find_if(ee.begin(), ee.end(), [&](const ParameterEstimate& p) { return p.id == id; });
-    th(i) = it != ee.end() ? it->value : default_start(id, b1_0, runs, e.model.delay_start_s);
+    th(i) = it != ee.end() ? it->value : default_start(id, b1_0, runs, e, L.structure().stall);
   }
   const std::vector<std::string> names = L.names();
   for (const auto& [name, value] : o.start_values) {
@@ -356,7 +378,7 @@ bool simple_start(const FitContext& c, const UnsteadyStructure& pool, const std:
     const ParamId& id = L.ids()[static_cast<std::size_t>(i)];
     out.theta0(i) = id == p.terms[a_first ? 0 : 1]   ? a
                     : id == p.terms[a_first ? 1 : 0] ? b1
-                                                     : default_start(id, b1, runs, c.e.model.delay_start_s);
+                                                     : default_start(id, b1, runs, c.e, out.s.stall);
   }
   out.said = fmt::format("{} = {:.6g}, {} = {:.6g} ({})", p.names[a_first ? 0 : 1], a, p.names[a_first ? 1 : 0], b1, how);
   return true;
@@ -455,6 +477,7 @@ std::vector<RunSeries> run_series(const Estimate& est, const CoefficientModel<do
     rs.measured = r.coef;
     rs.y_measured = r.y_e;
     const std::size_t n = r.x.size();
+    stall_outputs(cm, r, &rs.stall_initial);
     rs.y_model = est.ml.y_model.empty()
                      ? std::vector<double>(n, std::numeric_limits<double>::quiet_NaN())
                      : est.ml.y_model[ri];

@@ -16,6 +16,7 @@
 #include "indicial/fitter/did_you_mean.hpp"
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/io.hpp"
+#include "io/mat_file.hpp"
 
 namespace indicial {
 namespace {
@@ -233,6 +234,9 @@ struct CsvTable {
   std::vector<long> row_line;
   bool decimal_comma = false;         // a cell was read with ',' as its decimal separator
   bool header_from_comment = false;   // the header is the comment line before the data
+  // A .mat run (mat_file.hpp): its variables are the columns, "lines" are sample numbers.
+  std::vector<MatUnusable> unusable;  // variables that cannot be columns, and why
+  std::vector<std::string> mat_notes;
 };
 
 // Why only with ';', tab or whitespace: in a comma-separated file a decimal comma would split the cell,
@@ -362,9 +366,37 @@ CsvTable read_csv_lines(const std::string& path, const CsvDialect& dialect) {
   return t;
 }
 
-// Reads a CSV and renames the columns `columns` maps (our name -> the file's name).
+// A .mat run as a table: a column per usable variable, its values printed exactly
+// (format_double reads back bit for bit), so that every CSV rule applies unchanged; the
+// "line" of a row is its sample number (1-based), the header has none.
+CsvTable read_mat_table(const std::string& path) {
+  MatColumns m = read_mat_columns(path);
+  CsvTable t;
+  for (const MatColumn& c : m.columns) t.header.push_back(c.name);
+  const std::size_t n = m.columns.front().values.size();
+  t.rows.assign(n, std::vector<std::string>(m.columns.size()));
+  for (std::size_t i = 0; i < n; ++i) {
+    for (std::size_t c = 0; c < m.columns.size(); ++c) t.rows[i][c] = format_double(m.columns[c].values[i]);
+    t.row_line.push_back(static_cast<long>(i + 1));
+  }
+  t.unusable = std::move(m.unusable);
+  t.mat_notes = std::move(m.notes);
+  return t;
+}
+
+// A .mat variable that cannot be a column but is named like one this reader uses (any
+// unit-bearing or coefficient name, or `wanted`) is refused with its reason; the others are
+// ignored, with a note.
+void refuse_unusable(const std::string& path, const CsvTable& t, const std::string& wanted) {
+  for (const MatUnusable& u : t.unusable) {
+    if (u.name == wanted || parse_column_name(path, 0, u.name).kind != ColumnKind::other)
+      throw InputError(path, 0, u.reason + " (a column must be a real numeric vector as long as the time column)");
+  }
+}
+
+// Reads a CSV (or a .mat) and renames the columns `columns` maps (our name -> the file's name).
 CsvTable read_csv_table(const std::string& path, const ColumnMap& columns, const CsvDialect& dialect) {
-  CsvTable t = read_csv_lines(path, dialect);
+  CsvTable t = is_mat_file(path) ? read_mat_table(path) : read_csv_lines(path, dialect);
   t.original = t.header;
   for (const auto& [ours, theirs] : columns) {
     for (auto& name : t.header)
@@ -457,11 +489,13 @@ std::vector<std::string> table_notes(const std::string& path, const CsvTable& t,
     if (parse_column_name(path, t.header_line, t.header[c]).kind != ColumnKind::other) continue;
     ignored += (ignored.empty() ? "'" : ", '") + t.original[c] + "'";
   }
+  for (const MatUnusable& u : t.unusable) ignored += (ignored.empty() ? "'" : ", '") + u.name + "'";
   if (!ignored.empty()) notes.push_back(path + ": ignored column(s) " + ignored + " (not a column indicial reads)");
   if (t.header_from_comment) {
     notes.push_back(path + ":" + std::to_string(t.header_line) + ": the column names are read from this comment "
                     "line (the first row below it is numbers)");
   }
+  for (const std::string& n : t.mat_notes) notes.push_back(path + ": " + n);
   if (t.delimiter != ',' || t.decimal_comma) {
     notes.push_back(path + ": read as " + delimiter_name(t.delimiter) + "-separated" +
                     (t.decimal_comma ? ", with ',' as the decimal separator" : ""));
@@ -683,6 +717,7 @@ RunColumns locate_run_columns(const std::string& path, const CsvTable& t, Axis a
   // Validate every unit-bearing column name first, so a bad name is reported even if it is
   // not one this axis needs.
   for (const auto& name : t.header) (void)parse_column_name(path, t.header_line, name);
+  refuse_unusable(path, t, coefficient);
   rc.time = find_unit_column(path, t, "time", rc.time_factor);
   rc.phase = find_unit_column(path, t, "phase", rc.phase_factor);
   if (rc.time >= 0 && rc.phase >= 0) {
@@ -852,7 +887,7 @@ Run read_run_csv(const std::string& path, Axis axis, const std::string& coeffici
   run.path = path;
   const std::vector<double> tol = read_time(path, t, rc, options, run);
   run.motion_angle_rad = numeric_column(path, t, rc.angle, rc.angle_factor);
-  run.motion_column = t.header[static_cast<std::size_t>(rc.angle)];
+  run.angle_column = t.header[static_cast<std::size_t>(rc.angle)];
   if (rc.coefficient >= 0) run.coefficient = numeric_column(path, t, rc.coefficient, 1.0);
   if (rc.normal >= 0) {
     run.coefficient = lift_or_drag(coefficient, numeric_column(path, t, rc.normal, 1.0),
@@ -947,6 +982,7 @@ void read_static_table(const std::string& path, Axis axis, const std::string& co
                        StaticConfig& config, const ColumnMap& columns, const CsvDialect& dialect) {
   CsvTable t = read_csv_table(path, columns, dialect);
   for (const auto& name : t.header) (void)parse_column_name(path, t.header_line, name);
+  refuse_unusable(path, t, coefficient);
   const std::string base = axis == Axis::pitch ? "alpha" : "beta";
   double factor = 1.0;
   const int x_col = find_unit_column(path, t, base, factor);

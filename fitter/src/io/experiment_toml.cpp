@@ -503,7 +503,12 @@ std::set<std::string> model_keys() {
                                 "static_correction_degree", "static_correction_powers",
                                 "static_correction_knots_deg", "rotary_correction_degree",
                                 "rotary_correction_powers", "rotary_correction_knots_deg", "delay",
-                                "delay_start_s", "further_lag_start"};
+                                "delay_start_s", "further_lag_start",
+                                // the dynamic-stall families (issue 22)
+                                "stall", "stall_polar", "stall_polar_column", "stall_attached_max_deg",
+                                "stall_f0_correction_degree", "stall_f0_correction_powers",
+                                "stall_f0_correction_knots_deg", "stall_T1_start", "stall_T2_start",
+                                "stall_CN1_start", "stall_Tv_start", "stall_Tvl_start"};
   for (int k = 1; k <= FitCapacity::max_lags; ++k)
     for (const std::string& key : lag_b_keys(k)) keys.insert(key);
   return keys;
@@ -588,6 +593,53 @@ Run read_run_of_files(const LoadContext& c, const RunEntry& entry, const Experim
   run.source_files = entry.files;
   run.resampled_points = entry.samples;
   return run;
+}
+
+// [model] stall keys (the dynamic-stall families, ModelConfig::stall): which families, the
+// static lift polar they are derived from (default: the [static] table when the experiment
+// models its lift column), its attached part, the f0 correction's terms and the start values.
+void read_stall_keys(LoadContext& c, const toml::node* model_node, Experiment& e) {
+  const TomlReader& r = c.r;
+  if (!model_node) return;
+  const toml::table& mt = r.table(*model_node, "model");
+  StallConfig& s = e.model.stall;
+  const toml::node* fam = mt.get("stall");
+  if (fam) s.families = r.choice<StallFamilies>(*fam, "model.stall");
+  for (const char* key : {"stall_polar", "stall_polar_column", "stall_attached_max_deg", "stall_T1_start",
+                          "stall_T2_start", "stall_CN1_start", "stall_Tv_start", "stall_Tvl_start",
+                          "stall_f0_correction_degree", "stall_f0_correction_powers",
+                          "stall_f0_correction_knots_deg"})
+    if (const toml::node* n = mt.get(key); n && s.families == StallFamilies::none)
+      r.fail(*n, std::string("'model.") + key + "' is used only with model.stall = \"separation\" or "
+                                                "\"separation_and_vortex\"");
+  if (s.families == StallFamilies::none) return;
+  if (const toml::node* n = mt.get("stall_polar_column")) s.polar_column = r.string(*n, "model.stall_polar_column");
+  const struct { const char* key; double* value; double lo; } starts[] = {
+      {"stall_attached_max_deg", &s.attached_max_deg, 0.0}, {"stall_T1_start", &s.tau1_start, 0.0},
+      {"stall_T2_start", &s.tau2_start, -1.0},             {"stall_CN1_start", &s.shedding_threshold_start, 0.0},
+      {"stall_Tv_start", &s.decay_start, 0.0},             {"stall_Tvl_start", &s.travel_start, 0.0}};
+  for (const auto& st : starts)
+    if (const toml::node* n = mt.get(st.key)) {
+      *st.value = r.number(*n, std::string("model.") + st.key);
+      const bool ok = st.lo < 0.0 ? *st.value >= 0.0 : *st.value > st.lo;
+      if (!ok || !std::isfinite(*st.value))
+        r.fail(*n, std::string("'model.") + st.key + (st.lo < 0.0 ? "' must be >= 0" : "' must be > 0"));
+    }
+  read_spline_terms(c, mt, "stall_f0_correction", s.f0_correction);
+  if (const toml::node* n = mt.get("stall_polar")) {
+    s.polar_path = c.resolve(r.string(*n, "model.stall_polar"));
+    StaticConfig polar;
+    read_static_table(s.polar_path, e.axis, s.polar_column, polar, c.columns, c.dialect);
+    s.polar_x_rad = polar.table_x_rad;
+    s.polar_lift = polar.table_value;
+  } else if (e.static_curve.kind == StaticKind::table && e.coefficient == s.polar_column) {
+    s.polar_path = e.static_curve.table_path;
+    s.polar_x_rad = e.static_curve.table_x_rad;
+    s.polar_lift = e.static_curve.table_value;
+  } else {
+    r.fail(*fam, "'model.stall' needs the static lift polar: 'model.stall_polar' (a CSV with alpha_deg and the "
+                 "column model.stall_polar_column, default CL), or a [static] table of that coefficient");
+  }
 }
 
 // Reads every run file and records the model angle's range over all of them (set_data_range).
@@ -726,6 +778,7 @@ Experiment load_one(const std::string& toml_path, const toml::table& root, const
   const toml::node* model = section_for(c, root, "model", coefficients, coefficient);
   read_rotary_section(c, rotary, e.rotary);
   read_model_section(c, model, e.rotary.estimate, e.model);
+  read_stall_keys(c, model, e);
   read_runs(c, entries, e);
   check_against_data(c, e);
   check_runtime_capacity(c, e);
@@ -911,6 +964,21 @@ std::string write_experiment_toml(const Experiment& e, const std::vector<std::st
     if (e.model.delay_start_s != 0.0) out += "delay_start_s = " + format_double(e.model.delay_start_s) + "\n";
   }
   if (e.model.further_lag_start == LagStart::at_rest) out += std::string("further_lag_start = \"") + name_of(e.model.further_lag_start) + "\"\n";
+  const StallConfig& st = e.model.stall;
+  if (st.families != StallFamilies::none) {
+    out += std::string("stall = \"") + name_of(st.families) + "\"\n";
+    if (st.polar_path != e.static_curve.table_path) out += "stall_polar = " + toml_string(st.polar_path) + "\n";
+    out += "stall_polar_column = " + toml_string(st.polar_column) + "\n";
+    out += "stall_attached_max_deg = " + format_double(st.attached_max_deg) + "\n";
+    if (!st.f0_correction.powers.empty()) out += power_terms("stall_f0_correction", st.f0_correction.powers);
+    if (!st.f0_correction.knots_rad.empty())
+      out += "stall_f0_correction_knots_deg = " + number_list(st.f0_correction.knots_rad, kRadToDeg) + "\n";
+    out += "stall_T1_start = " + format_double(st.tau1_start) + "\n";
+    out += "stall_T2_start = " + format_double(st.tau2_start) + "\n";
+    if (st.shedding_threshold_start > 0.0) out += "stall_CN1_start = " + format_double(st.shedding_threshold_start) + "\n";
+    out += "stall_Tv_start = " + format_double(st.decay_start) + "\n";
+    out += "stall_Tvl_start = " + format_double(st.travel_start) + "\n";
+  }
   return out;
 }
 }  // namespace indicial

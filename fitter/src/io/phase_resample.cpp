@@ -87,7 +87,7 @@ Run resample_phase_series(const std::vector<PhaseSeries>& files, const std::stri
   }
   const PhaseSeries& a = files[static_cast<std::size_t>(angle)];
   run.motion_angle_rad = periodic_interpolate(a.phase_rad, a.motion_angle_rad, grid);
-  run.motion_column = a.motion_column;
+  run.angle_column = a.motion_column;
   std::string counts = a.motion_column + " at " + std::to_string(a.phase_rad.size());
   if (coef >= 0) {
     const PhaseSeries& c = files[static_cast<std::size_t>(coef)];

@@ -167,8 +167,16 @@ Prediction predict_periodic(const ModelSet<double, FitCapacity>& model, const st
   const double wrap_dt_s = (time_s.back() - time_s.front()) / static_cast<double>(n - 1);
   auto ignore = [](std::size_t, const PeriodicPredictor::Outputs&) {};
   predictor->reset(motion_angle_rad[0], airspeed_mps);
-  // Warm-up cycle: fills a delayed coefficient's history with the cycle's own angles.
-  step_cycle(*predictor, time_s, motion_angle_rad, rate_radps, airspeed_mps, closed, wrap_dt_s, model_label, ignore);
+  // Warm-up cycle: fills a delayed coefficient's history with the cycle's own angles. With
+  // dynamic-stall families, 3 cycles: their states are nonlinear in the motion (no affine
+  // closure as for the lags), and the fitter takes a periodic run's stall state after 3 cycles
+  // from the steady state at the first sample (fit_output_error.cpp, kStallWarmupCycles);
+  // the lag fixed point below does not depend on how many cycles came before.
+  bool families = false;
+  for (int c = 0; c < model.n_coefficients; ++c)
+    families = families || model.coefficients[c].stall.families != StallFamilies::none;
+  for (int w = 0; w < (families ? 3 : 1); ++w)
+    step_cycle(*predictor, time_s, motion_angle_rad, rate_radps, airspeed_mps, closed, wrap_dt_s, model_label, ignore);
   const PeriodicPredictor::Snapshot start = predictor->snapshot();
   auto cycle_end_from = [&](double y_start) {
     PeriodicPredictor::Snapshot s = start;
@@ -195,9 +203,10 @@ Prediction predict_periodic(const ModelSet<double, FitCapacity>& model, const st
   const double l_over_v_s = airspeed_scaling(m.airspeed_mps, m.reference_length_m, airspeed_mps).l_over_v_s;
   for (int c = 0; c < m.n_coefficients; ++c) {
     // The output at sample 0 at the fixed-point state (a closed cycle's last step gives it too).
+    const double x0 = std::min(std::max(p.x_rad[0], m.x_min_rad), m.x_max_rad);
     p.coefficients[static_cast<std::size_t>(c)].predicted[0] =
-        coefficient_output(m.coefficients[c], std::min(std::max(p.x_rad[0], m.x_min_rad), m.x_max_rad),
-                           p.x_rad[0], rate_radps[0], l_over_v_s, fixed.y[c]);
+        coefficient_output(m.coefficients[c], x0, p.x_rad[0], rate_radps[0], l_over_v_s, fixed.y[c]) +
+        stall_output(m.coefficients[c].stall, x0, fixed.stall[c]);
   }
   step_cycle(*predictor, time_s, motion_angle_rad, rate_radps, airspeed_mps, closed, wrap_dt_s, model_label,
              [&](std::size_t i, const PeriodicPredictor::Outputs& out) {

@@ -85,7 +85,8 @@ bool initial_states(const FitResult& r, std::size_t ri, int n_lags, double* y) {
   // lag the model's state at sample 0 is the whole unsteady part there.
   const RunSeries& s = r.runs[ri];
   if (n_lags == 1 && !s.y_model.empty() && std::isfinite(s.y_model[0])) {
-    y[0] = s.y_model[0];
+    // y_model includes the dynamic-stall families' output (zero without them).
+    y[0] = s.y_model[0] - stall_output(r.model.coefficients[0].stall, s.x_rad[0], s.stall_initial);
     return true;
   }
   return false;
@@ -110,6 +111,9 @@ void replay_with(Predictor<double, Cap>& p, const FitResult& r, const Experiment
     p.reset(run.motion_angle_rad[0], airspeed_mps);
     auto snap = p.snapshot();
     for (int j = 0; j < n_lags; ++j) snap.y[0][j] = y0[j];
+    // The dynamic-stall states at sample 0 as the fit propagated them (the periodic state of a
+    // periodic run; the steady state otherwise): RunSeries::stall_initial.
+    snap.stall[0] = s.stall_initial;
     p.restore(snap);
     ++check.runs_replayed;
     typename Predictor<double, Cap>::Outputs out;

@@ -89,8 +89,9 @@ namespace indicial {
 // diagnose_effects.cpp: name, description, how it is written to the model, its residual
 // signature, the experiment that separates it, its candidate generator); the count, --help
 // list and report descriptions come from there.
-enum class Effect { b1_alpha, a_alpha, rotary_alpha, bias, time_delay, second_lag, static_error };
-inline constexpr int effect_count = 7;  // the registry checks it has exactly this many entries
+enum class Effect { b1_alpha, a_alpha, rotary_alpha, bias, time_delay, second_lag, static_error,
+                    separation_lag, vortex_shedding };
+inline constexpr int effect_count = 9;  // the registry checks it has exactly this many entries
 
 struct EffectDescription {
   Effect effect = Effect::bias;

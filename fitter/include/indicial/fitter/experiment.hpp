@@ -34,7 +34,7 @@ struct Run {
   long experiment_line = 0;          // the line of its `runs` entry (0: not from an experiment)
   std::vector<double> time_s;
   std::vector<double> motion_angle_rad;   // alpha (pitch), phi (roll), psi (yaw)
-  std::string motion_column;              // its column as ours ("alpha_deg", "phi_rad"), for echoing
+  std::string angle_column;               // the column it was read from ("alpha_deg", ...)
   std::vector<double> rate_radps;         // q, p or r: from the file, or smoothed derivative
   bool rate_from_file = false;
   std::vector<double> coefficient;        // measured C_a
@@ -94,6 +94,29 @@ enum class DelayEstimation { none, estimated };
 // for a run that does not).
 enum class LagStart { estimated, at_rest };
 
+// The dynamic-stall families of one coefficient (issue 22; model.hpp's "Dynamic stall"). [model]
+// keys stall, stall_polar, stall_polar_column, stall_attached_max_deg,
+// stall_f0_correction_{degree,powers,knots_deg}, stall_{T1,T2,CN1,Tv,Tvl}_start (docs/formats.md).
+// The static lift polar gives the Kirchhoff separation f0(x) and the attached line N(x) =
+// C_Na (x - alpha_0); the fitter estimates T1, T2, the f0 correction, k0..k2 and, with the
+// vortex, CN1, Tv, Tvl, cv, xv by output error.
+struct StallConfig {
+  StallFamilies families = StallFamilies::none;
+  std::string polar_path;               // the polar's CSV as named in the file ("" = [static] table)
+  std::string polar_column = "CL";      // its lift column
+  std::vector<double> polar_x_rad;      // the polar, read (strictly increasing)
+  std::vector<double> polar_lift;
+  double attached_max_deg = 8.0;        // rows with |x| <= this are the attached part
+  SplineConfig f0_correction{{}, {}, 1};
+  // Start values, in semichord times l / V (T1, T2, Tv, Tvl) and C_N units (CN1): the
+  // Beddoes-Leishman NACA 0012 constants. A start is scaled by l / V because the parameters are.
+  double tau1_start = 3.0;
+  double tau2_start = 1.5;
+  double shedding_threshold_start = 0.0;  // 0: from the polar (stall_polar.cpp)
+  double decay_start = 6.0;
+  double travel_start = 7.0;
+};
+
 struct ModelConfig {
   SplineConfig a{{0, 1, 2}, {}, 2};
   SplineConfig b1{{0}, {}, 1};
@@ -118,6 +141,7 @@ struct ModelConfig {
   DelayEstimation delay = DelayEstimation::none;
   double delay_start_s = 0.0;
   LagStart further_lag_start = LagStart::estimated;
+  StallConfig stall;                 // extension: dynamic-stall families (none by default)
 };
 
 struct Experiment {

@@ -63,6 +63,9 @@ inline constexpr std::array<NamedValue<DelayEstimation>, 2> delay_estimation_nam
     {{"none", DelayEstimation::none}, {"estimated", DelayEstimation::estimated}}};
 inline constexpr std::array<NamedValue<LagStart>, 2> lag_start_names{
     {{"estimated", LagStart::estimated}, {"at_rest", LagStart::at_rest}}};
+inline constexpr std::array<NamedValue<StallFamilies>, 3> stall_families_names{
+    {{"none", StallFamilies::none}, {"separation", StallFamilies::separation},
+     {"separation_and_vortex", StallFamilies::separation_and_vortex}}};
 inline constexpr std::array<NamedValue<TimeGrid>, 2> time_grid_names{
     {{"uniform", TimeGrid::uniform}, {"nonuniform", TimeGrid::nonuniform}}};
 
@@ -76,6 +79,7 @@ inline constexpr const auto& names_of(StructureMode) { return structure_mode_nam
 inline constexpr const auto& names_of(DelayEstimation) { return delay_estimation_names; }
 inline constexpr const auto& names_of(LagStart) { return lag_start_names; }
 inline constexpr const auto& names_of(TimeGrid) { return time_grid_names; }
+inline constexpr const auto& names_of(StallFamilies) { return stall_families_names; }
 
 // The file's name of `value` (e.g. "stepwise").
 template <class E>

@@ -43,7 +43,8 @@
 // estimated rotary polynomial and CaqK{j} for its knot terms, y0_{r} for run r's initial state
 // (r from 1, lag 1), y0_{r}_{k} for lag k >= 2, b{k}_{i}, B{k}_{j} and c{k} for lag k >= 2; with the
 // diagnose extensions of ModelConfig (experiment.hpp): dCa_{i} / dCaK{j} for static-correction
-// terms, Caq_{i} / CaqK{j} for rotary-correction terms, delay_s for an estimated delay.
+// terms, Caq_{i} / CaqK{j} for rotary-correction terms, delay_s for an estimated delay; the
+// dynamic-stall families (model.stall): T1, T2, f0c_{i}, f0cK{j}, k0, k1, k2, CN1, Tv, Tvl, cv, xv.
 //
 // Warnings
 // --------
@@ -205,7 +206,14 @@ enum class ParamKind {
   delay,                      // delay_s of the unsteady forcing
   rotary_power, rotary_knot,  // C_aq(x) terms (two-stage loop, or diagnose's correction)
   static_power, static_knot,  // dC_a(x) terms (diagnose's static correction)
-  initial_state               // y0 of lag `lag` in run `run`
+  initial_state,              // y0 of lag `lag` in run `run`
+  // Dynamic-stall families (model.hpp "Dynamic stall"; names in parentheses):
+  stall_tau1, stall_tau2,     // T1, T2 in l / V (T1, T2)
+  f0_power, f0_knot,          // the f0 correction spline's terms (f0c_{i}, f0cK{j})
+  stall_cp,                   // k0, k1, k2 of h(f): `power` is the index (k0, k1, k2)
+  shedding_threshold,         // C_N1 (CN1)
+  vortex_decay, vortex_travel,  // T_v, T_vl in l / V (Tv, Tvl)
+  vortex_lift, vortex_cp      // c_v, x_v (cv, xv)
 };
 
 struct ParamId {
@@ -360,6 +368,9 @@ struct RunSeries {
   std::vector<double> y_measured;         // y_E by eq. 12 with the final C_aq
   std::vector<double> y_model;            // sum of the lag states
   std::vector<double> residual;           // measured - model (= y_E - y_model)
+  // With dynamic-stall families: y_model includes their output, and this is their state at
+  // sample 0 (the periodic state of a periodic run), which the runtime replay starts from.
+  StallState<double> stall_initial;
 };
 
 // Indices of a spline's coefficients in FitResult::parameters / covariance, for bands.

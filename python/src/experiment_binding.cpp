@@ -1,0 +1,271 @@
+// python/src/experiment_binding.cpp -- indicial.Experiment: read from a TOML file (the
+// command line's load_experiment, every check and message included) or built from numpy
+// arrays, and written back as files the command line reads (experiment.toml + run CSVs).
+//
+// Runs from arrays get the checks read_run_csv makes on a file (csv_reader.hpp): equal
+// lengths, at least min_run_samples samples, finite values, strictly increasing time, a
+// uniform step within 1e-6 relative unless time_grid = "nonuniform", the rate derived by the
+// same Savitzky-Golay derivative when not given. The configuration gets load_experiment's
+// checks that do not depend on TOML: knots strictly inside the data's angle range, the
+// runtime's capacity, at least one moving run. Messages name the run ("run 2 (name): ...").
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+
+#include "bindings.hpp"
+
+#include "indicial/fitter/error.hpp"
+#include "indicial/fitter/io.hpp"
+#include "indicial/fitter/output.hpp"
+
+namespace indicial::python {
+namespace {
+
+const char* angle_base(Axis axis) { return axis == Axis::pitch ? "alpha" : axis == Axis::roll ? "phi" : "psi"; }
+const char* rate_base(Axis axis) { return axis == Axis::pitch ? "q" : axis == Axis::roll ? "p" : "r"; }
+
+template <class E>
+E choice(const std::string& what, const std::string& value) {
+  std::string allowed;
+  for (const auto& nv : names_of(E{})) {
+    if (value == nv.name) return nv.value;
+    allowed += (allowed.empty() ? "'" : ", '") + std::string(nv.name) + "'";
+  }
+  throw InputError(what, 0, "expected one of " + allowed + ", found '" + value + "'");
+}
+
+// The first non-finite entry of a column, as a message; empty when all are finite.
+std::string first_non_finite(const std::vector<double>& v, const std::string& column) {
+  for (std::size_t i = 0; i < v.size(); ++i)
+    if (!std::isfinite(v[i])) return column + "[" + std::to_string(i) + "] is " + (std::isnan(v[i]) ? "NaN" : "infinite");
+  return {};
+}
+
+void check_time(const Run& run, const std::string& label) {
+  for (std::size_t i = 1; i < run.time_s.size(); ++i) {
+    if (!(run.time_s[i] > run.time_s[i - 1]))
+      throw InputError(label, 0, "time_s is not strictly increasing (time_s[" + std::to_string(i) + "] = " +
+                                     format_double(run.time_s[i]) + " after " + format_double(run.time_s[i - 1]) + ")");
+  }
+  if (run.time_grid == TimeGrid::nonuniform) return;
+  const double dt = (run.time_s.back() - run.time_s.front()) / static_cast<double>(run.time_s.size() - 1);
+  for (std::size_t i = 1; i < run.time_s.size(); ++i) {
+    const double step = run.time_s[i] - run.time_s[i - 1];
+    if (std::abs(step - dt) > 1e-6 * dt)
+      throw InputError(label, 0, "non-uniform time step: " + format_double(step) + " s at time_s[" + std::to_string(i) +
+                                     "], mean step " + format_double(dt) +
+                                     " s (allowed deviation 1e-6 relative; pass time_grid='nonuniform' if the log is "
+                                     "not uniform)");
+  }
+}
+
+// One run from its arrays (see the file comment). `label` names it in messages.
+Run make_run(const py::dict& d, const std::string& label) {
+  Run run;
+  run.path = d.contains("name") && !d["name"].is_none() ? py::str(d["name"]).cast<std::string>() : label;
+  run.time_s = to_std(as_vector(d["time_s"], "time_s"));
+  run.motion_angle_rad = to_std(as_vector(d["motion_angle_rad"], "motion angle"));
+  run.coefficient = to_std(as_vector(d["coefficient"], "coefficient"));
+  run.rate_from_file = d.contains("rate_radps") && !d["rate_radps"].is_none();
+  if (run.rate_from_file) run.rate_radps = to_std(as_vector(d["rate_radps"], "rate"));
+  run.periodic = d.contains("periodic") && d["periodic"].cast<bool>();
+  run.airspeed_mps = d.contains("airspeed_mps") && !d["airspeed_mps"].is_none() ? d["airspeed_mps"].cast<double>() : 0.0;
+  if (d.contains("time_grid")) run.time_grid = choice<TimeGrid>(label + ": time_grid", d["time_grid"].cast<std::string>());
+  const std::size_t n = run.time_s.size();
+  auto same = [&](const std::vector<double>& v, const char* what) {
+    if (v.size() != n)
+      throw InputError(label, 0, std::string(what) + " has " + std::to_string(v.size()) + " samples, time_s has " +
+                                     std::to_string(n));
+  };
+  same(run.motion_angle_rad, "the motion angle");
+  same(run.coefficient, "the coefficient");
+  if (run.rate_from_file) same(run.rate_radps, "the rate");
+  if (n < static_cast<std::size_t>(min_run_samples))
+    throw InputError(label, 0, "has " + std::to_string(n) + " samples; a run needs at least " +
+                                   std::to_string(min_run_samples));
+  for (const auto& [v, col] : {std::pair{&run.time_s, "time_s"}, {&run.motion_angle_rad, "motion angle"},
+                               {&run.coefficient, "coefficient"}, {&run.rate_radps, "rate"}}) {
+    const std::string bad = first_non_finite(*v, col);
+    if (!bad.empty()) throw InputError(label, 0, bad);
+  }
+  if (!(run.airspeed_mps >= 0.0) || !std::isfinite(run.airspeed_mps))
+    throw InputError(label, 0, "airspeed_mps must be > 0");
+  check_time(run, label);
+  if (!run.rate_from_file) {
+    run.rate_radps = run.time_grid == TimeGrid::nonuniform
+                         ? smooth_derivative_nonuniform(run.time_s, run.motion_angle_rad, default_sg_half_window,
+                                                        default_sg_degree)
+                         : smooth_derivative(run.motion_angle_rad, run.time_s[1] - run.time_s[0],
+                                             default_sg_half_window, default_sg_degree);
+  }
+  return run;
+}
+
+std::vector<double> doubles(const py::dict& c, const char* key) {
+  if (!c.contains(key) || c[key].is_none()) return {};
+  return to_std(as_vector(c[key], key));
+}
+std::vector<int> ints(const py::dict& c, const char* key, std::vector<int> fallback) {
+  if (!c.contains(key) || c[key].is_none()) return fallback;
+  std::vector<int> v = c[key].cast<std::vector<int>>();
+  for (std::size_t i = 0; i < v.size(); ++i)
+    if (v[i] < 0 || (i > 0 && v[i] <= v[i - 1]))
+      throw InputError(key, 0, "powers must be distinct, ascending and >= 0");
+  return v;
+}
+
+void check_knots(const Experiment& e, const std::vector<double>& knots, const std::string& key) {
+  for (double k : knots)
+    if (!(k > e.data_x_min_rad && k < e.data_x_max_rad))
+      throw InputError(key, 0, "knot " + format_double(k) + " rad is outside the data's model-angle range [" +
+                                   format_double(e.data_x_min_rad) + ", " + format_double(e.data_x_max_rad) + "] rad");
+}
+
+// The runtime's capacity at input time, as load_experiment checks it: a model larger than
+// DefaultCapacity is refused, a stepwise pool only warned about.
+void check_capacity(Experiment& e, const SplineConfig& s, const std::string& key, bool pool) {
+  const int powers = s.powers.empty() ? 0 : s.powers.back() + 1;
+  const int knots = static_cast<int>(s.knots_rad.size());
+  for (const auto& [needed, limit, what] : {std::tuple{powers, DefaultCapacity::max_powers, "powers (x^0..x^n)"},
+                                            {knots, DefaultCapacity::max_knots, "knots"}}) {
+    if (needed <= limit) continue;
+    const std::string text = "'" + key + "' needs " + std::to_string(needed) + " " + what +
+                             "; the runtime (indicial::DefaultCapacity) holds at most " + std::to_string(limit);
+    if (!(pool && e.model.structure == StructureMode::stepwise)) throw InputError(text);
+    e.warnings.push_back(text + ": a candidate pool may exceed it, the selected model must not");
+  }
+}
+
+void read_model_config(const py::dict& c, Experiment& e) {
+  ModelConfig& m = e.model;
+  m.a.powers = ints(c, "a_powers", m.a.powers);
+  m.a.knots_rad = doubles(c, "a_knots_rad");
+  m.b1.powers = ints(c, "b1_powers", m.b1.powers);
+  m.b1.knots_rad = doubles(c, "b1_knots_rad");
+  m.bias = c.contains("bias") && c["bias"].cast<bool>();
+  if (c.contains("structure")) m.structure = choice<StructureMode>("structure", c["structure"].cast<std::string>());
+  if (c.contains("lags")) m.lags = c["lags"].cast<int>();
+  if (m.lags < 1 || m.lags > DefaultCapacity::max_lags)
+    throw InputError("lags", 0, "must be 1.." + std::to_string(DefaultCapacity::max_lags));
+  e.static_curve.polynomial = doubles(c, "static_polynomial");
+  e.rotary.polynomial = doubles(c, "rotary_polynomial");
+  e.rotary.estimate = c.contains("rotary_estimate") && c["rotary_estimate"].cast<bool>();
+  if (e.rotary.estimate) {
+    e.rotary.candidates.powers = ints(c, "rotary_powers", {0});
+    e.rotary.candidates.knots_rad = doubles(c, "rotary_knots_rad");
+  }
+  for (const char* key : {"static_polynomial", "rotary_polynomial", "a_knots_rad", "b1_knots_rad", "rotary_knots_rad"}) {
+    const std::string bad = first_non_finite(doubles(c, key), key);
+    if (!bad.empty()) throw InputError(bad);
+  }
+  if (m.a.powers.empty() && m.a.knots_rad.empty()) throw InputError("a_powers", 0, "a(x) needs at least one term");
+  if (m.b1.powers.empty() && m.b1.knots_rad.empty()) throw InputError("b1_powers", 0, "b1(x) needs at least one term");
+}
+
+std::shared_ptr<Experiment> make_experiment(const py::dict& c, const py::list& runs) {
+  auto e = std::make_shared<Experiment>();
+  e->path = c.contains("name") ? c["name"].cast<std::string>() : std::string("experiment");
+  e->axis = choice<Axis>("axis", c.contains("axis") ? c["axis"].cast<std::string>() : "pitch");
+  e->coefficient = c["coefficient"].cast<std::string>();
+  if (e->coefficient.empty() || e->coefficient.size() > 7) throw InputError("coefficient", 0, "expected a name like 'Cm'");
+  e->reference_length_m = c["reference_length_m"].cast<double>();
+  e->airspeed_mps = c["airspeed_mps"].cast<double>();
+  e->alpha0_rad = c.contains("alpha0_rad") ? c["alpha0_rad"].cast<double>() : 0.0;
+  if (!(e->reference_length_m > 0.0) || !std::isfinite(e->reference_length_m))
+    throw InputError("reference_length_m", 0, "must be a finite number > 0");
+  if (!(e->airspeed_mps > 0.0) || !std::isfinite(e->airspeed_mps))
+    throw InputError("airspeed_mps", 0, "must be a finite number > 0");
+  if (!std::isfinite(e->alpha0_rad)) throw InputError("alpha0_rad", 0, "must be finite");
+  read_model_config(c, *e);
+  if (runs.size() == 0) throw InputError(e->path, 0, "no runs given");
+  for (std::size_t i = 0; i < runs.size(); ++i) {
+    const std::string label = "run " + std::to_string(i + 1);
+    Run run = make_run(runs[i].cast<py::dict>(), label);
+    if (run.airspeed_mps == 0.0) run.airspeed_mps = e->airspeed_mps;
+    e->runs.push_back(std::move(run));
+  }
+  set_data_range(*e);
+  check_knots(*e, e->model.a.knots_rad, "a_knots_rad");
+  check_knots(*e, e->model.b1.knots_rad, "b1_knots_rad");
+  check_knots(*e, e->rotary.candidates.knots_rad, "rotary_knots_rad");
+  check_capacity(*e, e->model.a, "a_powers / a_knots_rad", true);
+  check_capacity(*e, e->model.b1, "b1_powers / b1_knots_rad", true);
+  if (std::none_of(e->runs.begin(), e->runs.end(), [](const Run& r) {
+        const auto [lo, hi] = std::minmax_element(r.motion_angle_rad.begin(), r.motion_angle_rad.end());
+        return *hi - *lo > 1e-9;
+      }))
+    throw InputError(e->path, 0, "no run moves: the motion angle is constant in every run, so a(x) and b1(x) "
+                                 "cannot be identified");
+  return e;
+}
+
+// The experiment as files the command line reads: DIR/experiment.toml and DIR/run<i>.csv (the
+// angles in rad and the rate in rad/s as the shortest round-trip numbers, so the command line
+// reads back exactly these doubles). Whole or nothing (OutputDir).
+void write_files(const Experiment& e, const std::string& dir, bool force) {
+  if (e.static_curve.kind == StaticKind::table)
+    throw InputError(dir, 0, "an experiment with a static table is written by its own file; write the polynomial "
+                             "form or use the original experiment file");
+  OutputDir out(dir, force ? Overwrite::replace : Overwrite::refuse);
+  Experiment copy = e;
+  for (std::size_t i = 0; i < copy.runs.size(); ++i) {
+    Run& run = copy.runs[i];
+    run.path = "run" + std::to_string(i + 1) + ".csv";
+    std::vector<CsvColumn> cols{{"time_s", run.time_s}, {std::string(angle_base(e.axis)) + "_rad", run.motion_angle_rad}};
+    if (run.rate_from_file) cols.push_back({std::string(rate_base(e.axis)) + "_radps", run.rate_radps});
+    cols.push_back({e.coefficient, run.coefficient});
+    out.write(run.path, write_run_csv(cols, {"written by indicial (Python) from " + e.runs[i].path}));
+  }
+  out.write("experiment.toml", write_experiment_toml(copy, {"written by indicial (Python)"}));
+  out.commit();
+}
+
+py::dict run_dict(const Run& r) {
+  py::dict d;
+  d["name"] = r.path;
+  d["time_s"] = to_numpy(r.time_s);
+  d["motion_angle_rad"] = to_numpy(r.motion_angle_rad);
+  d["rate_radps"] = to_numpy(r.rate_radps);
+  d["coefficient"] = to_numpy(r.coefficient);
+  d["periodic"] = r.periodic;
+  d["airspeed_mps"] = r.airspeed_mps;
+  d["time_grid"] = name_of(r.time_grid);
+  return d;
+}
+
+}  // namespace
+
+void bind_experiment(py::module_& m) {
+  py::class_<Experiment, std::shared_ptr<Experiment>>(m, "_Experiment")
+      .def_readonly("path", &Experiment::path)
+      .def_property_readonly("axis", [](const Experiment& e) { return std::string(axis_name(e.axis)); })
+      .def_readonly("coefficient", &Experiment::coefficient)
+      .def_readonly("reference_length_m", &Experiment::reference_length_m)
+      .def_readonly("airspeed_mps", &Experiment::airspeed_mps)
+      .def_readonly("alpha0_rad", &Experiment::alpha0_rad)
+      .def_readonly("data_x_min_rad", &Experiment::data_x_min_rad)
+      .def_readonly("data_x_max_rad", &Experiment::data_x_max_rad)
+      .def_readonly("warnings", &Experiment::warnings)
+      .def_readonly("notes", &Experiment::notes)
+      .def_property_readonly("structure", [](const Experiment& e) { return std::string(name_of(e.model.structure)); })
+      .def_property_readonly("runs", [](const Experiment& e) {
+        py::list l;
+        for (const Run& r : e.runs) l.append(run_dict(r));
+        return l;
+      })
+      .def("write_files", &write_files, py::arg("dir"), py::arg("force") = false)
+      .def("toml_text", [](const Experiment& e) { return write_experiment_toml(e, {}); });
+
+  m.def("_load_experiments", [](const std::string& path) {
+    std::vector<Experiment> es = load_experiments(path);
+    std::vector<std::shared_ptr<Experiment>> out;
+    for (Experiment& e : es) out.push_back(std::make_shared<Experiment>(std::move(e)));
+    return out;
+  }, py::arg("path"));
+  m.def("_load_experiment", [](const std::string& path, const std::string& coefficient) {
+    return std::make_shared<Experiment>(load_experiment(path, coefficient));
+  }, py::arg("path"), py::arg("coefficient") = "");
+  m.def("_make_experiment", &make_experiment, py::arg("config"), py::arg("runs"));
+}
+
+}  // namespace indicial::python

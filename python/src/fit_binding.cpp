@@ -1,0 +1,202 @@
+// python/src/fit_binding.cpp -- indicial.fit: fit_experiment (fit.hpp) with the checks
+// `indicial fit` makes around it, and the result as Python objects.
+//
+// Around the fit, as the command line: the options are checked with its messages (F to enter
+// >= F to remove > 0, at least one iteration, finite start values); the fitted model must be
+// one the runtime accepts (else indicial.InputError, nothing returned: the command line
+// writes nothing then); the warnings are the experiment's, fit_warnings' and the capacity
+// note, in the command line's order. The fit itself runs without the GIL.
+#include <cmath>
+#include <filesystem>
+#include <map>
+
+#include "bindings.hpp"
+
+#include "indicial/fitter/error.hpp"
+#include "indicial/fitter/provenance.hpp"
+#include "indicial/fitter/report.hpp"
+
+namespace indicial::python {
+namespace {
+
+template <class E>
+E pick(const std::string& option, const std::string& value, const std::map<std::string, E>& allowed) {
+  const auto it = allowed.find(value);
+  if (it != allowed.end()) return it->second;
+  std::string names;
+  for (const auto& [k, v] : allowed) names += (names.empty() ? "'" : ", '") + k + "'";
+  throw InputError(option, 0, "expected one of " + names + ", found '" + value + "'");
+}
+
+// The options' checks of `indicial fit` (tools/cmd_fit.cpp checked_fit_options), with the
+// same messages; keyword names are the command line's option names with '_' for '-'.
+void check_fit_options(const FitOptions& fo) {
+  if (!(fo.f_to_enter > 0.0) || !(fo.f_to_remove > 0.0) || fo.f_to_remove > fo.f_to_enter)
+    throw InputError("f_to_enter", 0, "need F to enter >= F to remove > 0");
+  if (fo.max_iterations < 1) throw InputError("max_iterations", 0, "must be at least 1");
+  if (!(fo.fallback_r_squared >= 0.0 && fo.fallback_r_squared <= 1.0))
+    throw InputError("fallback_r_squared", 0, "must be in [0, 1]");
+  for (const auto& [name, value] : fo.start_values)
+    if (!std::isfinite(value))
+      throw InputError("start_values", 0, "expected NAME=VALUE with a finite number (e.g. b1_0=3), found '" + name + "'");
+}
+
+// The provenance of a fit from Python: the version, the call, and the digests of the files
+// an experiment read from disk came from (none for arrays).
+Provenance provenance_for(const Experiment& e, const std::string& call) {
+  std::error_code ec;
+  if (std::filesystem::is_regular_file(e.path, ec)) return experiment_provenance(e, call, "unknown");
+  return make_provenance(call, "unknown");
+}
+
+py::dict parameter_dict(const ParameterEstimate& p) {
+  py::dict d;
+  d["name"] = p.name;
+  d["value"] = p.value;
+  d["cr_bound"] = p.cr_bound;
+  d["cr_bound_colored"] = p.cr_bound_colored;
+  d["identifiable"] = p.identifiability == Identifiability::identified;
+  return d;
+}
+
+py::array_t<double> matrix(const Eigen::MatrixXd& m) {
+  py::array_t<double> a({static_cast<py::ssize_t>(m.rows()), static_cast<py::ssize_t>(m.cols())});
+  for (Eigen::Index i = 0; i < m.rows(); ++i)
+    for (Eigen::Index j = 0; j < m.cols(); ++j) a.mutable_at(i, j) = m(i, j);
+  return a;
+}
+
+py::dict run_series_dict(const RunSeries& s) {
+  py::dict d;
+  d["name"] = s.path;
+  d["time_s"] = to_numpy(s.time_s);
+  d["x_rad"] = to_numpy(s.x_rad);
+  d["rate_radps"] = to_numpy(s.rate_radps);
+  d["measured"] = to_numpy(s.measured);
+  d["model"] = to_numpy(s.model);
+  d["quasi_steady"] = to_numpy(s.quasi_steady);
+  d["y_measured"] = to_numpy(s.y_measured);
+  d["y_model"] = to_numpy(s.y_model);
+  d["residual"] = to_numpy(s.residual);
+  return d;
+}
+
+ModelFunction function_named(const std::string& f) {
+  return pick<ModelFunction>("function", f, {{"a", ModelFunction::a}, {"b1", ModelFunction::b1},
+                                             {"rotary", ModelFunction::rotary}});
+}
+
+}  // namespace
+
+FitOptions fit_options_from(const py::dict& kw) {
+  FitOptions fo;
+  for (const auto& item : kw) {
+    const std::string key = py::str(item.first);
+    const py::handle v = item.second;
+    if (key == "f_to_enter") fo.f_to_enter = v.cast<double>();
+    else if (key == "f_to_remove") fo.f_to_remove = v.cast<double>();
+    else if (key == "max_iterations") fo.max_iterations = v.cast<int>();
+    else if (key == "fallback_r_squared") fo.fallback_r_squared = v.cast<double>();
+    else if (key == "state_derivative")
+      fo.state_derivative = pick<StateDerivative>(key, v.cast<std::string>(),
+          {{"smoothed", StateDerivative::smoothed_difference}, {"modulating", StateDerivative::modulating_function}});
+    else if (key == "stepwise_refinement")
+      fo.stepwise_refinement = pick<StepwiseRefinement>(key, v.cast<std::string>(),
+          {{"none", StepwiseRefinement::none}, {"output_error", StepwiseRefinement::output_error}});
+    else if (key == "stepwise_significance")
+      fo.stepwise_significance = pick<StepwiseSignificance>(key, v.cast<std::string>(),
+          {{"colored", StepwiseSignificance::colored_residuals}, {"white", StepwiseSignificance::white_residuals}});
+    else if (key == "stepwise_fallback")
+      fo.stepwise_fallback = pick<StepwiseFallback>(key, v.cast<std::string>(),
+          {{"automatic", StepwiseFallback::automatic}, {"off", StepwiseFallback::off}});
+    else if (key == "start_values")
+      for (const auto& sv : v.cast<std::map<std::string, double>>()) fo.start_values.emplace_back(sv.first, sv.second);
+    else throw InputError(key, 0, "not a fit option");
+  }
+  check_fit_options(fo);
+  return fo;
+}
+
+std::shared_ptr<FitHolder> wrap_fit(std::shared_ptr<const FitResult> result, const ExperimentPtr& e,
+                                    const FitOptions& fo, const std::string& call, ModelCheck check) {
+  auto h = std::make_shared<FitHolder>();
+  h->experiment = e;
+  h->options = fo;
+  h->result = std::move(result);
+  const FitResult& r = *h->result;
+  h->warnings = e->warnings;
+  if (!r.stepwise_fallback.empty()) h->warnings.push_back(e->path + ": " + r.stepwise_fallback);
+  if (check == ModelCheck::required || runtime_acceptance(r.model).capacity != RuntimeCapacity::refused)
+    h->model = model_from_set(r.model, e->path, provenance_for(*e, call));
+  const std::vector<std::string> after = fit_warnings(r, *e);
+  h->warnings.insert(h->warnings.end(), after.begin(), after.end());
+  if (h->model && h->model->acceptance.capacity == RuntimeCapacity::fit_capacity_only)
+    h->warnings.push_back(e->path + ": " + h->model->acceptance.reason);
+  return h;
+}
+
+void bind_fit(py::module_& m) {
+  py::class_<FitHolder, std::shared_ptr<FitHolder>>(m, "_FitResult")
+      .def_property_readonly("parameters", [](const FitHolder& h) {
+        py::list l;
+        for (const ParameterEstimate& p : h.result->parameters) l.append(parameter_dict(p));
+        return l;
+      })
+      .def_property_readonly("fit_error", [](const FitHolder& h) { return h.result->fit_error; })
+      .def_property_readonly("termination", [](const FitHolder& h) {
+        return std::string(termination_name(h.result->output_error.termination));
+      })
+      .def_property_readonly("message", [](const FitHolder& h) { return h.result->output_error.message; })
+      .def_property_readonly("iterations", [](const FitHolder& h) { return h.result->output_error.iterations; })
+      .def_property_readonly("unidentifiable", [](const FitHolder& h) { return h.result->output_error.unidentifiable; })
+      .def_property_readonly("elapsed_s", [](const FitHolder& h) { return h.result->elapsed_s; })
+      .def_property_readonly("stepwise_fallback", [](const FitHolder& h) { return h.result->stepwise_fallback; })
+      .def_property_readonly("equation_error_r_squared", [](const FitHolder& h) {
+        return h.result->equation_error.r_squared;
+      })
+      .def_property_readonly("equation_error_parameters", [](const FitHolder& h) {
+        py::list l;
+        for (const ParameterEstimate& p : h.result->equation_error.parameters) l.append(parameter_dict(p));
+        return l;
+      })
+      .def_readonly("warnings", &FitHolder::warnings)
+      .def_readonly("model", &FitHolder::model)
+      .def_readonly("experiment", &FitHolder::experiment)
+      .def_property_readonly("covariance", [](const FitHolder& h) { return matrix(h.result->covariance); })
+      .def_property_readonly("covariance_colored", [](const FitHolder& h) {
+        return matrix(h.result->covariance_colored);
+      })
+      .def_property_readonly("runs", [](const FitHolder& h) {
+        py::list l;
+        for (const RunSeries& s : h.result->runs) l.append(run_series_dict(s));
+        return l;
+      })
+      .def("band", [](const FitHolder& h, const std::string& f, const py::handle& x_rad, const std::string& kind) {
+             const ModelFunction mf = function_named(f);
+             const BoundKind bk = pick<BoundKind>("kind", kind, {{"white", BoundKind::white}, {"colored", BoundKind::colored}});
+             const DoubleArray x = as_vector(x_rad, "x_rad");
+             py::array_t<double> value(x.size()), sigma(x.size());
+             for (py::ssize_t i = 0; i < x.size(); ++i) {
+               const FunctionBand b = function_band(*h.result, mf, x.data()[i], bk);
+               value.mutable_data()[i] = b.value;
+               sigma.mutable_data()[i] = b.sigma;
+             }
+             return py::make_tuple(value, sigma);
+           }, py::arg("function"), py::arg("x_rad"), py::arg("kind") = "white")
+      .def("fit_json", [](const FitHolder& h) {
+        return fit_json(*h.result, *h.experiment, h.options, nullptr).dump(2);
+      });
+
+  m.def("_fit", [](const ExperimentPtr& e, const py::dict& options, const std::string& call) {
+    if (!e) throw ClosedError("fit: no experiment");
+    const FitOptions fo = fit_options_from(options);
+    std::shared_ptr<const FitResult> r;
+    {
+      py::gil_scoped_release release;  // e is kept alive by the caller's reference
+      r = std::make_shared<const FitResult>(fit_experiment(*e, fo));
+    }
+    return wrap_fit(std::move(r), e, fo, call);
+  }, py::arg("experiment"), py::arg("options"), py::arg("call") = "python: indicial.fit");
+}
+
+}  // namespace indicial::python

@@ -1,0 +1,121 @@
+// python/src/predict_binding.cpp -- indicial.predict: predict_motion / predict_periodic
+// (predict.hpp: the runtime Predictor over a sampled motion, as `indicial predict`) without
+// the GIL, scored against measured coefficients when given.
+//
+// The motion arrays get the checks `indicial predict` makes on a run CSV (equal lengths,
+// finite, strictly increasing time) and the rate, when not given, is the same Savitzky-Golay
+// derivative of the angle the CSV reader takes.
+#include <cmath>
+
+#include "bindings.hpp"
+
+#include "indicial/fitter/csv_reader.hpp"
+#include "indicial/fitter/derivative.hpp"
+#include "indicial/fitter/error.hpp"
+#include "indicial/fitter/predict.hpp"
+
+namespace indicial::python {
+namespace {
+
+void check_finite(const std::vector<double>& v, const std::string& name) {
+  for (std::size_t i = 0; i < v.size(); ++i)
+    if (!std::isfinite(v[i]))
+      throw InputError(name, 0, "[" + std::to_string(i) + "] is " + (std::isnan(v[i]) ? "NaN" : "infinite"));
+}
+
+py::dict metrics_dict(const ErrorMetrics& m) {
+  py::dict d;
+  d["n_samples"] = m.n_samples;
+  d["rms_error"] = m.rms_error;
+  d["max_error"] = m.max_error;
+  d["theil_inequality"] = m.theil_inequality;
+  return d;
+}
+
+py::dict prediction_dict(const Prediction& p) {
+  py::dict d;
+  d["axis"] = axis_name(p.axis);
+  d["time_s"] = to_numpy(p.time_s);
+  d["motion_angle_rad"] = to_numpy(p.motion_angle_rad);
+  d["rate_radps"] = to_numpy(p.rate_radps);
+  d["x_rad"] = to_numpy(p.x_rad);
+  d["clamped_samples"] = p.clamped_samples;
+  py::dict coefficients;
+  for (const CoefficientPrediction& c : p.coefficients) {
+    py::dict cd;
+    cd["predicted"] = to_numpy(c.predicted);
+    cd["quasi_steady"] = to_numpy(c.quasi_steady);
+    if (c.scored == CoefficientPrediction::Scored::scored) {
+      cd["measured"] = to_numpy(c.measured);
+      cd["model_metrics"] = metrics_dict(c.model_metrics);
+      cd["quasi_steady_metrics"] = metrics_dict(c.quasi_steady_metrics);
+    }
+    coefficients[py::str(c.name)] = cd;
+  }
+  d["coefficients"] = coefficients;
+  return d;
+}
+
+py::dict predict(const ModelPtr& model, const py::handle& time_s, const py::handle& angle, const py::handle& rate,
+                 const py::object& airspeed_mps, bool periodic, const py::object& measured, const std::string& grid) {
+  if (!model) throw ClosedError("predict: no model");
+  const std::vector<double> t = to_std(as_vector(time_s, "time_s"));
+  const std::vector<double> a = to_std(as_vector(angle, "motion angle"));
+  if (a.size() != t.size())
+    throw InputError("predict", 0, "the motion angle has " + std::to_string(a.size()) + " samples, time_s has " +
+                                       std::to_string(t.size()));
+  if (t.size() < static_cast<std::size_t>(min_run_samples))
+    throw InputError("predict", 0, "needs at least " + std::to_string(min_run_samples) + " samples, got " +
+                                       std::to_string(t.size()));
+  check_finite(t, "time_s");
+  check_finite(a, "motion angle");
+  for (std::size_t i = 1; i < t.size(); ++i)
+    if (!(t[i] > t[i - 1]))
+      throw InputError("time_s", 0, "is not strictly increasing (time_s[" + std::to_string(i) + "])");
+  std::vector<double> r;
+  if (rate.is_none()) {
+    r = grid == "nonuniform" ? smooth_derivative_nonuniform(t, a, default_sg_half_window, default_sg_degree)
+                             : smooth_derivative(a, t[1] - t[0], default_sg_half_window, default_sg_degree);
+  } else {
+    r = to_std(as_vector(rate, "rate"));
+    if (r.size() != t.size())
+      throw InputError("predict", 0, "the rate has " + std::to_string(r.size()) + " samples, time_s has " +
+                                         std::to_string(t.size()));
+    check_finite(r, "rate");
+  }
+  const double v = airspeed_mps.is_none() ? model->set->airspeed_mps : airspeed_mps.cast<double>();
+  if (!(v > 0.0) || !std::isfinite(v)) throw InputError("airspeed_mps", 0, "must be > 0");
+  std::vector<std::vector<double>> meas(static_cast<std::size_t>(model->set->n_coefficients));
+  if (!measured.is_none()) {
+    for (const auto& item : measured.cast<py::dict>()) {
+      const std::string name = py::str(item.first);
+      int c = 0;
+      while (c < model->set->n_coefficients && name != model->set->coefficients[c].name) ++c;
+      if (c == model->set->n_coefficients) throw InputError("measured", 0, "the model has no coefficient '" + name + "'");
+      meas[static_cast<std::size_t>(c)] = to_std(as_vector(item.second, "measured"));
+      if (meas[static_cast<std::size_t>(c)].size() != t.size())
+        throw InputError("measured", 0, name + " has " + std::to_string(meas[static_cast<std::size_t>(c)].size()) +
+                                            " samples, time_s has " + std::to_string(t.size()));
+      check_finite(meas[static_cast<std::size_t>(c)], "measured " + name);
+    }
+  }
+  Prediction p;
+  {
+    py::gil_scoped_release release;
+    p = periodic ? predict_periodic(*model->set, t, a, r, v, model->origin)
+                 : predict_motion(*model->set, t, a, r, v, model->origin);
+    for (std::size_t c = 0; c < p.coefficients.size(); ++c) p.coefficients[c].measured = meas[c];
+    score_coefficients(p);
+  }
+  return prediction_dict(p);
+}
+
+}  // namespace
+
+void bind_predict(py::module_& m) {
+  m.def("_predict", &predict, py::arg("model"), py::arg("time_s"), py::arg("motion_angle_rad"),
+        py::arg("rate_radps"), py::arg("airspeed_mps"), py::arg("periodic"), py::arg("measured"),
+        py::arg("time_grid") = "uniform");
+}
+
+}  // namespace indicial::python

@@ -1,0 +1,101 @@
+"""indicial.Experiment: from the experiment file (the command line's reader and messages) and
+from arrays (the same checks a run file gets), and bad input as exceptions, never a crash."""
+import numpy as np
+import pytest
+
+import indicial
+
+
+def sine_run(n=400, dt=0.01, **kw):
+    t = np.arange(n) * dt
+    a = 0.3 - 0.2 * np.cos(2 * np.pi * 0.5 * t)
+    cm = -0.1 * a + 0.01 * np.sin(3 * t)
+    args = dict(time_s=t, alpha_rad=a, coefficient=cm)
+    args.update(kw)
+    return args
+
+
+def experiment(**run_kw):
+    return indicial.Experiment(coefficient="Cm", reference_length_m=0.5, airspeed_mps=30.0,
+                               runs=[indicial.Run(**sine_run(**run_kw))])
+
+
+def test_from_toml_reads_runs(case_dir):
+    e = indicial.Experiment.from_toml(str(case_dir / "experiment.toml"))
+    assert e.coefficient == "Cm" and e.axis == "pitch" and len(e.runs) >= 2
+    r = e.runs[0]
+    assert r["time_s"].shape == r["motion_angle_rad"].shape == r["coefficient"].shape
+
+
+def test_from_toml_error_is_the_cli_message(tmp_path, cli):
+    bad = tmp_path / "bad.toml"
+    bad.write_text('coefficient = "Cm"\nreference_length_m = 1\nairspeed_mps = 10\nruns = ["nope.csv"]\nbogus = 1\n')
+    with pytest.raises(indicial.InputError) as py_err:
+        indicial.Experiment.from_toml(str(bad))
+    out = cli("fit", bad, "--out", tmp_path / "o", check=False)
+    assert out.returncode == 1
+    assert str(py_err.value) in out.stderr  # "indicial: error: <the same line>"
+
+
+def test_from_arrays_derives_the_rate():
+    e = experiment()
+    r = e.runs[0]
+    expected = 0.2 * 2 * np.pi * 0.5 * np.sin(2 * np.pi * 0.5 * r["time_s"])
+    assert np.max(np.abs(r["rate_radps"] - expected)) < 5e-4  # of 0.63 rad/s; the ends are one-sided
+
+
+def test_non_contiguous_and_integer_arrays_are_converted():
+    args = sine_run()
+    t2 = np.repeat(args["time_s"], 2)[::2]  # a strided view
+    assert not t2.flags.c_contiguous
+    e = indicial.Experiment(coefficient="Cm", reference_length_m=0.5, airspeed_mps=30,
+                            runs=[indicial.Run(time_s=t2, alpha_rad=args["alpha_rad"].astype(np.float32),
+                                               coefficient=args["coefficient"])])
+    assert np.array_equal(e.runs[0]["time_s"], args["time_s"])
+
+
+@pytest.mark.parametrize("change, exc, message", [
+    (dict(coefficient=np.zeros(399)), indicial.InputError, "run 1: the coefficient has 399 samples, time_s has 400"),
+    (dict(time_s=np.array(["a"] * 400)), TypeError, "time_s: expected an array of real numbers"),
+    (dict(alpha_rad=np.full(400, np.nan)), indicial.InputError, r"run 1: motion angle\[0\] is NaN"),
+    (dict(time_s=np.zeros(400)), indicial.InputError, "run 1: time_s is not strictly increasing"),
+    (dict(time_s=np.arange(400) * 0.01 + np.r_[0, 0.003, np.zeros(398)]), indicial.InputError,
+     "run 1: non-uniform time step"),
+    (dict(n=5), indicial.InputError, "run 1: has 5 samples; a run needs at least 11"),
+    (dict(alpha_rad=np.zeros((400, 2))), indicial.InputError, "motion angle: expected a 1-D array"),
+    (dict(time_s=None), TypeError, "time_s: expected an array of numbers, got None"),
+])
+def test_bad_arrays_raise(change, exc, message):
+    n = change.pop("n", 400)
+    args = sine_run(n=n)
+    args.update(change)
+    with pytest.raises(exc, match="^" + message):
+        indicial.Experiment(coefficient="Cm", reference_length_m=0.5, airspeed_mps=30, runs=[indicial.Run(**args)])
+
+
+def test_bad_configuration_raises():
+    run = indicial.Run(**sine_run())
+    with pytest.raises(indicial.InputError, match="^a_knots_rad: knot 2 rad is outside"):
+        indicial.Experiment(coefficient="Cm", reference_length_m=0.5, airspeed_mps=30, runs=[run], a_knots_rad=[2.0])
+    with pytest.raises(indicial.InputError, match="^airspeed_mps: must be a finite number > 0"):
+        indicial.Experiment(coefficient="Cm", reference_length_m=0.5, airspeed_mps=-1, runs=[run])
+    with pytest.raises(indicial.InputError, match="^structure: expected one of 'fixed', 'stepwise'"):
+        indicial.Experiment(coefficient="Cm", reference_length_m=0.5, airspeed_mps=3, runs=[run], structure="x")
+    with pytest.raises(indicial.InputError, match="phi_rad: the model's axis is pitch"):
+        indicial.Experiment(coefficient="Cm", reference_length_m=0.5, airspeed_mps=3,
+                            runs=[indicial.Run(time_s=np.arange(20.), phi_rad=np.arange(20.), coefficient=np.zeros(20))])
+    still = sine_run()
+    still["alpha_rad"] = np.full(400, 0.1)
+    with pytest.raises(indicial.InputError, match="no run moves"):
+        indicial.Experiment(coefficient="Cm", reference_length_m=0.5, airspeed_mps=3, runs=[indicial.Run(**still)])
+
+
+def test_write_files_refuses_a_non_empty_directory(tmp_path):
+    e = experiment()
+    e.write_files(str(tmp_path / "x"))
+    assert (tmp_path / "x" / "experiment.toml").is_file() and (tmp_path / "x" / "run1.csv").is_file()
+    with pytest.raises(indicial.InputError):
+        e.write_files(str(tmp_path / "x"))
+    back = indicial.Experiment.from_toml(str(tmp_path / "x" / "experiment.toml"))
+    assert np.array_equal(back.runs[0]["motion_angle_rad"], e.runs[0]["motion_angle_rad"])
+    assert np.array_equal(back.runs[0]["rate_radps"], e.runs[0]["rate_radps"])

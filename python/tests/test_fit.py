@@ -1,0 +1,89 @@
+"""indicial.fit equals `indicial fit` on the same data (to 1e-12), from the experiment file and
+from arrays; its options are checked with the command line's messages."""
+import json
+import math
+import tomllib
+
+import numpy as np
+import pytest
+
+import indicial
+
+
+def close(a, b, tol=1e-12):
+    if a is None or b is None:
+        return a is None and (b is None or not math.isfinite(b))
+    return abs(a - b) <= tol * max(1.0, abs(a), abs(b))
+
+
+def assert_same_as_cli(result, fit_json):
+    cli = json.loads(fit_json.read_text())
+    assert [p["name"] for p in cli["parameters"]] == [p.name for p in result.parameters]
+    for c, p in zip(cli["parameters"], result.parameters):
+        assert close(c["value"], p.value), (p.name, c["value"], p.value)
+        assert close(c["cr_bound"], p.cr_bound), (p.name, c["cr_bound"], p.cr_bound)
+        assert close(c["cr_bound_colored"], p.cr_bound_colored), p.name
+        assert c["identifiable"] == p.identifiable
+    assert close(cli["fit_error"], result.fit_error)
+    assert cli["termination"] == result.termination
+    assert cli["iterations"] == result.iterations
+
+
+def test_fit_from_toml_equals_cli(py_fit, cli_fit):
+    assert py_fit.termination == "converged"
+    assert_same_as_cli(py_fit, cli_fit / "fit.json")
+
+
+def test_model_text_equals_cli_model_coef(py_fit, cli_fit):
+    from_cli = indicial.Model.load(str(cli_fit / "model.coef"))
+    # The provenance lines differ (command line, commit); everything else is the same bytes.
+    strip = lambda t: "\n".join(l for l in t.splitlines() if not l.startswith("#") and not l.startswith("checksum"))
+    assert strip(py_fit.model.text) == strip(from_cli.text)
+
+
+def test_fit_from_arrays_equals_cli_on_the_written_files(tmp_path, cli):
+    case = indicial.simulation_case("tailless-model-1", snr=40, seed=5)
+    config = tomllib.loads(case.experiment_toml)
+    runs = [indicial.Run(time_s=r.time_s, alpha_rad=r.motion_angle_rad, q_radps=r.rate_radps,
+                         coefficient=r.measured["Cm"], name=r.name) for r in case.runs]
+    e = indicial.Experiment(coefficient="Cm", reference_length_m=config["reference_length_m"],
+                            airspeed_mps=config["airspeed_mps"], runs=runs,
+                            static_polynomial=config["static"]["polynomial"],
+                            rotary_polynomial=config["rotary"]["polynomial"], a_powers=[0, 1, 2],
+                            a_knots_rad=np.radians(config["model"]["a_knots_deg"]), b1_powers=[0])
+    r = indicial.fit(e, warn=False)
+    assert r.termination == "converged"
+    e.write_files(str(tmp_path / "exp"))
+    cli("fit", tmp_path / "exp" / "experiment.toml", "--out", tmp_path / "out", "--no-plots", "--quiet")
+    assert_same_as_cli(r, tmp_path / "out" / "fit.json")
+
+
+def test_result_objects(py_fit):
+    p = py_fit.parameter("b1_0")
+    assert p.value > 0 and 0 < p.cr_bound < p.value and p.cr_bound_colored > 0
+    assert py_fit.fit_error > 0 and py_fit.message
+    assert py_fit.covariance.shape == (len(py_fit.parameters),) * 2
+    x = np.linspace(0.1, 0.9, 5)
+    value, sigma = py_fit.band("a", x)
+    assert np.allclose(value, py_fit.model.a(x), rtol=1e-12, atol=1e-12) and np.all(sigma > 0)
+    run = py_fit.runs[0]
+    assert np.allclose(run["residual"], run["measured"] - run["model"], atol=1e-12)
+    assert json.loads(py_fit.fit_json())["termination"] == "converged"
+
+
+@pytest.mark.parametrize("options, message", [
+    (dict(f_to_enter=2.0, f_to_remove=3.0), "f_to_enter: need F to enter >= F to remove > 0"),
+    (dict(max_iterations=0), "max_iterations: must be at least 1"),
+    (dict(state_derivative="spline"), "state_derivative: expected one of 'modulating', 'smoothed', found 'spline'"),
+    (dict(start_values={"b1_0": float("nan")}), "start_values: expected NAME=VALUE with a finite number"),
+])
+def test_bad_options_are_input_errors(case_dir, options, message):
+    e = indicial.Experiment.from_toml(str(case_dir / "experiment.toml"))
+    with pytest.raises(indicial.InputError, match="^" + message.replace("(", r"\(").replace(")", r"\)")):
+        indicial.fit(e, **options)
+
+
+def test_unknown_start_value_is_the_fitters_message(case_dir):
+    e = indicial.Experiment.from_toml(str(case_dir / "experiment.toml"))
+    with pytest.raises(indicial.InputError, match="zz9"):
+        indicial.fit(e, start_values={"zz9": 1.0})

@@ -1,0 +1,45 @@
+"""indicial.predict equals `indicial predict` (runtime over a run's motion, and --periodic)."""
+import csv
+
+import numpy as np
+import pytest
+
+import indicial
+
+
+def read_csv(path):
+    rows = [r for r in csv.reader(l for l in open(path) if not l.startswith("#"))]
+    return {name: np.array([float(r[i]) for r in rows[1:]]) for i, name in enumerate(rows[0])}
+
+
+@pytest.mark.parametrize("periodic", [False, True])
+def test_predict_equals_cli(case_dir, cli_fit, cli, tmp_path, periodic):
+    run_file = sorted(case_dir.glob("run_*.csv"))[-1]
+    out = tmp_path / "pred.csv"
+    cli("predict", cli_fit / "model.coef", run_file, "--out", out, *(["--periodic"] if periodic else []))
+    expected = read_csv(out)
+    e = indicial.Experiment.from_toml(str(case_dir / "experiment.toml"))
+    run = next(r for r in e.runs if r["name"].endswith(run_file.name))
+    model = indicial.Model.load(str(cli_fit / "model.coef"))
+    p = indicial.predict(model, time_s=run["time_s"], alpha_rad=run["motion_angle_rad"], q_radps=run["rate_radps"],
+                         periodic=periodic, measured={"Cm": run["coefficient"]})
+    for key, got in (("Cm_pred", p.predicted["Cm"]), ("Cm_quasi_steady", p.quasi_steady["Cm"])):
+        assert np.all(np.abs(got - expected[key]) <= 1e-12 * np.maximum(1.0, np.abs(expected[key]))), key
+    m = p.metrics["Cm"]["model"]
+    assert m["n_samples"] == len(run["time_s"]) and 0 < m["theil_inequality"] < 0.1
+
+
+def test_predict_derives_the_rate_and_checks_inputs(cli_fit):
+    model = indicial.Model.load(str(cli_fit / "model.coef"))
+    t = np.arange(200) * 0.01
+    a = 0.5 - 0.3 * np.cos(2 * np.pi * t)
+    p = indicial.predict(model, time_s=t, alpha_rad=a)
+    assert p.predicted["Cm"].shape == (200,) and np.all(np.isfinite(p.predicted["Cm"]))
+    with pytest.raises(indicial.InputError, match="^predict: the motion angle has 199 samples, time_s has 200"):
+        indicial.predict(model, time_s=t, alpha_rad=a[:-1])
+    with pytest.raises(indicial.InputError, match=r"^motion angle: \[5\] is NaN"):
+        indicial.predict(model, time_s=t, alpha_rad=np.where(np.arange(200) == 5, np.nan, a))
+    with pytest.raises(indicial.InputError, match="^measured: the model has no coefficient 'CL'"):
+        indicial.predict(model, time_s=t, alpha_rad=a, measured={"CL": a})
+    with pytest.raises(indicial.InputError, match="^airspeed_mps: must be > 0"):
+        indicial.predict(model, time_s=t, alpha_rad=a, airspeed_mps=-3)
