@@ -56,7 +56,7 @@ void set_poly(Spline<Scalar, P, K>& s, std::initializer_list<double> c) {
 }
 template <class Scalar, int P, int K>
 void add_knot(Spline<Scalar, P, K>& s, double knot_rad, int power, double coef) {
-  s.knot_rad[s.n_knots] = knot_rad;
+  s.knot_rad[s.n_knots] = static_cast<typename KnotStorage<Scalar>::type>(knot_rad);
   s.knot_power[s.n_knots] = power;
   s.knot_coef[s.n_knots] = Scalar(coef);
   ++s.n_knots;

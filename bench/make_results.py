@@ -394,7 +394,45 @@ if fit or ml:
     w("")
 
 # ------------------------------------------------------------------------------------------
-w("## Goals (issues 6 and 15) against this run")
+# The Cortex-M4F figures (tools/run-cortex-m.sh's footprint.md, copied by run_all.sh): QEMU's
+# -icount makes them instruction counts, deterministic whatever the machine's load.
+cortex_path = os.path.join(out_dir, "cortex-m.md")
+if os.path.exists(cortex_path):
+    with open(cortex_path) as f:
+        cortex = f.read().rstrip()
+    w("## Cortex-M4F under QEMU (tools/run-cortex-m.sh)")
+    w("")
+    w("Model II C_L + C_m in float (`firmware/cortex-m/model2-cl-cm.coef`, the structure of section 1) "
+      "built for `-mcpu=cortex-m4 -mfpu=fpv4-sp-d16 -mfloat-abi=hard -O2 -fno-exceptions -fno-rtti` "
+      "(Debian's arm-none-eabi GCC 12.2, newlib 3.3), run on `qemu-system-arm -M mps2-an386 -icount "
+      "shift=0`; every step bit-identical to the host's float build. Instructions are counted "
+      "exactly (QEMU's virtual clock, 1 ns per instruction, read through SysTick; method and "
+      "cross-check in `firmware/cortex-m/README.md`): they are instructions, not cycles. Flash "
+      "and RAM from the linked image (`arm-none-eabi-size`, `nm`; the map file is "
+      "`build-cortex-m/<variant>.map`); stack measured by painting and bounded statically over "
+      "the linked call graph (`stack_depth.py`).")
+    w("")
+    w(cortex)
+    w("")
+    for line in cortex.splitlines():
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if cells and cells[0] == "codegen_state" and len(cells) >= 11:
+            ips, flash, stack_m, stack_b = float(cells[1]), int(cells[4]), int(cells[7]), int(cells[8])
+            goals.append(("Cortex-M4F: <= 1,500 instructions per float step (C_L + C_m, Model II)",
+                          f"{ips:.1f} (State<float>, generated model)", "met" if ips <= 1500 else "NOT met"))
+            goals.append(("Cortex-M4F: <= 16 KB flash, runtime + model",
+                          f"{flash} B (check_runtime_model and reset included)",
+                          "met" if flash <= 16384 else "NOT met"))
+            goals.append(("Cortex-M4F: <= 1 KB stack per step",
+                          f"{stack_m} B measured, {stack_b} B static bound",
+                          "met" if stack_b <= 1024 else "NOT met"))
+        m = re.search(r"State<float> (\d+) B", line)
+        if m:
+            goals.append(("float state <= 128 bytes per instance", f"{m.group(1)} B (State<float>)",
+                          "met" if int(m.group(1)) <= 128 else "NOT met"))
+
+# ------------------------------------------------------------------------------------------
+w("## Goals (issues 6, 15 and 25) against this run")
 w("")
 w("| goal | measured | verdict |")
 w("|---|---|---|")

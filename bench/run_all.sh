@@ -6,7 +6,7 @@
 # Environment: HIL_SECONDS (default 60: the 10 kHz loaded loop of the goal), HIL_SHORT_SECONDS
 # (default 10: the other loops), REPS (default 5:
 # Google Benchmark repetitions; medians are reported), SKIP_FITTER=1 (runtime only),
-# SKIP_CALLGRIND=1, NATIVE=1 (build for this CPU, INDICIAL_NATIVE), RESULTS_MD (default
+# SKIP_CALLGRIND=1, SKIP_CORTEX_M=1 (no tools/run-cortex-m.sh section), NATIVE=1 (build for this CPU, INDICIAL_NATIVE), RESULTS_MD (default
 # bench/RESULTS.md: where the report goes; make_results.py also prints the README's headline
 # line from this run). The runs take about 6 minutes on an idle 2-core machine, plus the build. Needs cmake, ninja, a C++17
 # compiler, Google Benchmark, python3; valgrind for the instruction counts (optional).
@@ -95,6 +95,17 @@ echo "== hil (1 kHz and 10 kHz idle, 10 s each; 1 kHz loaded 10 s; 10 kHz loaded
 "$bin/hil" --rate-hz 1000,10000 --seconds "$hil_short" | tee "$out/hil_idle.md"
 "$bin/hil" --rate-hz 1000 --seconds "$hil_short" --load | tee "$out/hil_load_1k.md"
 "$bin/hil" --rate-hz 10000 --seconds "$hil_seconds" --load | tee "$out/hil_load_10k.md"
+
+# The Cortex-M4F figures (deterministic instruction counts under QEMU), when the cross
+# toolchain and QEMU are installed (tools/install-deps.sh cortex-m); SKIP_CORTEX_M=1 skips.
+if [[ "${SKIP_CORTEX_M:-0}" != 1 ]] && command -v arm-none-eabi-g++ >/dev/null &&
+   command -v qemu-system-arm >/dev/null; then
+  echo "== Cortex-M4F under QEMU (tools/run-cortex-m.sh)"
+  cmake --build "$build" -j2 --target indicial >>"$out/build.log" 2>&1
+  INDICIAL_BUILD_DIR="$build" INDICIAL_CORTEX_M_DIR="$build/cortex-m" "$src/tools/run-cortex-m.sh" \
+    >"$out/cortex-m.log" 2>&1 || { tail -30 "$out/cortex-m.log"; exit 1; }
+  cp "$build/cortex-m/footprint.md" "$out/cortex-m.md"
+fi
 
 echo "load average at end: $(cut -d' ' -f1-3 /proc/loadavg)" >>"$out/machine.txt"
 results="${RESULTS_MD:-$here/RESULTS.md}"

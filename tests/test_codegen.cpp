@@ -11,6 +11,7 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <type_traits>
 #include <unistd.h>
 
 #include "indicial/coef_file.hpp"
@@ -18,8 +19,10 @@
 #include "indicial/runtime.hpp"
 #include "dynamic_stall_lift_moment.hpp"
 #include "synthetic_lift_moment.hpp"
+#include "synthetic_lift_moment_float.hpp"
 #include "tailless_model_1.hpp"
 #include "tailless_model_2.hpp"
+#include "tailless_model_2_float.hpp"
 #include "codegen_only_tu.hpp"
 #include "runtime_test_models.hpp"
 #include "cli_test_support.hpp"
@@ -59,11 +62,11 @@ std::string write(const Set& m) {
   return std::string(buffer, n);
 }
 
-using Generated = indicial::RuntimeModel<double, indicial::DefaultCapacity>;
-
-void compare_runs(const std::string& text, const Generated& generated) {
-  P from_text;
-  P from_header;
+template <class Scalar>
+void compare_runs(const std::string& text, const indicial::RuntimeModel<Scalar, indicial::DefaultCapacity>& generated) {
+  using Pred = indicial::Predictor<Scalar>;
+  Pred from_text;
+  Pred from_header;
   indicial::ParseDiagnostic diag;
   REQUIRE(from_text.load(text.data(), text.size(), &diag) == indicial::LoadStatus::ok);
   REQUIRE(from_header.use(generated) == indicial::LoadStatus::ok);  // in place, no copy
@@ -75,20 +78,20 @@ void compare_runs(const std::string& text, const Generated& generated) {
     const double t = 0.002 * k;
     const double w = 2 * kPi * 1.0;
     const indicial::MotionInput in{0.61 + 0.61 * std::sin(w * t), 0.61 * w * std::cos(w * t), 20.0};
-    P::Outputs a;
-    P::Outputs b;
+    typename Pred::Outputs a;
+    typename Pred::Outputs b;
     REQUIRE(from_text.step(in, 0.002, &a) == indicial::StepStatus::ok);
     REQUIRE(from_header.step(in, 0.002, &b) == indicial::StepStatus::ok);
     REQUIRE(a.count == b.count);
     for (int c = 0; c < a.count; ++c) {
-      CHECK(std::memcmp(&a.value[c], &b.value[c], sizeof(double)) == 0);
+      CHECK(std::memcmp(&a.value[c], &b.value[c], sizeof(Scalar)) == 0);
       CHECK(std::strcmp(a.name[c], b.name[c]) == 0);
     }
     ++steps;
   }
   CHECK(steps == 1500);
-  const P::Snapshot sa = from_text.snapshot();
-  const P::Snapshot sb = from_header.snapshot();
+  const typename Pred::Snapshot sa = from_text.snapshot();
+  const typename Pred::Snapshot sb = from_header.snapshot();
   CHECK(std::memcmp(&sa, &sb, sizeof sa) == 0);
 }
 
@@ -128,6 +131,20 @@ TEST_CASE("the generated header runs bit for bit like the text file") {
   compare_runs(example("tailless-model-1"), tailless_model_1);
   compare_runs(example("tailless-model-2"), tailless_model_2);
   compare_runs(example("synthetic-lift-moment"), synthetic_lift_moment);
+}
+
+// --scalar float: the model Predictor<float>::load builds from the text, bit for bit (the
+// float spline keeps its knots as float, a table's second derivatives are float's), checked by
+// check_runtime_model in use() and stepped bit for bit like the loaded one.
+static_assert(std::is_same<decltype(indicial_generated::tailless_model_2_float),
+                           const indicial::RuntimeModel<float, indicial::DefaultCapacity>>::value,
+              "--scalar float generates a RuntimeModel<float, ...>");
+static_assert(indicial_generated::synthetic_lift_moment_float.set.coefficients[0].lags[1].gain == -0.35f,
+              "float literals");
+
+TEST_CASE("codegen --scalar float runs bit for bit like the text file in Predictor<float>") {
+  compare_runs(example("tailless-model-2"), indicial_generated::tailless_model_2_float);
+  compare_runs(example("synthetic-lift-moment"), indicial_generated::synthetic_lift_moment_float);
 }
 
 TEST_CASE("the generated dynamic-stall header runs bit for bit like the text file, FamilyState too") {

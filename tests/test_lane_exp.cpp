@@ -1,10 +1,12 @@
 // lane_exp (indicial/batch.hpp): the batch's hand-written vectorised exp against the C
 // library's, in ulps, over the whole range, at the range ends and on special values, for
-// double and float and for every register width the batch's kernels use.
+// double and float and for every register width the batch's kernels use; and the float
+// single step's exponential (model.hpp's exp_on on one float) against the lanes, bit for bit.
 #include <doctest/doctest.h>
 
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <random>
 
@@ -131,4 +133,39 @@ TEST_CASE("lane_exp (float) is within 1 ulp of std::exp over the whole range") {
   CHECK(w32 == w16);
   check_special_values<float, 16>();
   check_special_values<float, 32>();
+}
+
+// The float single step (indicial::detail::step_exp) and the float lanes run the same
+// exponential: a float batch gives the single step's bits (tests/test_runtime_batch.cpp).
+template <class S, int R>
+long count_lane_scalar_differences(const std::vector<S>& args) {
+  long differ = 0;
+  for (std::size_t b = 0; b < args.size(); b += indicial::batch_block) {
+    bd::LaneArray<S, R> x;
+    for (int i = 0; i < indicial::batch_block; ++i) x[i] = args[(b + std::size_t(i)) % args.size()];
+    const bd::LaneArray<S, R> e = bd::lane_exp(x);
+    for (int i = 0; i < indicial::batch_block; ++i) {
+      S one;
+      indicial::exp_on<S, S, indicial::detail::ScalarBitCast<S>>(x[i], &one);
+      const S lane = e[i];
+      if (std::memcmp(&one, &lane, sizeof one) != 0 && !(std::isnan(one) && std::isnan(lane))) ++differ;
+    }
+  }
+  return differ;
+}
+
+TEST_CASE("exp_on: one float (the single step's exp) gives each lane's bits") {
+  std::vector<float> args = test_arguments<float>(-103.9f, 88.7f);
+  for (float v : {0.0f, -0.0f, 1e30f, -1e30f, std::numeric_limits<float>::infinity(),
+                  -std::numeric_limits<float>::infinity(), std::numeric_limits<float>::quiet_NaN()})
+    args.push_back(v);
+  CHECK(count_lane_scalar_differences<float, 16>(args) == 0);
+  CHECK(count_lane_scalar_differences<float, 32>(args) == 0);
+  for (float z : {1e-3f, 2.5e-3f, 0.1f}) {
+    bd::LaneArray<float, 16> x;
+    for (int i = 0; i < indicial::batch_block; ++i) x[i] = -z;
+    CHECK(indicial::detail::step_exp(-z) == bd::lane_exp(x)[0]);
+  }
+  const std::vector<double> args_d = test_arguments<double>(-745.2, 709.8);
+  CHECK(count_lane_scalar_differences<double, 16>(args_d) == 0);
 }

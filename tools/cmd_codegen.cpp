@@ -1,20 +1,31 @@
-// `indicial codegen MODEL.coef --out FILE.hpp [--force] [--name IDENT] [--namespace NS]`: turns
-// a coefficient file into a C++17 header holding the model as a constexpr
-// indicial::RuntimeModel<double, DefaultCapacity> NS::IDENT (NS defaults to
-// indicial_generated), so that an embedded target steps it in place (it lives in read-only
-// memory; the header includes runtime.hpp and no parser) and never parses text.
+// `indicial codegen MODEL.coef --out FILE.hpp [--force] [--name IDENT] [--namespace NS]
+// [--scalar double|float] [--capacity default|tight]`: turns a coefficient file into a C++17
+// header holding the model as
+// a constexpr indicial::RuntimeModel<double, DefaultCapacity> NS::IDENT (NS defaults to
+// indicial_generated; --scalar float gives RuntimeModel<float, DefaultCapacity>, the model
+// Predictor<float> and State<float> step, e.g. on a Cortex-M4F), so that an embedded target
+// steps it in place (it lives in read-only memory; the header includes runtime.hpp and no
+// parser) and never parses text. The header also declares `using IDENT_capacity = ...;`: the
+// Capacity of the model (DefaultCapacity, or with --capacity tight the smallest that holds this
+// model: fewer bytes of flash for the model and of RAM per State<Scalar, IDENT_capacity>).
 //
 // The file is parsed by the runtime's own parser (runtime/include/indicial/coef_file.hpp) and
 // validated like Predictor::load does; every number is written in its shortest round-trip
 // form, so the generated model is bit-identical to the parsed one (tests/test_codegen.cpp).
+// A float model is the one make_runtime_model<float> builds from the parsed file (every
+// Scalar value converted by static_cast<float>, a static table's second derivatives
+// recomputed in float), written as shortest round-trip float literals: bit-identical to
+// Predictor<float>::load of the same text.
 // The model is built by a constexpr function (assignments into a default-constructed
 // ModelSet) rather than one aggregate initialiser, which keeps the header readable and
 // independent of the order of ModelSet's members.
+#include <algorithm>
 #include <charconv>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
 #include <string>
+#include <type_traits>
 
 #include "command.hpp"
 #include "indicial/coef_file.hpp"
@@ -32,19 +43,24 @@ struct CodegenOptions {
   std::string out;
   std::string name;
   std::string name_space = "indicial_generated";
+  std::string scalar = "double";
+  std::string capacity = "default";
   bool force = false;
 };
 
-// A double as a C++ literal that converts back to exactly the same double: the shortest
-// round-trip digits, with ".0" appended where they would otherwise read as an int (which
-// would also lose the sign of -0).
-std::string literal(double v) {
+// A double (or float) as a C++ literal that converts back to exactly the same value: the
+// shortest round-trip digits, with ".0" appended where they would otherwise read as an int
+// (which would also lose the sign of -0), and the f suffix for a float.
+template <class T>
+std::string shortest_digits(T v) {
   char buf[40];
   const std::to_chars_result r = std::to_chars(buf, buf + sizeof buf, v);
   std::string s(buf, r.ptr);
   if (s.find_first_of(".e") == std::string::npos) s += ".0";
   return s;
 }
+std::string literal(double v) { return shortest_digits(v); }
+std::string literal(float v) { return shortest_digits(v) + "f"; }
 
 bool is_identifier(const std::string& s) {
   if (s.empty() || (s[0] >= '0' && s[0] <= '9')) return false;
@@ -98,8 +114,8 @@ std::string identifier_from_path(const std::string& path) {
   return stem;
 }
 
-template <int P, int K>
-void emit_spline(std::string& o, const std::string& lhs, const indicial::Spline<double, P, K>& s) {
+template <class Scalar, int P, int K>
+void emit_spline(std::string& o, const std::string& lhs, const indicial::Spline<Scalar, P, K>& s) {
   if (s.n_powers == 0 && s.n_knots == 0) return;
   o += "  " + lhs + ".n_powers = " + std::to_string(s.n_powers) + ";\n";
   for (int i = 0; i < s.n_powers; ++i)
@@ -115,7 +131,8 @@ void emit_spline(std::string& o, const std::string& lhs, const indicial::Spline<
 
 // The step constants of the RuntimeModel (derive_step_constants' values, computed by the
 // tool with the same function the runtime uses to check them).
-void emit_step_constants(std::string& o, const indicial::RuntimeModel<double, Cap>& r) {
+template <class Scalar>
+void emit_step_constants(std::string& o, const indicial::RuntimeModel<Scalar, Cap>& r) {
   o += "  r.x_min_rad = " + literal(r.x_min_rad) + ";\n";
   o += "  r.x_max_rad = " + literal(r.x_max_rad) + ";\n";
   o += "  r.angle_factor = " + literal(r.angle_factor) + ";\n";
@@ -129,7 +146,8 @@ void emit_step_constants(std::string& o, const indicial::RuntimeModel<double, Ca
 
 // The dynamic-stall families of a coefficient (only a used family: the defaults stand for the
 // rest, as in the coefficient file).
-void emit_stall(std::string& o, const std::string& p, const indicial::StallModel<double, Cap>& st) {
+template <class Scalar>
+void emit_stall(std::string& o, const std::string& p, const indicial::StallModel<Scalar, Cap>& st) {
   if (st.families == indicial::StallFamilies::none) return;
   o += "  " + p + ".families = indicial::StallFamilies::" + indicial::stall_families_name(st.families) + ";\n";
   const std::string sp = p + ".separation";
@@ -161,8 +179,9 @@ void emit_stall(std::string& o, const std::string& p, const indicial::StallModel
   o += "  " + vp + ".cp_travel = " + literal(v.cp_travel) + ";\n";
 }
 
+template <class Scalar>
 void emit_coefficient(std::string& o, const std::string& p,
-                      const indicial::CoefficientModel<double, Cap>& cm) {
+                      const indicial::CoefficientModel<Scalar, Cap>& cm) {
   o += "  // " + std::string(cm.name) + "\n";
   for (int i = 0; cm.name[i] != '\0'; ++i)
     o += "  " + p + ".name[" + std::to_string(i) + "] = '" + cm.name[i] + "';\n";
@@ -194,12 +213,49 @@ void emit_coefficient(std::string& o, const std::string& p,
   emit_stall(o, p + ".stall", cm.stall);
 }
 
-std::string generate(const indicial::RuntimeModel<double, Cap>& r, const std::string& ident,
-                     const std::string& ns, const std::string& source_name, std::uint32_t crc) {
-  const Set& m = r.set;
+// The smallest Capacity that holds m (--capacity tight): the largest count of powers, knots,
+// lags and table rows over its splines, static tables and separation tables (at least
+// Capacity's minimums), its
+// coefficient count, and the default delay ring if a coefficient has a delay (2 samples, the
+// minimum, if none). The emitted assignments are the same text for any capacity that holds m.
+std::string tight_capacity(const Set& m) {
+  int powers = 1, knots = 0, lags = 1, table = 2, delay_samples = 2;
+  const auto spline = [&](const indicial::Spline<double, Cap::max_powers, Cap::max_knots>& sp) {
+    powers = std::max(powers, sp.n_powers);
+    knots = std::max(knots, sp.n_knots);
+  };
+  for (int c = 0; c < m.n_coefficients; ++c) {
+    const auto& cm = m.coefficients[c];
+    spline(cm.static_curve.polynomial);
+    spline(cm.static_correction);
+    spline(cm.rotary);
+    spline(cm.a);
+    for (int j = 0; j < cm.n_lags; ++j) spline(cm.lags[j].b);
+    lags = std::max(lags, cm.n_lags);
+    table = std::max(table, cm.static_curve.n_table);
+    if (cm.delay_s != 0.0) delay_samples = Cap::max_delay_samples;
+    if (cm.stall.families != indicial::StallFamilies::none) {
+      spline(cm.stall.separation.f0_correction);
+      table = std::max(table, cm.stall.separation.n_f0);
+    }
+  }
+  return "indicial::Capacity<" + std::to_string(powers) + ", " + std::to_string(knots) + ", " +
+         std::to_string(lags) + ", " + std::to_string(table) + ", " +
+         std::to_string(m.n_coefficients) + ", " + std::to_string(delay_samples) + ">";
+}
+
+template <class Scalar>
+std::string generate(const indicial::RuntimeModel<Scalar, Cap>& r, const std::string& ident,
+                     const std::string& ns, const std::string& source_name, std::uint32_t crc,
+                     const std::string& capacity) {
+  const indicial::ModelSet<Scalar, Cap>& m = r.set;
   char crc_hex[16];
   std::snprintf(crc_hex, sizeof crc_hex, "%08x", static_cast<unsigned>(crc));
-  const std::string type = "indicial::RuntimeModel<double, indicial::DefaultCapacity>";
+  const std::string scalar = std::is_same<Scalar, float>::value ? "float" : "double";
+  const std::string cap = ident + "_capacity";
+  // The default capacity is spelled out in the types (as before --capacity existed).
+  const std::string cap_type = capacity == "indicial::DefaultCapacity" ? capacity : cap;
+  const std::string type = "indicial::RuntimeModel<" + scalar + ", " + cap_type + ">";
   // The state a step of this model needs (runtime.hpp: a delay needs the ring, families their
   // states).
   const std::string state_type = r.delay == indicial::DelayUse::delayed ? "DelayedState"
@@ -213,16 +269,17 @@ std::string generate(const indicial::RuntimeModel<double, Cap>& r, const std::st
        "//   #include \"" + ident + ".hpp\"   // includes indicial/runtime.hpp, no parser\n"
        "//   const auto& model = " + ns + "::" + ident + ";   // in read-only memory, never copied\n"
        "//   indicial::check_runtime_model(model);            // once, at start: LoadStatus::ok\n"
-       "//   indicial::" + state_type + "<double, indicial::DefaultCapacity> state;  // per instance\n"
+       "//   indicial::" + state_type + "<" + scalar + ", " + ns + "::" + cap + "> state;  // per instance\n"
        "//   indicial::reset(model, state, angle_rad, airspeed_mps);  // then indicial::step(...)\n"
-       "//   // or: indicial::Predictor<> p; p.use(model);   (p.load(model) copies it)\n"
+       "//   // or: indicial::Predictor<" + scalar + ", " + ns + "::" + cap + "> p; p.use(model);\n"
        "#pragma once\n\n"
        "#include \"indicial/runtime.hpp\"\n\n"
        "namespace " + ns + " {\n"
+       "using " + cap + " = " + capacity + ";\n\n"
        "namespace codegen_detail {\n"
        "constexpr " + type + " make_" + ident + "() {\n"
        "  " + type + " r{};\n"
-       "  indicial::ModelSet<double, indicial::DefaultCapacity>& m = r.set;\n";
+       "  indicial::ModelSet<" + scalar + ", " + cap_type + ">& m = r.set;\n";
   o += std::string("  m.axis = indicial::Axis::") + indicial::axis_name(m.axis) + ";\n";
   o += "  m.reference_length_m = " + literal(m.reference_length_m) + ";\n";
   o += "  m.airspeed_mps = " + literal(m.airspeed_mps) + ";\n";
@@ -263,12 +320,25 @@ void run_codegen(const CodegenOptions& o) {
   }
   const std::size_t at = text.rfind("checksum ");
   const std::uint32_t crc = crc32(text.data(), at == std::string::npos ? 0 : at);
-  const std::string header = generate(*model, ident, o.name_space,
-                                      std::filesystem::path(o.model_path).filename().string(), crc);
+  const std::string source = std::filesystem::path(o.model_path).filename().string();
+  const std::string capacity =
+      o.capacity == "tight" ? tight_capacity(model->set) : std::string("indicial::DefaultCapacity");
+  std::string header;
+  if (o.scalar == "float") {
+    // The float model exactly as Predictor<float>::load builds it from the same text.
+    auto model_f = std::make_unique<RuntimeModel<float, Cap>>();
+    const LoadStatus sf = make_runtime_model(model->set, model_f.get(), &diag);
+    if (sf != LoadStatus::ok)
+      throw InputError(o.model_path, 0, std::string(diag.reason) + " in float (" + to_string(sf) + ")");
+    header = generate(*model_f, ident, o.name_space, source, crc, capacity);
+  } else {
+    header = generate(*model, ident, o.name_space, source, crc, capacity);
+  }
   write_file_atomically(o.out, header, o.force ? Overwrite::replace : Overwrite::refuse);
-  std::printf("codegen: wrote %s (%s::%s: %s, %d coefficient%s)\n", o.out.c_str(),
+  std::printf("codegen: wrote %s (%s::%s: %s, %d coefficient%s, %s)\n", o.out.c_str(),
               o.name_space.c_str(), ident.c_str(), axis_name(model->set.axis),
-              model->set.n_coefficients, model->set.n_coefficients == 1 ? "" : "s");
+              model->set.n_coefficients, model->set.n_coefficients == 1 ? "" : "s",
+              o.scalar.c_str());
 }
 
 const indicial::tools::RegisterCommand register_codegen([](CLI::App& app) {
@@ -279,7 +349,10 @@ const indicial::tools::RegisterCommand register_codegen([](CLI::App& app) {
       "indicial::RuntimeModel<double, indicial::DefaultCapacity> NS::IDENT` (read-only memory,\n"
       "stepped in place: indicial::step(NS::IDENT, state, ...) or Predictor::use(NS::IDENT); no\n"
       "parsing, the header includes only indicial/runtime.hpp). The file is parsed and validated\n"
-      "exactly as Predictor::load does; refusals are reported as FILE:LINE: reason (status).");
+      "exactly as Predictor::load does; refusals are reported as FILE:LINE: reason (status).\n"
+      "--scalar float writes RuntimeModel<float, ...> (Predictor<float>, State<float>; the model\n"
+      "Predictor<float>::load builds from the same text, bit for bit); --capacity tight the\n"
+      "smallest Capacity that holds the model (NS::IDENT_capacity).");
   sub->add_option("MODEL", opt->model_path, "coefficient file (.coef)")->required();
   sub->add_option("--out", opt->out, "header to write")->required();
   sub->add_option("--name", opt->name,
@@ -287,6 +360,13 @@ const indicial::tools::RegisterCommand register_codegen([](CLI::App& app) {
                   "tailless_model_2)");
   sub->add_option("--namespace", opt->name_space,
                   "namespace of the generated model (default: indicial_generated)");
+  sub->add_option("--scalar", opt->scalar,
+                  "double (default) or float: the Scalar of the generated RuntimeModel")
+      ->check(CLI::IsMember({"double", "float"}));
+  sub->add_option("--capacity", opt->capacity,
+                  "default (DefaultCapacity) or tight (the smallest indicial::Capacity that holds\n"
+                  "this model); declared as NS::IDENT_capacity in the header")
+      ->check(CLI::IsMember({"default", "tight"}));
   sub->add_flag("--force", opt->force, "replace an existing header");
   sub->callback([opt]() { run_codegen(*opt); });
 });

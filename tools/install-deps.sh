@@ -6,6 +6,8 @@
 #                                      tests (pybind11, python3-dev, numpy, pytest, venv, pip)
 #   tools/install-deps.sh fuzz         plus clang 14 with libFuzzer (tools/run-fuzz.sh)
 #   tools/install-deps.sh bench        plus Google Benchmark, python3 and valgrind (bench/run_all.sh)
+#   tools/install-deps.sh cortex-m     plus the Arm bare-metal GCC with newlib and libstdc++, and
+#                                      QEMU's Arm system emulator (tools/run-cortex-m.sh)
 #   tools/install-deps.sh examples     plus matplotlib and Dask (examples/python/)
 #   tools/install-deps.sh fuzz bench   both extras
 #
@@ -32,8 +34,10 @@ for extra in "$@"; do
   case "$extra" in
     fuzz) packages+=(clang libclang-rt-14-dev) ;;  # clang 14 with libFuzzer and its sanitizer runtimes
     bench) packages+=(libbenchmark-dev python3 valgrind) ;;
+    cortex-m) packages+=(gcc-arm-none-eabi libnewlib-arm-none-eabi libstdc++-arm-none-eabi-newlib
+                         qemu-system-arm python3) ;;
     examples) packages+=(python3-matplotlib python3-dask python3-distributed) ;;
-    *) echo "install-deps: unknown extra '$extra' (expected fuzz, bench or examples)" >&2; exit 2 ;;
+    *) echo "install-deps: unknown extra '$extra' (expected fuzz, bench, examples or cortex-m)" >&2; exit 2 ;;
   esac
 done
 

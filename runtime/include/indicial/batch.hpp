@@ -26,13 +26,15 @@
 //   automatic  (the default) avx2 where it exists and the CPU has it, else portable.
 // batch_kernel_in_use(k) says which kernel step_batch(..., k) runs on this CPU.
 //
-// Results equal N single steps (indicial::step) but for the exponential: the lanes take it
-// with lane_exp (below; within 1 ulp of std::exp, tests/test_lane_exp.cpp), the single step
-// with the C library's. In double that stays within 1e-12 relative, relative to
-// max(|value|, 0.01) where a coefficient crosses zero (measured 3e-14;
-// tests/test_runtime_batch.cpp checks it on every status path and with every kernel). In
-// float an ulp of exp (6e-8), amplified by phi1's 1 - exp(-z), gives about 1e-4 relative
-// after a few hundred steps: the float runtime's own rounding error is of that order.
+// Results equal N single steps (indicial::step). In float bit for bit: the lanes and the
+// single float step take the same exponential (model.hpp's exp_on; within 1 ulp of std::exp,
+// tests/test_lane_exp.cpp) and the same expressions in the same order
+// (tests/test_runtime_batch.cpp; with the C library's expf in the single step, an ulp of exp
+// amplified by phi1's 1 - exp(-z) made them differ by 1e-4 after a few hundred steps). In
+// double the single step keeps the C library's exp (the fitter's, bit for bit) and the lanes
+// exp_on: within 1e-12 relative, relative to max(|value|, 0.01) where a coefficient crosses
+// zero (measured 3e-14; checked on every status path and with every kernel). Bit for bit
+// assumes no fused multiply-add contraction (the default x86-64 and AVX2 kernels have none).
 //
 // Usage
 // -----
@@ -255,78 +257,27 @@ INDICIAL_LANE_INLINE bool lane_any(const LaneMask<S, R>& m) {
   return r;
 }
 
-// The constants of lane_exp per scalar type: the shifter 1.5 * 2^mantissa_bits (adding and
-// subtracting it rounds to the nearest integer), ln 2 in two parts (Cody and Waite: n * hi is
-// exact for every n in range), the range ends, and the Taylor coefficients 1/k! up to a degree
-// whose truncation error on |r| <= ln(2)/2 is below a hundredth of an ulp
-// (0.35^14 / 14! = 4e-18 for double, 0.35^8 / 8! = 5e-9 for float).
-template <class S>
-struct LaneExpConstants;
-template <>
-struct LaneExpConstants<double> {
-  using Bits = std::uint64_t;
-  static constexpr int mantissa_bits = 52;
-  static constexpr Bits exponent_bias = 1023;
-  static constexpr double shifter = 6755399441055744.0;  // 1.5 * 2^52
-  static constexpr double log2e = 1.4426950408889634074;
-  static constexpr double ln2_hi = 0.693145751953125;            // Cephes' C1
-  static constexpr double ln2_lo = 1.42860682030941723212e-6;    // Cephes' C2
-  static constexpr double overflow_above = 709.782712893384;     // exp > DBL_MAX: Inf
-  static constexpr double underflow_below = -745.1332191019412;  // exp < DBL_TRUE_MIN / 2: 0
-  static constexpr int degree = 13;
-};
-template <>
-struct LaneExpConstants<float> {
-  using Bits = std::uint32_t;
-  static constexpr int mantissa_bits = 23;
-  static constexpr Bits exponent_bias = 127;
-  static constexpr float shifter = 12582912.0f;  // 1.5 * 2^23
-  static constexpr float log2e = 1.44269504088896341f;
-  static constexpr float ln2_hi = 0.693359375f;       // Cephes' expf C1
-  static constexpr float ln2_lo = -2.12194440e-4f;    // Cephes' expf C2
-  static constexpr float overflow_above = 88.72283935546875f;
-  static constexpr float underflow_below = -103.97208404541015625f;
-  static constexpr int degree = 7;
+// A lane vector's bit pattern and back: model.hpp's exp_on on a Part of lanes.
+// (Bits is declared here: a vector typedef passed as a template argument loses its vector_size.)
+template <class S, class Part>
+struct LaneBitCast {
+  typedef typename ExpConstants<S>::Bits Bits __attribute__((vector_size(sizeof(Part))));
+  INDICIAL_LANE_INLINE static void to(const Part& v, Bits* b) { *b = (Bits)v; }
+  INDICIAL_LANE_INLINE static void from(const Bits& b, Part* v) { *v = (Part)b; }
 };
 
-// exp(x) lane-wise: x = n ln2 + r, |r| <= ln(2)/2, exp(r) by its Taylor polynomial (Horner),
-// times 2^n built in the exponent bits -- as two factors 2^n1 2^n2, n1 + n2 = n, so that a
-// subnormal result (n down to -1075) is rounded once and no factor leaves the normal range.
-// Inf above the overflow end, 0 below the underflow end, NaN for NaN. Within 1 ulp of the C
-// library's exp (measured in tests/test_lane_exp.cpp).
+// exp lane-wise: model.hpp's exp_on, the float single step's exponential, on each part of
+// lanes, so that a float batch gives the single step's bits (within 1 ulp of the C library's
+// exp, tests/test_lane_exp.cpp).
 //
-// Why written here (the one hand-written function of the batch): Eigen's vectorised exp is
-// compiled for the translation unit's target only, so it cannot serve the AVX2 kernel of an
-// SSE2 build, and it would make Eigen a dependency of the runtime's header.
+// Why written by hand (exp_on is the one hand-written function of the batch): Eigen's
+// vectorised exp is compiled for the translation unit's target only, so it cannot serve the
+// AVX2 kernel of an SSE2 build, and it would make Eigen a dependency of the runtime's header.
 template <class S, int R>
 INDICIAL_LANE_INLINE LaneArray<S, R> lane_exp(const LaneArray<S, R>& x) {
-  using C = LaneExpConstants<S>;
   using Part = typename LaneArray<S, R>::Part;
-  typedef typename C::Bits Bits __attribute__((vector_size(sizeof(Part))));
-  S inverse_factorial[C::degree + 1];
-  inverse_factorial[0] = S(1);
-  for (int k = 1; k <= C::degree; ++k) inverse_factorial[k] = inverse_factorial[k - 1] / S(k);
-  const Part shifter = Part{} + C::shifter;
-  const Bits bias = Bits{} + C::exponent_bias;
   LaneArray<S, R> r;
-  for (int k = 0; k < LaneArray<S, R>::parts; ++k) {
-    const Part v = x.p[k];
-    const Part shifted = v * C::log2e + shifter;
-    const Part n = shifted - shifter;  // round(x / ln 2)
-    const Part reduced = (v - n * C::ln2_hi) - n * C::ln2_lo;
-    Part poly = Part{} + inverse_factorial[C::degree];
-    for (int d = C::degree - 1; d >= 0; --d) poly = poly * reduced + inverse_factorial[d];
-    const Part half_shifted = n * S(0.5) + shifter;  // n1 = round(n / 2), n2 = n - n1
-    const Part n2 = n - (half_shifted - shifter);
-    const Bits n1_bits = (Bits)half_shifted - (Bits)shifter;  // modulo 2^bits: n1's two's complement
-    const Bits n2_bits = (Bits)(n2 + shifter) - (Bits)shifter;
-    Part e = poly * (Part)((n1_bits + bias) << C::mantissa_bits) *
-             (Part)((n2_bits + bias) << C::mantissa_bits);
-    e = v > C::overflow_above ? Part{} + std::numeric_limits<S>::infinity() : e;
-    e = v < C::underflow_below ? Part{} : e;
-    e = v != v ? v + v : e;
-    r.p[k] = e;
-  }
+  for (int k = 0; k < LaneArray<S, R>::parts; ++k) exp_on<S, Part, LaneBitCast<S, Part>>(x.p[k], &r.p[k]);
   return r;
 }
 #else
@@ -414,7 +365,7 @@ inline bool lane_any(const LaneMask<S, R>& m) {
 template <class S, int R>
 inline LaneArray<S, R> lane_exp(const LaneArray<S, R>& x) {
   LaneArray<S, R> r;
-  for (int i = 0; i < batch_block; ++i) r.v[i] = std::exp(x.v[i]);
+  for (int i = 0; i < batch_block; ++i) exp_on<S, S, detail::ScalarBitCast<S>>(x.v[i], &r.v[i]);
   return r;
 }
 #endif

@@ -49,6 +49,9 @@
 
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
+#include <cstring>
+#include <limits>
 
 namespace indicial {
 
@@ -100,12 +103,27 @@ inline constexpr const char* axis_name(Axis axis) {
 //                         + sum_{j<n_knots} knot_coef[j] (x - knot_rad[j])_+^knot_power[j]
 // with (u)_+ = u for u >= 0 and 0 otherwise (the corrected definition under eq. 28).
 // ------------------------------------------------------------------------------------------
+// The type a spline keeps its knot positions in. Knots are structure, not parameters
+// (warning 4): double whatever the coefficient type (an autodiff Scalar carries no derivative
+// for them) -- except in a float spline (the float runtime's), which keeps each knot as the
+// float that every evaluation converted it to anyway: the same values, without a
+// double-to-float conversion per knot and evaluation, which a single-precision FPU
+// (Cortex-M4F) makes a library call (12 per step of Model II C_L + C_m).
+template <class Scalar>
+struct KnotStorage {
+  using type = double;
+};
+template <>
+struct KnotStorage<float> {
+  using type = float;
+};
+
 template <class Scalar, int MaxPowers, int MaxKnots>
 struct Spline {
   int n_powers = 0;
   Scalar power_coef[MaxPowers] = {};
   int n_knots = 0;
-  double knot_rad[MaxKnots > 0 ? MaxKnots : 1] = {};
+  typename KnotStorage<Scalar>::type knot_rad[MaxKnots > 0 ? MaxKnots : 1] = {};
   int knot_power[MaxKnots > 0 ? MaxKnots : 1] = {};
   Scalar knot_coef[MaxKnots > 0 ? MaxKnots : 1] = {};
 };
@@ -526,6 +544,133 @@ inline AirspeedScaling<Scalar> airspeed_scaling(const Scalar& reference_airspeed
 // ------------------------------------------------------------------------------------------
 // The discrete state update.
 // ------------------------------------------------------------------------------------------
+// The exponential of the float step, written once for every place a float step runs: the
+// single step (advance_lags_between with Scalar = float, below), the batch's lanes
+// (batch.hpp's lane_exp, float and double) and every target (the host, a Cortex-M4F). Why
+// not std::exp in float: the C libraries' expf differ in the last bit (glibc's vs newlib's),
+// and phi1's 1 - exp(-z) amplifies that bit by 1/z (z = b dt is 1e-3..1e-2 at kHz rates)
+// into 1e-5..1e-4 relative differences in the lag states; with this one function the float
+// batch gives the single step's bits, and a float firmware the host's
+// (firmware/cortex-m/README.md). Double steps keep std::exp (the fitter's, bit for bit).
+//
+// exp(x) = 2^n exp(r), x = n ln2 + r, |r| <= ln(2)/2 (Cody and Waite: ln 2 in two parts,
+// n * hi exact for every n in range), exp(r) by its Taylor polynomial (Estrin) to a degree
+// whose truncation error on |r| <= ln(2)/2 is below a hundredth of an ulp (0.35^14 / 14! =
+// 4e-18 for double, 0.35^8 / 8! = 5e-9 for float), 2^n built in the exponent bits as two
+// factors 2^n1 2^n2, n1 + n2 = n, so that a subnormal result is rounded once and no factor
+// leaves the normal range. Rounding to an integer adds and subtracts 1.5 * 2^mantissa_bits
+// (never under -ffast-math, batch.hpp refuses it). Inf above the overflow end, 0 below the
+// underflow end, NaN for NaN. Within 1 ulp of the C library's (tests/test_lane_exp.cpp).
+// Written by hand: no maintained library offers one exp for scalars and vector lanes alike.
+template <class S>
+struct ExpConstants;
+template <>
+struct ExpConstants<double> {
+  using Bits = std::uint64_t;
+  static constexpr int mantissa_bits = 52;
+  static constexpr Bits exponent_bias = 1023;
+  static constexpr double shifter = 6755399441055744.0;  // 1.5 * 2^52
+  static constexpr double log2e = 1.4426950408889634074;
+  static constexpr double ln2_hi = 0.693145751953125;            // Cephes' C1
+  static constexpr double ln2_lo = 1.42860682030941723212e-6;    // Cephes' C2
+  static constexpr double overflow_above = 709.782712893384;     // exp > DBL_MAX: Inf
+  static constexpr double underflow_below = -745.1332191019412;  // exp < DBL_TRUE_MIN / 2: 0
+  static constexpr int degree = 13;
+};
+template <>
+struct ExpConstants<float> {
+  using Bits = std::uint32_t;
+  static constexpr int mantissa_bits = 23;
+  static constexpr Bits exponent_bias = 127;
+  static constexpr float shifter = 12582912.0f;  // 1.5 * 2^23
+  static constexpr float log2e = 1.44269504088896341f;
+  static constexpr float ln2_hi = 0.693359375f;       // Cephes' expf C1
+  static constexpr float ln2_lo = -2.12194440e-4f;    // Cephes' expf C2
+  static constexpr float overflow_above = 88.72283935546875f;
+  static constexpr float underflow_below = -103.97208404541015625f;
+  static constexpr int degree = 7;
+};
+
+namespace detail {
+// A scalar's bit pattern and back (exp_on's BitCast for one value; batch.hpp has the lane one).
+template <class S>
+struct ScalarBitCast {
+  using Bits = typename ExpConstants<S>::Bits;
+  static void to(const S& v, Bits* b) { std::memcpy(b, &v, sizeof *b); }
+  static void from(const Bits& b, S* v) { std::memcpy(v, &b, sizeof *v); }
+};
+}  // namespace detail
+
+// *r = exp of v, v one S or a vector of S (GCC/Clang vector extension: the same operators, a
+// comparison gives a lane mask and ?: selects lane by lane). BitCast converts between Part
+// and its bit pattern (BitCast::Bits, one unsigned integer per element): to(part, &bits),
+// from(bits, &part). (Out parameters: a vector returned by value would change the ABI with
+// the register width, -Wpsabi.)
+template <class S, class Part, class BitCast>
+INDICIAL_HOT_INLINE void exp_on(const Part& v, Part* r) {
+  using C = ExpConstants<S>;
+  using Bits = typename BitCast::Bits;
+  S inverse_factorial[C::degree + 1];
+  inverse_factorial[0] = S(1);
+#pragma GCC unroll 16
+  for (int k = 1; k <= C::degree; ++k) inverse_factorial[k] = inverse_factorial[k - 1] / S(k);
+  const Part shifter = Part{} + C::shifter;
+  const Bits bias = Bits{} + C::exponent_bias;
+  const Part shifted = v * C::log2e + shifter;
+  const Part n = shifted - shifter;  // round(x / ln 2)
+  const Part reduced = (v - n * C::ln2_hi) - n * C::ln2_lo;
+  // 1 + r (1 + r q(r)), q(r) = 1/2! + r/3! + ... by Estrin's scheme (pairs c_2i + c_2i+1 r,
+  // then pairs of those with r^2, r^4, ...): a shorter chain of dependent operations than
+  // Horner's (a real-time step waits for it), with Horner's last two steps, which keep the
+  // rounding error within the ulp that the test asks (Estrin to the end gives 2 ulp). The
+  // unroll pragmas: at -O2 (a firmware's usual level) GCC would keep the loops and the terms
+  // in memory: 200 more instructions per Cortex-M4 step (measured under QEMU).
+  Part terms[C::degree - 1];
+#pragma GCC unroll 16
+  for (int d = 0; d < C::degree - 1; ++d) terms[d] = Part{} + inverse_factorial[d + 2];
+  Part power = reduced;
+#pragma GCC unroll 8
+  for (int count = C::degree - 1; count > 1; count = (count + 1) / 2) {
+#pragma GCC unroll 8
+    for (int i = 0; i < count / 2; ++i) terms[i] = terms[2 * i] + power * terms[2 * i + 1];
+    if (count % 2 == 1) terms[count / 2] = terms[count - 1];
+    power = power * power;
+  }
+  const Part one = Part{} + S(1);
+  const Part poly = one + reduced * (one + reduced * terms[0]);
+  const Part half_shifted = n * S(0.5) + shifter;  // n1 = round(n / 2), n2 = n - n1
+  const Part n2 = n - (half_shifted - shifter);
+  Bits half_shifted_bits, n2_shifted_bits, shifter_bits;
+  BitCast::to(half_shifted, &half_shifted_bits);
+  BitCast::to(n2 + shifter, &n2_shifted_bits);
+  BitCast::to(shifter, &shifter_bits);
+  const Bits n1_bits = half_shifted_bits - shifter_bits;  // n1 modulo 2^bits
+  const Bits n2_bits = n2_shifted_bits - shifter_bits;
+  Part two_n1, two_n2;
+  BitCast::from((n1_bits + bias) << C::mantissa_bits, &two_n1);
+  BitCast::from((n2_bits + bias) << C::mantissa_bits, &two_n2);
+  Part e = poly * two_n1 * two_n2;
+  e = v > C::overflow_above ? Part{} + std::numeric_limits<S>::infinity() : e;
+  e = v < C::underflow_below ? Part{} : e;
+  e = v != v ? v + v : e;
+  *r = e;
+}
+
+namespace detail {
+// The exponential of a step's decay: exp_on for float (see above), std::exp (or an autodiff
+// type's exp, found by argument-dependent lookup) otherwise.
+template <class Scalar>
+inline Scalar step_exp(const Scalar& x) {
+  using std::exp;
+  return exp(x);
+}
+INDICIAL_HOT_INLINE float step_exp(const float& x) {
+  float r;
+  exp_on<float, float, ScalarBitCast<float>>(x, &r);
+  return r;
+}
+}  // namespace detail
+
 // phi1(z) = (1 - exp(-z)) / z, the weight of a forcing spread evenly over a step of
 // decay z = b dt. The caller passes exp(-z), which it needs anyway for the free decay: one
 // exp() per lag per step instead of two (the compiler cannot merge them under -fmath-errno).
@@ -815,11 +960,10 @@ template <class Scalar, class Cap>
 inline void advance_lags_between(const CoefficientModel<Scalar, Cap>& m,
                                  const StepGeometry<Scalar>& g, const StepEnd<Scalar, Cap>& end0,
                                  const StepEnd<Scalar, Cap>& end1, Scalar* y) {
-  using std::exp;
   const Scalar forcing_integral = end1.forcing_antiderivative - end0.forcing_antiderivative;
   for (int j = 0; j < m.n_lags; ++j) {
     const Scalar z = lag_exponent(m, g, end0, end1, j);
-    const Scalar decay = exp(-z);
+    const Scalar decay = detail::step_exp(Scalar(-z));
     lag_update(m, g, forcing_integral, z, decay, j, y);
   }
 }

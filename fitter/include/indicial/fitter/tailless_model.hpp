@@ -45,7 +45,7 @@ inline constexpr double tailless_envelope_max_rad = 1.2217304763960306;  // 70 d
 namespace tailless_detail {
 template <class Scalar, int P, int K>
 constexpr void add_knot(Spline<Scalar, P, K>* s, double knot_rad, int power, double coef) {
-  s->knot_rad[s->n_knots] = knot_rad;
+  s->knot_rad[s->n_knots] = static_cast<typename KnotStorage<Scalar>::type>(knot_rad);
   s->knot_power[s->n_knots] = power;
   s->knot_coef[s->n_knots] = Scalar(coef);
   ++s->n_knots;
