@@ -71,18 +71,22 @@ TEST_CASE("diagnose names bias with its structural twin, a constant static offse
   CHECK(std::find(tied.begin(), tied.end(), Effect::static_error) != tied.end());
 }
 
-TEST_CASE("diagnose names a small fast second lag on ramps together with its look-alike, a rotary term") {
+// The likelihood-ratio rule: under leave-one-run-out these ramps name rotary_alpha alone (the
+// second lag's held-out gain is not within one SE of it).
+TEST_CASE("diagnose names a small fast second lag on ramps together with its look-alike, a rotary term (likelihood ratio)") {
+  DiagnoseOptions lr;
+  lr.rule = RuleChoice::likelihood_ratio;
   // b2 = 20 1/s (0.05 s) at half size under AR(1) 0.8 noise: on ramps its response is nearly
   // proportional to the rate, the 0.05 s it continues after a ramp ends is within the noise's
   // correlation time, and the two families' BIC differ by less than indistinguishable_bic.
-  const MatrixRow r = run_matrix_case({"Cm", "second_lag", "second_lag", 0.5, MatrixMotion::ramps, MatrixNoise::ar1, 1104});
+  const MatrixRow r = run_matrix_case({"Cm", "second_lag", "second_lag", 0.5, MatrixMotion::ramps, MatrixNoise::ar1, 1104}, lr);
   MESSAGE(matrix_row_markdown(r));
   CHECK((r.first_right || r.first_tied));
   const DiagnoseResult d =
-      diagnose_case({"Cm", "second_lag", "second_lag", 0.5, MatrixMotion::ramps, MatrixNoise::ar1, 1104}, {});
+      diagnose_case({"Cm", "second_lag", "second_lag", 0.5, MatrixMotion::ramps, MatrixNoise::ar1, 1104}, lr);
   REQUIRE(!d.steps.empty());
   // The other is named, with the experiment that separates each (report.md prints the same).
-  const nlohmann::json step = diagnosis_json(d, d.experiment, DiagnoseOptions{}, nullptr)["steps"][0];
+  const nlohmann::json step = diagnosis_json(d, d.experiment, lr, nullptr)["steps"][0];
   const std::string other = d.verdict == "second_lag" ? "rotary_alpha" : "second_lag";
   const auto& names = step["indistinguishable"];
   const auto it = std::find(names.begin(), names.end(), other);

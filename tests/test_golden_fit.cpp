@@ -9,8 +9,17 @@
 // once with `indicial simulate`/`example`, SNR 40, seed 1), so a change of the simulator does
 // not move these goldens -- only a change of the fitter does.
 //
-// Tolerance: kRelTol = 0, bit-identical. A change that is MEANT to move the numbers regenerates
-// the expected files (and says why in its commit):
+// Tolerance. On the machine that generated them the files are reproduced bit for bit
+// (INDICIAL_GOLDEN_BITWISE=1 checks exactly that: tolerance 0). Across machines they are not:
+// on the 2026-11-25 development VM (AMD EPYC, AVX-512, glibc 2.36) the very commit that last
+// regenerated them (0438e75) differs from them by up to 1.4e-12 relative in the colored bounds,
+// 5e-15 in the estimates and 3.7e-6 in output_error_log's max_step_in_bounds (the size of a
+// converged Levenberg-Marquardt step: a difference of nearly equal numbers) and 2.7e-10 in a
+// stepwise partial F near 0.1 (the same cancellation), while the current
+// code reproduces 0438e75's fit.json on that machine bit for bit. So by default a number must
+// agree to 1e-10 relative (1e-4 for max_step_in_bounds, 1e-8 for partial F), model.coef token by
+// token to the same 1e-10: a real change of the fitter moves far more than that. A change
+// that is MEANT to move the numbers regenerates the expected files (and says why in its commit):
 //   INDICIAL_REGENERATE_GOLDEN=1 build/tests/test_golden_fit
 // History: generated before the issue-11 refactor (commit bed4f1f); the refactor reproduced
 // them bit for bit with the old power basis (std::pow) and the old residual arithmetic, then
@@ -35,7 +44,15 @@ using nlohmann::json;
 
 namespace {
 
-constexpr double kRelTol = 0.0;
+double rel_tol_for(const std::string& at) {
+  static const bool bitwise = std::getenv("INDICIAL_GOLDEN_BITWISE") != nullptr;
+  if (bitwise) return 0.0;
+  if (at.find("max_step_in_bounds") != std::string::npos) return 1e-4;
+  // A stepwise partial F of a term that explains almost nothing is a difference of nearly
+  // equal residual sums (measured 2.7e-10 relative across machines for F = 0.1).
+  if (at.find("partial_f") != std::string::npos) return 1e-8;
+  return 1e-10;
+}
 
 struct GoldenCase {
   const char* name;        // expected files: tests/golden/expected/NAME.{fit.json,coef}
@@ -72,16 +89,33 @@ json comparable(const fs::path& fit_json, int exit_code) {
   return j;
 }
 
-bool same_number(double a, double b) {
+bool same_number(double a, double b, double rel_tol) {
   if (std::isnan(a) || std::isnan(b)) return std::isnan(a) && std::isnan(b);
-  if (kRelTol == 0.0) return a == b;
-  return std::abs(a - b) <= kRelTol * std::max(std::abs(a), std::abs(b));
+  if (rel_tol == 0.0) return a == b;
+  return std::abs(a - b) <= rel_tol * std::max(std::abs(a), std::abs(b));
+}
+
+// The coefficient files token by token: words exactly, numbers to rel_tol_for("coef").
+bool same_coef_text(const std::string& want, const std::string& got) {
+  std::istringstream a(want), b(got);
+  std::string ta, tb;
+  while (true) {
+    const bool more_a = static_cast<bool>(a >> ta), more_b = static_cast<bool>(b >> tb);
+    if (more_a != more_b) return false;
+    if (!more_a) return true;
+    if (ta == tb) continue;
+    char* end_a = nullptr;
+    char* end_b = nullptr;
+    const double va = std::strtod(ta.c_str(), &end_a), vb = std::strtod(tb.c_str(), &end_b);
+    if (*end_a != '\0' || *end_b != '\0' || !same_number(va, vb, rel_tol_for("coef")))
+      return false;
+  }
 }
 
 // Collects the paths where `got` differs from `want`.
 void diff(const json& want, const json& got, const std::string& at, std::vector<std::string>& out) {
   if (want.is_number() && got.is_number()) {
-    if (!same_number(want.get<double>(), got.get<double>()))
+    if (!same_number(want.get<double>(), got.get<double>(), rel_tol_for(at)))
       out.push_back(at + ": " + want.dump() + " -> " + got.dump());
     return;
   }
@@ -145,7 +179,7 @@ TEST_CASE("golden: indicial fit reproduces the committed fit.json and model.coef
     INFO(differences.size() << " differences in fit.json:\n" << first);
     CHECK(differences.empty());
     // The coefficient file apart from provenance: its leading # lines (and so the checksum).
-    CHECK(indicial::strip_provenance_header(coef) ==
-          indicial::strip_provenance_header(indicial::testing::slurp(want_coef)));
+    CHECK(same_coef_text(indicial::strip_provenance_header(indicial::testing::slurp(want_coef)),
+                         indicial::strip_provenance_header(coef)));
   }
 }

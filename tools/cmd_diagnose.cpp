@@ -1,7 +1,8 @@
 // `indicial diagnose`: the missing-effect workflow (fitter/include/indicial/fitter/diagnose.hpp).
 //
 //   indicial diagnose EXPERIMENT.toml --out DIR [--force] [--alpha 0.01] [--max-steps N]
-//                     [--knot-spacing-deg D] [--no-plots] [--gnuplot EXE] [--quiet]
+//                     [--knot-spacing-deg D] [--rule auto|cv|lr] [--threads N] [--no-plots]
+//                     [--gnuplot EXE] [--quiet]
 //
 // Writes DIR/diagnosis.json, DIR/model.coef (the final model), DIR/report.md and DIR/plots/.
 // Exit status (DiagnoseExit): 0 done (whatever the verdict, "none" included); 1 bad input (one
@@ -12,6 +13,7 @@
 // (bound larger than the value) are a warning line, exit 0.
 #include <cmath>
 #include <cstdio>
+#include <map>
 #include <memory>
 #include <string>
 
@@ -44,6 +46,7 @@ void run_diagnose(const DiagnoseCliOptions& o) {
   if (o.diag.max_steps < 0) throw InputError("--max-steps", 0, "must be >= 0");
   if (o.diag.max_family_terms < 1) throw InputError("--max-family-terms", 0, "must be >= 1");
   if (!(o.diag.knot_spacing_deg > 0.0)) throw InputError("--knot-spacing-deg", 0, "must be > 0");
+  if (o.diag.threads < 1) throw InputError("--threads", 0, "must be >= 1");
   const tools::StageClock clock("diagnose", o.quiet ? tools::Verbosity::quiet : tools::Verbosity::progress);
   Experiment e;
   clock.stage("reading the experiment and its runs", [&] { e = load_experiment(o.experiment, o.coefficient); });
@@ -72,14 +75,26 @@ void run_diagnose(const DiagnoseCliOptions& o) {
   DiagnoseOutputs w;
   clock.stage("writing the outputs (runtime check, report, plots)",
               [&] { w = write_diagnose_outputs(d, e, o.diag, o.out, overwrite, ro); });
-  std::printf("diagnose: %s: initial fit error %.6g, noise estimate %.6g (AR(1) phi %.2f; white-equivalent %.6g)\n",
-              o.experiment.c_str(), d.initial_fit_error, d.noise.sigma, d.noise.lag1_correlation,
-              d.noise.white_equivalent);
-  for (const DiagnoseStep& s : d.steps)
-    std::printf("diagnose: step %d: %s (%s): LR/kappa %.1f, log10 p %.1f < %.2f, fit error %.6g -> %.6g%s\n",
-                s.step, effect_name(s.effect), s.detail.c_str(), s.statistic, s.log10_p, std::log10(s.threshold),
-                s.fit_error_before, s.fit_error_after,
-                s.indistinguishable.empty() ? "" : " (indistinguishable on these data from another effect: see report.md)");
+  std::printf("diagnose: %s: initial fit error %.6g; rule %s (%s)\n", o.experiment.c_str(), d.initial_fit_error,
+              decision_rule_name(d.rule), d.rule_reason.c_str());
+  if (d.replication.source != NoiseSource::none)
+    std::printf("diagnose: noise from replication (%s): %.6g, lag-1 correlation %.2f\n", d.replication.detail.c_str(),
+                d.replication.sigma, d.replication.lag1_correlation);
+  else
+    std::printf("diagnose: no replication, the noise level is unknown (the residual's short-lag level %.6g, "
+                "AR(1) phi %.2f, is noise only where the model is right)\n",
+                d.noise.white_equivalent, d.noise.lag1_correlation);
+  const char* twin_note = " (indistinguishable on these data from another effect: see report.md)";
+  for (const DiagnoseStep& s : d.steps) {
+    if (s.rule == DecisionRule::leave_one_run_out)
+      std::printf("diagnose: step %d: %s (%s): held-out mean ln(MSE ratio) %.3f +- %.3f, fit error %.6g -> %.6g%s\n",
+                  s.step, effect_name(s.effect), s.detail.c_str(), s.held_out_log_ratio, s.held_out_standard_error,
+                  s.fit_error_before, s.fit_error_after, s.indistinguishable.empty() ? "" : twin_note);
+    else
+      std::printf("diagnose: step %d: %s (%s): LR/kappa %.1f, log10 p %.1f < %.2f, fit error %.6g -> %.6g%s\n",
+                  s.step, effect_name(s.effect), s.detail.c_str(), s.statistic, s.log10_p, std::log10(s.threshold),
+                  s.fit_error_before, s.fit_error_after, s.indistinguishable.empty() ? "" : twin_note);
+  }
   std::printf("diagnose: verdict %s; final fit error %.6g (%d fits, %.2f s)\n", d.verdict.c_str(),
               d.final_fit_error, d.fits_run, d.elapsed_s);
   std::printf("diagnose: wrote %s/diagnosis.json, model.coef, report.md (%s)\n", o.out.c_str(),
@@ -97,8 +112,10 @@ const indicial::tools::RegisterCommand register_diagnose([](CLI::App& app) {
       "diagnose",
       "The missing-effect workflow: fit the configured model, test every candidate effect\n(" +
           indicial::effect_names_list() +
-          "):\nlikelihood ratio / kappa (residual correlation) with a Bonferroni guard and BIC; each\n"
-          "significant effect grown into its best sub-model, the best by BIC added; repeat.\n"
+          "):\nwith 3 or more runs an effect enters only when it lowers the error of runs left out of\n"
+          "its fit (leave-one-run-out); with fewer, likelihood ratio / kappa (from replicates, else\n"
+          "the residual) with a Bonferroni guard and BIC; each effect grown into its best sub-model,\n"
+          "the best added; repeat. The noise comes from replication (runs at one condition, cycles).\n"
       "Writes DIR/diagnosis.json, DIR/model.coef (final model), DIR/report.md and DIR/plots/.\n"
       "Exit status: 0 done (any verdict, 'none' included); 1 bad input, or a final model the\n"
       "runtime refuses (one line, nothing written); 6 stopped at --max-steps with an effect still\n"
@@ -115,6 +132,15 @@ const indicial::tools::RegisterCommand register_diagnose([](CLI::App& app) {
                   "terms one effect's sub-model may have, e.g. b1(x) knots (default 4)");
   sub->add_option("--knot-spacing-deg", opt->diag.knot_spacing_deg,
                   "knot scan grid spacing in degrees of the model angle (default 5)");
+  sub->add_option("--rule", opt->diag.rule,
+                  "auto (default): leave-one-run-out with 3 or more runs, else likelihood ratio; cv: "
+                  "leave-one-run-out (an error with fewer runs); lr: likelihood ratio")
+      ->transform(CLI::CheckedTransformer(
+          std::map<std::string, indicial::RuleChoice>{{"auto", indicial::RuleChoice::automatic},
+                                                      {"cv", indicial::RuleChoice::leave_one_run_out},
+                                                      {"lr", indicial::RuleChoice::likelihood_ratio}},
+          CLI::ignore_case));
+  sub->add_option("--threads", opt->diag.threads, "fits run in parallel (default 2)");
   sub->add_flag("--no-plots", opt->no_plots, "do not run gnuplot");
   sub->add_flag("--quiet", opt->quiet, "no progress lines on stderr (warnings and errors are still printed)");
   sub->add_option("--coefficient", opt->coefficient,

@@ -6,6 +6,7 @@
 #include <boost/math/distributions/chi_squared.hpp>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
@@ -18,6 +19,7 @@
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/io.hpp"
 #include "indicial/runtime.hpp"
+#include "diagnose/parallel_for.hpp"
 
 namespace indicial {
 
@@ -27,6 +29,15 @@ const char* diagnose_stop_name(DiagnoseStop s) {
   switch (s) {
     case DiagnoseStop::nothing_significant: return "nothing_significant";
     case DiagnoseStop::max_steps: return "max_steps";
+  }
+  return "?";
+}
+
+const char* decision_rule_name(DecisionRule r) {
+  switch (r) {
+    case DecisionRule::leave_one_run_out: return "leave_one_run_out";
+    case DecisionRule::lr_replication_noise: return "lr_replication_noise";
+    case DecisionRule::lr_residual: return "lr_residual";
   }
   return "?";
 }
@@ -81,6 +92,20 @@ double correlation_factor(const FitResult& r) {
   return (1.0 + r1) / (1.0 - r1);
 }
 
+// The kappa of a likelihood-ratio rule: the candidate's own residual's (lr_residual, and the
+// informative statistics of leave_one_run_out), or the replicates' (lr_replication_noise:
+// fixed, the noise's own correlation).
+struct KappaRule {
+  double fixed = 0.0;  // > 0: this kappa for every fit
+  double of(const FitResult& r) const { return fixed > 0.0 ? fixed : correlation_factor(r); }
+};
+
+// log10 p of a candidate's LR as if its residuals were white (kappa = 1): the ranking and the
+// first screen of the leave-one-run-out rule, which decides by prediction instead.
+double white_log10_p(const CandidateScore& c) {
+  return chi2_log10_upper(c.raw_statistic, std::max(1, c.added_parameters));
+}
+
 struct Scored {
   CandidateScore score;
   FitResult fit;
@@ -91,13 +116,14 @@ struct Scored {
 };
 
 // LR / kappa against chi^2(dp), BIC with N_eff = N / kappa (kappa of the extended fit).
-void score_against(CandidateScore& c, const FitResult& base, const FitResult& ext, std::size_t n) {
+void score_against(CandidateScore& c, const FitResult& base, const FitResult& ext, std::size_t n,
+                   const KappaRule& kr) {
   const double N = static_cast<double>(n);
   const double s0 = base.fit_error;
   const double s1 = ext.fit_error;
   c.fit_error = s1;
   c.added_parameters = ext.output_error.n_parameters - base.output_error.n_parameters;
-  c.correlation_factor = correlation_factor(ext);
+  c.correlation_factor = kr.of(ext);
   const double n_eff = N / c.correlation_factor;
   // Why the clamp: the extended fit starts from the base estimates with the new terms at 0 (a
   // nested start), so s1 <= s0 up to the iteration's tolerance; a tiny negative LR is that
@@ -158,7 +184,10 @@ void describe_estimates(Scored& s, Effect effect) {
 
 class Diagnoser {
  public:
-  Diagnoser(const DiagnoseOptions& o, DiagnoseResult& d) : o_(o), d_(d) {}
+  Diagnoser(const DiagnoseOptions& o, KappaRule kr) : o_(o), kappa_(kr) {}
+  const KappaRule& kappa() const { return kappa_; }
+  int fits_run() const { return fits_.load(); }
+  int threads() const { return o_.threads; }
 
   FitResult fit(const Experiment& e, const ModelConfig& m, const StartValues& sv) {
     Experiment x = e;
@@ -168,8 +197,24 @@ class Diagnoser {
     // id of this configuration's term (its knot number in this model), never parsed back.
     fo.start_values.clear();
     for (const auto& [id, value] : sv) fo.start_values.emplace_back(parameter_name(id), value);
-    ++d_.fits_run;
+    ++fits_;
     return fit_experiment(x, fo);
+  }
+
+  // Every spec evaluated against `base`, in parallel (o.threads).
+  std::vector<Scored> evaluate_all(const Experiment& e, const std::vector<CandidateSpec>& specs,
+                                   const FitResult& base) {
+    const Estimates current = estimates_by_id(base);
+    std::vector<Scored> out(specs.size());
+    detail::parallel_for(specs.size(), o_.threads,
+                         [&](std::size_t i) { out[i] = evaluate(e, specs[i], base, current); });
+    return out;
+  }
+
+  // Per-run held-out errors of model m, folds warm-started from its full fit.
+  HeldOut held_out(const Experiment& w, const ModelConfig& m, const FitResult& full) {
+    return held_out_errors(w, m, estimates_by_id(full), o_.threads,
+                           [this](const Experiment& x, const ModelConfig& c, const StartValues& sv) { return fit(x, c, sv); });
   }
 
   // Fits a candidate from every start, keeps the best usable fit, scores it against `base`.
@@ -217,22 +262,30 @@ class Diagnoser {
     if (!have) return s;
     s.score.status = CandidateStatus::fitted;
     s.score.message.clear();
-    score_against(s.score, base, s.fit, total_samples(e));
+    score_against(s.score, base, s.fit, total_samples(e), kappa_);
     describe_estimates(s, c.effect);
     return s;
   }
 
  private:
   const DiagnoseOptions& o_;
-  DiagnoseResult& d_;
+  KappaRule kappa_;
+  std::atomic<int> fits_{0};
 };
 
-int best_of(const std::vector<Scored>& scored, Effect only, bool any_effect) {
+// The most significant fitted candidate (of effect `only` unless any_effect): by its LR / kappa,
+// or, under leave_one_run_out (`white`), by its LR alone (kappa is not the decision there).
+int best_of(const std::vector<Scored>& scored, Effect only, bool any_effect, bool white = false) {
   int b = -1;
+  double best = 0.0;
   for (std::size_t i = 0; i < scored.size(); ++i) {
     const CandidateScore& c = scored[i].score;
     if (c.status != CandidateStatus::fitted || (!any_effect && c.effect != only)) continue;
-    if (b < 0 || c.log10_p < scored[static_cast<std::size_t>(b)].score.log10_p) b = static_cast<int>(i);
+    const double lp = white ? white_log10_p(c) : c.log10_p;
+    if (b < 0 || lp < best) {
+      b = static_cast<int>(i);
+      best = lp;
+    }
   }
   return b;
 }
@@ -243,12 +296,20 @@ bool significant(const CandidateScore& c, double threshold) {
   return c.status == CandidateStatus::fitted && c.log10_p < std::log10(threshold) && c.delta_bic < 0.0;
 }
 
+// The first screen of leave_one_run_out: the white LR passes the Bonferroni threshold (a
+// necessary condition; under colored noise it passes often, and the held-out test decides).
+bool passes_screen(const CandidateScore& c, double threshold, DecisionRule rule) {
+  if (rule != DecisionRule::leave_one_run_out) return significant(c, threshold);
+  return c.status == CandidateStatus::fitted && white_log10_p(c) < std::log10(threshold);
+}
+
 // One effect's sub-model grown from its first term: the family's candidates against the
 // current sub-model, the most significant added while it passes alpha / (candidates of that
 // scan) and lowers BIC, up to max_family_terms terms.
 struct Family {
   Effect effect = Effect::bias;
   std::vector<Scored> path;  // path[0] the first term (scored against the base), then each added
+  HeldOut held_out;          // leave_one_run_out: the held-out errors of path.back()
 };
 
 struct RoundContext {
@@ -257,6 +318,8 @@ struct RoundContext {
   const FitResult& base;
   const std::vector<double>& grid;
   double spacing = 0.0;
+  DecisionRule rule = DecisionRule::lr_residual;
+  const HeldOut* base_held_out = nullptr;  // leave_one_run_out: the base's held-out errors
 };
 
 // The working configuration: a stepwise structure is frozen at the selected terms, an
@@ -354,11 +417,9 @@ namespace {
 constexpr int kRefinements = 4;
 
 std::vector<Scored> score_candidates(Diagnoser& dg, const RoundContext& rc, int& tested) {
-  const Estimates current = estimates_by_id(rc.base);
   const std::vector<CandidateSpec> specs =
       all_candidates(CandidateContext{rc.w, rc.model, rc.base, rc.grid, rc.spacing});
-  std::vector<Scored> scored;
-  for (const CandidateSpec& c : specs) scored.push_back(dg.evaluate(rc.w, c, rc.base, current));
+  std::vector<Scored> scored = dg.evaluate_all(rc.w, specs, rc.base);
   tested = static_cast<int>(specs.size());
   for (const EffectEntry& e : effect_registry())
     if (e.family != SplineFamily::none) tested += kRefinements;
@@ -368,43 +429,79 @@ std::vector<Scored> score_candidates(Diagnoser& dg, const RoundContext& rc, int&
 // A winning knot refined between its grid neighbours; the better position replaces it.
 void refine_knot(Diagnoser& dg, const RoundContext& rc, std::vector<Scored>& scored, std::size_t b) {
   if (!scored[b].is_knot) return;
-  const Estimates current = estimates_by_id(rc.base);
   const SplineFamily family = scored[b].family;
   const Effect effect = scored[b].score.effect;
   const double k0 = scored[b].knot_rad;
+  std::vector<CandidateSpec> specs;
   for (double f : {-0.5, -0.25, 0.25, 0.5}) {
     const double k = k0 + f * rc.spacing;
     if (!(k > rc.w.data_x_min_rad && k < rc.w.data_x_max_rad)) continue;
     if (has_knot(family_spline(rc.model, family).knots_rad, k, 0.2 * rc.spacing)) continue;
-    scored.push_back(dg.evaluate(rc.w, knot_candidate(rc.model, effect, family, k), rc.base, current));
+    specs.push_back(knot_candidate(rc.model, effect, family, k));
   }
+  for (Scored& s : dg.evaluate_all(rc.w, specs, rc.base)) scored.push_back(std::move(s));
 }
 
 // Grows an effect's sub-model from its first term (see Family).
-Family grow_family(Diagnoser& dg, const RoundContext& rc, Scored first, const DiagnoseOptions& o) {
+std::string joined_terms(const std::vector<Scored>& path, const Scored* next = nullptr) {
+  std::string t;
+  for (const Scored& s : path) t += (t.empty() ? "" : "; ") + s.score.term;
+  if (next) t += (t.empty() ? "" : "; ") + next->score.term;
+  return t;
+}
+
+// Under leave_one_run_out: whether `cand` (the family `f` plus one term, or its first term)
+// lowers the held-out error of f's current model (the round's base for a first term). The
+// test is recorded in the round; `ho` receives the candidate's held-out errors.
+bool enters_held_out(Diagnoser& dg, const RoundContext& rc, const DiagnoseOptions& o, const Family& f,
+                     const Scored& cand, DiagnoseRound& rd, HeldOut& ho) {
+  const bool first = f.path.empty();
+  ho = dg.held_out(rc.w, cand.config, cand.fit);
+  const HeldOut& without = first ? *rc.base_held_out : f.held_out;
+  rd.held_out.push_back(held_out_test(f.effect, joined_terms(f.path, &cand), first ? "first term" : "next term",
+                                      without, ho, o.cv_min_gain));
+  return rd.held_out.back().enters;
+}
+
+// Grows an effect's sub-model from its first term (see Family). Under leave_one_run_out the
+// first term and every next term enter only by the held-out test (an empty path: the first
+// term did not enter); otherwise by the Bonferroni-guarded LR test and BIC.
+Family grow_family(Diagnoser& dg, const RoundContext& rc, Scored first, const DiagnoseOptions& o, DiagnoseRound& rd) {
+  const bool cv = rc.rule == DecisionRule::leave_one_run_out;
   Family f;
   f.effect = first.score.effect;
+  if (cv) {
+    HeldOut ho;
+    if (!enters_held_out(dg, rc, o, f, first, rd, ho)) return f;
+    f.held_out = std::move(ho);
+  }
   f.path.push_back(std::move(first));
   const EffectEntry& entry = effect_entry(f.effect);
-  if (entry.family == SplineFamily::none) return f;
+  if (entry.family == SplineFamily::none && !entry.grows) return f;
   while (static_cast<int>(f.path.size()) < o.max_family_terms) {
     const Scored& cur = f.path.back();
-    const Estimates current = estimates_by_id(cur.fit);
     std::vector<CandidateSpec> specs;
     entry.generate(CandidateContext{rc.w, cur.config, cur.fit, rc.grid, rc.spacing}, specs);
     if (specs.empty()) break;
-    std::vector<Scored> sc;
-    for (const CandidateSpec& c : specs) sc.push_back(dg.evaluate(rc.w, c, cur.fit, current));
-    const int b = best_of(sc, f.effect, false);
-    if (b < 0 || !significant(sc[static_cast<std::size_t>(b)].score, o.alpha / static_cast<double>(sc.size()))) break;
-    f.path.push_back(std::move(sc[static_cast<std::size_t>(b)]));
+    std::vector<Scored> sc = dg.evaluate_all(rc.w, specs, cur.fit);
+    const int b = best_of(sc, f.effect, false, cv);
+    const double threshold = o.alpha / static_cast<double>(sc.size());
+    if (b < 0 || !passes_screen(sc[static_cast<std::size_t>(b)].score, threshold, rc.rule)) break;
+    Scored& next = sc[static_cast<std::size_t>(b)];
+    if (cv) {
+      HeldOut ho;
+      if (!enters_held_out(dg, rc, o, f, next, rd, ho)) break;
+      f.held_out = std::move(ho);
+    }
+    f.path.push_back(std::move(next));
   }
   return f;
 }
 
 // A family's sub-model against the round's base: its own kappa for the p-value, a common
 // kappa (the whitest residual of the round's families) for the BIC that compares families.
-FamilyResult summarize(const Family& f, const FitResult& base, std::size_t n, double kappa_common) {
+FamilyResult summarize(const Family& f, const FitResult& base, std::size_t n, double kappa_common,
+                       const KappaRule& kr) {
   const Scored& last = f.path.back();
   FamilyResult r;
   r.effect = f.effect;
@@ -416,7 +513,7 @@ FamilyResult summarize(const Family& f, const FitResult& base, std::size_t n, do
   r.added_parameters = last.fit.output_error.n_parameters - base.output_error.n_parameters;
   r.fit_error = last.fit.fit_error;
   const double lr = std::max(0.0, 2.0 * N * std::log(base.fit_error / last.fit.fit_error));
-  r.log10_p = chi2_log10_upper(lr / correlation_factor(last.fit), std::max(1, r.added_parameters));
+  r.log10_p = chi2_log10_upper(lr / kr.of(last.fit), std::max(1, r.added_parameters));
   r.delta_bic = -lr / kappa_common + r.added_parameters * std::log(N / kappa_common);
   return r;
 }
@@ -452,7 +549,7 @@ int choose_family(const std::vector<FamilyResult>& fr, const DiagnoseOptions& o,
 namespace {
 
 void record_step(DiagnoseResult& d, const DiagnoseRound& rd, const FamilyResult& fr, Scored& last,
-                 const std::vector<Effect>& tied) {
+                 const std::vector<Effect>& tied, const KappaRule& kr) {
   const FitResult& base = d.fits.back();
   DiagnoseStep st;
   st.step = static_cast<int>(d.steps.size()) + 1;
@@ -460,7 +557,7 @@ void record_step(DiagnoseResult& d, const DiagnoseRound& rd, const FamilyResult&
   st.detail = fr.detail;
   for (const std::string& t : fr.terms) st.term += (st.term.empty() ? "" : "; ") + t;
   st.indistinguishable = tied;
-  st.correlation_factor = correlation_factor(last.fit);
+  st.correlation_factor = kr.of(last.fit);
   const double N = static_cast<double>(total_samples(d.experiment));
   st.statistic = std::max(0.0, 2.0 * N * std::log(base.fit_error / last.fit.fit_error)) / st.correlation_factor;
   st.log10_p = fr.log10_p;
@@ -473,21 +570,70 @@ void record_step(DiagnoseResult& d, const DiagnoseRound& rd, const FamilyResult&
   st.fit_error_after = last.fit.fit_error;
   st.run_rms_before = run_rms(base);
   st.run_rms_after = run_rms(last.fit);
+  st.rule = rd.rule;
+  if (fr.has_held_out) {
+    st.held_out_rms_before = fr.held_out.rms_without;
+    st.held_out_rms_after = fr.held_out.rms_with;
+    st.held_out_log_ratio = fr.held_out.mean_log_ratio;
+    st.held_out_standard_error = fr.held_out.standard_error;
+  }
   d.steps.push_back(st);
   d.effects_added.push_back(effect_name(st.effect));
   d.configs.push_back(last.config);
   d.fits.push_back(std::move(last.fit));
 }
 
-// One round: every candidate against the current model; the significant effects grown into
-// sub-models and compared; the winner added (unless check_only). Returns whether an effect is
-// significant.
+// leave_one_run_out's choice among the families that entered (the one-standard-error rule):
+// the best is the lowest mean held-out log ratio against the round's model; every family
+// within one standard error of it is as good on these runs, and among those the step is the
+// one with the fewest added parameters, then the lower ratio; the others within are named
+// with it (`indistinguishable`).
+int choose_family_held_out(const std::vector<FamilyResult>& fr, std::vector<Effect>& tied) {
+  int best = -1;
+  for (std::size_t i = 0; i < fr.size(); ++i)
+    if (best < 0 || fr[i].held_out.mean_log_ratio < fr[static_cast<std::size_t>(best)].held_out.mean_log_ratio)
+      best = static_cast<int>(i);
+  if (best < 0) return -1;
+  const HeldOutTest& b = fr[static_cast<std::size_t>(best)].held_out;
+  const double bound = b.mean_log_ratio + b.standard_error;
+  int w = best;
+  for (std::size_t i = 0; i < fr.size(); ++i) {
+    const FamilyResult& x = fr[i];
+    const FamilyResult& y = fr[static_cast<std::size_t>(w)];
+    if (x.held_out.mean_log_ratio > bound) continue;
+    if (x.added_parameters < y.added_parameters ||
+        (x.added_parameters == y.added_parameters && x.held_out.mean_log_ratio < y.held_out.mean_log_ratio))
+      w = static_cast<int>(i);
+  }
+  for (std::size_t i = 0; i < fr.size(); ++i)
+    if (static_cast<int>(i) != w && fr[i].held_out.mean_log_ratio <= bound) tied.push_back(fr[i].effect);
+  return w;
+}
+
+// The round's rule: leave_one_run_out needs the base's held-out errors; when a fold of the
+// base cannot be scored the round falls back to the likelihood ratio (rule_note says why).
+DecisionRule round_rule(Diagnoser& dg, const DiagnoseResult& d, DiagnoseRound& rd, HeldOut& base_ho) {
+  if (d.rule != DecisionRule::leave_one_run_out) return d.rule;
+  base_ho = dg.held_out(d.experiment, d.configs.back(), d.fits.back());
+  for (double v : base_ho.mse) rd.held_out_base_rms.push_back(std::sqrt(v));
+  if (base_ho.ok) return DecisionRule::leave_one_run_out;
+  rd.rule_note = "leave-one-run-out could not score the model of this round (" + base_ho.message +
+                 "); the likelihood ratio with the residual's kappa decided";
+  return dg.kappa().fixed > 0.0 ? DecisionRule::lr_replication_noise : DecisionRule::lr_residual;
+}
+
+// One round: every candidate against the current model; the effects that pass the round's
+// rule grown into sub-models and compared; the winner added (unless check_only). Returns
+// whether an effect passed.
 bool run_round(Diagnoser& dg, const DiagnoseOptions& o, DiagnoseResult& d, bool check_only) {
   const Experiment& w = d.experiment;
   double spacing = o.knot_spacing_deg * kDegToRad;
   const std::vector<double> grid = knot_grid(w, o, spacing);
-  const RoundContext rc{w, d.configs.back(), d.fits.back(), grid, spacing};
   DiagnoseRound rd;
+  HeldOut base_ho;
+  rd.rule = round_rule(dg, d, rd, base_ho);
+  const bool cv = rd.rule == DecisionRule::leave_one_run_out;
+  const RoundContext rc{w, d.configs.back(), d.fits.back(), grid, spacing, rd.rule, &base_ho};
   rd.round = static_cast<int>(d.rounds.size()) + 1;
   rd.check_only = check_only;
   rd.base_fit_error = rc.base.fit_error;
@@ -498,18 +644,19 @@ bool run_round(Diagnoser& dg, const DiagnoseOptions& o, DiagnoseResult& d, bool 
   rd.threshold = o.alpha / static_cast<double>(std::max(1, tested));
   std::vector<Family> families;
   for (const EffectEntry& e : effect_registry()) {
-    int b = best_of(scored, e.description.effect, false);
-    if (b < 0 || !significant(scored[static_cast<std::size_t>(b)].score, rd.threshold)) continue;
-    if (check_only) {
-      families.push_back(Family{e.description.effect, {}});
-      continue;
-    }
-    refine_knot(dg, rc, scored, static_cast<std::size_t>(b));
-    b = best_of(scored, e.description.effect, false);
-    families.push_back(grow_family(dg, rc, scored[static_cast<std::size_t>(b)], o));
+    int b = best_of(scored, e.description.effect, false, cv);
+    if (b < 0 || !passes_screen(scored[static_cast<std::size_t>(b)].score, rd.threshold, rd.rule)) continue;
+    if (!check_only) refine_knot(dg, rc, scored, static_cast<std::size_t>(b));
+    b = best_of(scored, e.description.effect, false, cv);
+    // At check_only the first term is tested (by the round's rule) and not grown.
+    DiagnoseOptions once = o;
+    if (check_only) once.max_family_terms = 1;
+    Family f = (check_only && !cv) ? Family{e.description.effect, {scored[static_cast<std::size_t>(b)]}, {}}
+                                   : grow_family(dg, rc, scored[static_cast<std::size_t>(b)], once, rd);
+    if (!f.path.empty()) families.push_back(std::move(f));
   }
   for (const Scored& s : scored) rd.candidates.push_back(s.score);
-  rd.best = best_of(scored, Effect::bias, true);
+  rd.best = best_of(scored, Effect::bias, true, cv);
   const bool any = !families.empty();
   if (check_only || !any) {
     if (check_only && any) d.still_significant = effect_name(families.front().effect);
@@ -517,17 +664,49 @@ bool run_round(Diagnoser& dg, const DiagnoseOptions& o, DiagnoseResult& d, bool 
     return any;
   }
   double kappa_common = std::numeric_limits<double>::infinity();
-  for (const Family& f : families) kappa_common = std::min(kappa_common, correlation_factor(f.path.back().fit));
-  for (const Family& f : families) rd.families.push_back(summarize(f, rc.base, total_samples(w), kappa_common));
+  for (const Family& f : families) kappa_common = std::min(kappa_common, dg.kappa().of(f.path.back().fit));
+  for (const Family& f : families) {
+    rd.families.push_back(summarize(f, rc.base, total_samples(w), kappa_common, dg.kappa()));
+    if (!cv) continue;
+    rd.families.back().has_held_out = true;
+    rd.families.back().held_out = held_out_test(f.effect, joined_terms(f.path), "sub-model", base_ho, f.held_out, o.cv_min_gain);
+  }
   std::vector<Effect> tied;
-  rd.winner = choose_family(rd.families, o, tied);
+  rd.winner = cv ? choose_family_held_out(rd.families, tied) : choose_family(rd.families, o, tied);
   for (Effect twin : structural_look_alikes(rd.families[static_cast<std::size_t>(rd.winner)].effect, rc.model))
     if (std::find(tied.begin(), tied.end(), twin) == tied.end()) tied.push_back(twin);
   rd.added = true;
   const std::size_t win = static_cast<std::size_t>(rd.winner);
-  record_step(d, rd, rd.families[win], families[win].path.back(), tied);
+  record_step(d, rd, rd.families[win], families[win].path.back(), tied, dg.kappa());
   d.rounds.push_back(std::move(rd));
   return true;
+}
+
+// The rule of the rounds (DecisionRule) and, for lr_replication_noise, the replicates' kappa.
+KappaRule choose_rule(const Experiment& e, const DiagnoseOptions& o, DiagnoseResult& d) {
+  const int runs = static_cast<int>(e.runs.size());
+  const bool enough = runs >= std::max(2, o.cv_min_runs);
+  if (o.rule == RuleChoice::leave_one_run_out && !enough)
+    throw InputError("--rule", 0, fmt::format("leave_one_run_out needs at least {} runs; the experiment has {}",
+                                              std::max(2, o.cv_min_runs), runs));
+  KappaRule kr;
+  if (o.rule != RuleChoice::likelihood_ratio && enough) {
+    d.rule = DecisionRule::leave_one_run_out;
+    d.rule_reason = fmt::format("{} runs: an effect enters only when it lowers the error of runs left out of its fit", runs);
+  } else if (d.replication.source != NoiseSource::none) {
+    d.rule = DecisionRule::lr_replication_noise;
+    const double r1 = d.replication.lag1_correlation;
+    kr.fixed = (1.0 + r1) / (1.0 - r1);
+    d.rule_reason = fmt::format("{} run(s): likelihood ratio, kappa {:.3g} from the replicates' correlation ({})",
+                                runs, kr.fixed, d.replication.detail);
+  } else {
+    d.rule = DecisionRule::lr_residual;
+    d.rule_reason = fmt::format(
+        "{} run(s) and no replication: likelihood ratio with kappa from each candidate's residual -- a "
+        "structured model error can read as colored noise and hide itself; give {} or more runs, or replicates",
+        runs, std::max(2, o.cv_min_runs));
+  }
+  return kr;
 }
 
 void flag_ill_conditioned(DiagnoseResult& d) {
@@ -543,8 +722,9 @@ DiagnoseResult diagnose_experiment(const Experiment& e_in, const DiagnoseOptions
   if (!(o.alpha > 0.0 && o.alpha < 1.0)) throw InputError("--alpha", 0, "the significance level must be in (0, 1)");
   DiagnoseResult d;
   d.alpha = o.alpha;
-  Diagnoser dg(o, d);
   Experiment e = e_in;
+  d.replication = replication_noise(e);
+  Diagnoser dg(o, choose_rule(e, o, d));
   // Why: the knot grid needs the model-angle range; an Experiment built in memory may not
   // carry it (load_experiment fills it).
   if (!(e.data_x_max_rad > e.data_x_min_rad)) {
@@ -573,6 +753,7 @@ DiagnoseResult diagnose_experiment(const Experiment& e_in, const DiagnoseOptions
   d.final_noise = estimate_noise_level(d.fits.back().runs);
   d.verdict = d.steps.empty() ? "none" : effect_name(d.steps.front().effect);
   flag_ill_conditioned(d);
+  d.fits_run = dg.fits_run();
   d.elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return d;
 }

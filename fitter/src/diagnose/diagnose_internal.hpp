@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <cstddef>
+#include <functional>
 #include <map>
 #include <string>
 #include <utility>
@@ -64,6 +65,10 @@ struct EffectEntry {
   EffectDescription description;
   SplineFamily family;  // the spline a knot refinement extends (none: no knots)
   CandidateGenerator generate;
+  // Whether a family without a spline is grown term by term too (its generator, called against
+  // the grown model, offers the next terms; each enters by the round's rule). Spline families
+  // always grow; false: the effect is one model (bias, time_delay, second_lag).
+  bool grows = false;
 };
 const std::vector<EffectEntry>& effect_registry();
 const EffectEntry& effect_entry(Effect e);
@@ -93,6 +98,28 @@ std::size_t total_samples(const Experiment& e);
 // added parameters, then the lower delta_bic, then the registry's (the enum's) order. -1 when
 // `fr` is empty.
 int choose_family(const std::vector<FamilyResult>& fr, const DiagnoseOptions& o, std::vector<Effect>& tied);
+
+// ---- leave-one-run-out (diagnose_crossval.cpp) --------------------------------------------
+// Per-run held-out mean square errors of one model: for every run r the model is fitted to the
+// other runs (started from `start`, its full fit; run r's initial states dropped, the others
+// renumbered) and the runtime predicts run r (periodic: its periodic steady state; otherwise
+// from a least-squares lag-1 initial state). ok = false when some fold cannot be scored (its
+// fit failed or is rank deficient -- a term the other runs do not determine -- or the runtime
+// refuses it); `message` says which and why.
+struct HeldOut {
+  std::vector<double> mse;
+  bool ok = false;
+  std::string message;
+};
+using FoldFit = std::function<FitResult(const Experiment&, const ModelConfig&, const StartValues&)>;
+HeldOut held_out_errors(const Experiment& w, const ModelConfig& m, const Estimates& start, int threads,
+                        const FoldFit& fit);
+// The paired comparison (HeldOutTest in diagnose.hpp): d_r = ln(mse_with_r / mse_without_r);
+// enters when mean d + SE(d) < 0, mean d < ln(1 - min_gain) and it improves more than half of
+// the runs (majority_improved).
+bool majority_improved(int improved, int runs);
+HeldOutTest held_out_test(Effect effect, const std::string& terms, const char* stage, const HeldOut& without,
+                          const HeldOut& with, double min_gain);
 
 // Effects that are the same model as `e` on ANY data, given the model `m` it extends (bias and
 // a constant static offset when b1 is constant); named with it in the step.

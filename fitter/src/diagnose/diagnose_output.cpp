@@ -173,6 +173,30 @@ std::string steps_markdown(const DiagnoseResult& d) {
                       s.added_parameters, pval(s.p_value, s.log10_p), s.threshold, s.candidates_tested,
                       s.delta_bic, num(s.fit_error_before), num(s.fit_error_after), rms_list(s.run_rms_before),
                       rms_list(s.run_rms_after), s.indistinguishable.empty() ? "-" : names_of(s.indistinguishable));
+  md += "\n";
+  for (const DiagnoseStep& s : d.steps) {
+    md += fmt::format("Step {} decided by `{}`", s.step, decision_rule_name(s.rule));
+    if (s.rule == DecisionRule::leave_one_run_out)
+      md += fmt::format(": held-out RMS per run (each run predicted by the model fitted to the others) {} "
+                        "without it, {} with it; mean ln(MSE ratio) {:.3f} +- {:.3f}",
+                        rms_list(s.held_out_rms_before), rms_list(s.held_out_rms_after), s.held_out_log_ratio,
+                        s.held_out_standard_error);
+    md += ".\n";
+  }
+  return md + "\n";
+}
+
+std::string held_out_markdown(const DiagnoseRound& r) {
+  if (r.rule != DecisionRule::leave_one_run_out) return "";
+  std::string md = fmt::format(
+      "Held-out tests (leave one run out; the model of this round predicts the runs at RMS {}):\n\n"
+      "| effect | stage | terms | held-out RMS per run without | with | mean ln(MSE with / without) | SE | enters |\n"
+      "|---|---|---|---|---|---|---|---|\n",
+      rms_list(r.held_out_base_rms));
+  for (const HeldOutTest& t : r.held_out)
+    md += fmt::format("| `{}` | {} | {} | {} | {} | {} | {} | {} |\n", effect_name(t.effect), t.stage, t.terms,
+                      rms_list(t.rms_without), rms_list(t.rms_with), num(t.mean_log_ratio), num(t.standard_error),
+                      t.enters ? "**yes**" : (t.message.empty() ? "no" : "no: " + t.message));
   return md + "\n";
 }
 
@@ -194,6 +218,7 @@ std::string round_markdown(const DiagnoseRound& r) {
                                num(r.base_fit_error), r.candidates_tested, r.threshold,
                                r.check_only ? ": the check after --max-steps (nothing added)"
                                             : (r.added ? "" : ": nothing significant"));
+  md += fmt::format("Rule: `{}`{}.\n\n", decision_rule_name(r.rule), r.rule_note.empty() ? "" : " -- " + r.rule_note);
   md += signature_markdown(r.signature);
   md += "Best single term of each effect:\n\n| effect | best term | LR / kappa | kappa | dp | p-value | delta BIC | "
         "fit error | candidates |\n|---|---|---|---|---|---|---|---|---|\n";
@@ -227,6 +252,7 @@ std::string round_markdown(const DiagnoseRound& r) {
                         static_cast<int>(i) == r.winner ? "**added**" : "");
     }
   }
+  md += "\n" + held_out_markdown(r);
   return md + "\n";
 }
 
@@ -247,6 +273,14 @@ std::string report_markdown(const DiagnoseResult& d, const Experiment& e, const 
                     ro.experiment_display.empty() ? e.path : ro.experiment_display, e.coefficient,
                     axis_name(e.axis), e.runs.size(), total_samples(e));
   md += verdict_markdown(d);
+  md += fmt::format("**Decision rule: `{}`** ({}).\n\n", decision_rule_name(d.rule), d.rule_reason);
+  md += d.replication.source != NoiseSource::none
+            ? fmt::format("**Noise from replication** (`{}`): {} -- sigma {}, lag-1 correlation {:.2f}.\n\n",
+                          noise_source_name(d.replication.source), d.replication.detail, num(d.replication.sigma),
+                          d.replication.lag1_correlation)
+            : "**Noise**: " + d.replication.detail +
+                  ". The levels below are the residual's short-lag structure, which is noise only where the "
+                  "model is right; they are not used as the noise.\n\n";
   md += fmt::format("| | value |\n|---|---|\n| initial fit error s(v) | {} |\n| noise level (initial "
                     "residuals; AR(1) phi, white-equivalent) | {} ({:.2f}, {}) |\n| final fit error | {} |\n"
                     "| noise level (final residuals; AR(1) phi, white-equivalent) | {} ({:.2f}, {}) |\n"
@@ -322,6 +356,13 @@ nlohmann::json step_json(const DiagnoseStep& s) {
   k["run_rms_before"] = rb;
   k["run_rms_after"] = ra;
   k["indistinguishable"] = ind;
+  k["rule"] = decision_rule_name(s.rule);
+  if (s.rule == DecisionRule::leave_one_run_out) {
+    k["held_out_rms_before"] = s.held_out_rms_before;
+    k["held_out_rms_after"] = s.held_out_rms_after;
+    k["held_out_mean_log_mse_ratio"] = finite_or_null(s.held_out_log_ratio);
+    k["held_out_standard_error"] = finite_or_null(s.held_out_standard_error);
+  }
   if (!s.indistinguishable.empty()) {
     k["separated_by"] = effect_descriptions()[static_cast<std::size_t>(s.effect)].separated_by;
     // Each look-alike's own separating experiment, in the order of `indistinguishable`.
@@ -329,6 +370,23 @@ nlohmann::json step_json(const DiagnoseStep& s) {
     for (Effect e : s.indistinguishable) sep.push_back(effect_descriptions()[static_cast<std::size_t>(e)].separated_by);
     k["indistinguishable_separated_by"] = sep;
   }
+  return k;
+}
+
+nlohmann::json held_out_json(const HeldOutTest& t) {
+  nlohmann::json k;
+  k["effect"] = effect_name(t.effect);
+  k["terms"] = t.terms;
+  k["stage"] = t.stage;
+  nlohmann::json a = nlohmann::json::array(), b = nlohmann::json::array();
+  for (double v : t.rms_without) a.push_back(finite_or_null(v));
+  for (double v : t.rms_with) b.push_back(finite_or_null(v));
+  k["held_out_rms_without"] = a;
+  k["held_out_rms_with"] = b;
+  k["mean_log_mse_ratio"] = finite_or_null(t.mean_log_ratio);
+  k["standard_error"] = finite_or_null(t.standard_error);
+  k["enters"] = t.enters;
+  if (!t.message.empty()) k["message"] = t.message;
   return k;
 }
 
@@ -341,6 +399,15 @@ nlohmann::json round_json(const DiagnoseRound& r) {
   k["added"] = r.added;
   k["check_only"] = r.check_only;
   k["signature"] = signature_json(r.signature);
+  k["rule"] = decision_rule_name(r.rule);
+  if (!r.rule_note.empty()) k["rule_note"] = r.rule_note;
+  if (r.rule == DecisionRule::leave_one_run_out) {
+    nlohmann::json hb = nlohmann::json::array(), ht = nlohmann::json::array();
+    for (double v : r.held_out_base_rms) hb.push_back(finite_or_null(v));
+    for (const HeldOutTest& t : r.held_out) ht.push_back(held_out_json(t));
+    k["held_out_base_rms"] = hb;
+    k["held_out_tests"] = ht;
+  }
   nlohmann::json cs = nlohmann::json::array(), fs_ = nlohmann::json::array();
   for (const CandidateScore& c : r.candidates) cs.push_back(candidate_json(c));
   for (std::size_t i = 0; i < r.families.size(); ++i) {
@@ -348,6 +415,7 @@ nlohmann::json round_json(const DiagnoseRound& r) {
     fs_.push_back({{"effect", effect_name(f.effect)}, {"terms", f.terms}, {"added_parameters", f.added_parameters},
                    {"fit_error", finite_or_null(f.fit_error)}, {"log10_p_value", finite_or_null(f.log10_p)},
                    {"delta_bic", finite_or_null(f.delta_bic)}, {"added", static_cast<int>(i) == r.winner}});
+    if (f.has_held_out) fs_.back()["held_out"] = held_out_json(f.held_out);
   }
   k["candidates"] = cs;
   k["families"] = fs_;
@@ -358,6 +426,7 @@ nlohmann::json round_json(const DiagnoseRound& r) {
 
 std::vector<std::string> diagnose_warnings(const DiagnoseResult& d) {
   std::vector<std::string> w;
+  if (d.rule == DecisionRule::lr_residual) w.push_back("decided without prediction or replication: " + d.rule_reason);
   if (d.stopped == DiagnoseStop::max_steps)
     w.push_back(fmt::format("stopped at --max-steps {} with {} still significant; the model is not complete",
                             d.steps.size(), d.still_significant));
@@ -374,7 +443,15 @@ nlohmann::json diagnosis_json(const DiagnoseResult& d, const Experiment& e, cons
                               const RuntimeCheck* runtime) {
   nlohmann::json j;
   j["initial_fit_error"] = finite_or_null(d.initial_fit_error);
-  j["noise_estimate"] = finite_or_null(d.noise.sigma);
+  // Why: the noise is the replicates' spread where there are replicates; otherwise the
+  // residual's short-lag level, said to be that (noise_source "residual_differences").
+  const bool replicated = d.replication.source != NoiseSource::none;
+  j["noise_estimate"] = finite_or_null(replicated ? d.replication.sigma : d.noise.sigma);
+  j["noise_source"] = replicated ? noise_source_name(d.replication.source) : "residual_differences";
+  j["noise_source_detail"] = d.replication.detail;
+  if (replicated) j["noise_replication_lag1_correlation"] = d.replication.lag1_correlation;
+  j["rule"] = decision_rule_name(d.rule);
+  j["rule_reason"] = d.rule_reason;
   nlohmann::json steps = nlohmann::json::array();
   for (const DiagnoseStep& s : d.steps) steps.push_back(step_json(s));
   j["steps"] = steps;
@@ -385,9 +462,16 @@ nlohmann::json diagnosis_json(const DiagnoseResult& d, const Experiment& e, cons
   if (d.stopped == DiagnoseStop::max_steps) j["still_significant"] = d.still_significant;
   j["ill_conditioned_parameters"] = d.ill_conditioned;
   j["alpha"] = o.alpha;
-  j["test"] = "likelihood ratio N ln(s0^2/s1^2) / kappa ~ chi2(dp), kappa = (1 + r1) / (1 - r1) of the "
-              "extended fit's residuals; Bonferroni alpha/M per round; delta BIC (N_eff = N / kappa) < 0; "
-              "each effect grown stepwise, effects compared by BIC";
+  j["test"] = d.rule == DecisionRule::leave_one_run_out
+                  ? fmt::format("leave-one-run-out: a first or next term enters when mean_r ln(MSE_with / MSE_without) "
+                                "of runs left out of both fits + its standard error < 0 and the mean < ln(1 - {}); "
+                                "effects compared by the held-out ratio (one-standard-error rule); the white LR "
+                                "passing alpha/M screens the first terms",
+                                o.cv_min_gain)
+                  : "likelihood ratio N ln(s0^2/s1^2) / kappa ~ chi2(dp), kappa = (1 + r1) / (1 - r1) of the "
+                    "extended fit's residuals (lr_residual) or of the replicates (lr_replication_noise); "
+                    "Bonferroni alpha/M per round; delta BIC (N_eff = N / kappa) < 0; each effect grown "
+                    "stepwise, effects compared by BIC";
   j["noise_estimate_method"] =
       "AR(1) noise from the residual's differences: phi = 1 + 2 r1(d1), noise_estimate = marginal sigma = "
       "sqrt(mean d2^2 / (2 (1 - phi) (3 - phi))); white-equivalent sqrt(mean d2^2 / 6)";

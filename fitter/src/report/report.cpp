@@ -17,6 +17,7 @@
 #include "indicial/fitter/io.hpp"
 #include "indicial/fitter/model_merge.hpp"
 #include "indicial/fitter/noise_level.hpp"
+#include "indicial/fitter/replication.hpp"
 #include "indicial/runtime.hpp"
 
 namespace fs = std::filesystem;
@@ -185,6 +186,18 @@ nlohmann::json with_provenance_and_warnings(nlohmann::json j, const ReportOption
 
 std::vector<std::string> fit_warnings(const FitResult& r, const Experiment& e) {
   std::vector<std::string> w;
+  // Why first: replicates' spread is the noise; a residual's short-lag level is noise only
+  // where the model is right (replication.hpp).
+  const ReplicationNoise rep = replication_noise(e);
+  if (rep.source != NoiseSource::none) {
+    if (std::isfinite(r.fit_error) && rep.sigma > 0.0 && r.fit_error > kFitErrorNoiseRatio * rep.sigma)
+      w.push_back(fmt::format(
+          "{}: the fit error s(v) = {:.4g} is {:.1f} times the noise level from replication ({:.4g}: {}); "
+          "more than {:g} times means the model misses an effect or the input is wrong: check the angle "
+          "units and columns, or run `indicial diagnose`",
+          e.path, r.fit_error, r.fit_error / rep.sigma, rep.sigma, rep.detail, kFitErrorNoiseRatio));
+    return w;
+  }
   const NoiseEstimate noise = estimate_noise_level(r.runs);
   // Why the white-equivalent level: a model error leaks into the marginal (AR(1)) level and
   // would hide itself; the second difference does not pass it (noise_level.hpp).
@@ -286,6 +299,15 @@ nlohmann::json fit_json(const FitResult& r, const Experiment& e, const FitOption
   j["converged"] = oe.termination == Termination::converged;
   j["iterations"] = oe.iterations;
   j["fit_error"] = finite_or_null(r.fit_error);
+  {
+    // The noise: the replicates' spread where there are replicates; otherwise the residual's
+    // short-lag level, said to be that (issue 21, item 1).
+    const ReplicationNoise rep = replication_noise(e);
+    const bool replicated = rep.source != NoiseSource::none;
+    j["noise_source"] = replicated ? noise_source_name(rep.source) : "residual_differences";
+    j["noise_source_detail"] = rep.detail;
+    j["noise_estimate"] = finite_or_null(replicated ? rep.sigma : estimate_noise_level(r.runs).white_equivalent);
+  }
   j["parameters"] = nlohmann::json::array();
   for (const ParameterEstimate& p : r.parameters) j["parameters"].push_back(parameter_json(p));
   if (e.rotary.estimate) {

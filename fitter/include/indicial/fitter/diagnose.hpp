@@ -81,6 +81,7 @@
 #include "indicial/fitter/fit.hpp"
 #include "indicial/fitter/noise_level.hpp"
 #include "indicial/fitter/output.hpp"
+#include "indicial/fitter/replication.hpp"
 #include "indicial/fitter/report.hpp"
 
 namespace indicial {
@@ -105,8 +106,27 @@ const std::vector<EffectDescription>& effect_descriptions();  // one per Effect,
 const char* effect_name(Effect e);
 std::string effect_names_list();  // "b1_alpha, a_alpha, ...", for --help and messages
 
+// Which rule decides whether an effect (or a family's next term) enters (issue 21, item 2).
+enum class DecisionRule {
+  leave_one_run_out,     // >= cv_min_runs runs: it must lower the error of runs left out of its
+                         // fit (paired over runs, one-standard-error rule; docs/diagnose.md)
+  lr_replication_noise,  // too few runs, replication: LR / kappa, kappa from the replicates'
+                         // lag-1 correlation (the noise's own, never the residual's)
+  lr_residual            // too few runs, no replication: LR / kappa with kappa from the
+                         // candidate's residual (the rule before issue 21; a structured model
+                         // error can read as colored noise -- said in the outputs)
+};
+const char* decision_rule_name(DecisionRule r);  // "leave_one_run_out", ...
+enum class RuleChoice { automatic, leave_one_run_out, likelihood_ratio };
+
 struct DiagnoseOptions {
   double alpha = 0.01;               // family-wise significance level per round
+  RuleChoice rule = RuleChoice::automatic;  // automatic: leave_one_run_out with >= cv_min_runs runs
+  int cv_min_runs = 3;               // runs needed for the leave-one-run-out rule
+  double cv_min_gain = 0.10;         // a term must lower the held-out mean square error by at least
+                                     // this fraction (and by one standard error, on more than half
+                                     // of the runs: docs/diagnose.md)
+  int threads = 2;                   // fits run in parallel (candidates of a scan, held-out folds)
   int max_steps = 6;                 // effects added at most
   double knot_spacing_deg = 5.0;     // scan grid of knot positions (model angle x)
   double knot_margin_fraction = 0.1; // the grid stays this fraction of the range inside it
@@ -114,6 +134,25 @@ struct DiagnoseOptions {
   int max_family_terms = 4;          // terms one effect's sub-model may have (stepwise inside it)
   double indistinguishable_bic = 6.0;  // families closer than this in BIC are named together
   FitOptions fit;                    // for every fit (start_values are set per candidate)
+};
+
+// A candidate's prediction of runs left out of its fit, against the model without it: for
+// every run r, both models are fitted to the other runs (warm start: their full fits) and
+// predict run r with the runtime (periodic runs at their periodic steady state; others from a
+// lag-1 initial state fitted to run r, the one number the fitter also estimates per run). It
+// enters when mean_log_ratio + standard_error < 0, mean_log_ratio < ln(1 - cv_min_gain) and
+// runs_improved is more than half of the runs.
+struct HeldOutTest {
+  Effect effect = Effect::bias;
+  std::string terms;                 // the terms with it (`; `-separated)
+  std::string stage;                 // "first term", "next term"
+  std::vector<double> rms_without;   // per run: held-out RMS of the model without it
+  std::vector<double> rms_with;      // per run: held-out RMS with it
+  double mean_log_ratio = 0.0;       // mean over runs of ln(MSE_with / MSE_without)
+  double standard_error = 0.0;       // of that mean: sd / sqrt(runs)
+  int runs_improved = 0;             // runs with a lower held-out error with it
+  bool enters = false;
+  std::string message;               // why it could not be tested (a fold fit failed, ...)
 };
 
 // One candidate model of one round.
@@ -151,6 +190,9 @@ struct FamilyResult {
   double fit_error = 0.0;
   double delta_bic = 0.0;           // against the round's base, common N_eff (the comparison)
   double log10_p = 0.0;             // of the whole sub-model (LR / kappa, chi^2(dp))
+  // leave_one_run_out: the whole sub-model's held-out test against the round's base
+  bool has_held_out = false;
+  HeldOutTest held_out;
 };
 
 // The residual's signatures (issue 13 item 2), shares of the residual sum of squares:
@@ -186,6 +228,11 @@ struct DiagnoseStep {
   double fit_error_after = 0.0;
   std::vector<double> run_rms_before;  // per run RMS residual
   std::vector<double> run_rms_after;
+  DecisionRule rule = DecisionRule::lr_residual;  // the rule that decided this step
+  std::vector<double> held_out_rms_before;  // leave_one_run_out: per run, held-out RMS
+  std::vector<double> held_out_rms_after;
+  double held_out_log_ratio = 0.0;          // mean ln(MSE after / MSE before) over runs
+  double held_out_standard_error = 0.0;
 };
 
 // A round: every candidate tested against the model of that round.
@@ -201,6 +248,10 @@ struct DiagnoseRound {
   int winner = -1;                     // index into families of the step's effect
   ResidualSignature signature;         // of the round's base residuals
   bool check_only = false;             // the round after max_steps: tested, nothing added
+  DecisionRule rule = DecisionRule::lr_residual;
+  std::vector<double> held_out_base_rms;  // leave_one_run_out: the base's held-out RMS per run
+  std::vector<HeldOutTest> held_out;   // every held-out test of the round (first and next terms)
+  std::string rule_note;               // leave_one_run_out could not run (why; the LR rule decided)
 };
 
 // Why the procedure stopped.
@@ -213,7 +264,12 @@ const char* diagnose_stop_name(DiagnoseStop s);  // "nothing_significant", "max_
 struct DiagnoseResult {
   DiagnoseStop stopped = DiagnoseStop::nothing_significant;
   double initial_fit_error = 0.0;
-  NoiseEstimate noise;                 // from the INITIAL fit's residuals
+  NoiseEstimate noise;                 // from the INITIAL fit's residuals (differences; see
+                                       // replication for the noise from replicates)
+  ReplicationNoise replication;        // the noise from replication (source none: unknown)
+  DecisionRule rule = DecisionRule::lr_residual;  // the rule of the rounds (a round whose held-out
+                                       // test could not run says so in its rule_note)
+  std::string rule_reason;             // one line: why this rule
   NoiseEstimate final_noise;           // from the final fit's residuals
   std::vector<DiagnoseStep> steps;
   std::vector<DiagnoseRound> rounds;

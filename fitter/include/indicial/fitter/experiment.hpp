@@ -43,6 +43,11 @@ struct Run {
                                           // experiment's); 0 in a Run built in code: use Experiment's.
                                           // The fit scales b_j, con and the delay by it (V / V_ref)
   double frequency_hz = 0.0;              // the cycle's frequency; 0 when not given
+  // An ensemble-averaged file's replication (replication.hpp): the standard deviation of the
+  // single cycles at each sample (empty: not given) and how many cycles were averaged (0: not
+  // given). Noise of the averaged value: spread / sqrt(count).
+  std::vector<double> coefficient_spread;
+  double ensemble_count = 0.0;
   TimeGrid time_grid = TimeGrid::uniform;
   TimeSource time_source = TimeSource::time_column;
   // A run of several files whose columns are at their own phases (runs entry `files = [...]`,

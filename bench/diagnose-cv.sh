@@ -1,0 +1,82 @@
+#!/usr/bin/env bash
+# Benchmark (not a test), issue 21 item 6: `indicial diagnose` with leave-one-run-out on a
+# three-cycle experiment, wall time, median of 3, with --threads 1 and --threads 2 in one run.
+# The experiment: the three fit cycles of `indicial simulate --case dynamic-stall` (128-sample
+# ensemble-averaged cycles, CL and Cm: the shape of a measured sweep; anyone can regenerate it)
+# and, when DIR is given, three measured cycles of the Glasgow set (a frequency sweep).
+# Usage: bench/diagnose-cv.sh [BUILD_DIR] [DIR]   Writes bench/diagnose-cv.md.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+build=${1:-build}
+data=${2:-}
+exe="$build/tools/indicial"
+cmake --build "$build" --target indicial >/dev/null
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+"$exe" simulate --case dynamic-stall --snr 20 --out "$tmp/ds" >/dev/null 2>&1
+cases=("$tmp/ds/experiment-CL.toml" "$tmp/ds/experiment-Cm.toml")
+labels=("simulated dynamic stall, CL" "simulated dynamic stall, Cm")
+if [ -n "$data" ]; then
+  v=40.2
+  for coef in CL Cm; do
+    poly="[0]"
+    [ "$coef" = CL ] && poly="[0, 6.28]"
+    cat > "$tmp/real-$coef.toml" <<TOML
+axis = "pitch"
+coefficient = "$coef"
+reference_length_m = 0.275
+airspeed_mps = $v
+runs = [{file = "$data/cycles/11012432_coeffs.dat", frequency_hz = 1.165, airspeed_mps = 40.545},
+        {file = "$data/cycles/11012702_coeffs.dat", frequency_hz = 2.33, airspeed_mps = 40.067},
+        {file = "$data/cycles/11012802_coeffs.dat", frequency_hz = 3.496, airspeed_mps = 39.886}]
+[columns]
+phase_rad = "Time()"
+alpha_deg = "Angle(deg)"
+Cnormal = "Cn"
+Ctangential = "Ct"
+[csv]
+delimiter = "whitespace"
+comment = "%"
+[static]
+polynomial = $poly  # thin-airfoil lift slope for CL, 0 for Cm (a timing case, not a model study)
+[rotary]
+polynomial = [0]
+estimate = false
+[model]
+a_degree = 2
+a_knots_deg = [10, 15, 20]
+b1_degree = 0
+TOML
+    cases+=("$tmp/real-$coef.toml")
+    labels+=("measured sweep (Glasgow, mean 15, amplitude 10), $coef")
+  done
+fi
+median() { sort -g | awk '{a[NR]=$1} END{print a[int((NR+1)/2)]}'; }
+{
+  echo "# diagnose with leave-one-run-out on a three-cycle experiment (issue 21, item 6)"
+  echo
+  echo "Written by \`bench/diagnose-cv.sh\` at commit $(git rev-parse --short HEAD), $(date -u +%Y-%m-%dT%H:%MZ),"
+  echo "load average $(cut -d' ' -f1-3 /proc/loadavg) at the start (shared 2-core machine). Wall time of"
+  echo "\`indicial diagnose E --out D --no-plots\`, median of 3; target <= 10 s with 2 threads."
+  echo
+  echo "| experiment | threads | wall (s), median of 3 | verdict | fits |"
+  echo "|---|---|---|---|---|"
+  for i in "${!cases[@]}"; do
+    for th in 1 2; do
+      times=()
+      for rep in 1 2 3; do
+        s=$(date +%s.%N)
+        "$exe" diagnose "${cases[$i]}" --out "$tmp/out" --force --no-plots --quiet --threads "$th" >/dev/null 2>&1 || true
+        e=$(date +%s.%N)
+        times+=("$(echo "$e - $s" | bc)")
+      done
+      med=$(printf '%s\n' "${times[@]}" | median)
+      info=$(python3 -c "import json;d=json.load(open('$tmp/out/diagnosis.json'));print(d['verdict'],'|',d['fits_run'])")
+      printf '| %s | %s | %.2f | %s |\n' "${labels[$i]}" "$th" "$med" "$info"
+    done
+  done
+  echo
+  echo "Load average at the end: $(cut -d' ' -f1-3 /proc/loadavg)."
+} > "$tmp/diagnose-cv.md"
+mv "$tmp/diagnose-cv.md" bench/diagnose-cv.md
+cat bench/diagnose-cv.md
