@@ -220,6 +220,13 @@ const char* indicial_status_string(int status) {
 
 // The project's version, given by CMake (INDICIAL_VERSION_STRING, the root project(VERSION));
 // a build that compiles this file by hand without it reports "unknown".
+// mkoctfile (the MEX build) runs the compiler through a shell that drops quotes, so it passes
+// the bare token INDICIAL_VERSION_TOKEN=0.1.0 (a valid preprocessing number) to be stringized.
+#if !defined(INDICIAL_VERSION_STRING) && defined(INDICIAL_VERSION_TOKEN)
+#define INDICIAL_STRINGIZE_(x) #x
+#define INDICIAL_STRINGIZE(x) INDICIAL_STRINGIZE_(x)
+#define INDICIAL_VERSION_STRING INDICIAL_STRINGIZE(INDICIAL_VERSION_TOKEN)
+#endif
 #ifndef INDICIAL_VERSION_STRING
 #define INDICIAL_VERSION_STRING "unknown"
 #endif
