@@ -77,6 +77,11 @@ TEST_CASE("runs at 0.7, 1.0 and 1.4 V_ref: Model II recovered within 3 bounds, r
   // fitter's model output: both scale b, con and l / V by the same model.hpp expressions.
   const RuntimeCheck rc = replay_in_runtime(fit, d.experiment, model_coef_text(fit, "airspeed fit"));
   CHECK(rc.samples_compared > 1000);
+  // Every step: each run's samples after its first (the initial state the runtime is reset to).
+  std::size_t samples = 0;
+  for (const auto& run : d.experiment.runs) samples += run.size();
+  CHECK(rc.runs_replayed == d.experiment.runs.size());
+  CHECK(rc.samples_compared == samples - d.experiment.runs.size());
   CHECK(rc.steps_not_ok == 0);
   CHECK(rc.max_abs_difference < 1e-9);
 }

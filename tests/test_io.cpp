@@ -373,6 +373,20 @@ TEST_CASE("the simulator's experiment file round-trips through the reader") {
   CHECK(e2.model.a.knots_rad == e.model.a.knots_rad);
 }
 
+TEST_CASE("knots written in degrees read back bit for bit, in their shortest digits (12, not 12.000000000000002)") {
+  indicial::Experiment e = indicial::load_experiment((runs_dir() / "experiment.toml").string());
+  // 12 deg as the reader makes it, a knot computed in rad (diagnose's candidates), and 1/3 deg.
+  e.model.a.knots_rad = {12.0 * (kPi / 180.0), 0.35, (1.0 / 3.0) * (kPi / 180.0) + 0.5};
+  e.model.b1.knots_rad = {0.6};
+  const std::string text = indicial::write_experiment_toml(e, {});
+  INFO(text);
+  CHECK(text.find("a_knots_deg = [12, ") != std::string::npos);
+  CHECK(text.find("12.000000000000002") == std::string::npos);
+  const indicial::Experiment back = indicial::load_experiment(write_exp("knots_back.toml", text));
+  CHECK(back.model.a.knots_rad == e.model.a.knots_rad);
+  CHECK(back.model.b1.knots_rad == e.model.b1.knots_rad);
+}
+
 TEST_CASE("model extension keys (what diagnose adds): read, written back, and refused when wrong") {
   const std::string t = kInterfaceExample;
   const std::string ext = replace(t, "bias = false",
@@ -881,11 +895,19 @@ TEST_CASE("phase cycles and run conditions: every wrong combination names the li
       write_exp("c9.toml", cycle_experiment(R"({file = "cycle64.csv", frequency_hz = 1.0, airspeed_mps = 30.0})")));
   CHECK(e9.runs.at(0).airspeed_mps == 30.0);
   CHECK(e9.airspeed_mps == 17.667762);
-  // The jittered cycle itself is read, as nonuniform.
+  // The jittered cycle itself is read, as nonuniform, with a note when no grid is declared;
+  // declared uniform (predict --time-grid uniform) it is refused, never silently nonuniform.
   const indicial::Run rj = indicial::read_run_csv((runs_dir() / "cycle_jitter.csv").string(), indicial::Axis::pitch,
                                                   "Cm", indicial::CoefficientPresence::required,
-                                                  indicial::RunCsvOptions{indicial::TimeGrid::uniform, {}, 1.0});
+                                                  indicial::RunCsvOptions{std::nullopt, {}, 1.0});
   CHECK(rj.time_grid == indicial::TimeGrid::nonuniform);
+  CHECK(any_note_has(rj.notes, "'phase_rad' is not uniform even to its printed digits"));
+  CHECK_HAS(error_of([&] {
+              indicial::read_run_csv((runs_dir() / "cycle_jitter.csv").string(), indicial::Axis::pitch, "Cm",
+                                     indicial::CoefficientPresence::required,
+                                     indicial::RunCsvOptions{indicial::TimeGrid::uniform, {}, 1.0});
+            }),
+            "but a uniform grid was declared");
   // Phase outside [0, 2 pi) and time and phase together.
   std::string over = cycle_csv(20, "%.2f");
   over = replace_line(over, 21, "6.30,1,1");

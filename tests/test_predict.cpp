@@ -97,6 +97,37 @@ TEST_CASE("predict: angles outside the envelope are clamped and counted") {
   }
   const auto p = indicial::predict_motion(c.truth, t, a, q, c.truth.airspeed_mps);
   CHECK(p.clamped_samples == 99);  // 70.1 .. 79.9 deg
+  CHECK(indicial::prediction_warnings(p).at(0).find("99 of 200 samples are outside the model's envelope") == 0);
+}
+
+TEST_CASE("predict: outside the envelope a static table is used at the true angle, the rest at the edge") {
+  // CL of the example: a static table 0..70 deg; the envelope narrowed to 0..40 deg, as if the
+  // training cycles had stayed below 40 deg.
+  auto model = indicial::read_model_file(std::string(INDICIAL_SOURCE_DIR) + "/examples/synthetic-lift-moment.coef");
+  model.x_max_rad = 40 * kDeg;
+  std::vector<double> t, a, q;
+  for (int i = 0; i < 300; ++i) {
+    t.push_back(0.01 * i);
+    a.push_back((10.0 + 50.0 * std::sin(kPi * 0.01 * i / 3.0)) * kDeg);  // 10 .. 60 deg
+    q.push_back(50.0 * kPi / 3.0 * std::cos(kPi * 0.01 * i / 3.0) * kDeg);
+  }
+  const auto p = indicial::predict_motion(model, t, a, q, model.airspeed_mps);
+  CHECK(p.clamped_samples > 100);
+  const auto& cl = model.coefficients[0];
+  const double l_over_v = model.reference_length_m / model.airspeed_mps;
+  int outside = 0;
+  for (std::size_t i = 0; i < t.size(); ++i) {
+    const double edge = std::min(a[i], model.x_max_rad);
+    const double qs = indicial::static_value(cl.static_curve, a[i]) + indicial::spline_value(cl.static_correction, edge) +
+                      l_over_v * indicial::spline_value(cl.rotary, edge) * q[i];
+    CHECK(p.coefficients[0].quasi_steady[i] == doctest::Approx(qs).epsilon(1e-12));
+    CHECK(std::isfinite(p.coefficients[0].predicted[i]));
+    CHECK(std::isfinite(p.coefficients[1].predicted[i]));
+    outside += a[i] > model.x_max_rad;
+  }
+  CHECK(outside == static_cast<int>(p.clamped_samples));
+  // At 60 deg the table (0.9) is far from its value at the envelope's edge, 40 deg (1.05).
+  CHECK(indicial::static_value(cl.static_curve, 60 * kDeg) - indicial::static_value(cl.static_curve, 40 * kDeg) < -0.1);
 }
 
 TEST_CASE("predict: CLI writes the CSV and metrics and plot and refuses overwrite and bad input") {
@@ -177,6 +208,24 @@ TEST_CASE("predict: CLI writes the CSV and metrics and plot and refuses overwrit
   while (std::getline(in2, h2))
     if (!h2.empty() && h2[0] != '#') break;
   CHECK(h2 == "time_s,alpha_rad,Cm_pred,Cm_quasi_steady");
+
+  // Beyond the envelope (0..70 deg): the warning goes to stderr with the prefix, stdout has none.
+  const std::string beyond = (tmp.path / "beyond.csv").string();
+  {
+    std::ofstream f(beyond);
+    f << "time_s,alpha_deg\n";
+    for (int i = 0; i < 50; ++i) f << 0.01 * i << "," << 60 + 0.4 * i << "\n";
+  }
+  const std::string so = (tmp.path / "so.txt").string(), se = (tmp.path / "se.txt").string();
+  REQUIRE(std::system((exe + " predict " + coef + " " + beyond + " --out " + (tmp.path / "b.csv").string() + " > " + so +
+                       " 2> " + se).c_str()) == 0);
+  auto slurp = [](const std::string& f) {
+    std::ifstream i(f);
+    return std::string(std::istreambuf_iterator<char>(i), std::istreambuf_iterator<char>());
+  };
+  CHECK(slurp(se).find("of 50 samples are outside the model's envelope") != std::string::npos);
+  CHECK(slurp(se).find("indicial: warning: ") != std::string::npos);
+  CHECK(slurp(so).find("warning") == std::string::npos);
 }
 
 // A log with dropped samples (irregular steps of 1-3 x 0.01 s): refused as it stands (the

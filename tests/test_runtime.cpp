@@ -323,6 +323,38 @@ TEST_CASE("angles outside the envelope are clamped and flagged, outputs still pr
   CHECK(p.step({0.5, 0.0, 17.667762}, 0.01, &out) == StepStatus::ok);
 }
 
+TEST_CASE("outside the envelope: a static table at the true angle, the unsteady term held at the edge") {
+  // CL's static table covers 0..70 deg; the envelope (the training data) only 0..30 deg.
+  Set set = indicial::test_models::lift_and_moment();
+  set.x_min_rad = 0.0;
+  set.x_max_rad = 30 * kPi / 180;
+  const double v = 17.667762, x45 = 45 * kPi / 180;
+  P p, edge;
+  REQUIRE(p.load(set) == LoadStatus::ok);
+  REQUIRE(edge.load(set) == LoadStatus::ok);
+  CHECK(p.reset(x45, v) == StepStatus::angle_clamped);
+  REQUIRE(edge.reset(set.x_max_rad, v) == StepStatus::ok);
+  P::Outputs out, at_edge;
+  for (int k = 0; k < 400; ++k) {  // 4 s held at 45 deg: the lags settle at the edge's steady state
+    REQUIRE(p.step({x45, 0.2, v}, 0.01, &out) == StepStatus::angle_clamped);
+    REQUIRE(edge.step({set.x_max_rad, 0.2, v}, 0.01, &at_edge) == StepStatus::ok);
+  }
+  const auto& cl = p.model().coefficients[0];
+  // CL: the table where the angle is, everything else as at the edge.
+  const double table_gap = indicial::static_value(cl.static_curve, x45) -
+                           indicial::static_value(cl.static_curve, set.x_max_rad);
+  CHECK(table_gap < -0.1);  // past the stall peak: the frozen value would be 0.1+ too high
+  CHECK(out.value[0] == doctest::Approx(at_edge.value[0] + table_gap).epsilon(1e-12));
+  // Cm (a polynomial static curve, fitted): held at the edge like the unsteady term.
+  CHECK(out.value[1] == doctest::Approx(at_edge.value[1]).epsilon(1e-12));
+  // The lag state is the steady state at the edge: con / b1(edge).
+  const double y_edge = cl.con / indicial::spline_value(cl.lags[0].b, set.x_max_rad);
+  CHECK(p.snapshot().y[0][0] == doctest::Approx(y_edge).epsilon(1e-9));
+  for (int c = 0; c < 2; ++c) CHECK(std::isfinite(out.value[c]));
+  // Back inside: status ok and the model continues from the state it kept.
+  CHECK(p.step({20 * kPi / 180, 0.0, v}, 0.01, &out) == StepStatus::ok);
+}
+
 TEST_CASE("snapshot / restore: replaying the same inputs reproduces the outputs bit for bit") {
   P p;
   REQUIRE(p.load(indicial::test_models::lift_and_moment()) == LoadStatus::ok);

@@ -19,6 +19,7 @@
 
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/io.hpp"
+#include "indicial/fitter/predict.hpp"
 #include "indicial/fitter/simulate.hpp"
 #include "test_support.hpp"
 
@@ -233,6 +234,33 @@ TEST_CASE("--model FILE.coef reproduces the case, and csv: motions follow the sp
   CHECK(run_cli("simulate --model " + (out / "truth.coef").string() +
                 " --motion sine:alpha0_deg=35,amp_deg=35,freq_hz=1 --out " + csv.string(), &err) == 1);
   CHECK(err.find("output file exists") != std::string::npos);
+}
+
+TEST_CASE("one initial state: simulate --model and predict both start at rest (y = con / b1(x0))") {
+  // examples/synthetic-lift-moment.coef: CL has con = 0.125, so y = 0 would be a transient.
+  const std::string coef = std::string(INDICIAL_SOURCE_DIR) + "/examples/synthetic-lift-moment.coef";
+  const auto model = indicial::read_model_file(coef);
+  const indicial::MotionSpec motion =
+      indicial::parse_motion_spec("sine:alpha0_deg=30,amp_deg=20,freq_hz=0.5,cycles=1.5,dt_s=0.002", indicial::Axis::pitch);
+  const indicial::SimulatedRun sim = indicial::simulate_reference(indicial::to_truth_model(model), motion);
+  const indicial::Prediction p =
+      indicial::predict_motion(model, sim.time_s, sim.motion_angle_rad, sim.rate_radps, model.airspeed_mps);
+  // The steady state at the first angle, from the model's own b1.
+  const auto& cl = model.coefficients[0];
+  const double y0 = cl.con / indicial::spline_value(cl.lags[0].b, sim.x_rad[0]);
+  CHECK(sim.lag_states[0][0][0] == doctest::Approx(y0).epsilon(1e-15));
+  double first = 0, sum_sq = 0;
+  for (std::size_t c = 0; c < p.coefficients.size(); ++c) {
+    first = std::max(first, std::abs(p.coefficients[c].predicted[0] - sim.coefficient_true[c][0]));
+    for (std::size_t k = 0; k < sim.time_s.size(); ++k) {
+      const double d = p.coefficients[c].predicted[k] - sim.coefficient_true[c][k];
+      sum_sq += d * d;
+    }
+  }
+  const double rms = std::sqrt(sum_sq / static_cast<double>(2 * sim.time_s.size()));
+  std::printf("simulate --model vs predict on synthetic-lift-moment.coef: first sample %.2e, RMS %.2e\n", first, rms);
+  CHECK(first < 1e-12);  // the same state, the same output function (was 0.031 with y = 0)
+  CHECK(rms < 1e-4);     // the runtime's discretization at dt = 2 ms (was 0.0066 RMS over 3 s)
 }
 
 TEST_CASE("motion specs: defaults and errors") {

@@ -117,8 +117,9 @@ void print_fit_summary(const FitCliOptions& o, const indicial::Experiment& e, co
   if (w.runtime.fit == RuntimeFit::refused)
     std::printf("fit: WARNING: the runtime refuses model.coef: %s\n", w.runtime.detail.c_str());
   else
-    std::printf("fit: runtime replay of model.coef: max |runtime - fitter| = %.3g over %zu samples%s\n",
-                w.runtime.max_abs_difference, w.runtime.samples_compared,
+    std::printf("fit: runtime replay of model.coef: max |runtime - fitter| = %.3g over %zu steps (the samples "
+                "after each of %zu runs' first, its initial state)%s\n",
+                w.runtime.max_abs_difference, w.runtime.samples_compared, w.runtime.runs_replayed,
                 w.runtime.fit == RuntimeFit::needs_fit_capacity ? " (needs Predictor<double, FitCapacity>)" : "");
   if (w.plots == PlotStatus::gnuplot_not_found || w.plots == PlotStatus::gnuplot_failed)
     std::fprintf(stderr, "indicial: warning: %s\n", w.plot_message.c_str());

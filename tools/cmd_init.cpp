@@ -117,8 +117,16 @@ const std::vector<KeyDoc>& key_docs() {
       {"model", "delay_start_s", "with delay = \"estimated\": its start value in s, 0..1. Default 0.",
        "delay_start_s = 0.05"},
       {"columns", "alpha_deg", "[columns] (optional) maps the files' column names to ours, for every run and the\n"
-                               "static table: our name (with its unit) = the file's name. Default: none (our names).",
+                               "static table: our name (with its unit) = the file's name. Default: none (our names).\n"
+                               "A database's cycle (% Time() Angle(deg) Cn Ct Cm): phase_rad = \"Time()\",\n"
+                               "alpha_deg = \"Angle(deg)\", Cnormal = \"Cn\", Ctangential = \"Ct\" (normal and chord\n"
+                               "force, + toward the leading edge; CL and CD are then derived from them and alpha).\n"
+                               "Cn is always the yawing moment: map a normal-force column as Cnormal.",
        "alpha_deg = \"AoA\""},
+      {"csv", "delimiter", "[csv] (optional) the run files' dialect: delimiter = \"detect\" (default), \"comma\",\n"
+                           "\"semicolon\", \"tab\" or \"whitespace\"; comment = the characters that start a\n"
+                           "comment line (default \"#%\"; a header in the comment line above numeric rows is read).",
+       "delimiter = \"detect\""},
       {"model", "further_lag_start", "with lags >= 2: \"estimated\" (each run's lags 2.. start from an estimated\n"
                                      "state) or \"at_rest\" (from 0). Default \"estimated\".",
        "further_lag_start = \"estimated\""},
@@ -216,6 +224,10 @@ std::string annotated_template(const indicial::Experiment& e, const std::vector<
   if (plain.find("\n[columns]\n") == std::string::npos) {
     const KeyDoc* d = find_doc("columns", "alpha_deg");
     out += "\n" + commented(d->doc) + "# [columns]\n# " + d->example + "\n";
+  }
+  if (plain.find("\n[csv]\n") == std::string::npos) {
+    const KeyDoc* d = find_doc("csv", "delimiter");
+    out += "\n" + commented(d->doc) + "# [csv]\n# " + d->example + "\n# comment = \"#%\"\n";
   }
   return out;
 }

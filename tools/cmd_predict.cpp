@@ -2,7 +2,7 @@
 //
 //   indicial predict MODEL.coef DATA.csv --out FILE.csv [--plot FILE.png] [--metrics FILE.json]
 //                    [--airspeed-mps V] [--time-grid uniform|nonuniform] [--periodic]
-//                    [--frequency-hz F | --reduced-frequency K] [--force]
+//                    [--frequency-hz F | --reduced-frequency K] [--experiment E.toml] [--force]
 //
 // Writes time_s, the angle column as given, <c>_pred, <c>_quasi_steady and the measured <c>
 // where DATA.csv has it; where measured, prints the metrics (RMS, max, Theil's inequality
@@ -17,6 +17,7 @@
 #include "command.hpp"
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/experiment.hpp"
+#include "indicial/fitter/experiment_toml.hpp"
 #include "indicial/fitter/io.hpp"
 #include "indicial/fitter/output.hpp"
 #include "indicial/fitter/predict.hpp"
@@ -32,6 +33,8 @@ struct PredictOptions {
   std::string metrics;
   double airspeed_mps = 0.0;  // 0: the model's reference airspeed
   indicial::TimeGrid grid = indicial::TimeGrid::uniform;
+  bool grid_given = false;         // --time-grid on the command line
+  std::string experiment;          // read DATA with this experiment's [columns] and [csv]
   bool force = false;
   bool periodic = false;
   double frequency_hz = 0.0;       // for a phase column
@@ -58,7 +61,9 @@ void run_predict(const PredictOptions& o) {
 
   // One read per coefficient: the measured column is optional for each.
   RunCsvOptions read;
-  read.grid = o.grid;
+  if (!o.experiment.empty()) read = run_file_format(o.experiment);
+  if (o.grid_given) read.grid = o.grid;
+  read.frequency_source = FrequencySource::command_line;
   if (o.frequency_hz < 0.0 || o.reduced_frequency < 0.0 || (o.frequency_hz > 0.0 && o.reduced_frequency > 0.0))
     throw InputError("--frequency-hz", 0, "give one of --frequency-hz and --reduced-frequency, > 0");
   // k = 2 pi f l / V with the model's reference length and the run's airspeed.
@@ -70,9 +75,11 @@ void run_predict(const PredictOptions& o) {
     runs.push_back(read_run_csv(o.data_path, model->axis, model->coefficients[c].name,
                                 CoefficientPresence::optional, read));
   const Run& run = runs.front();
+  tools::print_notes(run.notes);
+  tools::print_warnings(run.warnings);
   // A phase column is one ensemble-averaged cycle: periodic whether or not --periodic is given.
   const bool periodic = o.periodic || run.time_source == TimeSource::phase_column;
-  const std::string angle_column = run.angle_column;
+  const std::string angle_column = run.angle_column;  // echoed in the unit the file used
 
   require_runtime_accepts(*model, o.model_path, ModelFile::read);  // a refused model names the file
   Prediction p = periodic ? predict_periodic(*model, run.time_s, run.motion_angle_rad, run.rate_radps, airspeed,
@@ -101,6 +108,8 @@ void run_predict(const PredictOptions& o) {
                                                   : "predicted with the runtime (indicial::Predictor), reset "
                                                     "to the steady state at the first sample"};
   for (const auto& l : lines) comments.push_back(l);
+  const std::vector<std::string> warnings = prediction_warnings(p);
+  for (const auto& w : warnings) comments.push_back("warning: " + w);
   if (!o.plot.empty()) {
     write_prediction_plot(p, o.plot, "indicial predict: " + std::filesystem::path(o.data_path).filename().string(),
                           overwrite);
@@ -111,6 +120,7 @@ void run_predict(const PredictOptions& o) {
   std::printf("predict: %zu samples, %zu coefficient(s) -> %s\n", p.time_s.size(),
               p.coefficients.size(), o.out.c_str());
   for (const auto& l : lines) std::printf("predict: %s\n", l.c_str());
+  tools::print_warnings(warnings);
   if (!metrics_path.empty()) std::printf("predict: metrics -> %s\n", metrics_path.c_str());
   if (!o.plot.empty()) std::printf("predict: plot -> %s\n", o.plot.c_str());
 }
@@ -149,8 +159,14 @@ const indicial::tools::RegisterCommand register_predict([](CLI::App& app) {
                   "is implied)");
   sub->add_option("--reduced-frequency", opt->reduced_frequency,
                   "or its reduced frequency k = 2 pi f l / V (l: the model's reference length, V: the airspeed)");
+  sub->add_option("--experiment", opt->experiment,
+                  "read DATA as the experiment file E.toml reads its runs: its [columns] map (file column -> "
+                  "ours, e.g. Cnormal = \"Cn\") and its [csv] dialect");
   sub->add_flag("--force", opt->force, "replace existing outputs");
-  sub->callback([opt]() { run_predict(*opt); });
+  sub->callback([opt, sub]() {
+    opt->grid_given = sub->get_option("--time-grid")->count() > 0;
+    run_predict(*opt);
+  });
 });
 
 }  // namespace

@@ -712,8 +712,7 @@ KappaRule choose_rule(const Experiment& e, const DiagnoseOptions& o, DiagnoseRes
 void flag_ill_conditioned(DiagnoseResult& d) {
   // Why y0 is left out: a run's initial state is a nuisance parameter that may well be ~0.
   for (const ParameterEstimate& p : d.fits.back().parameters)
-    if (p.id.kind != ParamKind::initial_state && std::isfinite(p.cr_bound) && p.cr_bound > std::abs(p.value))
-      d.ill_conditioned.push_back(p.name);
+    if (bound_exceeds_value(p)) d.ill_conditioned.push_back(p.name);
 }
 
 }  // namespace

@@ -36,35 +36,44 @@ std::string trim(const std::string& s, char delimiter = ',') {
 }
 
 // Splits a line at `delimiter` outside double quotes; a quoted field loses its quotes ("" in
-// it is one quote), every field is trimmed.
+// it is one quote), every field is trimmed. kWhitespace as the delimiter: fields are separated
+// by runs of spaces and tabs (none empty).
+constexpr char kWhitespace = ' ';
 std::vector<std::string> split_fields(const std::string& line, char delimiter) {
   std::vector<std::string> out;
   std::string field;
-  bool quoted = false;
+  bool quoted = false, pending = false;  // pending: a whitespace field has started
+  auto is_delimiter = [delimiter](char c) {
+    return delimiter == kWhitespace ? c == ' ' || c == '\t' : c == delimiter;
+  };
   for (std::size_t i = 0; i < line.size(); ++i) {
     const char c = line[i];
     if (c == '"') {
+      pending = true;
       if (quoted && i + 1 < line.size() && line[i + 1] == '"') {
         field += '"';
         ++i;
       } else {
         quoted = !quoted;
       }
-    } else if (c == delimiter && !quoted) {
+    } else if (is_delimiter(c) && !quoted) {
+      if (delimiter == kWhitespace && !pending) continue;  // a run of blanks is one delimiter
       out.push_back(trim(field, delimiter));
       field.clear();
+      pending = false;
     } else {
       field += c;
+      pending = true;
     }
   }
-  out.push_back(trim(field, delimiter));
+  if (delimiter != kWhitespace || pending) out.push_back(trim(field, delimiter));
   return out;
 }
 
-// The delimiter of a header line: the most frequent of tab, ';' and ',' outside quotes
-// (',' when none occurs: a one-column file).
+// The delimiter of a header line: the most frequent of tab, ';' and ',' outside quotes; with
+// none of them, whitespace when the line has an inner blank, else ',' (a one-column file).
 char detect_delimiter(const std::string& header) {
-  int tabs = 0, semicolons = 0, commas = 0;
+  int tabs = 0, semicolons = 0, commas = 0, blanks = 0;
   bool quoted = false;
   for (char c : header) {
     if (c == '"') quoted = !quoted;
@@ -72,14 +81,16 @@ char detect_delimiter(const std::string& header) {
     tabs += c == '\t';
     semicolons += c == ';';
     commas += c == ',';
+    blanks += c == ' ';
   }
   if (tabs > semicolons && tabs > commas) return '\t';
   if (semicolons > commas) return ';';
+  if (commas == 0 && blanks > 0) return kWhitespace;
   return ',';
 }
 
 std::string delimiter_name(char d) {
-  return d == '\t' ? "tab" : d == ';' ? "semicolon" : "comma";
+  return d == '\t' ? "tab" : d == ';' ? "semicolon" : d == kWhitespace ? "whitespace" : "comma";
 }
 
 // Parses a whole cell as a finite double; on failure returns the problem text.
@@ -162,7 +173,7 @@ std::string unit_hint(const std::string& base, Quantity q) {
 }
 
 const std::set<std::string>& coefficient_names() {
-  static const std::set<std::string> names = {"CL", "Cm", "CD", "CY", "Cl", "Cn"};
+  static const std::set<std::string> names = {"CL", "Cm", "CD", "CY", "Cl", "Cn", "Cnormal", "Ctangential"};
   return names;
 }
 
@@ -222,33 +233,122 @@ struct CsvTable {
   std::vector<std::vector<std::string>> rows;
   std::vector<long> row_line;
   bool decimal_comma = false;         // a cell was read with ',' as its decimal separator
+  bool header_from_comment = false;   // the header is the comment line before the data
   // A .mat run (mat_file.hpp): its variables are the columns, "lines" are sample numbers.
   std::vector<MatUnusable> unusable;  // variables that cannot be columns, and why
   std::vector<std::string> mat_notes;
 };
 
-// Reads the lines: BOM stripped, comments and blank lines skipped, fields split.
-CsvTable read_csv_lines(const std::string& path) {
+// Why only with ';', tab or whitespace: in a comma-separated file a decimal comma would split the cell,
+// so '0,25' there is never a number; with the other delimiters a cell with one ',' and no
+// '.' is a decimal comma (the European spreadsheet default) and is read as such.
+std::string decimal_point(const std::string& cell, char delimiter, bool& used_comma) {
+  if (delimiter == ',' || cell.find('.') != std::string::npos) return cell;
+  const std::size_t comma = cell.find(',');
+  if (comma == std::string::npos || cell.find(',', comma + 1) != std::string::npos) return cell;
+  used_comma = true;
+  std::string out = cell;
+  out[comma] = '.';
+  return out;
+}
+
+char declared_delimiter(Delimiter d) {
+  switch (d) {
+    case Delimiter::comma: return ',';
+    case Delimiter::semicolon: return ';';
+    case Delimiter::tab: return '\t';
+    case Delimiter::whitespace: return kWhitespace;
+    case Delimiter::detect: break;
+  }
+  return 0;
+}
+
+// Whether every field of a line reads as a number: a data row, not a header.
+bool all_numeric(const std::vector<std::string>& fields, char delimiter) {
+  for (const auto& f : fields) {
+    double v = 0.0;
+    std::string problem;
+    bool comma = false;
+    if (!parse_number(decimal_point(f, delimiter, comma), v, problem)) return false;
+  }
+  return true;
+}
+
+// The header line's text and where it came from, until the first data row fixes the delimiter.
+struct HeaderText {
+  std::string text;
+  long line = 0;
+  bool from_comment = false;
+};
+
+// Fixes the delimiter from the header and the first data row (CsvDialect::delimiter) and
+// splits the header.
+void settle_header(const std::string& path, const HeaderText& h, const std::string& first_row,
+                   const CsvDialect& dialect, CsvTable& t) {
+  t.header_line = h.line;
+  t.header_from_comment = h.from_comment;
+  t.delimiter = declared_delimiter(dialect.delimiter);
+  if (t.delimiter == 0) {
+    t.delimiter = detect_delimiter(h.text);
+    // Why: a header typed with spaces above tab-separated numbers (Octave's and many loggers'
+    // text files) splits alike only on runs of blanks.
+    if (!first_row.empty() &&
+        split_fields(trim(h.text, t.delimiter), t.delimiter).size() !=
+            split_fields(trim(first_row, t.delimiter), t.delimiter).size() &&
+        split_fields(trim(h.text, kWhitespace), kWhitespace).size() ==
+            split_fields(trim(first_row, kWhitespace), kWhitespace).size())
+      t.delimiter = kWhitespace;
+  }
+  t.header = split_fields(trim(h.text, t.delimiter), t.delimiter);
+  if (h.from_comment && !first_row.empty() &&
+      t.header.size() != split_fields(trim(first_row, t.delimiter), t.delimiter).size()) {
+    throw InputError(path, h.line + 0, "no header row: the first data row is numbers, and this comment line has " +
+                                           std::to_string(t.header.size()) + " " + delimiter_name(t.delimiter) +
+                                           "-separated fields, not the data's " +
+                                           std::to_string(split_fields(trim(first_row, t.delimiter), t.delimiter).size()) +
+                                           " (add a header row of column names)");
+  }
+}
+
+// Reads the lines: BOM stripped, comments and blank lines skipped, fields split. See
+// CsvDialect for the header found in a comment line.
+CsvTable read_csv_lines(const std::string& path, const CsvDialect& dialect) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path, 0, "cannot open file (does it exist?)");
   CsvTable t;
   std::string raw;
   long line_no = 0;
   bool any_byte = false;
+  HeaderText last_comment, header;
   while (std::getline(in, raw)) {
     ++line_no;
     // Why: Excel's "CSV UTF-8" starts the file with a byte-order mark.
     if (line_no == 1 && raw.compare(0, 3, "\xEF\xBB\xBF") == 0) raw.erase(0, 3);
     any_byte = true;
-    const std::string line = trim(raw);
-    // Why skip: '#' lines are comments by the contract; blank lines carry no data.
-    if (line.empty() || line[0] == '#') continue;
-    if (t.header.empty()) {
-      t.delimiter = detect_delimiter(line);
-      t.header = split_fields(trim(raw, t.delimiter), t.delimiter);
-      t.header_line = line_no;
+    const std::string line = trim(raw, kWhitespace);
+    // Why skip: '#' (and '%', the MATLAB/Octave comment) lines are comments by the contract;
+    // blank lines carry no data.
+    if (line.empty()) continue;
+    if (dialect.comment_chars.find(line[0]) != std::string::npos) {
+      if (header.line == 0) {
+        const std::size_t text = line.find_first_not_of(dialect.comment_chars);
+        last_comment = {text == std::string::npos ? std::string() : line.substr(text), line_no, true};
+      }
       continue;
     }
+    if (header.line == 0) {
+      const char probe = declared_delimiter(dialect.delimiter) ? declared_delimiter(dialect.delimiter)
+                                                                 : detect_delimiter(line);
+      const bool numeric = all_numeric(split_fields(trim(raw, probe), probe), probe);
+      if (!numeric) {
+        header = {raw, line_no, false};
+        continue;
+      }
+      if (last_comment.line == 0 || trim(last_comment.text, kWhitespace).empty())
+        throw InputError(path, line_no, "no header row: the first row is numbers (add a header row of column names)");
+      header = last_comment;
+    }
+    if (t.header.empty()) settle_header(path, header, raw, dialect, t);
     std::vector<std::string> fields = split_fields(trim(raw, t.delimiter), t.delimiter);
     if (fields.size() != t.header.size()) {
       throw InputError(path, line_no, "expected " + std::to_string(t.header.size()) + " " +
@@ -261,7 +361,8 @@ CsvTable read_csv_lines(const std::string& path) {
   }
   if (in.bad()) throw InputError(path, 0, "read failed");
   if (!any_byte) throw InputError(path, 0, "file is empty");
-  if (t.header.empty()) throw InputError(path, line_no, "no header row (only comments or blank lines)");
+  if (header.line == 0) throw InputError(path, line_no, "no header row (only comments or blank lines)");
+  if (t.header.empty()) settle_header(path, header, "", dialect, t);
   return t;
 }
 
@@ -294,8 +395,8 @@ void refuse_unusable(const std::string& path, const CsvTable& t, const std::stri
 }
 
 // Reads a CSV (or a .mat) and renames the columns `columns` maps (our name -> the file's name).
-CsvTable read_csv_table(const std::string& path, const ColumnMap& columns) {
-  CsvTable t = is_mat_file(path) ? read_mat_table(path) : read_csv_lines(path);
+CsvTable read_csv_table(const std::string& path, const ColumnMap& columns, const CsvDialect& dialect) {
+  CsvTable t = is_mat_file(path) ? read_mat_table(path) : read_csv_lines(path, dialect);
   t.original = t.header;
   for (const auto& [ours, theirs] : columns) {
     for (auto& name : t.header)
@@ -363,19 +464,6 @@ int find_plain_column(const CsvTable& t, const std::string& name) {
   return -1;
 }
 
-// Why only with ';' or tab: in a comma-separated file a decimal comma would split the cell,
-// so '0,25' there is never a number; with the other delimiters a cell with one ',' and no
-// '.' is a decimal comma (the European spreadsheet default) and is read as such.
-std::string decimal_point(const std::string& cell, char delimiter, bool& used_comma) {
-  if (delimiter == ',' || cell.find('.') != std::string::npos) return cell;
-  const std::size_t comma = cell.find(',');
-  if (comma == std::string::npos || cell.find(',', comma + 1) != std::string::npos) return cell;
-  used_comma = true;
-  std::string out = cell;
-  out[comma] = '.';
-  return out;
-}
-
 std::vector<double> numeric_column(const std::string& path, CsvTable& t, int col, double factor) {
   std::vector<double> out(t.rows.size());
   const auto c = static_cast<std::size_t>(col);
@@ -403,6 +491,10 @@ std::vector<std::string> table_notes(const std::string& path, const CsvTable& t,
   }
   for (const MatUnusable& u : t.unusable) ignored += (ignored.empty() ? "'" : ", '") + u.name + "'";
   if (!ignored.empty()) notes.push_back(path + ": ignored column(s) " + ignored + " (not a column indicial reads)");
+  if (t.header_from_comment) {
+    notes.push_back(path + ":" + std::to_string(t.header_line) + ": the column names are read from this comment "
+                    "line (the first row below it is numbers)");
+  }
   for (const std::string& n : t.mat_notes) notes.push_back(path + ": " + n);
   if (t.delimiter != ',' || t.decimal_comma) {
     notes.push_back(path + ": read as " + delimiter_name(t.delimiter) + "-separated" +
@@ -534,9 +626,87 @@ bool fit_uniform_grid(const std::vector<double>& values, const std::vector<doubl
   return on_grid(values, tol, a, b);
 }
 
+// ---- lift and drag from normal and chord force ---------------------------------------
+// Our names for a file's body-axis force coefficients ([columns] Cnormal = "Cn", Ctangential =
+// "Ct"): the normal force, and the chord (tangential) force positive toward the leading edge.
+// Why not `Cn`: indicial's Cn is the yawing moment (interface.md), and a pitching-airfoil
+// database's `Cn` is the normal force; the map makes the meaning explicit.
+constexpr const char* kNormalForce = "Cnormal";
+constexpr const char* kChordForce = "Ctangential";
+
+// The file's own `Cn` column (not named in [columns]) beside a chord-force column: every
+// airfoil database we know means the normal force by it.
+bool cn_beside_chord_force(const CsvTable& t, const ColumnMap& columns) {
+  if (columns.count("Cn") || find_plain_column(t, "Cn") < 0) return false;
+  for (const char* chord : {"Ct", "CT", "Cc", "CC", "Cchord", kChordForce})
+    if (find_plain_column(t, chord) >= 0) return true;
+  return false;
+}
+
+std::string body_axes_advice() {
+  return std::string("map it: [columns] ") + kNormalForce + " = \"Cn\" and " + kChordForce +
+         " = \"Ct\" (the chord force, positive toward the leading edge), and CL and CD are derived as "
+         "CL = Cn cos(alpha) + Ct sin(alpha), CD = Cn sin(alpha) - Ct cos(alpha)";
+}
+
+// Refuses reading `Cn` as the yawing moment from a file whose Cn looks like the normal force,
+// unless the experiment declares it ([columns] Cn = "Cn").
+void check_cn_meaning(const std::string& path, const CsvTable& t, const std::string& coefficient,
+                      const ColumnMap& columns) {
+  if (coefficient != "Cn" || !cn_beside_chord_force(t, columns)) return;
+  throw InputError(path, t.header_line,
+                   "column 'Cn' beside a chord-force column looks like the normal-force coefficient, but "
+                   "indicial's Cn is the yawing moment: if it is the normal force, " + body_axes_advice() +
+                   "; if it is the yawing moment, say so: [columns] Cn = \"Cn\"");
+}
+
+// With `coefficient` CL or CD absent: finds Cnormal and Ctangential to derive it from (true),
+// refuses half a pair or a non-pitch run, and explains an unmapped Cn/Ct pair.
+bool locate_body_axes(const std::string& path, const CsvTable& t, Axis axis, const std::string& coefficient,
+                      int& normal, int& chord) {
+  if (coefficient != "CL" && coefficient != "CD") return false;
+  normal = find_plain_column(t, kNormalForce);
+  chord = find_plain_column(t, kChordForce);
+  if (normal < 0 && chord < 0) {
+    if (find_plain_column(t, "Cn") >= 0 && find_plain_column(t, "Ct") >= 0)
+      throw InputError(path, t.header_line, "missing column '" + coefficient + "'; this file's 'Cn' and 'Ct' look like "
+                                            "the normal- and chord-force coefficients: " + body_axes_advice());
+    return false;
+  }
+  if (normal < 0 || chord < 0)
+    throw InputError(path, t.header_line, coefficient + " from body-axis forces needs both '" + kNormalForce +
+                                              "' and '" + kChordForce + "'; only '" +
+                                              (normal < 0 ? kChordForce : kNormalForce) + "' is here");
+  if (axis != Axis::pitch)
+    throw InputError(path, t.header_line, coefficient + " from '" + kNormalForce + "' and '" + kChordForce +
+                                              "' needs the angle of attack of a pitch run; this is a " +
+                                              axis_name(axis) + " run");
+  return true;
+}
+
+// CL = Cn cos(alpha) + Ct sin(alpha) or CD = Cn sin(alpha) - Ct cos(alpha).
+std::vector<double> lift_or_drag(const std::string& coefficient, const std::vector<double>& normal,
+                                 const std::vector<double>& chord, const std::vector<double>& alpha_rad) {
+  std::vector<double> out(alpha_rad.size());
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    const double c = std::cos(alpha_rad[i]), s = std::sin(alpha_rad[i]);
+    out[i] = coefficient == "CL" ? normal[i] * c + chord[i] * s : normal[i] * s - chord[i] * c;
+  }
+  return out;
+}
+
+std::string derived_note(const std::string& path, const CsvTable& t, const std::string& coefficient,
+                         int normal, int chord) {
+  return path + ": " + coefficient + " derived from '" + t.original[static_cast<std::size_t>(normal)] + "' (" +
+         kNormalForce + ") and '" + t.original[static_cast<std::size_t>(chord)] + "' (" + kChordForce + "): " +
+         (coefficient == "CL" ? "CL = Cnormal cos(alpha) + Ctangential sin(alpha)"
+                              : "CD = Cnormal sin(alpha) - Ctangential cos(alpha)");
+}
+
 // The columns a run uses.
 struct RunColumns {
   int time = -1, phase = -1, angle = -1, rate = -1, coefficient = -1;
+  int normal = -1, chord = -1;  // Cnormal and Ctangential, when the coefficient is derived from them
   double time_factor = 1.0, phase_factor = 1.0, angle_factor = 1.0, rate_factor = 1.0;
 };
 
@@ -565,6 +735,8 @@ RunColumns locate_run_columns(const std::string& path, const CsvTable& t, Axis a
   }
   rc.rate = find_unit_column(path, t, rate_base(axis), rc.rate_factor);
   rc.coefficient = find_plain_column(t, coefficient);
+  check_cn_meaning(path, t, coefficient, columns);
+  if (rc.coefficient < 0 && locate_body_axes(path, t, axis, coefficient, rc.normal, rc.chord)) return rc;
   if (rc.coefficient < 0 && presence == CoefficientPresence::required)
     missing_column(path, t, "'" + coefficient + "'", {coefficient}, columns);
   return rc;
@@ -573,7 +745,8 @@ RunColumns locate_run_columns(const std::string& path, const CsvTable& t, Axis a
 // Run::time_s from the time column, or from the phase column and the cycle's frequency;
 // returns the per-sample print tolerance in s (the checks come after every column is parsed).
 std::vector<double> read_time(const std::string& path, CsvTable& t, const RunColumns& rc,
-                              double frequency_hz, Run& run) {
+                              const RunCsvOptions& options, Run& run) {
+  const double frequency_hz = options.frequency_hz;
   const bool phase = rc.phase >= 0;
   const int col = phase ? rc.phase : rc.time;
   const auto c = static_cast<std::size_t>(col);
@@ -581,9 +754,19 @@ std::vector<double> read_time(const std::string& path, CsvTable& t, const RunCol
   run.time_source = phase ? TimeSource::phase_column : TimeSource::time_column;
   double factor = rc.time_factor;
   if (phase) {
+    if (options.frequency_source == FrequencySource::none) {
+      throw InputError(path, t.header_line, "column '" + name + "' makes the file one periodic cycle, which "
+                                            "'simulate --motion csv:' cannot take (it starts at rest and runs the "
+                                            "file's times once): give a time_s column, or predict the cycle's "
+                                            "periodic steady state with 'indicial predict MODEL FILE "
+                                            "--reduced-frequency K'");
+    }
     if (!(frequency_hz > 0.0)) {
-      throw InputError(path, t.header_line, "column '" + name + "' needs the cycle's frequency: give "
-                                            "frequency_hz or reduced_frequency in the experiment's runs entry");
+      throw InputError(path, t.header_line, "column '" + name + "' needs the cycle's frequency: give " +
+                                                std::string(options.frequency_source == FrequencySource::command_line
+                                                                ? "--frequency-hz or --reduced-frequency"
+                                                                : "frequency_hz or reduced_frequency in the "
+                                                                  "experiment's runs entry"));
     }
     run.periodic = true;
     run.frequency_hz = frequency_hz;
@@ -618,8 +801,9 @@ void check_time_order(const std::string& path, const CsvTable& t, const RunColum
 }
 
 // Decides the run's grid (see csv_reader.hpp) and snaps a printed-uniform grid.
-void check_time_grid(const std::string& path, const CsvTable& t, const RunColumns& rc, TimeGrid declared,
-                     const std::vector<double>& tol, Run& run) {
+void check_time_grid(const std::string& path, const CsvTable& t, const RunColumns& rc,
+                     std::optional<TimeGrid> given, const std::vector<double>& tol, Run& run) {
+  const TimeGrid declared = given.value_or(TimeGrid::uniform);
   const std::size_t n = run.time_s.size();
   const auto c = static_cast<std::size_t>(rc.phase >= 0 ? rc.phase : rc.time);
   std::vector<double> steps(n - 1);
@@ -653,9 +837,20 @@ void check_time_grid(const std::string& path, const CsvTable& t, const RunColumn
                         format_double(worst) + " s): snapped to a step of " + format_double(b) + " s");
     return;
   }
-  if (rc.phase >= 0) {
+  if (rc.phase >= 0 && !given) {
     run.time_grid = TimeGrid::nonuniform;
+    run.notes.push_back(path + ": '" + t.header[c] + "' is not uniform even to its printed digits (step " +
+                        format_double(steps[bad - 1]) + " s after " + t.rows[bad - 1][c] + ", median " +
+                        format_double(dt) + " s): read as a nonuniform cycle, each sample at its own phase");
     return;
+  }
+  if (rc.phase >= 0) {
+    throw InputError(path, t.row_line[bad],
+                     "'" + t.header[c] + "' is not uniform even to its printed digits (step " +
+                         format_double(steps[bad - 1]) + " s after " + t.rows[bad - 1][c] + ", median " +
+                         format_double(dt) + " s) but a uniform grid was declared: declare time_grid = "
+                         "\"nonuniform\" (predict: --time-grid nonuniform), or leave the grid undeclared, "
+                         "to read it as a nonuniform cycle");
   }
   throw InputError(path, t.row_line[bad],
                    "non-uniform time step: " + format_double(steps[bad - 1]) + " s after " + t.rows[bad - 1][c] +
@@ -686,14 +881,19 @@ void warn_angle_unit(const std::string& path, const std::string& column, double 
 
 Run read_run_csv(const std::string& path, Axis axis, const std::string& coefficient,
                  CoefficientPresence presence, const RunCsvOptions& options) {
-  CsvTable t = read_csv_table(path, options.columns);
+  CsvTable t = read_csv_table(path, options.columns, options.dialect);
   const RunColumns rc = locate_run_columns(path, t, axis, coefficient, presence, options.columns);
   Run run;
   run.path = path;
-  const std::vector<double> tol = read_time(path, t, rc, options.frequency_hz, run);
+  const std::vector<double> tol = read_time(path, t, rc, options, run);
   run.motion_angle_rad = numeric_column(path, t, rc.angle, rc.angle_factor);
   run.angle_column = t.header[static_cast<std::size_t>(rc.angle)];
   if (rc.coefficient >= 0) run.coefficient = numeric_column(path, t, rc.coefficient, 1.0);
+  if (rc.normal >= 0) {
+    run.coefficient = lift_or_drag(coefficient, numeric_column(path, t, rc.normal, 1.0),
+                                   numeric_column(path, t, rc.chord, 1.0), run.motion_angle_rad);
+    run.notes.push_back(derived_note(path, t, coefficient, rc.normal, rc.chord));
+  }
   const std::size_t n = run.time_s.size();
   if (n < static_cast<std::size_t>(min_run_samples)) {
     throw InputError(path, t.row_line.back(),
@@ -713,24 +913,74 @@ Run read_run_csv(const std::string& path, Axis axis, const std::string& coeffici
                                        default_sg_half_window, default_sg_degree);
   }
   warn_angle_unit(path, t.header[static_cast<std::size_t>(rc.angle)], rc.angle_factor, run);
-  std::vector<std::string> notes = table_notes(path, t, {rc.time, rc.phase, rc.angle, rc.rate, rc.coefficient});
+  std::vector<std::string> notes =
+      table_notes(path, t, {rc.time, rc.phase, rc.angle, rc.rate, rc.coefficient, rc.normal, rc.chord});
   run.notes.insert(run.notes.begin(), notes.begin(), notes.end());
   return run;
 }
 
 Run read_run_csv(const std::string& path, Axis axis, const std::string& coefficient,
-                 CoefficientPresence presence, TimeGrid grid) {
+                 CoefficientPresence presence, std::optional<TimeGrid> grid) {
   RunCsvOptions options;
   options.grid = grid;
   return read_run_csv(path, axis, coefficient, presence, options);
+}
+
+PhaseSeries read_phase_series(const std::string& path, Axis axis, const std::string& coefficient,
+                              const RunCsvOptions& options) {
+  CsvTable t = read_csv_table(path, options.columns, options.dialect);
+  for (const auto& name : t.header) (void)parse_column_name(path, t.header_line, name);
+  RunColumns rc;
+  rc.phase = find_unit_column(path, t, "phase", rc.phase_factor);
+  if (rc.phase < 0) {
+    missing_column(path, t, "'phase_rad' or 'phase_deg' (each file of a run sampled at its own phases has its own "
+                            "phase column)", {"phase_rad", "phase_deg"}, options.columns);
+  }
+  rc.angle = find_unit_column(path, t, motion_base(axis), rc.angle_factor);
+  rc.rate = find_unit_column(path, t, rate_base(axis), rc.rate_factor);
+  rc.coefficient = find_plain_column(t, coefficient);
+  check_cn_meaning(path, t, coefficient, options.columns);
+  if (rc.coefficient < 0 && locate_body_axes(path, t, axis, coefficient, rc.normal, rc.chord) && rc.angle < 0)
+    throw InputError(path, t.header_line, coefficient + " from '" + kNormalForce + "' and '" + kChordForce +
+                                              "' needs the angle of attack in the same file");
+  PhaseSeries s;
+  s.path = path;
+  s.phase_rad = numeric_column(path, t, rc.phase, rc.phase_factor);
+  if (s.phase_rad.size() < 4)
+    throw InputError(path, t.row_line.back(), "only " + std::to_string(s.phase_rad.size()) +
+                                                  " data rows; a series at its own phases needs at least 4");
+  const auto pc = static_cast<std::size_t>(rc.phase);
+  for (std::size_t i = 0; i < s.phase_rad.size(); ++i) {
+    if (!(s.phase_rad[i] >= 0.0 && s.phase_rad[i] < 2.0 * kPi * (1.0 - 1e-15)))
+      throw InputError(path, t.row_line[i], "column '" + t.header[pc] + "': phase " + t.rows[i][pc] +
+                                                " is outside [0, " + (rc.phase_factor == 1.0 ? "2 pi" : "360") + ")");
+    if (i > 0 && !(s.phase_rad[i] > s.phase_rad[i - 1]))
+      throw InputError(path, t.row_line[i], t.header[pc] + " is not strictly increasing (" + t.rows[i][pc] +
+                                                " after " + t.rows[i - 1][pc] + ")");
+  }
+  if (rc.angle >= 0) {
+    s.motion_angle_rad = numeric_column(path, t, rc.angle, rc.angle_factor);
+    s.motion_column = t.header[static_cast<std::size_t>(rc.angle)];
+  }
+  if (rc.rate >= 0) s.rate_radps = numeric_column(path, t, rc.rate, rc.rate_factor);
+  if (rc.coefficient >= 0) s.coefficient = numeric_column(path, t, rc.coefficient, 1.0);
+  if (rc.normal >= 0) {
+    s.coefficient = lift_or_drag(coefficient, numeric_column(path, t, rc.normal, 1.0),
+                                 numeric_column(path, t, rc.chord, 1.0), s.motion_angle_rad);
+    s.notes.push_back(derived_note(path, t, coefficient, rc.normal, rc.chord));
+  }
+  std::vector<std::string> notes =
+      table_notes(path, t, {rc.phase, rc.angle, rc.rate, rc.coefficient, rc.normal, rc.chord});
+  s.notes.insert(s.notes.begin(), notes.begin(), notes.end());
+  return s;
 }
 
 // ==========================================================================================
 // Static table
 // ==========================================================================================
 void read_static_table(const std::string& path, Axis axis, const std::string& coefficient,
-                       StaticConfig& config, const ColumnMap& columns) {
-  CsvTable t = read_csv_table(path, columns);
+                       StaticConfig& config, const ColumnMap& columns, const CsvDialect& dialect) {
+  CsvTable t = read_csv_table(path, columns, dialect);
   for (const auto& name : t.header) (void)parse_column_name(path, t.header_line, name);
   refuse_unusable(path, t, coefficient);
   const std::string base = axis == Axis::pitch ? "alpha" : "beta";
@@ -741,9 +991,14 @@ void read_static_table(const std::string& path, Axis axis, const std::string& co
                                 axis_name(axis) + " static table)", {base + "_deg", base + "_rad"}, columns);
   }
   const int c_col = find_plain_column(t, coefficient);
-  if (c_col < 0) missing_column(path, t, "'" + coefficient + "'", {coefficient}, columns);
+  check_cn_meaning(path, t, coefficient, columns);
+  int normal = -1, chord = -1;
+  const bool derived = c_col < 0 && locate_body_axes(path, t, axis, coefficient, normal, chord);
+  if (c_col < 0 && !derived) missing_column(path, t, "'" + coefficient + "'", {coefficient}, columns);
   config.table_x_rad = numeric_column(path, t, x_col, factor);
-  config.table_value = numeric_column(path, t, c_col, 1.0);
+  config.table_value = derived ? lift_or_drag(coefficient, numeric_column(path, t, normal, 1.0),
+                                              numeric_column(path, t, chord, 1.0), config.table_x_rad)
+                               : numeric_column(path, t, c_col, 1.0);
   if (config.table_x_rad.size() < 2) {
     throw InputError(path, t.row_line.back(), "a static table needs at least 2 rows");
   }

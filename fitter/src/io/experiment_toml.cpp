@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -15,6 +16,7 @@
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/io.hpp"
 #include "indicial/fitter/output.hpp"
+#include "indicial/fitter/phase_resample.hpp"
 #include "io/toml_reader.hpp"
 
 namespace fs = std::filesystem;
@@ -49,6 +51,8 @@ struct KnotSource {
 // One entry of `runs`, before its file is read.
 struct RunEntry {
   std::string file;
+  std::vector<std::string> files;    // `files = [...]`: columns at their own phases (phase_resample.hpp)
+  int samples = 0;                   // with files: the uniform grid's size (0: the most rows of any file)
   long line = 0;
   std::optional<bool> periodic;      // as stated
   RunCsvOptions csv;                 // grid and frequency (from frequency_hz or reduced_frequency)
@@ -74,6 +78,7 @@ struct LoadContext {
   std::vector<KnotSource> knot_sources;
   toml::source_region static_where;
   ColumnMap columns;
+  CsvDialect dialect;
   std::vector<CapacityUse> capacity;
 
   std::string resolve(const std::string& file) const {
@@ -230,17 +235,38 @@ const toml::node* section_for(const LoadContext& c, const toml::table& root, con
   return node->as_table()->get(coefficient);
 }
 
+// runs.files (at least one file name) and runs.samples; each file has its own phase column, so
+// the run is one periodic cycle with its frequency given (checked by read_runs).
+void read_run_files(const TomlReader& r, const toml::node& files, const toml::table& t, RunEntry& re) {
+  for (const auto& n : r.array(files, "runs.files")) re.files.push_back(r.string(n, "runs.files entry"));
+  if (re.files.empty()) r.fail(files, "'runs.files' is empty");
+  re.file = re.files.front();
+  for (std::size_t i = 1; i < re.files.size(); ++i) re.file += " + " + re.files[i];
+  if (const toml::node* n = t.get("samples")) {
+    const long v = r.integer(*n, "runs.samples");
+    if (v < min_run_samples || v > 100000)
+      r.fail(*n, "'runs.samples' must be " + std::to_string(min_run_samples) + "..100000");
+    re.samples = static_cast<int>(v);
+  }
+  if (t.get("time_grid")) r.fail(*t.get("time_grid"), "'runs.time_grid' is not used with 'runs.files' (the grid is "
+                                                      "uniform: 'runs.samples' points)");
+}
+
 // One table entry of `runs`: {file = ..., periodic, frequency_hz | reduced_frequency,
 // airspeed_mps, time_grid}.
 RunEntry read_run_table(const LoadContext& c, const toml::node& entry, const Experiment& e) {
   const TomlReader& r = c.r;
   const toml::table& t = *entry.as_table();
-  r.check_keys(t, {"file", "periodic", "frequency_hz", "reduced_frequency", "airspeed_mps", "time_grid"}, "runs.");
+  r.check_keys(t, {"file", "files", "samples", "periodic", "frequency_hz", "reduced_frequency", "airspeed_mps",
+                   "time_grid"}, "runs.");
   RunEntry re;
   re.line = static_cast<long>(entry.source().begin.line);
   const toml::node* f = t.get("file");
-  if (!f) r.fail(entry, "a run table needs 'file'");
-  re.file = r.string(*f, "runs.file");
+  const toml::node* fs = t.get("files");
+  if (f && fs) r.fail(*fs, "give 'runs.file' or 'runs.files', not both");
+  if (!f && !fs) r.fail(entry, "a run table needs 'file' (or 'files': columns at their own phases)");
+  if (f) re.file = r.string(*f, "runs.file");
+  if (fs) read_run_files(r, *fs, t, re);
   if (const toml::node* n = t.get("periodic")) re.periodic = r.boolean(*n, "runs.periodic");
   re.airspeed_mps = e.airspeed_mps;
   if (const toml::node* n = t.get("airspeed_mps")) {
@@ -262,6 +288,7 @@ RunEntry read_run_table(const LoadContext& c, const toml::node& entry, const Exp
   }
   re.frequency_given = fh || k;
   if (const toml::node* n = t.get("time_grid")) re.csv.grid = r.choice<TimeGrid>(*n, "runs.time_grid");
+  if (t.get("samples") && !fs) r.fail(*t.get("samples"), "'runs.samples' is used only with 'runs.files'");
   return re;
 }
 
@@ -286,6 +313,7 @@ std::vector<RunEntry> read_run_entries(LoadContext& c, const toml::table& root, 
                     "tables, found " + TomlReader::type_name(entry));
     }
     entries.back().csv.columns = c.columns;
+    entries.back().csv.dialect = c.dialect;
   }
   return entries;
 }
@@ -299,6 +327,21 @@ void read_columns_section(LoadContext& c, const toml::node* node) {
     const std::string theirs = r.string(value, "columns." + ours);
     if (theirs.empty()) r.fail(value, "'columns." + ours + "' is empty: name the file's column");
     c.columns[ours] = theirs;
+  }
+}
+
+// [csv]: the run files' delimiter and comment characters (CsvDialect; detected by default).
+void read_csv_section(LoadContext& c, const toml::node* node) {
+  if (!node) return;
+  const TomlReader& r = c.r;
+  const toml::table& t = r.table(*node, "csv");
+  r.check_keys(t, {"delimiter", "comment"}, "csv.");
+  if (const toml::node* n = t.get("delimiter")) c.dialect.delimiter = r.choice<Delimiter>(*n, "csv.delimiter");
+  if (const toml::node* n = t.get("comment")) {
+    c.dialect.comment_chars = r.string(*n, "csv.comment");
+    for (char ch : c.dialect.comment_chars)
+      if (ch == ' ' || ch == '\t' || ch == '"' || ch == '-' || ch == '+' || ch == '.' || (ch >= '0' && ch <= '9'))
+        r.fail(*n, std::string("'csv.comment': '") + ch + "' cannot start a comment (it starts a number or a field)");
   }
 }
 
@@ -329,7 +372,7 @@ void read_static_section(LoadContext& c, const toml::table& root, const toml::no
   } else {
     c.static_where = table->source();
     const std::string tp = c.resolve(r.string(*table, "static.table"));
-    read_static_table(tp, e.axis, e.coefficient, e.static_curve, c.columns);
+    read_static_table(tp, e.axis, e.coefficient, e.static_curve, c.columns, c.dialect);
     c.capacity.push_back({"static.table", "rows ('" + tp + "')", static_cast<int>(e.static_curve.table_x_rad.size()),
                           DefaultCapacity::max_table_points, table->source()});
   }
@@ -537,6 +580,21 @@ void read_model_section(LoadContext& c, const toml::node* model_node, bool rotar
   if (const toml::node* n = mt.get("structure")) model.structure = r.choice<StructureMode>(*n, "model.structure");
 }
 
+// A runs entry `files = [...]`: each file's series at its own phases, resampled onto one grid.
+Run read_run_of_files(const LoadContext& c, const RunEntry& entry, const Experiment& e) {
+  if (!entry.frequency_given)
+    throw InputError(c.r.file(), entry.line, "run '" + entry.file + "' (files at their own phases) needs the cycle's "
+                                             "frequency: give frequency_hz or reduced_frequency in its entry");
+  std::vector<PhaseSeries> series;
+  for (const std::string& name : entry.files)
+    series.push_back(read_phase_series(c.resolve(name), e.axis, e.coefficient, entry.csv));
+  Run run = resample_phase_series(series, e.coefficient, CoefficientPresence::required, entry.csv.frequency_hz,
+                                  entry.samples, entry.file);
+  run.source_files = entry.files;
+  run.resampled_points = entry.samples;
+  return run;
+}
+
 // [model] stall keys (the dynamic-stall families, ModelConfig::stall): which families, the
 // static lift polar they are derived from (default: the [static] table when the experiment
 // models its lift column), its attached part, the f0 correction's terms and the start values.
@@ -571,7 +629,7 @@ void read_stall_keys(LoadContext& c, const toml::node* model_node, Experiment& e
   if (const toml::node* n = mt.get("stall_polar")) {
     s.polar_path = c.resolve(r.string(*n, "model.stall_polar"));
     StaticConfig polar;
-    read_static_table(s.polar_path, e.axis, s.polar_column, polar, c.columns);
+    read_static_table(s.polar_path, e.axis, s.polar_column, polar, c.columns, c.dialect);
     s.polar_x_rad = polar.table_x_rad;
     s.polar_lift = polar.table_value;
   } else if (e.static_curve.kind == StaticKind::table && e.coefficient == s.polar_column) {
@@ -587,12 +645,16 @@ void read_stall_keys(LoadContext& c, const toml::node* model_node, Experiment& e
 // Reads every run file and records the model angle's range over all of them (set_data_range).
 void read_runs(const LoadContext& c, const std::vector<RunEntry>& entries, Experiment& e) {
   for (const auto& entry : entries) {
-    const std::string path = c.resolve(entry.file);
-    std::error_code ec;
-    if (!fs::exists(path, ec)) {
-      throw InputError(c.r.file(), entry.line, "run file '" + entry.file + "' not found (looked for " + path + ")");
+    const std::vector<std::string> names = entry.files.empty() ? std::vector<std::string>{entry.file} : entry.files;
+    for (const std::string& name : names) {
+      const std::string path = c.resolve(name);
+      std::error_code ec;
+      if (!fs::exists(path, ec))
+        throw InputError(c.r.file(), entry.line, "run file '" + name + "' not found (looked for " + path + ")");
     }
-    Run run = read_run_csv(path, e.axis, e.coefficient, CoefficientPresence::required, entry.csv);
+    Run run = entry.files.empty()
+                  ? read_run_csv(c.resolve(entry.file), e.axis, e.coefficient, CoefficientPresence::required, entry.csv)
+                  : read_run_of_files(c, entry, e);
     run.experiment_line = entry.line;
     run.airspeed_mps = entry.airspeed_mps;
     if (run.time_source == TimeSource::phase_column) {
@@ -659,6 +721,10 @@ void warn_defaulted_sections(const TomlReader& r, const toml::node* rotary, cons
   if (!rotary) {
     e.warnings.push_back(r.file() + ": no [rotary] section: C_aq(x) = 0 assumed (the rate term is left out)");
   }
+  if (e.axis == Axis::pitch && e.coefficient == "Cn") {
+    e.warnings.push_back(r.file() + ": coefficient Cn in a pitch experiment: indicial's Cn is the yawing moment (a "
+                                    "normal-force column is mapped as Cnormal, see docs/formats.md)");
+  }
   if (!model) {
     e.warnings.push_back(r.file() + ": no [model] section: the default a(x) = a0 + a1 x + a2 x^2, b1(x) = b1_0, "
                                     "fixed structure");
@@ -700,11 +766,12 @@ namespace {
 Experiment load_one(const std::string& toml_path, const toml::table& root, const std::string& coefficient,
                     const std::vector<std::string>& coefficients) {
   const TomlReader r(toml_path);
-  LoadContext c{r, fs::path(toml_path).parent_path(), {}, root.source(), {}, {}};
+  LoadContext c{r, fs::path(toml_path).parent_path(), {}, root.source(), {}, {}, {}};
   Experiment e;
   e.path = toml_path;
   read_top_level(c, root, coefficient, e);
   read_columns_section(c, root.get("columns"));
+  read_csv_section(c, root.get("csv"));
   const std::vector<RunEntry> entries = read_run_entries(c, root, e);
   read_static_section(c, root, section_for(c, root, "static", coefficients, coefficient), e);
   const toml::node* rotary = section_for(c, root, "rotary", coefficients, coefficient);
@@ -724,14 +791,26 @@ toml::table parse_checked(const std::string& toml_path, std::vector<std::string>
   toml::table root = parse_toml(toml_path);
   const TomlReader r(toml_path);
   r.check_keys(root, {"axis", "coefficient", "coefficients", "reference_length_m", "airspeed_mps", "alpha0_deg",
-                      "alpha0_rad", "runs", "static", "rotary", "model", "columns"},
+                      "alpha0_rad", "runs", "static", "rotary", "model", "columns", "csv"},
                "");
-  const LoadContext c{r, {}, {}, root.source(), {}, {}};
+  const LoadContext c{r, {}, {}, root.source(), {}, {}, {}};
   coefficients = read_coefficient_names(c, root);
   return root;
 }
 
 }  // namespace
+
+RunCsvOptions run_file_format(const std::string& toml_path) {
+  const toml::table root = parse_toml(toml_path);
+  const TomlReader r(toml_path);
+  LoadContext c{r, {}, {}, root.source(), {}, {}, {}};
+  read_columns_section(c, root.get("columns"));
+  read_csv_section(c, root.get("csv"));
+  RunCsvOptions options;
+  options.columns = c.columns;
+  options.dialect = c.dialect;
+  return options;
+}
 
 std::vector<Experiment> load_experiments(const std::string& toml_path) {
   std::vector<std::string> coefficients;
@@ -769,9 +848,22 @@ std::string toml_string(const std::string& s) {
   }
   return out + "\"";
 }
+// The shortest decimal of degrees that the reader (value * kDegToRad) turns back into `rad` bit
+// for bit. Why: a knot read as 12 deg and written as rad * kRadToDeg reads 12.000000000000002
+// (180/pi and pi/180 are not exact inverses in double); the shortest round-tripping digits
+// write 12, and any angle still reads back to the same radians.
+std::string degrees_text(double rad) {
+  for (int digits = 1; digits <= 17; ++digits) {
+    char buf[40];
+    std::snprintf(buf, sizeof buf, "%.*g", digits, rad * kRadToDeg);
+    if (std::strtod(buf, nullptr) * kDegToRad == rad) return buf;
+  }
+  return format_double(rad * kRadToDeg);
+}
 std::string number_list(const std::vector<double>& v, double factor) {
   std::string out = "[";
-  for (std::size_t i = 0; i < v.size(); ++i) out += (i ? ", " : "") + format_double(v[i] * factor);
+  for (std::size_t i = 0; i < v.size(); ++i)
+    out += (i ? ", " : "") + (factor == kRadToDeg ? degrees_text(v[i]) : format_double(v[i] * factor));
   return out + "]";
 }
 std::string power_terms(const std::string& name, const std::vector<int>& powers) {
@@ -786,6 +878,15 @@ std::string power_terms(const std::string& name, const std::vector<int>& powers)
 // A phase-column run is periodic by its file (periodic is then implied, not written).
 std::string run_entry(const Run& run, double experiment_airspeed_mps) {
   std::string keys;
+  if (!run.source_files.empty()) {
+    std::string files = "[";
+    for (std::size_t i = 0; i < run.source_files.size(); ++i) files += (i ? ", " : "") + toml_string(run.source_files[i]);
+    std::string out = "{files = " + files + "], frequency_hz = " + format_double(run.frequency_hz);
+    if (run.resampled_points > 0) out += ", samples = " + std::to_string(run.resampled_points);
+    if (run.airspeed_mps > 0.0 && run.airspeed_mps != experiment_airspeed_mps)
+      out += ", airspeed_mps = " + format_double(run.airspeed_mps);
+    return out + "}";
+  }
   if (run.time_source == TimeSource::phase_column && run.frequency_hz > 0.0)
     keys += ", frequency_hz = " + format_double(run.frequency_hz);
   else if (run.periodic)
@@ -805,7 +906,7 @@ std::string write_experiment_toml(const Experiment& e, const std::vector<std::st
   out += "coefficient = " + toml_string(e.coefficient) + "\n";
   out += "reference_length_m = " + format_double(e.reference_length_m) + "\n";
   out += "airspeed_mps = " + format_double(e.airspeed_mps) + "\n";
-  if (e.axis != Axis::pitch) out += "alpha0_deg = " + format_double(e.alpha0_rad * kRadToDeg) + "\n";
+  if (e.axis != Axis::pitch) out += "alpha0_deg = " + degrees_text(e.alpha0_rad) + "\n";
   out += "runs = [";
   for (std::size_t i = 0; i < e.runs.size(); ++i) {
     out += i ? ", " : "";

@@ -103,8 +103,7 @@ Prediction predict_motion(const ModelSet<double, FitCapacity>& model,
       // the steady state it set (the same model.hpp function the runtime's step uses).
       const auto snap = predictor->snapshot();
       for (int c = 0; c < m.n_coefficients; ++c) {
-        out.value[c] = coefficient_output(m.coefficients[c], clamp_x(x), rate_radps[0],
-                                          l_over_v_s, snap.y[c]);
+        out.value[c] = coefficient_output(m.coefficients[c], clamp_x(x), x, rate_radps[0], l_over_v_s, snap.y[c]);
       }
     } else {
       st = predictor->step(MotionInput{motion_angle_rad[i], rate_radps[i], airspeed_mps},
@@ -119,9 +118,8 @@ Prediction predict_motion(const ModelSet<double, FitCapacity>& model,
     for (int c = 0; c < m.n_coefficients; ++c) {
       auto& cp = p.coefficients[static_cast<std::size_t>(c)];
       cp.predicted[i] = out.value[c];
-      // The quasi-steady model sees the same (clamped) angle as the runtime.
-      cp.quasi_steady[i] =
-          quasi_steady_output(m.coefficients[c], clamp_x(x), rate_radps[i], l_over_v_s);
+      // The quasi-steady model sees the same angles as the runtime (runtime.hpp warning 3).
+      cp.quasi_steady[i] = quasi_steady_output(m.coefficients[c], clamp_x(x), x, rate_radps[i], l_over_v_s);
     }
   }
   return p;
@@ -207,7 +205,7 @@ Prediction predict_periodic(const ModelSet<double, FitCapacity>& model, const st
     // The output at sample 0 at the fixed-point state (a closed cycle's last step gives it too).
     const double x0 = std::min(std::max(p.x_rad[0], m.x_min_rad), m.x_max_rad);
     p.coefficients[static_cast<std::size_t>(c)].predicted[0] =
-        coefficient_output(m.coefficients[c], x0, rate_radps[0], l_over_v_s, fixed.y[c]) +
+        coefficient_output(m.coefficients[c], x0, p.x_rad[0], rate_radps[0], l_over_v_s, fixed.y[c]) +
         stall_output(m.coefficients[c].stall, x0, fixed.stall[c]);
   }
   step_cycle(*predictor, time_s, motion_angle_rad, rate_radps, airspeed_mps, closed, wrap_dt_s, model_label,
@@ -297,9 +295,15 @@ std::vector<std::string> prediction_metrics_lines(const Prediction& p) {
     lines.push_back(c.name + " quasi-steady: RMS " + fmt_num(q.rms_error) + "  max " +
                     fmt_num(q.max_error) + "  TIC " + fmt_num(q.theil_inequality));
   }
+  return lines;
+}
+
+std::vector<std::string> prediction_warnings(const Prediction& p) {
+  std::vector<std::string> lines;
   if (p.clamped_samples > 0)
-    lines.push_back("warning: " + std::to_string(p.clamped_samples) +
-                    " samples outside the model's envelope were clamped (extrapolation)");
+    lines.push_back(std::to_string(p.clamped_samples) + " of " + std::to_string(p.time_s.size()) +
+                    " samples are outside the model's envelope: there the unsteady term and the fitted terms "
+                    "are held at the envelope's edge (a static table is used at the true angle, over its rows)");
   return lines;
 }
 

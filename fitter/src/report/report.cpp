@@ -116,6 +116,7 @@ void replay_with(Predictor<double, Cap>& p, const FitResult& r, const Experiment
     // periodic run; the steady state otherwise): RunSeries::stall_initial.
     snap.stall[0] = s.stall_initial;
     p.restore(snap);
+    ++check.runs_replayed;
     typename Predictor<double, Cap>::Outputs out;
     for (std::size_t k = 1; k < run.size(); ++k) {
       const MotionInput in{run.motion_angle_rad[k], run.rate_radps[k], airspeed_mps};
@@ -203,12 +204,21 @@ std::vector<std::string> fit_warnings(const FitResult& r, const Experiment& e) {
   const double level = noise.white_equivalent;
   if (std::isfinite(r.fit_error) && level > 0.0 && r.fit_error > kFitErrorNoiseRatio * level) {
     w.push_back(fmt::format(
-        "{}: the fit error s(v) = {:.4g} is {:.1f} times the noise level estimated from the data "
-        "({:.4g}, white-equivalent, from the residuals' second differences; their AR(1) phi is {:.2f}); "
-        "more than {:g} times means the model misses an effect or the input is wrong: check the angle "
-        "units and columns, or run `indicial diagnose`",
+        "{}: the fit error s(v) = {:.4g} is {:.1f} times the short-lag level of the fit's own residual "
+        "({:.4g}, white-equivalent, from the residuals' second differences; their AR(1) phi is {:.2f}): "
+        "more than {:g} times, the residual is smooth and structured -- wrong input (check the angle units "
+        "and columns) or a missing effect. That level comes from this model's residual, not from "
+        "replicated data, so it is not a measurement of the noise: `indicial diagnose` decides whether an "
+        "effect is missing",
         e.path, r.fit_error, r.fit_error / level, level, noise.lag1_correlation, kFitErrorNoiseRatio));
   }
+  std::string weak;
+  for (const ParameterEstimate& p : r.parameters)
+    if (bound_exceeds_value(p)) weak += fmt::format("{}{} = {:.4g} +- {:.4g}", weak.empty() ? "" : ", ", p.name, p.value, p.cr_bound);
+  if (!weak.empty())
+    w.push_back(fmt::format("{}: ill-conditioned estimates (Cramer-Rao bound larger than the value): {}; the data "
+                            "do not determine them (remove the terms, or add runs that excite them)",
+                            e.path, weak));
   return w;
 }
 
@@ -379,6 +389,7 @@ nlohmann::json fit_json(const FitResult& r, const Experiment& e, const FitOption
                           {"detail", runtime->detail},
                           {"max_abs_difference", finite_or_null(runtime->max_abs_difference)},
                           {"samples_compared", runtime->samples_compared},
+                          {"runs_replayed", runtime->runs_replayed},
                           {"steps_not_ok", runtime->steps_not_ok}};
   }
   j["elapsed_s"] = r.elapsed_s;
@@ -624,10 +635,11 @@ std::string report_runtime_check(const RuntimeCheck& rc) {
   } else {
     m += fmt::format(
         "model.coef loads in the runtime ({}); replayed over every run from the estimated initial "
-        "states, it differs from the fitter's model output by at most {:.3g} over {} samples{}.{}\n\n",
+        "states, it differs from the fitter's model output by at most {:.3g} over {} steps (each run's "
+        "first sample is its initial state, not a step: {} runs){}.{}\n\n",
         rc.fit == RuntimeFit::default_capacity ? "`Predictor<>`, default capacity"
                                                : "only `Predictor<double, FitCapacity>`",
-        rc.max_abs_difference, rc.samples_compared,
+        rc.max_abs_difference, rc.samples_compared, rc.runs_replayed,
         rc.steps_not_ok > 0 ? fmt::format(" ({} steps refused)", rc.steps_not_ok) : std::string(),
         rc.detail.empty() ? std::string() : " Note: " + rc.detail + ".");
   }

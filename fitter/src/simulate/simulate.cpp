@@ -139,7 +139,9 @@ MotionSpec parse_motion_spec(const std::string& spec, Axis axis) {
   const std::string rest = spec.substr(colon + 1);
   MotionSpec m;
   if (kind == "csv") {
-    const Run run = read_run_csv(rest, axis, "", CoefficientPresence::optional);
+    RunCsvOptions read;
+    read.frequency_source = FrequencySource::none;
+    const Run run = read_run_csv(rest, axis, "", CoefficientPresence::optional, read);
     m.kind = MotionKind::samples;
     m.time_s = run.time_s;
     m.angle_rad = run.motion_angle_rad;
@@ -272,7 +274,16 @@ SimulatedRun simulate_reference(const TruthModel& model, const MotionSpec& motio
         static_cast<std::size_t>(model.coefficients[c].n_lags), std::vector<double>(n, 0.0));
   }
 
+  // At rest at the first angle: the steady state there (y_1 = con / b_1(x0), the other lags
+  // 0), the state the runtime's reset() sets and predict starts from (simulate.hpp warning 1).
   State y(static_cast<std::size_t>(offset.back()), 0.0);
+  {
+    double angle0 = 0, rate0 = 0, x0 = 0, xdot0 = 0;
+    f.eval(times.front(), angle0, rate0);
+    model_angle_and_rate(axis, a0, angle0, rate0, x0, xdot0);
+    for (int c = 0; c < nc; ++c)
+      steady_state(model.coefficients[c], x0, y.data() + offset[static_cast<std::size_t>(c)]);
+  }
   auto stepper = odeint::make_controlled(tolerance.abs, tolerance.rel,
                                          odeint::runge_kutta_dopri5<State>());
   auto record = [&](std::size_t k) {

@@ -439,7 +439,8 @@ struct BlockLanes {
   bool all_active;
   // Not initialised here (a block is built for every 8 instances): load_lanes fills them.
   V x0_rad;             // the state's x_prev_rad
-  V x1_rad;             // the new model angle (clamped)
+  V x1_rad;             // the new model angle (clamped to the envelope)
+  V x1_model_rad;       // the new model angle itself (a static table's, runtime.hpp warning 3)
   V rate;
   V airspeed_mps;       // airspeed terms of this step
   V time_scale;
@@ -475,6 +476,7 @@ INDICIAL_LANE_INLINE void check_lanes(const RuntimeModel<Scalar, Cap>& m, const 
   b->all_active = all_active;
   using V = LaneArray<Scalar, R>;
   const V motion = [&] { V v; gather_lanes(&v, [&](int i) { return x[i]; }); return v; }();
+  b->x1_model_rad = motion;
   b->x1_rad = lane_select(motion < m.x_min_rad, lane_constant<Scalar, R>(m.x_min_rad),
                           lane_select(motion > m.x_max_rad, lane_constant<Scalar, R>(m.x_max_rad), motion));
   gather_lanes(&b->rate, [&](int i) { return Scalar(b->active[i] ? rate_radps[i] : 0.0); });
@@ -532,7 +534,7 @@ INDICIAL_LANE_INLINE void advance_lanes(const CoefficientModel<Scalar, Cap>& cm,
     b->b_antiderivative[c][j] = end1;
     b->finite_test = b->finite_test + (b->y[c][j] - b->y[c][j]);
   }
-  b->value[c] = coefficient_output_with<Ops>(cm, b->x1_rad, b->rate, b->l_over_v_s, b->y[c]);
+  b->value[c] = coefficient_output_with<Ops>(cm, b->x1_rad, b->x1_model_rad, b->rate, b->l_over_v_s, b->y[c]);
   // x - x is 0 for a finite x, NaN for Inf and NaN.
   b->finite_test = b->finite_test + (b->value[c] - b->value[c]);
 }

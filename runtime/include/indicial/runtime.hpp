@@ -115,9 +115,14 @@
 //    an interrupt. A refused load leaves the predictor as it was (old model, old state).
 // 2. After a load, step() refuses (StepStatus::not_reset) until reset() sets the steady
 //    state; a default-constructed State is "never reset" too.
-// 3. An angle outside the fitted envelope [x_min_rad, x_max_rad] is clamped to it and
-//    reported as StepStatus::angle_clamped; outputs are still produced (with the clamped
-//    angle; the rate is used as given). The unsteady forcing stops while clamped.
+// 3. An angle outside the fitted envelope [x_min_rad, x_max_rad] is reported as
+//    StepStatus::angle_clamped and outputs are still produced (finite, never NaN): the
+//    unsteady term is held at the envelope's edge (its forcing a(x) x' stops while outside, so
+//    the lags relax toward their steady state at the edge with b_j(edge)); every fitted term
+//    (a polynomial static curve, the static correction, the rotary term) is evaluated at the
+//    edge; a static TABLE is evaluated at the true angle over its own rows (held at its first
+//    or last row beyond them). The rate is used as given. Decided in model.hpp's
+//    coefficient_output; the batch, the C API, predict and the fit's replay all step here.
 // 4. Bad input (NaN, Inf, dt_s <= 0, dt_s > max_step_dt_s, airspeed <= 0) returns its own
 //    status and changes neither the state nor the outputs. If finite input would produce a
 //    non-finite output (absurd magnitudes, e.g. airspeed 1e-300), step() returns
@@ -603,8 +608,9 @@ struct DelayedState : FamilyState<Scalar, Cap> {
 namespace detail {
 template <class Scalar>
 struct Clamped {
-  Scalar x_rad;
+  Scalar x_rad;       // the model angle clamped to the envelope (the unsteady term's)
   StepStatus status;  // ok or angle_clamped
+  Scalar model_x_rad; // the model angle itself (a static table's, model.hpp coefficient_output)
 };
 
 // Model angle from the motion angle (not yet clamped), in Scalar.
@@ -625,9 +631,9 @@ inline Clamped<Scalar> clamp_model_angle(const RuntimeModel<Scalar, Cap>& m, dou
   const Scalar x = model_angle_of(m, motion_angle_rad);
   // Why the clamp: the splines are fitted inside the envelope only; outside it a polynomial
   // extrapolates without data behind it.
-  if (x < m.x_min_rad) return {m.x_min_rad, StepStatus::angle_clamped};
-  if (x > m.x_max_rad) return {m.x_max_rad, StepStatus::angle_clamped};
-  return {x, StepStatus::ok};
+  if (x < m.x_min_rad) return {m.x_min_rad, StepStatus::angle_clamped, x};
+  if (x > m.x_max_rad) return {m.x_max_rad, StepStatus::angle_clamped, x};
+  return {x, StepStatus::ok, x};
 }
 
 template <class Scalar>
@@ -714,7 +720,7 @@ inline bool advance_families(const CoefficientModel<Scalar, Cap>& cm, const Stal
 // stall == nullptr: no families (the model has none).
 template <class Scalar, class Cap>
 inline StepStatus advance_coefficients(const RuntimeModel<Scalar, Cap>& m, const State<Scalar, Cap>& s,
-                                       Scalar x1, Scalar rate, Scalar dt_s,
+                                       Scalar x1, Scalar table_x1, Scalar rate, Scalar dt_s,
                                        const AirspeedTerms<Scalar>& v,
                                        const DelayedForcing<Scalar, Cap>* forcing,
                                        const StallState<Scalar>* stall,
@@ -739,7 +745,7 @@ inline StepStatus advance_coefficients(const RuntimeModel<Scalar, Cap>& m, const
     }
     evaluate_step_end(cm, g.x1_rad, g.forcing_x1_rad, &r->end[c]);
     advance_lags_between(cm, g, *end0, r->end[c], r->y[c]);
-    r->value[c] = coefficient_output(cm, x1, rate, v.l_over_v_s, r->y[c]);
+    r->value[c] = coefficient_output(cm, x1, table_x1, rate, v.l_over_v_s, r->y[c]);
     if (stall != nullptr &&
         !advance_families(cm, stall[c], StallStep<Scalar>{s.x_prev_rad, x1, dt_s, v.l_over_v_s},
                           &r->stall[c], &r->value[c]))
@@ -880,7 +886,7 @@ inline StepStatus step_undelayed(const RuntimeModel<Scalar, Cap>& m, State<Scala
   const Clamped<Scalar> clamp = clamp_model_angle(m, in.motion_angle_rad);
   const AirspeedTerms<Scalar> v = airspeed_terms(m, s, in.airspeed_mps);
   StepResult<Scalar, Cap> r;
-  const StepStatus st = advance_coefficients(m, s, clamp.x_rad, Scalar(in.rate_radps), Scalar(dt_s), v,
+  const StepStatus st = advance_coefficients(m, s, clamp.x_rad, clamp.model_x_rad, Scalar(in.rate_radps), Scalar(dt_s), v,
                                              static_cast<const DelayedForcing<Scalar, Cap>*>(nullptr),
                                              families != nullptr ? families->stall : nullptr, &r);
   if (st != StepStatus::ok) return st;
@@ -968,7 +974,7 @@ inline StepStatus step(const RuntimeModel<Scalar, Cap>& m, DelayedState<Scalar, 
   }
   detail::StepResult<Scalar, Cap> r;
   const bool families = m.stall != StallUse::none;
-  const StepStatus st = detail::advance_coefficients(m, s, clamp.x_rad, Scalar(in.rate_radps),
+  const StepStatus st = detail::advance_coefficients(m, s, clamp.x_rad, clamp.model_x_rad, Scalar(in.rate_radps),
                                                      Scalar(dt_s), v, &forcing,
                                                      families ? s.stall : nullptr, &r);
   if (st != StepStatus::ok) return st;

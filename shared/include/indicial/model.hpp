@@ -991,9 +991,19 @@ inline void steady_state(const CoefficientModel<Scalar, Cap>& m, const Scalar& x
 // The coefficient at a sample: static + correction + rotary + the sum of the lag states
 // (eq. 4b with the convolution replaced by its states). l_over_v_s = l / V at the current
 // airspeed; rate_radps is q, p or r.
+//
+// Two angles, for a model angle outside the fitted envelope (the runtime's warning 3): x_rad
+// is the angle clamped to the envelope, at which every fitted term is evaluated (a polynomial
+// static curve, the static correction, the rotary term); table_x_rad is the model angle
+// itself, at which a static TABLE is evaluated over its own rows (measured data; beyond its
+// first/last row it is held at that row, static_value). Why: a cycle that leaves the training
+// cycles' range must see the measured static curve where the angle really is, not frozen at
+// the envelope's edge; a polynomial has no range of its own in the model but the envelope it
+// was fitted or checked in. Inside the envelope both angles are the same.
 template <class Ops, class Cap>
 INDICIAL_HOT_INLINE typename Ops::V coefficient_output_with(const CoefficientModel<typename Ops::Scalar, Cap>& m,
                                                const typename Ops::V& x_rad,
+                                               const typename Ops::V& table_x_rad,
                                                const typename Ops::V& rate_radps,
                                                const typename Ops::V& l_over_v_s,
                                                const typename Ops::V* y) {
@@ -1002,7 +1012,7 @@ INDICIAL_HOT_INLINE typename Ops::V coefficient_output_with(const CoefficientMod
   if (m.static_curve.kind == StaticKind::polynomial) {
     curve = spline_value_with<Ops>(m.static_curve.polynomial, x_rad);
   } else {
-    Ops::table_value(m.static_curve, x_rad, &curve);
+    Ops::table_value(m.static_curve, table_x_rad, &curve);
   }
   V sum = curve + spline_value_with<Ops>(m.static_correction, x_rad) +
           l_over_v_s * spline_value_with<Ops>(m.rotary, x_rad) * rate_radps;
@@ -1010,19 +1020,36 @@ INDICIAL_HOT_INLINE typename Ops::V coefficient_output_with(const CoefficientMod
   return sum;
 }
 
+// Inside the envelope: one angle for every term.
 template <class Scalar, class Cap>
 INDICIAL_HOT_INLINE Scalar coefficient_output(const CoefficientModel<Scalar, Cap>& m, const Scalar& x_rad,
                                  const Scalar& rate_radps, const Scalar& l_over_v_s,
                                  const Scalar* y) {
-  return coefficient_output_with<ScalarOps<Scalar>>(m, x_rad, rate_radps, l_over_v_s, y);
+  return coefficient_output_with<ScalarOps<Scalar>>(m, x_rad, x_rad, rate_radps, l_over_v_s, y);
 }
 
-// The quasi-steady part only (static + correction + rotary), for comparisons.
+// Anywhere: x_rad clamped to the envelope, table_x_rad the model angle itself (see above).
+template <class Scalar, class Cap>
+INDICIAL_HOT_INLINE Scalar coefficient_output(const CoefficientModel<Scalar, Cap>& m, const Scalar& x_rad,
+                                 const Scalar& table_x_rad, const Scalar& rate_radps,
+                                 const Scalar& l_over_v_s, const Scalar* y) {
+  return coefficient_output_with<ScalarOps<Scalar>>(m, x_rad, table_x_rad, rate_radps, l_over_v_s, y);
+}
+
+// The quasi-steady part only (static + correction + rotary), for comparisons; the two angles
+// as coefficient_output's (table_x_rad defaults to x_rad, inside the envelope).
 template <class Scalar, class Cap>
 inline Scalar quasi_steady_output(const CoefficientModel<Scalar, Cap>& m, const Scalar& x_rad,
                                   const Scalar& rate_radps, const Scalar& l_over_v_s) {
   return static_value(m.static_curve, x_rad) + spline_value(m.static_correction, x_rad) +
          l_over_v_s * spline_value(m.rotary, x_rad) * rate_radps;
+}
+template <class Scalar, class Cap>
+inline Scalar quasi_steady_output(const CoefficientModel<Scalar, Cap>& m, const Scalar& x_rad,
+                                  const Scalar& table_x_rad, const Scalar& rate_radps, const Scalar& l_over_v_s) {
+  const Scalar curve = m.static_curve.kind == StaticKind::polynomial ? static_value(m.static_curve, x_rad)
+                                                                    : static_value(m.static_curve, table_x_rad);
+  return curve + spline_value(m.static_correction, x_rad) + l_over_v_s * spline_value(m.rotary, x_rad) * rate_radps;
 }
 
 // The continuous-time right-hand side, for reference integrators and tests only:

@@ -50,6 +50,11 @@ struct Run {
   double ensemble_count = 0.0;
   TimeGrid time_grid = TimeGrid::uniform;
   TimeSource time_source = TimeSource::time_column;
+  // A run of several files whose columns are at their own phases (runs entry `files = [...]`,
+  // phase_resample.hpp): the files as named in the experiment, and the grid's size; path is
+  // then their names joined by " + ". Empty for a run of one file.
+  std::vector<std::string> source_files;
+  int resampled_points = 0;
   std::vector<std::string> notes;         // one-line notes of the reader (ignored columns, ...)
   std::vector<std::string> warnings;      // plausible mistakes (radians in a degree column, ...)
   double dt_s() const { return time_s.size() > 1 ? time_s[1] - time_s[0] : 0.0; }

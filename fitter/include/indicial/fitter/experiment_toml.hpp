@@ -24,6 +24,9 @@
 //   [static] table = "static.csv"                          alpha_deg|alpha_rad (pitch) or
 //            beta_deg|beta_rad (roll, yaw) plus the coefficient column, strictly increasing
 //   alpha0_rad instead of alpha0_deg.
+//   [columns] our name = the file's name (Cnormal / Ctangential: body-axis forces, CL and CD
+//            derived); [csv] delimiter = "detect"|"comma"|"semicolon"|"tab"|"whitespace",
+//            comment = "#%"                                 the run files' dialect
 //
 // Warnings
 // --------
@@ -40,6 +43,7 @@
 #include <string>
 #include <vector>
 
+#include "indicial/fitter/csv_reader.hpp"
 #include "indicial/fitter/experiment.hpp"
 
 namespace indicial {
@@ -65,7 +69,12 @@ inline constexpr std::array<NamedValue<StallFamilies>, 3> stall_families_names{
 inline constexpr std::array<NamedValue<TimeGrid>, 2> time_grid_names{
     {{"uniform", TimeGrid::uniform}, {"nonuniform", TimeGrid::nonuniform}}};
 
+inline constexpr std::array<NamedValue<Delimiter>, 5> delimiter_names{
+    {{"detect", Delimiter::detect}, {"comma", Delimiter::comma}, {"semicolon", Delimiter::semicolon},
+     {"tab", Delimiter::tab}, {"whitespace", Delimiter::whitespace}}};
+
 inline constexpr const auto& names_of(Axis) { return axis_names; }
+inline constexpr const auto& names_of(Delimiter) { return delimiter_names; }
 inline constexpr const auto& names_of(StructureMode) { return structure_mode_names; }
 inline constexpr const auto& names_of(DelayEstimation) { return delay_estimation_names; }
 inline constexpr const auto& names_of(LagStart) { return lag_start_names; }
@@ -90,6 +99,11 @@ Experiment load_experiment(const std::string& toml_path, const std::string& coef
 // docs/formats.md) and the same runs, in the order of `coefficients`.
 std::vector<Experiment> load_experiments(const std::string& toml_path);
 
+// How the experiment's run files are read: its [columns] map and its [csv] dialect (the rest of
+// the file is checked for TOML syntax only). `indicial predict --experiment` reads a run file
+// this way, as `fit` reads the experiment's runs.
+RunCsvOptions run_file_format(const std::string& toml_path);
+
 // Sets data_x_min_rad / data_x_max_rad to the range of the model angle x = model_angle(axis,
 // alpha0, motion angle) over every sample of every run (both 0 without samples). Called by
 // load_experiment; code that builds an Experiment from runs in memory calls it too.
@@ -100,7 +114,8 @@ void set_data_range(Experiment& experiment);
 // defaults, frequency_hz (a phase-column run), airspeed_mps and time_grid. Knots are written in degrees,
 // polynomials as given. Writes a_degree / b1_degree when the powers are 0..n-1 and
 // a_powers / b1_powers otherwise. load_experiment(write_experiment_toml(e)) gives back e's
-// configuration (to the last bit for the polynomials, within 1 ulp for knots).
+// configuration (to the last bit; angles in degrees are written with the shortest digits that read back
+// to the same radians: a knot read as 12 deg is written 12, not 12.000000000000002).
 std::string write_experiment_toml(const Experiment& experiment,
                                   const std::vector<std::string>& comment_lines);
 

@@ -66,6 +66,7 @@
 
 #include <Eigen/Core>
 #include <cstddef>
+#include <cmath>
 #include <string>
 #include <utility>
 #include <vector>
@@ -255,6 +256,14 @@ struct ParameterEstimate {
   double cr_bound_colored = 0.0;  // colored-residual (sandwich) standard error
   Identifiability identifiability = Identifiability::identified;
 };
+
+// An estimate the data barely determine: its Cramer-Rao bound exceeds its magnitude (a run's
+// initial state excepted: a nuisance parameter that may well be ~0). fit warns about these and
+// diagnose lists them, by this one rule.
+inline bool bound_exceeds_value(const ParameterEstimate& p) {
+  return p.id.kind != ParamKind::initial_state && p.identifiability == Identifiability::identified &&
+         std::isfinite(p.cr_bound) && p.cr_bound > std::abs(p.value);
+}
 
 enum class StepwiseAction { entered, removed };
 

@@ -32,9 +32,11 @@
 //    that begins in motion (or a simulated run that begins with y = 0 while con != 0) starts
 //    with a transient error that decays like exp(-b t). For one cycle of a periodic motion
 //    use predict_periodic (its periodic steady state) instead.
-// 2. Angles outside the model's envelope are clamped by the runtime (its warning 3); the
-//    number of clamped samples is reported (Prediction::clamped_samples) -- a prediction with
-//    clamped samples is an extrapolation the model was never fitted for.
+// 2. Outside the model's envelope the runtime holds the unsteady and fitted terms at the
+//    envelope's edge and evaluates a static table at the true angle (runtime.hpp warning 3);
+//    the quasi-steady column does the same. The number of such samples is reported
+//    (Prediction::clamped_samples; `indicial predict` warns on stderr) -- a prediction there
+//    is an extrapolation the unsteady model was never fitted for.
 // 3. Bad model files throw InputError naming the file and line (parse or runtime validation,
 //    e.g. b_j(x) <= 0 in the envelope). A runtime step refusal (non-finite result) throws too.
 // 4. predict_motion steps with each sample's own dt, so any strictly increasing grid works
@@ -130,6 +132,10 @@ std::string prediction_metrics_json(const Prediction& p);
 
 // One-line human summaries of the metrics (for stdout and the CSV comments).
 std::vector<std::string> prediction_metrics_lines(const Prediction& p);
+
+// The prediction's warnings (samples outside the envelope), one line each without a prefix: the
+// command line prints them on stderr as "indicial: warning: ...", the CSV keeps them as comments.
+std::vector<std::string> prediction_warnings(const Prediction& p);
 
 // Overlay plot (gnuplot, pngcairo): per coefficient, measured / predicted / quasi-steady
 // against time (left) and against the motion angle in degrees (right). Writes `png_path`

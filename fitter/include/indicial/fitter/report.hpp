@@ -88,7 +88,11 @@ struct RuntimeCheck {
   LoadStatus load_status = LoadStatus::ok;  // of the load that decided `fit`
   std::string detail;                       // the runtime's reason when not default_capacity
   double max_abs_difference = 0.0;          // |runtime - FitResult::runs[].model|, samples >= 1
+  // Steps compared: every sample after each replayed run's first. Why not the first: it is the
+  // run's estimated initial state, which the runtime is reset to, not a step it computes; so a
+  // fit of N samples in R runs replays N - R steps.
   std::size_t samples_compared = 0;
+  std::size_t runs_replayed = 0;
   std::size_t steps_not_ok = 0;             // steps whose status was neither ok nor angle_clamped
 };
 
@@ -115,6 +119,8 @@ nlohmann::json with_provenance_and_warnings(nlohmann::json j, const ReportOption
 //    model error; AR(1) noise with phi above ~0.85 reads below its level there, so a complete
 //    model can warn on such noise: the message gives phi). A ratio that high
 //    means a missing effect or wrong input (units, columns), not noise.
+//  * estimates whose Cramer-Rao bound exceeds their value (bound_exceeds_value, fit.hpp: the
+//    rule diagnose's "ill-conditioned" list uses), with value +- bound.
 inline constexpr double kFitErrorNoiseRatio = 3.0;
 std::vector<std::string> fit_warnings(const FitResult& r, const Experiment& e);
 

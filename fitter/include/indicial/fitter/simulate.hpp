@@ -25,10 +25,14 @@
 //
 // Warnings
 // --------
-// 1. Every run starts at rest: y(t0) = 0 (and, for a delay, the forcing angle is held at its
-//    first value before t0). A sine motion is x(t) = mean - amplitude cos(2 pi f t), which
-//    starts at rest; a CSV motion that starts moving gets y(t0) = 0 all the same (eq. 13's
-//    integral from 0).
+// 1. Every run starts at rest at its first angle x0: each lag at its steady state there,
+//    y_1(t0) = con / b_1(x0), y_j(t0) = 0 for j >= 2 (model.hpp's steady_state; y = 0 when
+//    con = 0), and, for a delay, the forcing angle held at its first value before t0. This is
+//    the one initial state of every command: the runtime's reset(), predict (non-periodic),
+//    simulate --model and --case. Why this one: a model held at x0 for a long time is there
+//    (y' = 0); y = 0 with con != 0 is a transient the tunnel never shows. A sine motion is
+//    x(t) = mean - amplitude cos(2 pi f t), which starts at rest; a CSV motion that starts
+//    moving starts from the same state all the same.
 // 2. The integration runs between consecutive output samples, and is also split at the kinks
 //    of a ramp and at the times a delayed forcing sees them; the plus-function knots of a(x),
 //    b(x) are left to the error control (they are C0..C1 in time, not discontinuous).

@@ -1,0 +1,239 @@
+// Run files as real databases write them (csv_reader.hpp, experiment [columns] and [csv]):
+// whitespace-separated text with a `%` header line, a phase column under the database's own
+// name, normal- and chord-force coefficients from which CL and CD are derived, and the `Cn`
+// ambiguity (indicial's Cn is the yawing moment).
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "indicial/fitter/error.hpp"
+#include "indicial/fitter/experiment_toml.hpp"
+#include "indicial/fitter/io.hpp"
+#include "test_support.hpp"
+
+namespace fs = std::filesystem;
+
+#define CHECK_HAS(m, s)                      \
+  do {                                       \
+    INFO("message: " << (m));                \
+    CHECK((m).find(s) != std::string::npos); \
+  } while (0)
+
+namespace {
+
+using indicial::testing::kPi;
+
+const fs::path& dir() {
+  static const indicial::testing::TempDir d("test-csv-reader");
+  return d.path;
+}
+
+std::string write(const std::string& name, const std::string& text) {
+  const fs::path p = dir() / name;
+  std::ofstream(p, std::ios::binary) << text;
+  return p.string();
+}
+
+// The database's layout: a `%` header typed with spaces, 128 tab-separated rows, the phase in
+// rad printed to 2 decimals under "Time()", the angle under "Angle(deg)", normal and chord
+// force Cn, Ct, and Cm. alpha = 10 + 8 sin(phase) deg; Cn = 2 pi sin(alpha) (attached flow),
+// Ct = 0.01 + 0.1 sin(alpha)^2.
+struct Cycle {
+  std::vector<double> alpha_deg, cn, ct, cm;
+};
+Cycle database_cycle() {
+  Cycle c;
+  for (int k = 0; k < 128; ++k) {
+    const double phase = 2 * kPi * k / 128;
+    const double a = 10.0 + 8.0 * std::sin(phase);
+    const double s = std::sin(a * kPi / 180);
+    c.alpha_deg.push_back(a);
+    c.cn.push_back(2 * kPi * s);
+    c.ct.push_back(0.01 + 0.1 * s * s);
+    c.cm.push_back(-0.02 * s);
+  }
+  return c;
+}
+std::string database_text(const Cycle& c, const char* header = "% Time() Angle(deg) Cn Ct Cm") {
+  std::string s = std::string(header) + "\n";
+  for (int k = 0; k < 128; ++k) {
+    char row[160];
+    std::snprintf(row, sizeof row, "%.2f\t%.17g\t%.17g\t%.17g\t%.17g\n", 2 * kPi * k / 128, c.alpha_deg[k],
+                  c.cn[k], c.ct[k], c.cm[k]);
+    s += row;
+  }
+  return s;
+}
+
+const char* kMapped = R"toml([columns]
+phase_rad = "Time()"
+alpha_deg = "Angle(deg)"
+Cnormal = "Cn"
+Ctangential = "Ct"
+)toml";
+
+std::string experiment(const std::string& coefficient, const std::string& columns, const std::string& extra = "") {
+  return "axis = \"pitch\"\ncoefficient = \"" + coefficient +
+         "\"\nreference_length_m = 0.275\nairspeed_mps = 40\n"
+         "runs = [{file = \"cycle.dat\", reduced_frequency = 0.05}]\n" + extra +
+         "[static]\npolynomial = [0.1, 5.0]\n\n[model]\na_degree = 1\n\n" + columns;
+}
+
+std::string load_error(const std::string& name, const std::string& text) {
+  try {
+    indicial::load_experiment(write(name, text));
+  } catch (const indicial::InputError& e) {
+    return e.what();
+  }
+  return "(no error)";
+}
+
+bool any_has(const std::vector<std::string>& v, const std::string& s) {
+  for (const auto& x : v)
+    if (x.find(s) != std::string::npos) return true;
+  return false;
+}
+
+}  // namespace
+
+TEST_CASE("a database cycle: % header, whitespace, mapped phase and angle, CL and CD derived from Cn and Ct") {
+  const Cycle c = database_cycle();
+  write("cycle.dat", database_text(c));
+  for (const char* coefficient : {"CL", "CD"}) {
+    CAPTURE(coefficient);
+    const indicial::Experiment e = indicial::load_experiment(write("db.toml", experiment(coefficient, kMapped)));
+    REQUIRE(e.runs.size() == 1);
+    const indicial::Run& r = e.runs[0];
+    CHECK(r.time_source == indicial::TimeSource::phase_column);
+    CHECK(r.periodic);
+    CHECK(r.time_grid == indicial::TimeGrid::uniform);  // the 0.01-rad rounding snapped
+    REQUIRE(r.size() == 128);
+    // f = k V / (2 pi l): the grid is k / (128 f).
+    const double f = 0.05 * 40 / (2 * kPi * 0.275);
+    CHECK(r.time_s[64] == doctest::Approx(64 / (128 * f)).epsilon(1e-9));
+    for (int k = 0; k < 128; ++k) {
+      const double a = c.alpha_deg[k] * kPi / 180;
+      const double want = std::string(coefficient) == "CL" ? c.cn[k] * std::cos(a) + c.ct[k] * std::sin(a)
+                                                           : c.cn[k] * std::sin(a) - c.ct[k] * std::cos(a);
+      CHECK(r.motion_angle_rad[k] == doctest::Approx(a).epsilon(1e-15));
+      CHECK(r.coefficient[k] == doctest::Approx(want).epsilon(1e-14));
+    }
+    CHECK(any_has(e.notes, "the column names are read from this comment line"));
+    CHECK(any_has(e.notes, "read as whitespace-separated"));
+    CHECK(any_has(e.notes, std::string(coefficient) + " derived from 'Cn' (Cnormal) and 'Ct' (Ctangential)"));
+  }
+  // Cm straight from the file; the unused Cn (mapped) is not the yawing moment and nothing warns.
+  const indicial::Experiment m = indicial::load_experiment(write("db_cm.toml", experiment("Cm", kMapped)));
+  CHECK(m.runs[0].coefficient[5] == c.cm[5]);
+  CHECK_FALSE(any_has(m.warnings, "Cn"));
+}
+
+TEST_CASE("the dialect declared in [csv] reads the same, a wrong one is named") {
+  const Cycle c = database_cycle();
+  write("cycle.dat", database_text(c));
+  const indicial::Experiment detected = indicial::load_experiment(write("det.toml", experiment("Cm", kMapped)));
+  const indicial::Experiment declared = indicial::load_experiment(
+      write("decl.toml", experiment("Cm", kMapped, "[csv]\ndelimiter = \"whitespace\"\ncomment = \"%\"\n")));
+  CHECK(declared.runs[0].coefficient == detected.runs[0].coefficient);
+  CHECK(declared.runs[0].time_s == detected.runs[0].time_s);
+  // Declared tab: the header typed with spaces is one field, not the data's five.
+  CHECK_HAS(load_error("tab.toml", experiment("Cm", kMapped, "[csv]\ndelimiter = \"tab\"\n")),
+            "cycle.dat:1: no header row: the first data row is numbers, and this comment line has 1 tab-separated "
+            "fields, not the data's 5");
+  // '#' only: the % line is then the header row itself, with a stray '%' field.
+  CHECK_HAS(load_error("hash.toml", experiment("Cm", kMapped, "[csv]\ncomment = \"#\"\n")), "cycle.dat:2: expected 6");
+  CHECK_HAS(load_error("bad.toml", experiment("Cm", kMapped, "[csv]\ndelimiter = \"space\"\n")),
+            "'csv.delimiter' must be \"detect\", \"comma\", \"semicolon\", \"tab\" or \"whitespace\"");
+  CHECK_HAS(load_error("badc.toml", experiment("Cm", kMapped, "[csv]\ncomment = \"-\"\n")), "cannot start a comment");
+  CHECK_HAS(load_error("badk.toml", experiment("Cm", kMapped, "[csv]\nquote = \"'\"\n")), "csv.quote");
+  // No header anywhere: numbers from the first line.
+  std::string bare = database_text(c);
+  bare.erase(0, bare.find('\n') + 1);
+  write("cycle.dat", bare);
+  CHECK_HAS(load_error("bare.toml", experiment("Cm", kMapped)),
+            "cycle.dat:1: no header row: the first row is numbers (add a header row of column names)");
+}
+
+TEST_CASE("Cn: the yawing moment, never silently the normal force") {
+  const Cycle c = database_cycle();
+  write("cycle.dat", database_text(c));
+  const std::string phase_only = "[columns]\nphase_rad = \"Time()\"\nalpha_deg = \"Angle(deg)\"\n";
+  // CL from a file with Cn and Ct unmapped: the error says how to map them.
+  const std::string m1 = load_error("cl.toml", experiment("CL", phase_only));
+  CHECK_HAS(m1, "cycle.dat:1: missing column 'CL'; this file's 'Cn' and 'Ct' look like the normal- and chord-force");
+  CHECK_HAS(m1, "[columns] Cnormal = \"Cn\" and Ctangential = \"Ct\"");
+  // Fitting "Cn" from it: refused, with both ways out.
+  const std::string m2 = load_error("cn.toml", experiment("Cn", phase_only));
+  CHECK_HAS(m2, "column 'Cn' beside a chord-force column looks like the normal-force coefficient");
+  CHECK_HAS(m2, "[columns] Cn = \"Cn\"");
+  // Declared the yawing moment: read, with the pitch-experiment warning.
+  const indicial::Experiment yaw = indicial::load_experiment(write("cnyaw.toml", experiment("Cn", phase_only + "Cn = \"Cn\"\n")));
+  CHECK(yaw.runs[0].coefficient[3] == c.cn[3]);
+  CHECK(any_has(yaw.warnings, "coefficient Cn in a pitch experiment: indicial's Cn is the yawing moment"));
+  // Half a pair.
+  CHECK_HAS(load_error("half.toml", experiment("CL", phase_only + "Cnormal = \"Cn\"\n")),
+            "CL from body-axis forces needs both 'Cnormal' and 'Ctangential'; only 'Cnormal' is here");
+  // Not a pitch run: no angle of attack to rotate by.
+  std::string roll = database_text(c, "% Time() phi_deg Cnormal Ctangential Cm");
+  write("cycle.dat", roll);
+  std::string rt = experiment("CL", "[columns]\nphase_rad = \"Time()\"\n");
+  rt.replace(rt.find("axis = \"pitch\""), 14, "axis = \"roll\"\nalpha0_deg = 20");
+  CHECK_HAS(load_error("roll.toml", rt), "needs the angle of attack of a pitch run; this is a roll run");
+}
+
+TEST_CASE("a static table of normal and chord force gives CL") {
+  std::string table = "alpha_deg;Cnormal;Ctangential\n";
+  for (int k = 0; k <= 20; ++k) table += std::to_string(k) + ";" + std::to_string(0.1 * k) + ";0,01\n";
+  const Cycle c = database_cycle();
+  write("cycle.dat", database_text(c));
+  write("static.csv", table);
+  std::string t = experiment("CL", kMapped);
+  t.replace(t.find("polynomial = [0.1, 5.0]"), 23, "table = \"static.csv\"");
+  const indicial::Experiment e = indicial::load_experiment(write("table.toml", t));
+  const double a = 7 * kPi / 180;
+  CHECK(e.static_curve.table_value[7] == doctest::Approx(0.7 * std::cos(a) + 0.01 * std::sin(a)).epsilon(1e-15));
+}
+
+TEST_CASE("a phase column not uniform to its digits: nonuniform with a note, refused when uniform is declared") {
+  // 40 digitized phases (deg) at irregular spacing.
+  std::string s = "phase_deg,alpha_deg,Cm\n";
+  for (int k = 0; k < 40; ++k) {
+    const double ph = 9.0 * k + 3.0 * std::sin(1.7 * k);
+    s += indicial::format_double(ph) + "," + indicial::format_double(10 + 5 * std::sin(ph * kPi / 180)) + ",0.1\n";
+  }
+  const std::string path = write("digitized.csv", s);
+  indicial::RunCsvOptions o;
+  o.frequency_hz = 1.0;
+  const indicial::Run r = indicial::read_run_csv(path, indicial::Axis::pitch, "Cm",
+                                                 indicial::CoefficientPresence::required, o);
+  CHECK(r.time_grid == indicial::TimeGrid::nonuniform);
+  CHECK(any_has(r.notes, "'phase_deg' is not uniform even to its printed digits"));
+  o.grid = indicial::TimeGrid::uniform;
+  std::string m;
+  try {
+    indicial::read_run_csv(path, indicial::Axis::pitch, "Cm", indicial::CoefficientPresence::required, o);
+  } catch (const indicial::InputError& e) {
+    m = e.what();
+  }
+  CHECK_HAS(m, "but a uniform grid was declared");
+  // Without a frequency: the advice names where the caller takes it from.
+  o.grid.reset();
+  o.frequency_hz = 0.0;
+  for (auto [source, advice] : {std::pair{indicial::FrequencySource::experiment_entry, "in the experiment's runs entry"},
+                                std::pair{indicial::FrequencySource::command_line, "--frequency-hz or --reduced-frequency"},
+                                std::pair{indicial::FrequencySource::none, "'simulate --motion csv:' cannot take"}}) {
+    o.frequency_source = source;
+    std::string msg;
+    try {
+      indicial::read_run_csv(path, indicial::Axis::pitch, "Cm", indicial::CoefficientPresence::required, o);
+    } catch (const indicial::InputError& e) {
+      msg = e.what();
+    }
+    CHECK_HAS(msg, advice);
+  }
+}
