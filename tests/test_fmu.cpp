@@ -496,6 +496,64 @@ TEST_CASE("fmu: a step longer than the runtime's 1 s is equal sub-steps with the
   u.api.fmi2FreeInstance(c);
 }
 
+TEST_CASE("fmu: a step above the documented bound (1e6 s) is refused at once, with a reason") {
+  const Unpacked& u = lift_fmu();
+  Motion m;
+  m.t_s = {0.0};
+  m.alpha_rad = {0.2};
+  m.q_radps = {0.0};
+  for (const double h_s : {1e17, 1e6 * (1.0 + 1e-12), 1e300}) {
+    g_log.clear();
+    fmi2Component c = start_at(u, m, 0.0);
+    CHECK(u.api.fmi2DoStep(c, 0.0, h_s, fmi2True) == fmi2Error);  // before the fix: never returned
+    CHECK(logged("above the largest accepted step"));
+    int status = 5;
+    const unsigned status_vr = variable(u.d, "step_status").vr;
+    CHECK(u.api.fmi2GetInteger(c, &status_vr, 1, &status) == fmi2OK);
+    CHECK(status == 0);  // an argument refusal changes nothing, step_status included
+    u.api.fmi2FreeInstance(c);
+  }
+  CHECK(g_live_allocations == 0);
+}
+
+TEST_CASE("fmu: a step the runtime refuses midway rolls back: outputs kept, step_status says why") {
+  const Unpacked& u = lift_fmu();
+  const auto& a = u.api;
+  Motion m;
+  m.t_s = {0.0};
+  m.alpha_rad = {0.2};
+  m.q_radps = {0.0};
+  fmi2Component c = start_at(u, m, 0.0);
+  const unsigned alpha_vr = variable(u.d, "alpha_rad").vr;
+  const unsigned q_vr = variable(u.d, "q_radps").vr;
+  const unsigned airspeed_vr = variable(u.d, "airspeed_mps").vr;
+  const unsigned status_vr = variable(u.d, "step_status").vr;
+  const unsigned out_vr[2] = {variable(u.d, "CL").vr, variable(u.d, "Cm").vr};
+  REQUIRE(set_real(u, c, alpha_vr, 0.3) == fmi2OK);
+  REQUIRE(a.fmi2DoStep(c, 0.0, 0.01, fmi2True) == fmi2OK);
+  double before[2];
+  REQUIRE(a.fmi2GetReal(c, out_vr, 2, before) == fmi2OK);
+  // Finite inputs that pass every argument check, but (l / V) C_Lq q overflows inside the
+  // runtime: the first of the three sub-steps is refused and the state restored.
+  g_log.clear();
+  REQUIRE(set_real(u, c, q_vr, 1e300) == fmi2OK);
+  REQUIRE(set_real(u, c, airspeed_vr, 1e-300) == fmi2OK);
+  CHECK(a.fmi2DoStep(c, 0.01, 2.5, fmi2True) == fmi2Error);
+  CHECK(logged("the runtime refused the step"));
+  double after[2] = {0.0, 0.0};
+  CHECK(a.fmi2GetReal(c, out_vr, 2, after) == fmi2OK);
+  CHECK(after[0] == before[0]);
+  CHECK(after[1] == before[1]);
+  int status = 0;
+  CHECK(a.fmi2GetInteger(c, &status_vr, 1, &status) == fmi2OK);
+  CHECK(status == INDICIAL_ERROR_NON_FINITE_RESULT);
+  double last = -1.0;
+  CHECK(a.fmi2GetRealStatus(c, fmi2LastSuccessfulTime, &last) == fmi2OK);
+  CHECK(last == 0.01);  // time did not advance
+  a.fmi2FreeInstance(c);
+  CHECK(g_live_allocations == 0);
+}
+
 TEST_CASE("fmu: calls out of order give fmi2Error, then only reset or free are accepted") {
   const Unpacked& u = lift_fmu();
   const auto& a = u.api;

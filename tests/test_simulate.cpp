@@ -306,3 +306,18 @@ TEST_CASE("roll: beta and its rate follow eq. 17 and the chain rule") {
   const std::string csv = indicial::simulated_run_csv(m, r, {});
   CHECK(csv.rfind("time_s,phi_deg,p_degps,Cl,Cl_true,y_true\n", 0) == 0);
 }
+
+TEST_CASE("simulate --model and freqresp refuse a model with dynamic-stall families (never a silently different model)") {
+  const std::string coef = std::string(INDICIAL_SOURCE_DIR) + "/examples/dynamic-stall-lift-moment.coef";
+  const fs::path csv = dir() / "stall-refused.csv";
+  std::string err;
+  CHECK(run_cli("simulate --model " + coef + " --motion sine:alpha0_deg=15,amp_deg=10,freq_hz=2,cycles=2,dt_s=0.002 --out " +
+                    csv.string(), &err) == 1);
+  CHECK(err.find("has dynamic-stall families, which simulate --model does not integrate yet") != std::string::npos);
+  CHECK(!fs::exists(csv));
+  err.clear();
+  const fs::path table = dir() / "stall-freqresp.csv";
+  CHECK(run_cli("freqresp " + coef + " --alpha0-deg 15 --k-list 0.1 --out " + table.string(), &err) == 1);
+  CHECK(err.find("which freqresp does not integrate yet") != std::string::npos);
+  CHECK(!fs::exists(table));
+}

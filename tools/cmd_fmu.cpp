@@ -118,11 +118,11 @@ std::string model_variables(const FmuModel& m, int* n_variables) {
                      "motion: its rate at the end of each step", " unit=\"rad/s\" start=\"0\"");
   x += real_variable("airspeed_mps", fmu::vr_airspeed_mps, "input", "continuous",
                      "airspeed (any > 0; the model was identified at " + v_ref + " m/s)",
-                     " unit=\"m/s\" min=\"0\" start=\"" + v_ref + "\"");
+                     " unit=\"m/s\" start=\"" + v_ref + "\"");  // no min: FMI's min is inclusive, the slave refuses 0
   x += real_variable("initial_" + angle, fmu::vr_initial_angle_rad, "parameter", "fixed",
                      "the instance starts at rest (steady state) at this angle", " unit=\"rad\" start=\"0\"");
   x += real_variable("initial_airspeed_mps", fmu::vr_initial_airspeed_mps, "parameter", "fixed",
-                     "airspeed of the initial steady state", " unit=\"m/s\" min=\"0\" start=\"" + v_ref + "\"");
+                     "airspeed of the initial steady state (any > 0)", " unit=\"m/s\" start=\"" + v_ref + "\"");
   int n = 5;
   for (int c = 0; c < m.set.n_coefficients; ++c, ++n)
     x += real_variable(m.set.coefficients[c].name, fmu::vr_first_coefficient + static_cast<unsigned>(c), "output",

@@ -103,6 +103,7 @@ void run_freqresp(const FreqrespOptions& o) {
   using namespace indicial;
   const Overwrite overwrite = o.force ? Overwrite::replace : Overwrite::refuse;
   const auto model = std::make_unique<ModelSet<double, FitCapacity>>(read_model_file(o.model_path));
+  tools::refuse_stall_families(*model, o.model_path, "freqresp");
   double mean_deg = 0.0;
   // Why per axis: in pitch the oscillation is about alpha0; in roll and yaw alpha0 is fixed by
   // the model and the oscillation is about a mean roll / yaw angle.

@@ -77,6 +77,7 @@ void run_simulate(const SimulateOptions& o) {
     throw InputError(o.model_path, static_cast<long>(diag.line),
                      std::string(diag.reason) + " (" + to_string(st) + ")");
   }
+  tools::refuse_stall_families(*loaded, o.model_path, "simulate --model");
   const MotionSpec motion = parse_motion_spec(o.motion, loaded->axis);
   std::vector<SimulatedRun> runs{simulate_reference(*loaded, motion)};
   const std::vector<double> sigma = add_measurement_noise(runs, snr, o.seed, noise);

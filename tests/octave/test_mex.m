@@ -147,12 +147,18 @@ expect_error(@() indicial_mex('step', h, 0.1, 0, -1, 0.01), 'indicial:step', 'no
 expect_error(@() indicial_mex('reset', h, 0.1, 0), 'indicial:reset', 'airspeed > 0');
 expect_error(@() indicial_mex('step', b, [0.1; 0.2], 0, V, 0.01), 'indicial:badSize', 'expected 1 or 3');
 expect_error(@() indicial_mex('step', b, [0.1; NaN; 0.2], 0, V, 0.01), 'indicial:step', 'instance 2');
+% A batch step refused in one lane steps no instance (all or nothing).
+before_b = indicial_mex('evaluate', b, 0, V);
+expect_error(@() indicial_mex('step', b, 0.5, 0, [V; -1; V], 0.01), 'indicial:step', 'non_positive_airspeed');
+expect_error(@() indicial_mex('step', b, 0.5, [0; 1e300; 0], [V; 1e-300; V], 0.01), 'indicial:step', 'non_finite_result');
+check(isequal(indicial_mex('evaluate', b, 0, V), before_b), 'a refused batch step changed no instance');
 expect_error(@() indicial_mex('step', 99, 0.1, 0, V, 0.01), 'indicial:badHandle', 'not a handle');
 expect_error(@() indicial_mex('step', 1.5, 0.1, 0, V, 0.01), 'indicial:badHandle', 'not a handle');
 expect_error(@() indicial_mex('step', 'h', 0.1, 0, V, 0.01), 'indicial:badArgument', 'the handle');
 check(isequal(indicial_mex('evaluate', h, 0, V), before), 'refused calls changed nothing');
 expect_error(@() indicial_mex('load', 3), 'indicial:badArgument', 'FILE must be a char');
 expect_error(@() indicial_mex('load', fullfile(work, 'no-such.coef')), 'indicial:load', 'cannot read');
+expect_error(@() indicial_mex('load', '/dev/zero'), 'indicial:load', 'larger than 1 MB');
 expect_error(@() indicial_mex('load', model, 0), 'indicial:badArgument', 'N must be');
 expect_error(@() indicial_mex('load', model, 2.5), 'indicial:badArgument', 'N must be');
 damaged = fullfile(work, 'damaged.coef');

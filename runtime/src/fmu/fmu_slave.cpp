@@ -22,11 +22,14 @@
 //   feedthrough: the description declares dependencies=""), so a master may close a loop
 //   through the FMU without an algebraic loop. h may vary from step to step; a step longer
 //   than the runtime's 1 s limit is done as ceil(h / 1 s) equal sub-steps with the inputs held.
+//   A step above kMaxCommunicationStepS (1e6 s, a million sub-steps, about a second of work) is
+//   refused: a step in ms passed as s, or a huge h, would otherwise freeze the importer.
 // - Communication points: t must be the end of the previous step to within a millionth of a
 //   step plus 64 ulp of t (masters that compute t = t0 + i h and those that sum h both pass);
 //   the next step starts at the master's t, so nothing accumulates in the FMU.
 // - Errors: every refused call returns fmi2Error with a logged reason (category
-//   logStatusError) and changes nothing; as FMI 2.0 prescribes, the instance is then in its
+//   logStatusError) and changes nothing (except that a DoStep the runtime refuses sets
+//   step_status to the runtime's negative status, so a master can read why); as FMI 2.0 prescribes, the instance is then in its
 //   error state, where only fmi2Get*, fmi2Reset and fmi2FreeInstance are accepted. Calls on a
 //   NULL, freed or foreign component return fmi2Error (live instances are kept in a registry,
 //   so such a pointer is never dereferenced).
@@ -45,6 +48,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
+#include <new>
 
 #include "fmi2.h"
 #include "fmu_layout.hpp"
@@ -367,6 +371,9 @@ fmi2Status initialize_outputs(Instance* inst, const char* function) {
 
 // ---- stepping ----------------------------------------------------------------------------
 // The largest distance between a communication point and the FMU's time that is rounding.
+// The longest communication step accepted: 1e6 sub-steps of at most 1 s each.
+constexpr double kMaxCommunicationStepS = 1e6;
+
 double communication_tolerance_s(double t_s, double cp_s, double h_s, double last_h_s) {
   const double scale = std::fmax(std::fabs(t_s), std::fabs(cp_s));
   const double ulp = std::nextafter(scale, HUGE_VAL) - scale;
@@ -375,13 +382,14 @@ double communication_tolerance_s(double t_s, double cp_s, double h_s, double las
 
 // Steps the state over h_s with the inputs held (ceil(h / 1 s) sub-steps); on a refused
 // sub-step the state is restored and the status returned.
+// The caller has checked 0 < h_s <= kMaxCommunicationStepS, so n fits an integer counter.
 int step_held(Instance* inst, double h_s, double* out) {
   const double max_dt_s = 1.0;
-  const double n = std::ceil(h_s / max_dt_s);
-  const double dt_s = n > 1.0 ? h_s / n : h_s;
+  const long n = static_cast<long>(std::ceil(h_s / max_dt_s));
+  const double dt_s = n > 1 ? h_s / static_cast<double>(n) : h_s;
   std::memcpy(inst->scratch, inst->state, inst->state_bytes);
   int worst = INDICIAL_OK;
-  for (double i = 0.0; i < n; i += 1.0) {
+  for (long i = 0; i < n; ++i) {
     const int s = indicial_step(inst->model, inst->state, inst->in.angle_rad, inst->in.rate_radps,
                                 inst->in.airspeed_mps, dt_s, out);
     if (s < 0) {
@@ -419,7 +427,7 @@ FMI2_Export fmi2Component fmi2Instantiate(fmi2String instance_name, fmi2Type fmu
   if (fmu_guid == nullptr) return fail(&probe, "fmi2Instantiate: fmuGUID is NULL"), nullptr;
   Instance* inst = static_cast<Instance*>(functions->allocateMemory(1, sizeof(Instance)));
   if (inst == nullptr) return fail(&probe, "fmi2Instantiate: out of memory"), nullptr;
-  *inst = Instance();
+  inst = new (inst) Instance();  // placement new: the object now exists in the importer's memory
   inst->logger = functions->logger;
   inst->allocate = functions->allocateMemory;
   inst->free_memory = functions->freeMemory;
@@ -428,12 +436,14 @@ FMI2_Export fmi2Component fmi2Instantiate(fmi2String instance_name, fmi2Type fmu
   const std::size_t name_bytes = std::strlen(instance_name) + 1;
   inst->name = static_cast<char*>(allocate(inst, name_bytes));
   if (inst->name == nullptr) {
+    inst->~Instance();
     functions->freeMemory(inst);
     return fail(&probe, "fmi2Instantiate: out of memory"), nullptr;
   }
   std::memcpy(inst->name, instance_name, name_bytes);
   if (!load_model(inst, fmu_guid, fmu_resource_location)) {
     free_parts(inst);
+    inst->~Instance();
     functions->freeMemory(inst);
     return nullptr;
   }
@@ -449,6 +459,7 @@ FMI2_Export void fmi2FreeInstance(fmi2Component c) {
   inst->magic = 0;
   free_parts(inst);
   fmi2CallbackFreeMemory free_memory = inst->free_memory;
+  inst->~Instance();
   free_memory(inst);
 }
 
@@ -633,6 +644,9 @@ FMI2_Export fmi2Status fmi2DoStep(fmi2Component c, fmi2Real current_communicatio
   const double h = communication_step_size;
   if (!std::isfinite(t) || !std::isfinite(h) || !(h > 0.0))
     return fail(inst, "fmi2DoStep: communication point %g and step size %g must be finite, the step > 0", t, h);
+  if (h > kMaxCommunicationStepS)
+    return fail(inst, "fmi2DoStep: step size %g s is above the largest accepted step, %g s (a step in ms passed as s?)",
+                h, kMaxCommunicationStepS);
   const double tol = communication_tolerance_s(inst->time_s, t, h, inst->last_step_s);
   if (std::fabs(t - inst->time_s) > tol)
     return fail(inst, "fmi2DoStep: communication point %.17g is not the FMU's time %.17g (a step skipped or repeated?)",

@@ -114,7 +114,12 @@ Stepper* stepper(const mxArray* a) {
 
 void* state_of(Stepper* s, std::size_t i) { return static_cast<char*>(s->states) + i * s->state_bytes; }
 
-// The file's bytes in mxMalloc memory (freed by the host after the call), or nullptr.
+// The largest coefficient file read, as the FMU (fmu_slave.cpp): /dev/zero or a huge file would
+// otherwise grow memory until the host dies.
+constexpr std::size_t kMaxFileBytes = std::size_t(1) << 20;
+
+// The file's bytes in mxMalloc memory (freed by the host after the call), or nullptr; a file
+// above kMaxFileBytes is refused with an error.
 char* read_file(const char* path, std::size_t* length) {
   *length = 0;
   std::FILE* f = std::fopen(path, "rb");
@@ -123,6 +128,10 @@ char* read_file(const char* path, std::size_t* length) {
   char* text = static_cast<char*>(mxMalloc(capacity));
   for (std::size_t got; (got = std::fread(text + *length, 1, capacity - *length, f)) > 0;) {
     *length += got;
+    if (*length > kMaxFileBytes) {
+      std::fclose(f);
+      fail("indicial:load", "%s: larger than 1 MB, not a coefficient file", path);
+    }
     if (*length == capacity) {
       capacity *= 2;
       text = static_cast<char*>(mxRealloc(text, capacity));
@@ -211,9 +220,15 @@ void cmd_step(int nlhs, mxArray* plhs[], int nrhs, const mxArray* prhs[]) {
     if (!std::isfinite(a[i]) || !std::isfinite(r[i]) || !std::isfinite(v[i]) || !std::isfinite(dt_s))
       fail("indicial:step", "instance %zu: an input is NaN or Inf", i + 1);
   }
-  const int st = s->n == 1 ? indicial_step(s->model, s->states, a[0], r[0], v[0], dt_s, out)
-                           : indicial_step_batch(s->model, s->states, s->n, a, r, v, dt_s, out);
-  if (st < 0) fail("indicial:step", "step refused: %s (dt_s = %g)", indicial_status_string(st), dt_s);
+  // All or nothing: the batch steps copies of the states, written back only if every instance
+  // was stepped (a bad airspeed or a non-finite result in one lane changes no instance).
+  const std::size_t state_total = s->n * s->state_bytes;
+  void* copy = mxMalloc(state_total);
+  std::memcpy(copy, s->states, state_total);
+  const int st = s->n == 1 ? indicial_step(s->model, copy, a[0], r[0], v[0], dt_s, out)
+                           : indicial_step_batch(s->model, copy, s->n, a, r, v, dt_s, out);
+  if (st < 0) fail("indicial:step", "step refused: %s (dt_s = %g); no instance was stepped", indicial_status_string(st), dt_s);
+  std::memcpy(s->states, copy, state_total);
   // out is row-major (instance, output); the MATLAB matrix is column-major N x outputs.
   mxArray* c = mxCreateDoubleMatrix(s->n, n_out, mxREAL);
   double* p = mxGetPr(c);
