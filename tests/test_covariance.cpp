@@ -54,7 +54,7 @@ TEST_CASE("covariance: the eigen-analysis matches SelfAdjointEigenSolver bit for
   }
 }
 
-TEST_CASE("covariance: full rank gives the inverse; white and colored scale it") {
+TEST_CASE("covariance: full rank gives the inverse, white and colored scale it") {
   const Eigen::MatrixXd J = jacobian(40, 4, 1);
   const Eigen::MatrixXd A = J.transpose() * J;
   Covariance c(4, Covariance::Options{});
@@ -83,7 +83,7 @@ TEST_CASE("covariance: collinear and empty columns are the null space") {
   CHECK_FALSE(c.in_null_space(2));
 }
 
-TEST_CASE("covariance: options are validated; a wrong size is refused") {
+TEST_CASE("covariance: options are validated, a wrong size is refused") {
   Covariance::Options o;
   std::string why;
   CHECK(o.IsValid(&why));

@@ -17,7 +17,7 @@ using indicial::testing::MeanProblem;
 using indicial::testing::RosenbrockProblem;
 using Status = LevenbergMarquardt::Status;
 
-TEST_CASE("Levenberg-Marquardt: IsValid names the option; Solve refuses invalid options") {
+TEST_CASE("Levenberg-Marquardt: IsValid names the option, Solve refuses invalid options") {
   LevenbergMarquardt::Options o;
   std::string why;
   CHECK(o.IsValid(&why));

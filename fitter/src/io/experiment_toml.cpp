@@ -856,7 +856,8 @@ std::string degrees_text(double rad) {
   for (int digits = 1; digits <= 17; ++digits) {
     char buf[40];
     std::snprintf(buf, sizeof buf, "%.*g", digits, rad * kRadToDeg);
-    if (std::strtod(buf, nullptr) * kDegToRad == rad) return buf;
+    const double deg = std::strtod(buf, nullptr);  // "%.1g" of 20 is "2e+01": written as 20
+    if (deg * kDegToRad == rad) return format_double(deg);
   }
   return format_double(rad * kRadToDeg);
 }
