@@ -18,12 +18,6 @@
 
 namespace fs = std::filesystem;
 
-#define CHECK_HAS(m, s)                      \
-  do {                                       \
-    INFO("message: " << (m));                \
-    CHECK((m).find(s) != std::string::npos); \
-  } while (0)
-
 namespace {
 
 using indicial::testing::kPi;
@@ -34,9 +28,7 @@ const fs::path& dir() {
 }
 
 std::string write(const std::string& name, const std::string& text) {
-  const fs::path p = dir() / name;
-  std::ofstream(p, std::ios::binary) << text;
-  return p.string();
+  return indicial::testing::write_text(dir() / name, text);
 }
 
 // The database's layout: a `%` header typed with spaces, 128 tab-separated rows, the phase in

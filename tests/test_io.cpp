@@ -24,13 +24,6 @@ TEST_SUITE_BEGIN("unit");  // the ctest label (tests/CMakeLists.txt)
 
 namespace fs = std::filesystem;
 
-// Checks that message m contains s, showing m when it does not.
-#define CHECK_HAS(m, s)                                \
-  do {                                                 \
-    INFO("message: " << (m));                          \
-    CHECK((m).find(s) != std::string::npos);           \
-  } while (0)
-
 namespace {
 
 using indicial::testing::kPi;
@@ -41,10 +34,7 @@ const fs::path& dir() {
 }
 
 std::string write(const std::string& name, const std::string& text) {
-  const fs::path p = dir() / name;
-  fs::create_directories(p.parent_path());
-  std::ofstream(p, std::ios::binary) << text;
-  return p.string();
+  return indicial::testing::write_text(dir() / name, text);
 }
 
 // A good run CSV: comment, header, n rows of a 1 Hz sine at dt = 0.01.

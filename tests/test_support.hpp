@@ -3,6 +3,8 @@
 //
 //   indicial::testing::TempDir dir("golden");          // /tmp/indicial-golden-XXXXXX
 //   std::ofstream(dir.path / "x.csv") << ...;
+//   write_text(dir.path / "runs" / "r1.csv", "t,alpha_deg\n...");  // makes runs/, returns the path
+//   CHECK_HAS(message, "line 3");                        // shows the message when it fails
 //
 // Warnings
 // 1. TempDir removes its whole tree in the destructor: never point `path` elsewhere.
@@ -12,6 +14,7 @@
 #include <stdlib.h>
 
 #include <filesystem>
+#include <fstream>
 #include <stdexcept>
 #include <string>
 #include <system_error>
@@ -36,4 +39,21 @@ struct TempDir {
   TempDir& operator=(const TempDir&) = delete;
 };
 
+// Writes text to path (binary, so the bytes are exactly the test's), making its directories;
+// returns the path as a string, as the readers take it.
+inline std::string write_text(const std::filesystem::path& path, const std::string& text) {
+  std::filesystem::create_directories(path.parent_path());
+  std::ofstream(path, std::ios::binary) << text;
+  return path.string();
+}
+
 }  // namespace indicial::testing
+
+// Checks that message m contains s, showing m when it does not.
+#ifndef CHECK_HAS
+#define CHECK_HAS(m, s)                      \
+  do {                                       \
+    INFO("message: " << (m));                \
+    CHECK((m).find(s) != std::string::npos); \
+  } while (0)
+#endif
