@@ -35,9 +35,11 @@ TRAINING = [
     ("sweep", "one frequency sweep: mean 15 deg, amplitude 10 deg, k = 0.05, 0.10, 0.15",
      lambda c: c["campaign"] == 4 and c["mean"] == 15.0 and c["amp"] == 10.0 and
      any(abs(c["k"] - k) < 0.006 for k in (0.0497, 0.1005, 0.1515))),
-    ("means", "across mean angles: amplitude 10 deg, k = 0.10, means 4, 8 and 15 deg",
+    # Means 6, 8, 15 rather than 4: the mean-4 cycle reaches -6.49 deg, below the quasi-static
+    # polar's lowest bin (-6 deg), and fit refuses a static table that does not cover its runs.
+    ("means", "across mean angles: amplitude 10 deg, k = 0.10, means 6, 8 and 15 deg",
      lambda c: c["campaign"] == 4 and c["amp"] == 10.0 and abs(c["k"] - 0.1005) < 0.003 and
-     c["mean"] in (4.0, 8.0, 15.0)),
+     c["mean"] in (6.0, 8.0, 15.0)),
 ]
 
 
@@ -240,10 +242,10 @@ def write_md(sections, static_info, seconds):
           f"{dj['final_fit_error']:.4g}, {dj['fits_run']} fits, {t_diag:.1f} s wall.\n")
         if dj["steps"]:
             w("| step | effect | terms | held-out RMS per training run before | after |\n|---|---|---|---|---|")
-            for s in dj["steps"]:
+            for i, s in enumerate(dj["steps"], start=1):
                 b = ", ".join(f"{v:.4g}" for v in s.get("held_out_rms_before", []))
                 a = ", ".join(f"{v:.4g}" for v in s.get("held_out_rms_after", []))
-                w(f"| {s['step'] if 'step' in s else ''} | `{s['effect']}` | {s['term']} | {b} | {a} |")
+                w(f"| {i} | `{s['effect']}` | {s['term']} | {b} | {a} |")
             w("")
         labels = [lab for lab, _ in columns]
         w("Held-out cycles, by regime: median RMS of each column over the quasi-steady model's, and the cycles "
