@@ -71,6 +71,27 @@ TEST_CASE("held-out test: paired one-standard-error rule with a minimum gain") {
   CHECK(t.message == "not determined without run 2");
 }
 
+TEST_CASE("held-out test: runs dealt into folds are compared fold by fold") {
+  using diagnose_detail::held_out_test;
+  // Four runs, d_r = ln(with / without) = {-2, -0.3, -2, +0.3}. Per run (R = 4): mean -1.0,
+  // SE 0.59: enters. In two folds (runs 1, 3 and 2, 4; run r in fold r mod 2) d = {-2, 0}:
+  // mean -1.0, SE 1.0, mean + SE = 0 -- the second fold's model did not help its runs: it
+  // does not enter.
+  auto base = held_out({1.0, 1.0, 1.0, 1.0});
+  auto with = held_out({std::exp(-2.0), std::exp(-0.3), std::exp(-2.0), std::exp(0.3)});
+  const HeldOutTest per_run = held_out_test(Effect::bias, "con", "first term", base, with, 0.10);
+  CHECK(per_run.folds == 4);
+  CHECK(per_run.mean_log_ratio == doctest::Approx(-1.0));
+  CHECK(per_run.enters);
+  base.folds = with.folds = 2;
+  const HeldOutTest per_fold = held_out_test(Effect::bias, "con", "first term", base, with, 0.10);
+  CHECK(per_fold.folds == 2);
+  CHECK(per_fold.mean_log_ratio == doctest::Approx(-1.0));
+  CHECK(per_fold.standard_error == doctest::Approx(1.0));
+  CHECK(per_fold.runs_improved == 3);
+  CHECK_FALSE(per_fold.enters);
+}
+
 TEST_CASE("leave-one-run-out names a b1(alpha) error hidden under turbulence noise") {
   double sigma = 0.0;
   const MatrixCase mc{"Cm", "b1_alpha", "b1_alpha", 1.0, MatrixMotion::sine_from_rest, MatrixNoise::turbulence, 71};
@@ -95,6 +116,17 @@ TEST_CASE("leave-one-run-out names a b1(alpha) error hidden under turbulence noi
   MESSAGE("the same data, likelihood ratio with the residual's kappa: verdict ", lr.verdict, ", rule ",
           std::string(decision_rule_name(lr.rule)));
   CHECK(lr.rule == DecisionRule::lr_residual);
+  // The same three runs dealt into two folds (runs 1 and 3 left out together): every run is
+  // still predicted by a model that did not see it, and the effect is still named.
+  DiagnoseOptions two;
+  two.cv_max_folds = 2;
+  const DiagnoseResult d2 = diagnose_experiment(matrix_experiment(mc, &s2), two);
+  CHECK(d2.cv_folds == 2);
+  CHECK(d2.rule_reason.find("2 folds") != std::string::npos);
+  CHECK(d2.verdict == "b1_alpha");
+  REQUIRE(!d2.rounds.front().held_out.empty());
+  CHECK(d2.rounds.front().held_out.front().folds == 2);
+  CHECK(d2.rounds.front().held_out.front().rms_with.size() == 3);
 }
 
 TEST_CASE("leave-one-run-out names nothing on a complete model under turbulence noise") {

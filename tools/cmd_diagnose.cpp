@@ -1,7 +1,7 @@
 // `indicial diagnose`: the missing-effect workflow (fitter/include/indicial/fitter/diagnose.hpp).
 //
 //   indicial diagnose EXPERIMENT.toml --out DIR [--force] [--alpha 0.01] [--max-steps N]
-//                     [--knot-spacing-deg D] [--rule auto|cv|lr] [--threads N] [--no-plots]
+//                     [--knot-spacing-deg D] [--rule auto|cv|lr] [--max-folds K] [--threads N] [--no-plots]
 //                     [--gnuplot EXE] [--quiet]
 //
 // Writes DIR/diagnosis.json, DIR/model.coef (the final model), DIR/report.md and DIR/plots/.
@@ -47,6 +47,7 @@ void run_diagnose(const DiagnoseCliOptions& o) {
   if (o.diag.max_family_terms < 1) throw InputError("--max-family-terms", 0, "must be >= 1");
   if (!(o.diag.knot_spacing_deg > 0.0)) throw InputError("--knot-spacing-deg", 0, "must be > 0");
   if (o.diag.threads < 1) throw InputError("--threads", 0, "must be >= 1");
+  if (o.diag.cv_max_folds < 2) throw InputError("--max-folds", 0, "must be >= 2");
   const tools::StageClock clock("diagnose", o.quiet ? tools::Verbosity::quiet : tools::Verbosity::progress);
   Experiment e;
   clock.stage("reading the experiment and its runs", [&] { e = load_experiment(o.experiment, o.coefficient); });
@@ -140,6 +141,9 @@ const indicial::tools::RegisterCommand register_diagnose([](CLI::App& app) {
                                                       {"cv", indicial::RuleChoice::leave_one_run_out},
                                                       {"lr", indicial::RuleChoice::likelihood_ratio}},
           CLI::ignore_case));
+  sub->add_option("--max-folds", opt->diag.cv_max_folds,
+                  "cross-validation with more runs than this: the runs dealt into this many folds (run r "
+                  "into fold r mod K), each left out at once (default 10; fewer runs: one run per fold)");
   sub->add_option("--threads", opt->diag.threads, "fits run in parallel (default 2)");
   sub->add_flag("--no-plots", opt->no_plots, "do not run gnuplot");
   sub->add_flag("--quiet", opt->quiet, "no progress lines on stderr (warnings and errors are still printed)");

@@ -213,7 +213,7 @@ class Diagnoser {
 
   // Per-run held-out errors of model m, folds warm-started from its full fit.
   HeldOut held_out(const Experiment& w, const ModelConfig& m, const FitResult& full) {
-    return held_out_errors(w, m, estimates_by_id(full), o_.threads,
+    return held_out_errors(w, m, estimates_by_id(full), o_.threads, o_.cv_max_folds,
                            [this](const Experiment& x, const ModelConfig& c, const StartValues& sv) { return fit(x, c, sv); });
   }
 
@@ -693,6 +693,9 @@ KappaRule choose_rule(const Experiment& e, const DiagnoseOptions& o, DiagnoseRes
   if (o.rule != RuleChoice::likelihood_ratio && enough) {
     d.rule = DecisionRule::leave_one_run_out;
     d.rule_reason = fmt::format("{} runs: an effect enters only when it lowers the error of runs left out of its fit", runs);
+    d.cv_folds = std::min(runs, std::max(2, o.cv_max_folds));
+    if (d.cv_folds < runs)
+      d.rule_reason += fmt::format(" ({} folds of runs: run r left out with fold r mod {})", d.cv_folds, d.cv_folds);
   } else if (d.replication.source != NoiseSource::none) {
     d.rule = DecisionRule::lr_replication_noise;
     const double r1 = d.replication.lag1_correlation;

@@ -24,6 +24,15 @@
 // worse, so not every run must improve). Choosing the term inside each fold would remove the
 // leak at R times the scan. Written by hand: the folds are fit_experiment calls, the
 // statistic is a mean and a standard deviation.
+//
+// Many runs (a tunnel entry has hundreds): R fits per candidate would cost R times the
+// candidate's fit, so with more runs than max_folds (DiagnoseOptions::cv_max_folds, 10) the
+// runs are dealt into K = max_folds folds, run r into fold r mod K (file order: runs listed by
+// condition put neighbouring conditions into different folds, so every fold's runs have
+// neighbours in its fit). Every run is still predicted by a model that did not see it; d is
+// then taken per FOLD (the mean of its runs' log ratios) and SE over the K folds, since runs
+// scored by one fitted model are not independent. With R <= max_folds, K = R: leave-one-run-out
+// exactly as above.
 #include <algorithm>
 #include <cmath>
 #include <fmt/format.h>
@@ -40,17 +49,18 @@ namespace indicial::diagnose_detail {
 
 namespace {
 
-// The start values without run r: its initial states dropped, later runs renumbered.
-Estimates without_run(const Estimates& e, int r) {
+// The start values without the runs of fold j (run r is in fold r mod folds): their initial
+// states dropped, the other runs renumbered.
+Estimates without_fold(const Estimates& e, int fold, int folds) {
   Estimates out;
   for (const auto& [id, v] : e) {
     if (id.kind != ParamKind::initial_state) {
       out[id] = v;
       continue;
     }
-    if (id.run == r) continue;
+    if (id.run % folds == fold) continue;
     ParamId moved = id;
-    if (moved.run > r) --moved.run;
+    moved.run -= id.run / folds + (id.run % folds > fold ? 1 : 0);  // runs of fold j before it
     out[moved] = v;
   }
   return out;
@@ -116,37 +126,45 @@ double prediction_mse(const FitResult& f, const Run& run, double airspeed_mps) {
 bool majority_improved(int improved, int runs) { return 2 * improved > runs; }
 
 HeldOut held_out_errors(const Experiment& w, const ModelConfig& m, const Estimates& start, int threads,
-                        const FoldFit& fit) {
+                        int max_folds, const FoldFit& fit) {
   const std::size_t n = w.runs.size();
   HeldOut h;
+  h.folds = static_cast<int>(std::min<std::size_t>(n, static_cast<std::size_t>(std::max(1, max_folds))));
+  const std::size_t folds = static_cast<std::size_t>(h.folds);
   h.mse.assign(n, std::numeric_limits<double>::quiet_NaN());
   std::vector<std::string> why(n);
-  detail::parallel_for(n, threads, [&](std::size_t r) {
+  detail::parallel_for(folds, threads, [&](std::size_t j) {
     Experiment fold = w;
-    fold.runs.erase(fold.runs.begin() + static_cast<std::ptrdiff_t>(r));
+    fold.runs.clear();
+    for (std::size_t r = 0; r < n; ++r)
+      if (r % folds != j) fold.runs.push_back(w.runs[r]);
+    const std::string left_out = folds == n ? fmt::format("run {}", j + 1) : fmt::format("fold {} of {}", j + 1, folds);
     try {
-      const FitResult f = fit(fold, m, start_values_for(m, without_run(start, static_cast<int>(r)), fold.runs.size(), {}));
+      const FitResult f = fit(fold, m, start_values_for(m, without_fold(start, static_cast<int>(j), h.folds), fold.runs.size(), {}));
       if (!std::isfinite(f.fit_error)) {
-        why[r] = fmt::format("the fit without run {} failed: {}", r + 1, f.output_error.message);
+        why[j] = fmt::format("the fit without {} failed: {}", left_out, f.output_error.message);
         return;
       }
       // Why: a term the other runs do not determine keeps its start value -- the full fit's,
-      // which saw run r; its prediction of run r would not be a prediction.
+      // which saw the left-out runs; its prediction of them would not be a prediction.
       if (f.output_error.termination == Termination::rank_deficient) {
-        why[r] = fmt::format("not determined without run {}", r + 1);
+        why[j] = fmt::format("not determined without {}", left_out);
         return;
       }
-      const Run& run = w.runs[r];
-      h.mse[r] = prediction_mse(f, run, run.airspeed_mps > 0.0 ? run.airspeed_mps : w.airspeed_mps);
+      for (std::size_t r = j; r < n; r += folds) {
+        const Run& run = w.runs[r];
+        h.mse[r] = prediction_mse(f, run, run.airspeed_mps > 0.0 ? run.airspeed_mps : w.airspeed_mps);
+      }
     } catch (const std::exception& err) {
-      why[r] = fmt::format("run {} left out: {}", r + 1, err.what());
+      why[j] = fmt::format("{} left out: {}", left_out, err.what());
     }
   });
   h.ok = true;
   for (std::size_t r = 0; r < n; ++r) {
     if (std::isfinite(h.mse[r])) continue;
     h.ok = false;
-    if (h.message.empty()) h.message = why[r].empty() ? fmt::format("run {}: no finite prediction", r + 1) : why[r];
+    if (h.message.empty())
+      h.message = why[r % folds].empty() ? fmt::format("run {}: no finite prediction", r + 1) : why[r % folds];
   }
   return h;
 }
@@ -165,19 +183,29 @@ HeldOutTest held_out_test(Effect effect, const std::string& terms, const char* s
     t.standard_error = std::numeric_limits<double>::quiet_NaN();
     return t;
   }
+  // d per fold (the mean of its runs' log ratios; one run per fold under leave-one-run-out).
   const std::size_t n = with.mse.size();
-  std::vector<double> d(n);
-  double mean = 0.0;
+  const std::size_t folds = with.folds > 0 ? static_cast<std::size_t>(with.folds) : n;  // 0: one run per fold
+  std::vector<double> d(folds, 0.0);
+  std::vector<int> in_fold(folds, 0);
+  std::vector<double> run_d(n);
   for (std::size_t r = 0; r < n; ++r) {
     // Why the floor: a run predicted exactly (noise-free data) has no ratio; 1e-300 keeps it finite.
-    d[r] = std::log(std::max(with.mse[r], 1e-300) / std::max(without.mse[r], 1e-300));
-    mean += d[r] / static_cast<double>(n);
+    run_d[r] = std::log(std::max(with.mse[r], 1e-300) / std::max(without.mse[r], 1e-300));
+    d[r % folds] += run_d[r];
+    ++in_fold[r % folds];
+  }
+  double mean = 0.0;
+  for (std::size_t j = 0; j < folds; ++j) {
+    d[j] /= std::max(1, in_fold[j]);
+    mean += d[j] / static_cast<double>(folds);
   }
   double ss = 0.0;
   for (double v : d) ss += (v - mean) * (v - mean);
   t.mean_log_ratio = mean;
-  t.standard_error = n > 1 ? std::sqrt(ss / static_cast<double>(n - 1) / static_cast<double>(n)) : 0.0;
-  t.runs_improved = static_cast<int>(std::count_if(d.begin(), d.end(), [](double v) { return v < 0.0; }));
+  t.standard_error = folds > 1 ? std::sqrt(ss / static_cast<double>(folds - 1) / static_cast<double>(folds)) : 0.0;
+  t.folds = static_cast<int>(folds);
+  t.runs_improved = static_cast<int>(std::count_if(run_d.begin(), run_d.end(), [](double v) { return v < 0.0; }));
   t.enters = mean + t.standard_error < 0.0 && mean < std::log1p(-min_gain) &&
              majority_improved(t.runs_improved, static_cast<int>(n));
   return t;

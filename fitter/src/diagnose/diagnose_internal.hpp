@@ -107,13 +107,14 @@ int choose_family(const std::vector<FamilyResult>& fr, const DiagnoseOptions& o,
 // fit failed or is rank deficient -- a term the other runs do not determine -- or the runtime
 // refuses it); `message` says which and why.
 struct HeldOut {
-  std::vector<double> mse;
+  std::vector<double> mse;  // per run
+  int folds = 0;            // run r was left out with fold r mod folds (folds == runs or 0: one run each)
   bool ok = false;
   std::string message;
 };
 using FoldFit = std::function<FitResult(const Experiment&, const ModelConfig&, const StartValues&)>;
 HeldOut held_out_errors(const Experiment& w, const ModelConfig& m, const Estimates& start, int threads,
-                        const FoldFit& fit);
+                        int max_folds, const FoldFit& fit);
 // The paired comparison (HeldOutTest in diagnose.hpp): d_r = ln(mse_with_r / mse_without_r);
 // enters when mean d + SE(d) < 0, mean d < ln(1 - min_gain) and it improves more than half of
 // the runs (majority_improved).

@@ -452,6 +452,7 @@ nlohmann::json diagnosis_json(const DiagnoseResult& d, const Experiment& e, cons
   if (replicated) j["noise_replication_lag1_correlation"] = d.replication.lag1_correlation;
   j["rule"] = decision_rule_name(d.rule);
   j["rule_reason"] = d.rule_reason;
+  if (d.rule == DecisionRule::leave_one_run_out) j["cv_folds"] = d.cv_folds;
   nlohmann::json steps = nlohmann::json::array();
   for (const DiagnoseStep& s : d.steps) steps.push_back(step_json(s));
   j["steps"] = steps;

@@ -126,6 +126,8 @@ struct DiagnoseOptions {
   double cv_min_gain = 0.10;         // a term must lower the held-out mean square error by at least
                                      // this fraction (and by one standard error, on more than half
                                      // of the runs: docs/diagnose.md)
+  int cv_max_folds = 10;             // more runs than this: runs dealt into this many folds (run r
+                                     // into fold r mod cv_max_folds), each fold left out at once
   int threads = 2;                   // fits run in parallel (candidates of a scan, held-out folds)
   int max_steps = 6;                 // effects added at most
   double knot_spacing_deg = 5.0;     // scan grid of knot positions (model angle x)
@@ -148,8 +150,9 @@ struct HeldOutTest {
   std::string stage;                 // "first term", "next term"
   std::vector<double> rms_without;   // per run: held-out RMS of the model without it
   std::vector<double> rms_with;      // per run: held-out RMS with it
-  double mean_log_ratio = 0.0;       // mean over runs of ln(MSE_with / MSE_without)
-  double standard_error = 0.0;       // of that mean: sd / sqrt(runs)
+  double mean_log_ratio = 0.0;       // mean over folds of ln(MSE_with / MSE_without) (per run: one run per fold)
+  double standard_error = 0.0;       // of that mean: sd / sqrt(folds), d taken per fold
+  int folds = 0;                     // runs left out together (folds == runs: leave-one-run-out)
   int runs_improved = 0;             // runs with a lower held-out error with it
   bool enters = false;
   std::string message;               // why it could not be tested (a fold fit failed, ...)
@@ -270,6 +273,7 @@ struct DiagnoseResult {
   DecisionRule rule = DecisionRule::lr_residual;  // the rule of the rounds (a round whose held-out
                                        // test could not run says so in its rule_note)
   std::string rule_reason;             // one line: why this rule
+  int cv_folds = 0;                    // leave_one_run_out: folds (== runs: one run each); else 0
   NoiseEstimate final_noise;           // from the final fit's residuals
   std::vector<DiagnoseStep> steps;
   std::vector<DiagnoseRound> rounds;
