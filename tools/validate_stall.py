@@ -20,9 +20,12 @@ What it does (every choice is stated in the report it prints):
     reduced frequency to 0.025); held-out cycles: the 35 campaign-4 cycles of amplitude 10 deg
     that the Beddoes-Leishman peer was run on (bl-reference.csv) -- another campaign and
     another amplitude than the fit.
- 4. Three models per coefficient: quasi-steady (the static table alone), the report's model
-    (a(x) of degree 2 with knots at 12 and 16 deg, b1 constant), and the extended model (the
-    same plus the separation and vortex families, stall = "separation_and_vortex").
+ 4. Four models per coefficient: quasi-steady (the static table alone), the report's model
+    (a(x) of degree 2 with knots at 12 and 16 deg, b1 constant), the extended model (the
+    same plus the separation and vortex families, stall = "separation_and_vortex"), and the
+    diagnosed model: `indicial diagnose` started from the extended model on the fit cycles,
+    deciding by cross-validation over folds of the fit cycles (--max-folds 10: the held-out
+    campaign is never seen by any choice), its final model.coef.
  5. Per held-out cycle: RMS of prediction minus measurement over the 128 samples (the
     periodic steady state, `indicial predict --periodic`), grouped by the cycle's largest
     angle: attached < 15 deg <= light stall < 22 deg <= deep stall.
@@ -34,9 +37,11 @@ import os
 import subprocess
 import sys
 import tempfile
+import time
 from collections import defaultdict
 
 L_M = 0.275  # reference length: half the 0.55 m chord
+KINDS = ('report', 'extended', 'diagnosed')
 
 
 def read_cycle(path):
@@ -92,9 +97,9 @@ def experiment(path, coefficient, runs, stall, vref):
         f.write('\n'.join(lines) + '\n')
 
 
-def run(cmd):
+def run(cmd, ok=(0,)):
     p = subprocess.run(cmd, capture_output=True, text=True)
-    if p.returncode != 0:
+    if p.returncode not in ok:
         sys.stderr.write(' '.join(cmd) + '\n' + p.stdout + p.stderr)
         return False
     return True
@@ -138,6 +143,16 @@ def main():
             if ok:
                 fj = json.load(open(os.path.join(out, 'fit.json')))
                 models[(coef, kind, 'json')] = fj
+        # The diagnosed model: every choice made on the fit cycles alone (folds of them).
+        out = os.path.join(work, f'diag-{coef}')
+        t0 = time.time()
+        ok = run([exe, 'diagnose', os.path.join(work, f'exp-{coef}-extended.toml'), '--out', out, '--no-plots',
+                  '--quiet', '--max-folds', '10'], ok=(0, 6))
+        models[(coef, 'diagnosed')] = os.path.join(out, 'model.coef') if ok else None
+        if ok:
+            dj = json.load(open(os.path.join(out, 'diagnosis.json')))
+            dj['wall_s'] = time.time() - t0
+            models[(coef, 'diagnosed', 'json')] = dj
     results = []
     for c in held:
         rows = read_cycle(os.path.join(data, 'cycles', f"{c['id']}_coeffs.dat"))
@@ -149,7 +164,7 @@ def main():
                'bl_CL': float(bl[c['id']]['bl_rms_CL']), 'bl_Cm': float(bl[c['id']]['bl_rms_Cm'])}
         for coef, col in (('CL', 2), ('Cm', 3)):
             meas = [r[col] for r in rows]
-            for kind in ('report', 'extended'):
+            for kind in KINDS:
                 m = models.get((coef, kind))
                 if not m:
                     res[f'{kind}_{coef}'] = float('nan')
@@ -173,6 +188,23 @@ def mean(v):
     return sum(v) / len(v) if v else float('nan')
 
 
+def diagnosis_lines(coef, dj):
+    p = print
+    p(f'* diagnose {coef} (from the extended model, on the fit cycles): rule `{dj.get("rule")}` '
+      f'({dj.get("rule_reason", "")}); verdict `{dj.get("verdict")}`, effects added {dj.get("effects_added")}, '
+      f'stopped `{dj.get("stopped")}`, fit error {dj.get("initial_fit_error", float("nan")):.4g} -> '
+      f'{dj.get("final_fit_error", float("nan")):.4g}, {dj.get("fits_run", "?")} fits, {dj["wall_s"]:.0f} s wall')
+    for st in dj.get('steps', []):
+        before, after = st.get('held_out_rms_before') or [], st.get('held_out_rms_after') or []
+        if before and after:
+            mb = math.sqrt(sum(v * v for v in before) / len(before))
+            ma = math.sqrt(sum(v * v for v in after) / len(after))
+            p(f'  * step {st.get("step")}: `{st.get("effect")}` ({st.get("terms")}): held-out RMS over the '
+              f"fit cycles' folds {mb:.4f} -> {ma:.4f}")
+        else:
+            p(f'  * step {st.get("step")}: `{st.get("effect")}` ({st.get("terms")})')
+
+
 def report(results, polar, fit_runs, models):
     p = print
     p('# Held-out validation of the dynamic-stall families on measured cycles (issue 22)\n')
@@ -184,30 +216,41 @@ def report(results, polar, fit_runs, models):
     p(f'Static polar: {len(polar)} 1-deg bins of the 15 campaign-4 cycles at k = 0.010 (both strokes '
       'pooled). Fit: ' + f'{len(fit_runs)} cycles of campaigns 5 and 6 (amplitude 8 deg, one per mean angle '
       'and k), CL and Cm fitted apart. Held out: the 35 campaign-4 cycles of amplitude 10 deg.\n')
-    for key in (('CL', 'report'), ('CL', 'extended'), ('Cm', 'report'), ('Cm', 'extended')):
-        fj = models.get(key + ('json',))
-        if fj:
-            p(f'* fit {key[0]} {key[1]}: {fj.get("termination", "?")}, s(v) = {fj.get("fit_error", float("nan")):.4g}, '
-              f'{fj.get("n_parameters", "?")} parameters, {fj.get("iterations", "?")} iterations, '
-              f'runtime replay: {fj.get("runtime_check", {})}')
+    for coef in ('CL', 'Cm'):
+        for kind in ('report', 'extended'):
+            fj = models.get((coef, kind, 'json'))
+            if fj:
+                p(f'* fit {coef} {kind}: {fj.get("termination", "?")}, s(v) = {fj.get("fit_error", float("nan")):.4g}, '
+                  f'{fj.get("n_parameters", "?")} parameters, {fj.get("iterations", "?")} iterations, '
+                  f'runtime replay: {fj.get("runtime_check", {})}')
+            else:
+                p(f'* fit {coef} {kind}: FAILED (see stderr)')
+        dj = models.get((coef, 'diagnosed', 'json'))
+        if dj:
+            diagnosis_lines(coef, dj)
         else:
-            p(f'* fit {key[0]} {key[1]}: FAILED (see stderr)')
+            p(f'* diagnose {coef}: FAILED (see stderr)')
     p('')
     p('Mean held-out RMS per regime (attached: max angle < 15 deg; light: < 22; deep: >= 22):\n')
-    p('| regime | cycles | coef | quasi-steady | report model | extended | BL peer | extended / BL | extended / QS |')
-    p('|---|---|---|---|---|---|---|---|---|')
+    p('| regime | cycles | coef | quasi-steady | report model | extended | diagnosed | BL peer | extended / BL | '
+      'diagnosed / BL | diagnosed / QS | diagnosed <= 0.5x QS |')
+    p('|---|---|---|---|---|---|---|---|---|---|---|---|')
     for regime in ('attached', 'light', 'deep', 'all'):
         rs = [r for r in results if regime == 'all' or r['regime'] == regime]
         for coef in ('CL', 'Cm'):
-            qs, rep, ext, blv = (mean([r.get(f'{k}_{coef}', float('nan')) for r in rs]) for k in ('qs', 'report', 'extended', 'bl'))
-            p(f'| {regime} | {len(rs)} | {coef} | {qs:.4f} | {rep:.4f} | {ext:.4f} | {blv:.4f} | {ext / blv:.2f} | {ext / qs:.2f} |')
+            qs, rep, ext, dia, blv = (mean([r.get(f'{k}_{coef}', float('nan')) for r in rs])
+                                      for k in ('qs', 'report', 'extended', 'diagnosed', 'bl'))
+            half = sum(1 for r in rs if r.get(f'diagnosed_{coef}', float('nan')) <= 0.5 * r.get(f'qs_{coef}', float('nan')))
+            p(f'| {regime} | {len(rs)} | {coef} | {qs:.4f} | {rep:.4f} | {ext:.4f} | {dia:.4f} | {blv:.4f} | '
+              f'{ext / blv:.2f} | {dia / blv:.2f} | {dia / qs:.2f} | {half} of {len(rs)} |')
     p('\nPer cycle (RMS):\n')
-    p('| id | mean deg | k | regime | QS CL | report CL | ext CL | BL CL | QS Cm | report Cm | ext Cm | BL Cm |')
-    p('|---|---|---|---|---|---|---|---|---|---|---|---|')
+    cols = [(f'{k}_{c}', f'{lab} {c}') for c in ('CL', 'Cm')
+            for k, lab in (('qs', 'QS'), ('report', 'report'), ('extended', 'ext'), ('diagnosed', 'diag'), ('bl', 'BL'))]
+    p('| id | mean deg | k | regime | ' + ' | '.join(lab for _, lab in cols) + ' |')
+    p('|---|---|---|---|' + '---|' * len(cols))
     for r in sorted(results, key=lambda r: (r['mean'], r['k'])):
         p(f"| {r['id']} | {r['mean']:g} | {r['k']:.3f} | {r['regime']} | " +
-          ' | '.join(f"{r.get(k, float('nan')):.4f}" for k in ('qs_CL', 'report_CL', 'extended_CL', 'bl_CL',
-                                                             'qs_Cm', 'report_Cm', 'extended_Cm', 'bl_Cm')) + ' |')
+          ' | '.join(f"{r.get(k, float('nan')):.4f}" for k, _ in cols) + ' |')
 
 
 if __name__ == '__main__':

@@ -138,8 +138,10 @@ void gen_static_error(const CandidateContext& ctx, std::vector<CandidateSpec>& o
 }
 
 // The dynamic-stall families (model.hpp "Dynamic stall"; issue 22) need the static lift polar:
-// the model's own, or the experiment's static table when the experiment models the lift (CL).
-// Without one there is no candidate (a Cm experiment names the polar with model.stall_polar).
+// the model's own, or the experiment's static table when the experiment models the lift (CL)
+// or when that table also has the lift (Experiment::table_lift_polar: a Cm experiment whose
+// table has CL, or Cnormal and Ctangential). Without one there is no candidate (a Cm
+// experiment then names the polar with model.stall_polar).
 bool stall_candidate(const CandidateContext& ctx, StallFamilies families, Effect effect,
                      std::vector<CandidateSpec>& out) {
   const StallConfig& have = ctx.model.stall;
@@ -149,10 +151,19 @@ bool stall_candidate(const CandidateContext& ctx, StallFamilies families, Effect
   StallConfig& s = c.config.stall;
   if (have.polar_x_rad.empty()) {
     const StaticConfig& st = ctx.experiment.static_curve;
-    if (st.kind != StaticKind::table || ctx.experiment.coefficient != s.polar_column) return false;
-    s.polar_path = st.table_path;
-    s.polar_x_rad = st.table_x_rad;
-    s.polar_lift = st.table_value;
+    const LiftPolar& lp = ctx.experiment.table_lift_polar;
+    if (st.kind == StaticKind::table && ctx.experiment.coefficient == s.polar_column) {
+      s.polar_path = st.table_path;
+      s.polar_x_rad = st.table_x_rad;
+      s.polar_lift = st.table_value;
+    } else if (!lp.empty()) {  // e.g. Cm, with the lift in the same static table
+      s.polar_path = lp.path;
+      s.polar_column = "CL";
+      s.polar_x_rad = lp.x_rad;
+      s.polar_lift = lp.lift;
+    } else {
+      return false;
+    }
   }
   s.families = families;
   c.term = families == StallFamilies::separation ? "T1, T2, k0, k1, k2" : "CN1, Tv, Tvl, cv, xv";

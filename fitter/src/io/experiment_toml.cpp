@@ -346,6 +346,23 @@ void read_csv_section(LoadContext& c, const toml::node* node) {
 }
 
 // [static]: polynomial or table.
+// The [static] table's lift column (CL, or CL derived from Cnormal and Ctangential through
+// [columns]) when the experiment models another coefficient in pitch: Experiment::table_lift_polar,
+// which diagnose offers the dynamic-stall families with (a Cm experiment whose table also has
+// the lift). Optional: a table without it is not an error.
+void read_table_lift_polar(const std::string& path, const LoadContext& c, Experiment& e) {
+  if (e.axis != Axis::pitch || e.coefficient == "CL") return;
+  StaticConfig lift;
+  try {
+    read_static_table(path, e.axis, "CL", lift, c.columns, c.dialect);
+  } catch (const InputError&) {
+    return;  // no lift column: the stall families need model.stall_polar then
+  }
+  e.table_lift_polar.x_rad = lift.table_x_rad;
+  e.table_lift_polar.lift = lift.table_value;
+  e.table_lift_polar.path = path;
+}
+
 void read_static_section(LoadContext& c, const toml::table& root, const toml::node* section, Experiment& e) {
   const TomlReader& r = c.r;
   if (!section) {
@@ -373,6 +390,7 @@ void read_static_section(LoadContext& c, const toml::table& root, const toml::no
     c.static_where = table->source();
     const std::string tp = c.resolve(r.string(*table, "static.table"));
     read_static_table(tp, e.axis, e.coefficient, e.static_curve, c.columns, c.dialect);
+    read_table_lift_polar(tp, c, e);
     c.capacity.push_back({"static.table", "rows ('" + tp + "')", static_cast<int>(e.static_curve.table_x_rad.size()),
                           DefaultCapacity::max_table_points, table->source()});
   }
@@ -968,7 +986,9 @@ std::string write_experiment_toml(const Experiment& e, const std::vector<std::st
   const StallConfig& st = e.model.stall;
   if (st.families != StallFamilies::none) {
     out += std::string("stall = \"") + name_of(st.families) + "\"\n";
-    if (st.polar_path != e.static_curve.table_path) out += "stall_polar = " + toml_string(st.polar_path) + "\n";
+    // Implied only by a [static] table of the polar's own coefficient (read_stall_keys).
+    if (st.polar_path != e.static_curve.table_path || e.coefficient != st.polar_column)
+      out += "stall_polar = " + toml_string(st.polar_path) + "\n";
     out += "stall_polar_column = " + toml_string(st.polar_column) + "\n";
     out += "stall_attached_max_deg = " + format_double(st.attached_max_deg) + "\n";
     if (!st.f0_correction.powers.empty()) out += power_terms("stall_f0_correction", st.f0_correction.powers);

@@ -149,6 +149,14 @@ struct ModelConfig {
   StallConfig stall;                 // extension: dynamic-stall families (none by default)
 };
 
+// A static lift polar found beside the modelled coefficient (see Experiment::table_lift_polar).
+struct LiftPolar {
+  std::string path;                  // the file it was read from
+  std::vector<double> x_rad;         // strictly increasing
+  std::vector<double> lift;          // CL
+  bool empty() const { return x_rad.empty(); }
+};
+
 struct Experiment {
   std::string path;                  // the experiment file
   Axis axis = Axis::pitch;
@@ -159,6 +167,11 @@ struct Experiment {
   StaticConfig static_curve;
   RotaryConfig rotary;
   ModelConfig model;
+  // Pitch, a coefficient other than CL, a [static] table that also has the lift (a CL column,
+  // or Cnormal and Ctangential): that lift polar (load_experiment fills it; empty otherwise).
+  // `indicial diagnose` offers the dynamic-stall families with it (model.stall_polar = the
+  // table, stall_polar_column = "CL" in the experiment it writes).
+  LiftPolar table_lift_polar;
   std::vector<Run> runs;
   // The range of the model angle x over all samples of all runs (filled by load_experiment).
   double data_x_min_rad = 0.0;
