@@ -191,6 +191,27 @@ TEST_CASE("a static table of normal and chord force gives CL") {
   CHECK(e.static_curve.table_value[7] == doctest::Approx(0.7 * std::cos(a) + 0.01 * std::sin(a)).epsilon(1e-15));
 }
 
+TEST_CASE("a Cm experiment's static table that also has the lift gives diagnose its lift polar") {
+  std::string with_lift = "alpha_deg;Cnormal;Ctangential;Cm\n", cm_only = "alpha_deg;Cm\n";
+  for (int k = 0; k <= 20; ++k) {
+    with_lift += std::to_string(k) + ";" + std::to_string(0.1 * k) + ";0,01;-0,01\n";
+    cm_only += std::to_string(k) + ";-0,01\n";
+  }
+  write("cycle.dat", database_text(database_cycle()));
+  write("static_lift.csv", with_lift);
+  write("static_cm.csv", cm_only);
+  std::string t = experiment("Cm", kMapped);
+  t.replace(t.find("polynomial = [0.1, 5.0]"), 23, "table = \"static_lift.csv\"");
+  const indicial::Experiment e = indicial::load_experiment(write("cm_lift.toml", t));
+  REQUIRE(e.table_lift_polar.x_rad.size() == 21);
+  const double a = 7 * kPi / 180;
+  CHECK(e.table_lift_polar.lift[7] == doctest::Approx(0.7 * std::cos(a) + 0.01 * std::sin(a)).epsilon(1e-15));
+  CHECK(e.table_lift_polar.path.find("static_lift.csv") != std::string::npos);
+  CHECK(e.static_curve.table_value[7] == doctest::Approx(-0.01));
+  t.replace(t.find("static_lift.csv"), 15, "static_cm.csv");
+  CHECK(indicial::load_experiment(write("cm_only.toml", t)).table_lift_polar.empty());
+}
+
 TEST_CASE("a phase column not uniform to its digits: nonuniform with a note, refused when uniform is declared") {
   // 40 digitized phases (deg) at irregular spacing.
   std::string s = "phase_deg,alpha_deg,Cm\n";

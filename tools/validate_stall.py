@@ -23,7 +23,7 @@ What it does (every choice is stated in the report it prints):
  4. Four models per coefficient: quasi-steady (the static table alone), the report's model
     (a(x) of degree 2 with knots at 12 and 16 deg, b1 constant), the extended model (the
     same plus the separation and vortex families, stall = "separation_and_vortex"), and the
-    diagnosed model: `indicial diagnose` started from the extended model on the fit cycles,
+    diagnosed model: `indicial diagnose` started from the report's model on the fit cycles,
     deciding by cross-validation over folds of the fit cycles (--max-folds 10: the held-out
     campaign is never seen by any choice), its final model.coef.
  5. Per held-out cycle: RMS of prediction minus measurement over the 128 samples (the
@@ -146,7 +146,7 @@ def main():
         # The diagnosed model: every choice made on the fit cycles alone (folds of them).
         out = os.path.join(work, f'diag-{coef}')
         t0 = time.time()
-        ok = run([exe, 'diagnose', os.path.join(work, f'exp-{coef}-extended.toml'), '--out', out, '--no-plots',
+        ok = run([exe, 'diagnose', os.path.join(work, f'exp-{coef}-report.toml'), '--out', out, '--no-plots',
                   '--quiet', '--max-folds', '10'], ok=(0, 6))
         models[(coef, 'diagnosed')] = os.path.join(out, 'model.coef') if ok else None
         if ok:
@@ -190,7 +190,7 @@ def mean(v):
 
 def diagnosis_lines(coef, dj):
     p = print
-    p(f'* diagnose {coef} (from the extended model, on the fit cycles): rule `{dj.get("rule")}` '
+    p(f'* diagnose {coef} (from the report model, on the fit cycles): rule `{dj.get("rule")}` '
       f'({dj.get("rule_reason", "")}); verdict `{dj.get("verdict")}`, effects added {dj.get("effects_added")}, '
       f'stopped `{dj.get("stopped")}`, fit error {dj.get("initial_fit_error", float("nan")):.4g} -> '
       f'{dj.get("final_fit_error", float("nan")):.4g}, {dj.get("fits_run", "?")} fits, {dj["wall_s"]:.0f} s wall')
