@@ -310,7 +310,7 @@ TEST_CASE("roll: beta and its rate follow eq. 17 and the chain rule") {
   CHECK(csv.rfind("time_s,phi_deg,p_degps,Cl,Cl_true,y_true\n", 0) == 0);
 }
 
-TEST_CASE("simulate --model integrates a model with dynamic-stall families; freqresp refuses it and says why") {
+TEST_CASE("simulate --model integrates a model with dynamic-stall families, freqresp refuses it and says why") {
   const std::string coef = std::string(INDICIAL_SOURCE_DIR) + "/examples/dynamic-stall-lift-moment.coef";
   const fs::path csv = dir() / "stall-simulated.csv";
   std::string err;
