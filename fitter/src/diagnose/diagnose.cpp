@@ -213,8 +213,10 @@ class Diagnoser {
 
   // Per-run held-out errors of model m, folds warm-started from its full fit.
   HeldOut held_out(const Experiment& w, const ModelConfig& m, const FitResult& full) {
-    return held_out_errors(w, m, estimates_by_id(full), o_.threads, o_.cv_max_folds,
-                           [this](const Experiment& x, const ModelConfig& c, const StartValues& sv) { return fit(x, c, sv); });
+    HeldOut h = held_out_errors(w, m, estimates_by_id(full), o_.threads, o_.cv_max_folds,
+                                [this](const Experiment& x, const ModelConfig& c, const StartValues& sv) { return fit(x, c, sv); });
+    h.fit_error = full.fit_error;
+    return h;
   }
 
   // Fits a candidate from every start, keeps the best usable fit, scores it against `base`.

@@ -3,6 +3,7 @@
 // share. Not installed.
 #pragma once
 
+#include <limits>
 #include <cmath>
 #include <cstddef>
 #include <functional>
@@ -109,6 +110,7 @@ int choose_family(const std::vector<FamilyResult>& fr, const DiagnoseOptions& o,
 struct HeldOut {
   std::vector<double> mse;  // per run
   int folds = 0;            // run r was left out with fold r mod folds (folds == runs or 0: one run each)
+  double fit_error = std::numeric_limits<double>::quiet_NaN();  // the model's fit to ALL runs, s(v)
   bool ok = false;
   std::string message;
 };

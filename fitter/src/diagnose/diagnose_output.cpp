@@ -384,6 +384,7 @@ nlohmann::json held_out_json(const HeldOutTest& t) {
   k["held_out_rms_without"] = a;
   k["held_out_rms_with"] = b;
   k["mean_log_mse_ratio"] = finite_or_null(t.mean_log_ratio);
+  k["in_sample_log_mse_ratio"] = finite_or_null(t.in_sample_log_ratio);
   k["standard_error"] = finite_or_null(t.standard_error);
   k["enters"] = t.enters;
   if (!t.message.empty()) k["message"] = t.message;

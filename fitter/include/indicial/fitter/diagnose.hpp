@@ -153,6 +153,7 @@ struct HeldOutTest {
   double mean_log_ratio = 0.0;       // mean over folds of ln(MSE_with / MSE_without) (per run: one run per fold)
   double standard_error = 0.0;       // of that mean: sd / sqrt(folds), d taken per fold
   int folds = 0;                     // runs left out together (folds == runs: leave-one-run-out)
+  double in_sample_log_ratio = 0.0;  // ln(MSE_with / MSE_without) of the fits to every run (NaN: not known)
   int runs_improved = 0;             // runs with a lower held-out error with it
   bool enters = false;
   std::string message;               // why it could not be tested (a fold fit failed, ...)
