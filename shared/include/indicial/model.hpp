@@ -365,6 +365,47 @@ inline void prepare_static_table(StaticCurve<Scalar, P, K, T>& c) {
   for (int i = n - 2; i >= 1; --i) m[i] = m[i] - gamma[i] * m[i + 1];
 }
 
+namespace detail {
+// The plain number of a Scalar, for an index guess only (never in a result): the value itself,
+// or an autodiff type's value() (Eigen::AutoDiffScalar, the fitter's).
+inline double plain_value(double v) { return v; }
+inline double plain_value(float v) { return static_cast<double>(v); }
+template <class T>
+inline double plain_value(const T& v) { return static_cast<double>(v.value()); }
+
+// The row of a table with rows x_rad[0..n) (strictly increasing, n >= 2) that brackets x:
+// the last lo with Scalar(x_rad[lo]) <= x, so that x < Scalar(x_rad[lo + 1]). The caller has
+// clamped: Scalar(x_rad[0]) < x < Scalar(x_rad[n - 1]). The comparisons are made in Scalar,
+// as the interpolation's (a float table may round two rows to one float: the last of them is
+// still the one row), so the row -- hence the value -- is unique however it is found.
+// Why not bisection alone: tables are evenly spaced as a rule (the f0 tables, polars every 1
+// or 2 deg), and then x's position in the table's range names the row with one division;
+// two comparisons confirm it (one more finds a neighbour, for rounding or a slightly uneven
+// table), and bisection between the confirmed bounds takes over for an uneven table. Measured
+// (bench_step, callgrind): six f0 lookups per step of the dynamic-stall model, 36 rows.
+template <class Scalar>
+inline int table_row(const double* x_rad, int n, const Scalar& x) {
+  const double position = (plain_value(x) - x_rad[0]) / (x_rad[n - 1] - x_rad[0]) * double(n - 1);
+  int lo = position > 0.0 ? (position < double(n - 2) ? static_cast<int>(position) : n - 2) : 0;
+  int hi = n - 1;
+  if (x < Scalar(x_rad[lo])) {         // the guess is above x (lo >= 1: x > x_rad[0])
+    if (!(x < Scalar(x_rad[lo - 1]))) return lo - 1;
+    hi = lo - 1;
+    lo = 0;
+  } else if (!(x < Scalar(x_rad[lo + 1]))) {  // below x (lo + 2 <= n - 1: x < x_rad[n - 1])
+    if (x < Scalar(x_rad[lo + 2])) return lo + 1;
+    lo = lo + 2;
+  } else {
+    return lo;
+  }
+  while (hi - lo > 1) {  // bisection: Scalar(x_rad[lo]) <= x < Scalar(x_rad[hi])
+    const int mid = (lo + hi) / 2;
+    if (x < Scalar(x_rad[mid])) hi = mid; else lo = mid;
+  }
+  return lo;
+}
+}  // namespace detail
+
 template <class Scalar, int P, int K, int T>
 inline Scalar static_value(const StaticCurve<Scalar, P, K, T>& c, const Scalar& x) {
   if (c.kind == StaticKind::polynomial) return spline_value(c.polynomial, x);
@@ -372,11 +413,8 @@ inline Scalar static_value(const StaticCurve<Scalar, P, K, T>& c, const Scalar& 
   // Clamp to the table: a cubic extrapolated beyond measured static data is not data.
   if (!(x > Scalar(c.table_x_rad[0]))) return c.table_value[0];
   if (!(x < Scalar(c.table_x_rad[n - 1]))) return c.table_value[n - 1];
-  int lo = 0, hi = n - 1;  // binary search: table_x_rad[lo] <= x < table_x_rad[hi]
-  while (hi - lo > 1) {
-    const int mid = (lo + hi) / 2;
-    if (x < Scalar(c.table_x_rad[mid])) hi = mid; else lo = mid;
-  }
+  const int lo = detail::table_row(c.table_x_rad, n, x);
+  const int hi = lo + 1;
   const Scalar h = Scalar(c.table_x_rad[hi] - c.table_x_rad[lo]);
   const Scalar A = (Scalar(c.table_x_rad[hi]) - x) / h;
   const Scalar B = Scalar(1) - A;
@@ -871,16 +909,19 @@ inline Scalar delay_at_airspeed(const Scalar& delay_s, double reference_airspeed
 // A step's end k+1 is the next step's end k, so a caller stepping forward (the runtime) can
 // keep the StepEnd of the last sample and evaluate only the new one: bit-identical results,
 // half the spline work (the runtime does this; the fitter and tests call advance_lags).
+// No default member initializers: a step's scratch StepEnd is written before it is read, and
+// zeroing it first cost the runtime's step instructions; value-initialise (`StepEnd e{}`, or
+// `= {}` as the runtime's State does) for zeros.
 template <class Scalar, class Cap>
 struct StepEnd {
-  Scalar forcing_antiderivative = Scalar(0);
-  Scalar b_antiderivative[Cap::max_lags] = {};
+  Scalar forcing_antiderivative;
+  Scalar b_antiderivative[Cap::max_lags];
 };
 
 // X and XF (the angle and the forcing angle) are Scalar or, in the fitter, double where the
 // angle is data (see spline_antiderivative).
 template <class Scalar, class Cap, class X, class XF>
-inline void evaluate_step_end(const CoefficientModel<Scalar, Cap>& m, const X& x_rad,
+INDICIAL_HOT_INLINE void evaluate_step_end(const CoefficientModel<Scalar, Cap>& m, const X& x_rad,
                               const XF& forcing_x_rad, StepEnd<Scalar, Cap>* end) {
   end->forcing_antiderivative = spline_antiderivative(m.a, forcing_x_rad);
   for (int j = 0; j < m.n_lags; ++j) {
@@ -957,7 +998,7 @@ inline void lag_update(const CoefficientModel<Scalar, Cap>& m, const StepGeometr
 }
 
 template <class Scalar, class Cap>
-inline void advance_lags_between(const CoefficientModel<Scalar, Cap>& m,
+INDICIAL_HOT_INLINE void advance_lags_between(const CoefficientModel<Scalar, Cap>& m,
                                  const StepGeometry<Scalar>& g, const StepEnd<Scalar, Cap>& end0,
                                  const StepEnd<Scalar, Cap>& end1, Scalar* y) {
   const Scalar forcing_integral = end1.forcing_antiderivative - end0.forcing_antiderivative;
@@ -971,7 +1012,7 @@ inline void advance_lags_between(const CoefficientModel<Scalar, Cap>& m,
 template <class Scalar, class Cap>
 inline void advance_lags(const CoefficientModel<Scalar, Cap>& m, const StepGeometry<Scalar>& g,
                          Scalar* y) {
-  StepEnd<Scalar, Cap> end0, end1;
+  StepEnd<Scalar, Cap> end0{}, end1{};
   evaluate_step_end(m, g.x0_rad, g.forcing_x0_rad, &end0);
   evaluate_step_end(m, g.x1_rad, g.forcing_x1_rad, &end1);
   advance_lags_between(m, g, end0, end1, y);
@@ -1014,8 +1055,11 @@ INDICIAL_HOT_INLINE typename Ops::V coefficient_output_with(const CoefficientMod
   } else {
     Ops::table_value(m.static_curve, table_x_rad, &curve);
   }
-  V sum = curve + spline_value_with<Ops>(m.static_correction, x_rad) +
-          l_over_v_s * spline_value_with<Ops>(m.rotary, x_rad) * rate_radps;
+  // Why the test: most models have no static correction, whose value is 0 (curve + 0 is
+  // curve); a call to learn that costs the step ~30 instructions per coefficient.
+  if (m.static_correction.n_powers + m.static_correction.n_knots > 0)
+    curve = curve + spline_value_with<Ops>(m.static_correction, x_rad);
+  V sum = curve + l_over_v_s * spline_value_with<Ops>(m.rotary, x_rad) * rate_radps;
   for (int j = 0; j < m.n_lags; ++j) sum = sum + y[j];
   return sum;
 }
@@ -1234,11 +1278,8 @@ inline Scalar separation_table_value(const SeparationParameters<Scalar, Cap>& p,
   if (n < 1) return Scalar(1);
   if (!(x > Scalar(p.f0_x_rad[0]))) return p.f0_value[0];
   if (!(x < Scalar(p.f0_x_rad[n - 1]))) return p.f0_value[n - 1];
-  int lo = 0, hi = n - 1;  // binary search: f0_x_rad[lo] <= x < f0_x_rad[hi]
-  while (hi - lo > 1) {
-    const int mid = (lo + hi) / 2;
-    if (x < Scalar(p.f0_x_rad[mid])) hi = mid; else lo = mid;
-  }
+  const int lo = detail::table_row(p.f0_x_rad, n, x);
+  const int hi = lo + 1;
   const Scalar w = (x - Scalar(p.f0_x_rad[lo])) / Scalar(p.f0_x_rad[hi] - p.f0_x_rad[lo]);
   return (Scalar(1) - w) * p.f0_value[lo] + w * p.f0_value[hi];
 }
@@ -1246,6 +1287,9 @@ inline Scalar separation_table_value(const SeparationParameters<Scalar, Cap>& p,
 // f0c(x) = clip_[0,1](f0(x) + df0(x)).
 template <class Scalar, class Cap>
 inline Scalar static_separation(const SeparationParameters<Scalar, Cap>& p, const Scalar& x) {
+  // (No call for an empty correction, as coefficient_output's static correction.)
+  if (p.f0_correction.n_powers + p.f0_correction.n_knots == 0)
+    return detail::clip_unit(Scalar(separation_table_value(p, x)));
   return detail::clip_unit(Scalar(separation_table_value(p, x) + spline_value(p.f0_correction, x)));
 }
 
