@@ -52,6 +52,7 @@
 #include <cstdint>
 #include <cstring>
 #include <limits>
+#include <type_traits>
 
 namespace indicial {
 
@@ -1225,9 +1226,19 @@ struct StallOutput {
 namespace detail {
 // S(u) = 1 / (1 + exp(-u)), written so that exp never overflows (no inf / inf, and an autodiff
 // type gets a finite derivative for every finite u).
+// Beyond saturates_above<Scalar>, 1 + exp(-u) rounds to 1 (exp(-u) < half an ulp of 1), so S(u)
+// IS 1 and a plain floating-point type skips the exp (same bits; issue 22 item 6: the shedding
+// switch sits there for whole stretches of a stall cycle). An autodiff type keeps the exp
+// (its derivative there is tiny but not 0).
+template <class Scalar>
+struct saturates_above { static constexpr double value = 37.0; };  // e^-37 < 2^-53
+template <>
+struct saturates_above<float> { static constexpr double value = 17.0; };  // e^-17 < 2^-24
 template <class Scalar>
 inline Scalar logistic(const Scalar& u) {
   using std::exp;
+  if (std::is_floating_point<Scalar>::value && u >= Scalar(saturates_above<Scalar>::value))
+    return Scalar(1);
   if (u >= Scalar(0)) return Scalar(1) / (Scalar(1) + exp(-u));
   const Scalar e = exp(u);
   return e / (Scalar(1) + e);
@@ -1379,7 +1390,9 @@ inline void advance_stall(const StallModel<Scalar, Cap>& m, const StallStep<Scal
   const Scalar gate = shedding_switch(m, Scalar((xe0 + xe1) * Scalar(0.5)));
   const Scalar clock0 = s->vortex_clock_semichords;
   const Scalar zc = h * (Scalar(1) - gate) / Scalar(v.clock_reset_semichords);
-  const Scalar ec = exp(-zc);
+  // Why the branch: while the shedding switch is saturated (gate == 1) zc is 0 and e^-0 is 1
+  // exactly; a plain floating-point type skips the exp (same bits), an autodiff type keeps it.
+  const Scalar ec = std::is_floating_point<Scalar>::value && zc == Scalar(0) ? Scalar(1) : Scalar(exp(-zc));
   const Scalar clock1 = ec * clock0 + phi1(zc, ec) * h * gate;
   s->vortex_clock_semichords = clock1;
   const Scalar on_chord = vortex_on_chord(v, Scalar((clock0 + clock1) * Scalar(0.5)));
