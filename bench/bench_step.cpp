@@ -203,13 +203,14 @@ class ModelStepper {
 // and spline_antiderivative_with are called, not inlined, in the runtime's step). Why: GCC
 // inlined some of the floor's calls and not others depending on unrelated code in the header
 // (the count moved between 732 and 759 instructions per step with the floor's code unchanged);
-// out of line, the floor is the same work in the same form as the step's.
+// out of line (one call each: flatten inlines model.hpp's body into the wrapper), the floor is
+// the same work in the same form as the step's.
 template <class Scalar, int P, int K>
-__attribute__((noinline)) Scalar floor_value(const indicial::Spline<Scalar, P, K>& s, Scalar x) {
+__attribute__((noinline, flatten)) Scalar floor_value(const indicial::Spline<Scalar, P, K>& s, Scalar x) {
   return indicial::spline_value(s, x);
 }
 template <class Scalar, int P, int K>
-__attribute__((noinline)) Scalar floor_antiderivative(const indicial::Spline<Scalar, P, K>& s, Scalar x) {
+__attribute__((noinline, flatten)) Scalar floor_antiderivative(const indicial::Spline<Scalar, P, K>& s, Scalar x) {
   return indicial::spline_antiderivative(s, x);
 }
 

@@ -671,21 +671,12 @@ inline bool finite_bits(std::int64_t b) {
   return (b & exponent) != exponent;
 }
 
-// The checks every step makes before touching anything. Why two passes: a good step answers
-// every question in one branch (angle and rate finite, 0 < dt_s <= max_step_dt_s and
-// 0 < airspeed_mps < Inf, each a range of the bit pattern read unsigned); only a refused
-// one asks them one by one for its status.
-inline StepStatus check_step_input(int phase, const MotionInput& in, double dt_s, const void* out) {
-  const std::uint64_t exponent = 0x7FF0000000000000u;
-  const std::uint64_t a = static_cast<std::uint64_t>(double_bits(in.motion_angle_rad));
-  const std::uint64_t r = static_cast<std::uint64_t>(double_bits(in.rate_radps));
-  const std::uint64_t v = static_cast<std::uint64_t>(double_bits(in.airspeed_mps));
-  const std::uint64_t d = static_cast<std::uint64_t>(double_bits(dt_s));
-  const std::uint64_t max_dt = static_cast<std::uint64_t>(double_bits(max_step_dt_s));
-  const bool good = ((a & exponent) != exponent) & ((r & exponent) != exponent) &
-                    (v - 1u < exponent - 1u) & (d - 1u < max_dt) &
-                    (phase == static_cast<int>(PredictorPhase::running)) & (out != nullptr);
-  if (good) return StepStatus::ok;
+// The status of a refused step's input: the checks one by one, in order (out of line: only a
+// refused step runs it).
+#if defined(__GNUC__) || defined(__clang__)
+__attribute__((noinline))
+#endif
+inline StepStatus refused_step_input(int phase, const MotionInput& in, double dt_s, const void* out) {
   if (phase != static_cast<int>(PredictorPhase::running)) return StepStatus::not_reset;
   if (out == nullptr) return StepStatus::null_output;
   const std::int64_t dt = double_bits(dt_s);
@@ -697,6 +688,24 @@ inline StepStatus check_step_input(int phase, const MotionInput& in, double dt_s
   if (dt > double_bits(max_step_dt_s)) return StepStatus::dt_too_large;  // dt_s > max_step_dt_s
   if (!(airspeed > 0)) return StepStatus::non_positive_airspeed;       // airspeed_mps > 0.0
   return StepStatus::ok;
+}
+
+// The checks every step makes before touching anything. Why two passes: a good step answers
+// every question in one branch (angle and rate finite, 0 < dt_s <= max_step_dt_s and
+// 0 < airspeed_mps < Inf, each a range of the bit pattern read unsigned); only a refused
+// one asks them one by one for its status (refused_step_input, the same questions).
+INDICIAL_HOT_INLINE StepStatus check_step_input(int phase, const MotionInput& in, double dt_s, const void* out) {
+  const std::uint64_t exponent = 0x7FF0000000000000u;
+  const std::uint64_t a = static_cast<std::uint64_t>(double_bits(in.motion_angle_rad));
+  const std::uint64_t r = static_cast<std::uint64_t>(double_bits(in.rate_radps));
+  const std::uint64_t v = static_cast<std::uint64_t>(double_bits(in.airspeed_mps));
+  const std::uint64_t d = static_cast<std::uint64_t>(double_bits(dt_s));
+  const std::uint64_t max_dt = static_cast<std::uint64_t>(double_bits(max_step_dt_s));
+  const bool good = ((a & exponent) != exponent) & ((r & exponent) != exponent) &
+                    (v - 1u < exponent - 1u) & (d - 1u < max_dt) &
+                    (phase == static_cast<int>(PredictorPhase::running)) & (out != nullptr);
+  if (good) return StepStatus::ok;
+  return refused_step_input(phase, in, dt_s, out);
 }
 
 // The forcing angles of delayed coefficients at both ends of a step (x(t - d)).
@@ -758,8 +767,7 @@ INDICIAL_HOT_INLINE Scalar advance_coefficient(const CoefficientModel<Scalar, Ca
                                                const StepEnd<Scalar, Cap>& end0, Scalar table_x1,
                                                Scalar rate, Scalar l_over_v_s,
                                                StepEnd<Scalar, Cap>* end1, Scalar* y, Scalar* value) {
-  evaluate_step_end(cm, g.x1_rad, g.forcing_x1_rad, end1);
-  advance_lags_between(cm, g, end0, *end1, y);
+  advance_lags_to(cm, g, end0, end1, y);
   *value = coefficient_output(cm, g.x1_rad, table_x1, rate, l_over_v_s, y);
   return finite_test(*value);
 }
