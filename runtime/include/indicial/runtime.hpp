@@ -77,7 +77,10 @@
 // What a step costs: the spline quantities at the previous sample (model.hpp's StepEnd: the
 // antiderivatives B_j(x0) of b_j and A(x0) of a) were computed by the previous step as its new
 // end; the state keeps them and a step evaluates only the new end (advance_lags_between),
-// which gives bit for bit what advance_lags gives. A delayed coefficient recomputes A at the
+// which gives bit for bit what advance_lags gives. The step works in place on the State after
+// one block copy of what it overwrites (StepBackup), tests every number it keeps with one
+// isfinite (finite_test), and copies the block back if one is not finite; its input checks
+// are one branch on the inputs' bit patterns. A delayed coefficient recomputes A at the
 // old end every step. The airspeed ratios (V / V_ref, l / V, the delay at V) are recomputed
 // only when the airspeed changes. With Scalar = float every per-step operation is in float
 // (clamp, axis factor, airspeed ratios), except the delayed path's clock, which is double.
@@ -97,7 +100,7 @@
 //   * the step: after each coefficient's lags, advance_stall(cm.stall, StallStep{x0, x1, dt,
 //     l / V}, &state) on the step's clamped angles, and value = coefficient_output(...) +
 //     stall_output(cm.stall, x1, state) -- the fitter's sum, so they agree bit for bit -- all
-//     on copies, committed only if every number is finite; reset sets stall_steady_state.
+//     in place, restored unless every number is finite; reset sets stall_steady_state.
 //     A family model stepped with a plain State returns StepStatus::families_need_state
 //     (RuntimeModel::stall says whether a model has families).
 //   * validation: validate_model_set applies model.hpp's check_stall_parameters (the feasible
