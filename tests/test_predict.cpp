@@ -14,6 +14,7 @@
 
 #include "indicial/fitter/io.hpp"
 #include "indicial/fitter/predict.hpp"
+#include "indicial/fitter/prediction_output.hpp"
 #include "indicial/fitter/simulate.hpp"
 #include "test_support.hpp"
 
