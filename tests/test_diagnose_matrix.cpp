@@ -1,6 +1,7 @@
 // The diagnose evaluation matrix (tests/diagnose_test_matrix.hpp): ctest runs the representative
 // cases here; the whole matrix is bench/experiment_diagnose_matrix.cpp, run by
 // tools/diagnose-matrix.sh, which writes the measured table into docs/diagnose.md.
+// ctest: skipped under sanitizers -- whole diagnoses of the evaluation matrix, statistics; test_diagnose_effects_a runs diagnose under the sanitizers (tools/run-sanitizers.sh; tests/CMakeLists.txt)
 #include <doctest/doctest.h>
 
 #include <algorithm>
