@@ -94,6 +94,18 @@ void run_freqresp(const FreqrespOptions& o) {
       std::printf("  %8.4g %10.4g %14.6g %14.6g %12.6g %10.4g\n", p.k, p.freq_hz, p.in_phase,
                   p.out_of_phase, p.magnitude, p.phase_deg);
   }
+  // Refuse before writing anything, and draw the plot (the step that can fail on gnuplot) before
+  // the table, so that outputs appear all or none (barring disk errors).
+  if (overwrite == Overwrite::refuse)
+    for (const std::string& f : {o.out, o.plot})
+      if (!f.empty() && std::filesystem::exists(f)) throw InputError(f, 0, "output file exists (use --force to replace it)");
+  if (!o.plot.empty()) {
+    write_frequency_response_plot(r, o.plot,
+                                  "indicial freqresp: " + std::filesystem::path(o.model_path).filename().string() +
+                                      " about " + format_double(mean_deg) + " deg",
+                                  overwrite, o.gnuplot);
+    std::printf("freqresp: plot -> %s\n", o.plot.c_str());
+  }
   if (!o.out.empty()) {
     std::vector<std::string> comments = {
         "indicial freqresp " + o.model_path + " (mean angle " + format_double(mean_deg) + " deg, V " +
@@ -101,13 +113,6 @@ void run_freqresp(const FreqrespOptions& o) {
         "H = dC/d(motion angle) per rad; in_phase = Re H; out_of_phase = Im H / k; k = omega l / V"};
     write_file_atomically(o.out, frequency_response_csv(r, comments), overwrite);
     std::printf("freqresp: table -> %s\n", o.out.c_str());
-  }
-  if (!o.plot.empty()) {
-    write_frequency_response_plot(r, o.plot,
-                                  "indicial freqresp: " + std::filesystem::path(o.model_path).filename().string() +
-                                      " about " + format_double(mean_deg) + " deg",
-                                  overwrite, o.gnuplot);
-    std::printf("freqresp: plot -> %s\n", o.plot.c_str());
   }
 }
 
