@@ -442,6 +442,32 @@ TEST_CASE("runs: a phase column without its frequency, with periodic = false, a 
                      "are only for a phase column");
 }
 
+// A phase-averaged cycle with its spread column Cm_std (docs/formats.md "Phase-averaged cycles
+// with a spread column"): `bad` replaces the spread of row `bad_row` (line bad_row + 2).
+std::string spread_cycle_csv(const std::string& bad = "", int bad_row = -1) {
+  std::string s = "phase_rad,alpha_deg,Cm,Cm_std\n";
+  for (int k = 0; k < 64; ++k) {
+    const double ph = 2.0 * kPi * k / 64;
+    char line[128];
+    std::snprintf(line, sizeof line, "%.2f,%.17g,%.17g,", ph, 20.0 - 15.0 * std::cos(ph), -0.01 * std::sin(ph));
+    s += line + (k == bad_row ? bad : std::string("0.002")) + "\n";
+  }
+  return s;
+}
+
+TEST_CASE("runs: a spread column that is negative, without cycles_averaged, or with fewer than 2 cycles") {
+  expect_fit_refusal(spread_cycle_csv("-0.001", 10), with_runs(R"({file = "run.csv", frequency_hz = 1.0, cycles_averaged = 8})"),
+                     "run.csv:12: column 'Cm_std': spread -0.001 is negative (a standard deviation across the "
+                     "averaged cycles is >= 0)");
+  expect_fit_refusal(spread_cycle_csv(), with_runs(R"({file = "run.csv", frequency_hz = 1.0})"),
+                     "experiment.toml:5: run 'run.csv' has a spread column 'Cm_std' but its entry gives no "
+                     "'cycles_averaged': give the number of cycles averaged (the noise of the average is Cm_std / "
+                     "sqrt(cycles_averaged))");
+  expect_fit_refusal(spread_cycle_csv(), with_runs(R"({file = "run.csv", frequency_hz = 1.0, cycles_averaged = 1})"),
+                     "experiment.toml:5: 'runs.cycles_averaged' must be an integer 2..1000000 (the number of cycles "
+                     "the file's average and spread column were taken over; one cycle has no spread)");
+}
+
 TEST_CASE("a missing run file names the experiment's line") {
   expect_fit_refusal(good_run_csv(), with_runs(R"("run.csv", "nope.csv")"),
                      "experiment.toml:5: run file 'nope.csv' not found (looked for {DIR}/nope.csv)");

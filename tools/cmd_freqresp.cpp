@@ -59,11 +59,30 @@ std::vector<double> parse_k_list(const std::string& text) {
   return ks;
 }
 
+// Why refused: a linearised response is the model's response to a vanishing amplitude. With
+// dynamic-stall families that limit says nothing useful: the f0 table is linear between its
+// rows (half a degree apart in a polar), the shedding criterion is a switch of width w (0.05
+// in C_N, about half a degree of angle), and a cycle through stall is what the families
+// describe -- its hysteresis and its lift overshoot grow with the amplitude, not in proportion
+// to it. A response per frequency is then a simulation at the amplitude of interest.
+void refuse_stall_families(const indicial::ModelSet<double, indicial::FitCapacity>& m, const std::string& path) {
+  using namespace indicial;
+  for (int c = 0; c < m.n_coefficients; ++c)
+    if (m.coefficients[c].stall.families != StallFamilies::none)
+      throw InputError(path, 0, std::string("coefficient ") + m.coefficients[c].name +
+                                    " has dynamic-stall families: its response depends on the amplitude (the "
+                                    "separation table is linear only between rows, the shedding switch is a "
+                                    "step about half a degree wide), so a linearised frequency response "
+                                    "describes only fractions of a degree and none of the stall hysteresis; "
+                                    "simulate the cycles at the amplitudes of interest instead (indicial simulate "
+                                    "--model FILE --motion sine:..., or indicial predict)");
+}
+
 void run_freqresp(const FreqrespOptions& o) {
   using namespace indicial;
   const Overwrite overwrite = o.force ? Overwrite::replace : Overwrite::refuse;
   const auto model = std::make_unique<ModelSet<double, FitCapacity>>(read_model_file(o.model_path));
-  tools::refuse_stall_families(*model, o.model_path, "freqresp");
+  refuse_stall_families(*model, o.model_path);
   double mean_deg = 0.0;
   // Why per axis: in pitch the oscillation is about alpha0; in roll and yaw alpha0 is fixed by
   // the model and the oscillation is about a mean roll / yaw angle.

@@ -51,7 +51,9 @@ const std::vector<KeyDoc>& key_docs() {
                    "the coefficient. An entry may be {file = \"run.csv\", periodic = true}: an ensemble-averaged\n"
                    "cycle, fitted in its periodic steady state (no y0 parameter). Other run-table keys:\n"
                    "frequency_hz or reduced_frequency (a phase-column run's cycle), airspeed_mps (default the\n"
-                   "experiment's), time_grid = \"uniform\" (default) or \"nonuniform\".",
+                   "experiment's), time_grid = \"uniform\" (default) or \"nonuniform\", cycles_averaged = N\n"
+                   "(an average of N >= 2 cycles whose file has the spread column <coefficient>_std, the\n"
+                   "single cycles' standard deviation: the noise from replication is spread / sqrt(N)).",
        "runs = [\"run1.csv\", \"run2.csv\"]"},
       {"static", "polynomial", "the static curve C_a(x) = c0 + c1 x + c2 x^2 + ...: coefficients of x^0, x^1, ...\n"
                                "with x = alpha (pitch) or beta (roll, yaw) in RAD. Give polynomial or table (one is required).",

@@ -77,7 +77,6 @@ void run_simulate(const SimulateOptions& o) {
     throw InputError(o.model_path, static_cast<long>(diag.line),
                      std::string(diag.reason) + " (" + to_string(st) + ")");
   }
-  tools::refuse_stall_families(*loaded, o.model_path, "simulate --model");
   const MotionSpec motion = parse_motion_spec(o.motion, loaded->axis);
   std::vector<SimulatedRun> runs{simulate_reference(*loaded, motion)};
   const std::vector<double> sigma = add_measurement_noise(runs, snr, o.seed, noise);
@@ -101,7 +100,8 @@ const indicial::tools::RegisterCommand register_simulate([](CLI::App& app) {
       "  --case NAME --out DIR          a built-in case: run CSVs, experiment.toml, truth.coef\n"
       "      (--case dynamic-stall: phase-averaged cycles with CL and Cm, static.csv, cycles.csv,\n"
       "       experiment-CL.toml and experiment-Cm.toml; truth outside the model class)\n"
-      "  --model F.coef --motion SPEC --out F.csv   any model on a motion:\n"
+      "  --model F.coef --motion SPEC --out F.csv   any model on a motion (its lags and any\n"
+      "      dynamic-stall families: separation point, vortex lift and clock):\n"
       "      sine:alpha0_deg=35,amp_deg=35,freq_hz=0.5,cycles=3,dt_s=0.01  (roll/yaw: mean_deg)\n"
       "      ramp:from_deg=0,to_deg=70,rate_dps=30,dt_s=0.01[,hold_before_s=0.5,hold_after_s=2]\n"
       "      csv:PATH  (time_s and the angle column; C2 cubic spline between samples)\n"

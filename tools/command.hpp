@@ -61,17 +61,6 @@ inline std::string& invocation() {
 const char* build_commit();
 
 // The provenance of outputs made from experiment e by this invocation.
-// simulate --model and freqresp integrate the lag states only (review-1 finding 8): a model
-// with dynamic-stall families would silently become a different model, so it is refused.
-template <class ModelSetT>
-void refuse_stall_families(const ModelSetT& m, const std::string& path, const char* command) {
-  for (int c = 0; c < m.n_coefficients; ++c)
-    if (m.coefficients[c].stall.families != StallFamilies::none)
-      throw InputError(path, 0, std::string("coefficient ") + m.coefficients[c].name +
-                                    " has dynamic-stall families, which " + command +
-                                    " does not integrate yet (use indicial predict)");
-}
-
 inline Provenance provenance_of(const Experiment& e) {
   return experiment_provenance(e, invocation(), build_commit());
 }

@@ -877,6 +877,22 @@ void warn_angle_unit(const std::string& path, const std::string& column, double 
   }
 }
 
+// The coefficient's spread column (`Cm_std`: the standard deviation of the single cycles of an
+// ensemble average at each sample; docs/formats.md "Phase-averaged cycles with a spread column"),
+// when the file has one; -1 otherwise. Every value finite (numeric_column) and >= 0.
+int read_spread_column(const std::string& path, CsvTable& t, const std::string& coefficient, Run& run) {
+  const int col = find_plain_column(t, coefficient + "_std");
+  if (col < 0) return -1;
+  run.coefficient_spread = numeric_column(path, t, col, 1.0);
+  const auto c = static_cast<std::size_t>(col);
+  for (std::size_t i = 0; i < run.coefficient_spread.size(); ++i) {
+    if (!(run.coefficient_spread[i] >= 0.0))
+      throw InputError(path, t.row_line[i], "column '" + t.original[c] + "': spread " + t.rows[i][c] +
+                                                " is negative (a standard deviation across the averaged cycles is >= 0)");
+  }
+  return col;
+}
+
 }  // namespace
 
 Run read_run_csv(const std::string& path, Axis axis, const std::string& coefficient,
@@ -913,8 +929,9 @@ Run read_run_csv(const std::string& path, Axis axis, const std::string& coeffici
                                        default_sg_half_window, default_sg_degree);
   }
   warn_angle_unit(path, t.header[static_cast<std::size_t>(rc.angle)], rc.angle_factor, run);
+  const int spread = read_spread_column(path, t, coefficient, run);
   std::vector<std::string> notes =
-      table_notes(path, t, {rc.time, rc.phase, rc.angle, rc.rate, rc.coefficient, rc.normal, rc.chord});
+      table_notes(path, t, {rc.time, rc.phase, rc.angle, rc.rate, rc.coefficient, rc.normal, rc.chord, spread});
   run.notes.insert(run.notes.begin(), notes.begin(), notes.end());
   return run;
 }

@@ -58,6 +58,7 @@ struct RunEntry {
   RunCsvOptions csv;                 // grid and frequency (from frequency_hz or reduced_frequency)
   bool frequency_given = false;
   double airspeed_mps = 0.0;         // the run's V (default: the experiment's)
+  int cycles_averaged = 0;           // cycles behind an ensemble average's spread column (0: not given)
 };
 
 // A use of a runtime capacity found while reading, checked once the structure is known.
@@ -258,7 +259,7 @@ RunEntry read_run_table(const LoadContext& c, const toml::node& entry, const Exp
   const TomlReader& r = c.r;
   const toml::table& t = *entry.as_table();
   r.check_keys(t, {"file", "files", "samples", "periodic", "frequency_hz", "reduced_frequency", "airspeed_mps",
-                   "time_grid"}, "runs.");
+                   "time_grid", "cycles_averaged"}, "runs.");
   RunEntry re;
   re.line = static_cast<long>(entry.source().begin.line);
   const toml::node* f = t.get("file");
@@ -289,6 +290,15 @@ RunEntry read_run_table(const LoadContext& c, const toml::node& entry, const Exp
   re.frequency_given = fh || k;
   if (const toml::node* n = t.get("time_grid")) re.csv.grid = r.choice<TimeGrid>(*n, "runs.time_grid");
   if (t.get("samples") && !fs) r.fail(*t.get("samples"), "'runs.samples' is used only with 'runs.files'");
+  if (const toml::node* n = t.get("cycles_averaged")) {
+    if (fs) r.fail(*n, "'runs.cycles_averaged' is not used with 'runs.files' (a spread column is read from a "
+                       "run of one file)");
+    const long v = r.integer(*n, "runs.cycles_averaged");
+    if (v < 2 || v > 1000000)
+      r.fail(*n, "'runs.cycles_averaged' must be an integer 2..1000000 (the number of cycles the file's average "
+                 "and spread column were taken over; one cycle has no spread)");
+    re.cycles_averaged = static_cast<int>(v);
+  }
   return re;
 }
 
@@ -642,6 +652,32 @@ void read_stall_keys(LoadContext& c, const toml::node* model_node, Experiment& e
   }
 }
 
+// A run's ensemble spread (Run::coefficient_spread, read from the file's `<coefficient>_std`
+// column) and the entry's cycles_averaged: the noise of the average is spread / sqrt(cycles), so
+// a spread without the count is refused; a count without a spread column is a warning (the
+// column may be misnamed; another coefficient of the file may have one).
+void attach_spread(const LoadContext& c, const RunEntry& entry, const std::string& coefficient, Run& run) {
+  const std::string column = coefficient + "_std";
+  if (!run.coefficient_spread.empty() && entry.cycles_averaged == 0)
+    throw InputError(c.r.file(), entry.line, "run '" + entry.file + "' has a spread column '" + column +
+                                             "' but its entry gives no 'cycles_averaged': give the number of cycles "
+                                             "averaged (the noise of the average is " + column +
+                                             " / sqrt(cycles_averaged))");
+  run.ensemble_count = entry.cycles_averaged;
+  if (entry.cycles_averaged > 0 && run.coefficient_spread.empty()) {
+    run.warnings.push_back(c.r.file() + ":" + std::to_string(entry.line) + ": run '" + entry.file +
+                           "' gives 'cycles_averaged' but has no '" + column + "' column: no replication for " +
+                           coefficient + " from this run (name the spread column " + column +
+                           ", or map it in [columns])");
+    return;
+  }
+  if (!run.coefficient_spread.empty() &&
+      std::all_of(run.coefficient_spread.begin(), run.coefficient_spread.end(), [](double v) { return v == 0.0; }))
+    run.warnings.push_back(run.path + ": column '" + column + "' is zero at every sample: an average of " +
+                           std::to_string(entry.cycles_averaged) + " cycles without any spread is not a measured "
+                           "noise (no replication from this run)");
+}
+
 // Reads every run file and records the model angle's range over all of them (set_data_range).
 void read_runs(const LoadContext& c, const std::vector<RunEntry>& entries, Experiment& e) {
   for (const auto& entry : entries) {
@@ -667,6 +703,7 @@ void read_runs(const LoadContext& c, const std::vector<RunEntry>& entries, Exper
                                                  "'reduced_frequency' are only for a phase column");
       run.periodic = entry.periodic.value_or(false);
     }
+    attach_spread(c, entry, e.coefficient, run);
     e.notes.insert(e.notes.end(), run.notes.begin(), run.notes.end());
     e.warnings.insert(e.warnings.end(), run.warnings.begin(), run.warnings.end());
     e.runs.push_back(std::move(run));
@@ -895,6 +932,7 @@ std::string run_entry(const Run& run, double experiment_airspeed_mps) {
   if (run.airspeed_mps > 0.0 && run.airspeed_mps != experiment_airspeed_mps)
     keys += ", airspeed_mps = " + format_double(run.airspeed_mps);
   if (run.time_grid == TimeGrid::nonuniform) keys += std::string(", time_grid = \"") + name_of(run.time_grid) + "\"";
+  if (run.ensemble_count >= 2.0) keys += ", cycles_averaged = " + format_double(run.ensemble_count);
   return keys.empty() ? toml_string(run.path) : "{file = " + toml_string(run.path) + keys + "}";
 }
 

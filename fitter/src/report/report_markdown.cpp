@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "indicial/fitter/experiment_toml.hpp"
+#include "indicial/fitter/replication.hpp"
 #include "indicial/fitter/report.hpp"
 #include "report/report_internal.hpp"
 
@@ -97,6 +98,12 @@ std::string report_result(const FitResult& r, const Experiment& e) {
                    "rank {}; colored bounds use {} residual autocorrelation lags.\n\n",
                    num(r.fit_error), oe.n_samples, num(oe.cost), oe.n_parameters, oe.rank,
                    oe.correlation_lag);
+  // The noise source, as fit.json's noise_source (replication.hpp).
+  const ReplicationNoise rep = replication_noise(e);
+  m += rep.source != NoiseSource::none
+           ? fmt::format("Noise from replication (`{}`): {}; sigma {}, fit error / noise {:.2f}.\n\n",
+                         noise_source_name(rep.source), rep.detail, num(rep.sigma), r.fit_error / rep.sigma)
+           : "Noise (`residual_differences`): " + rep.detail + ".\n\n";
   if (!oe.unidentifiable.empty()) {
     std::string names;
     for (const std::string& n : oe.unidentifiable) names += (names.empty() ? "" : ", ") + n;
