@@ -840,7 +840,7 @@ struct StepGeometry {
 //     estimate started at 0 can move.)
 //   * it is second order overall: the interpolation error is O(dt^2) and smooth in time, and
 //     advance_lags uses only differences of A(x_f), which telescope, so the delayed update
-//     keeps the order 2 of the undelayed one (tests/test_discretization.cpp measures it).
+//     keeps the order 2 of the undelayed one (tests/test_advance_lags.cpp measures it).
 //
 // A History is any object with
 //   int    size() const;          // number of stored samples, >= 1
@@ -978,7 +978,7 @@ INDICIAL_HOT_INLINE void evaluate_step_end(const CoefficientModel<Scalar, Cap>& 
 //     35 deg / 1 Hz: max error 8.6e-7 with the angle mean, 1.4e-6 and an irregular order with
 //     the trapezoid).
 // The even spread costs O(dt^3) per step, so the method is second order
-// (tests/test_discretization.cpp measures it). It is unconditionally stable for b > 0 and
+// (tests/test_advance_lags.cpp measures it). It is unconditionally stable for b > 0 and
 // exact as b dt -> 0 (phi1 -> 1, no 0/0 branch).
 //
 // The update is split in two per lag so that a batch of instances (the runtime's step_batch)
