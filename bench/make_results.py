@@ -209,6 +209,18 @@ if cg:
         w(f"| {name} | {ir:.0f} | {fmt(ex)} | {fmt(t(name))} | "
           f"{fmt(ir / fl[0]) if fl else 'n/a'} |")
     w("")
+    # Issue 25 item 5 and issue 22 item 6 by instructions (noise-free), beside the time ratios.
+    ins = lambda name: cg[name][0] if name in cg else None
+    si, fi, li = ins("state/model2/double"), ins("floor/model2/double"), ins("state/stall2/double")
+    if si and fi:
+        goals.append(("state step / floor <= 1.3 by instructions (issue 25 item 5; Model II C_L + C_m, double)",
+                      f"{fmt(si / fi)} ({si:.0f} / {fi:.0f})", "met" if si / fi <= 1.3 else "NOT met"))
+    if si and li:
+        goals.append(("step with every dynamic-stall family <= 2 x the step without, by instructions (issue 22 item 6)",
+                      f"{fmt(li / si)} ({li:.0f} / {si:.0f})", "met" if li / si <= 2.0 else "NOT met"))
+if ratio_state:
+    goals.append(("state step / floor <= 1.3 (issue 25 item 5; CPU time, interleaved)", fmt(ratio_state),
+                  "met" if ratio_state <= 1.3 else "NOT met"))
 
 w("### Peers (Model II, double)")
 w("")

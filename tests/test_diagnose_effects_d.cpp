@@ -1,6 +1,7 @@
 // Diagnose, one hidden effect at a time (static_error; and the lateral axes: a delay in roll, a constant in yaw): data from the reference simulator
 // (SNR 40, several seeds), Model I structure with the right static and rotary terms (or the
 // lateral case's own configuration); see diagnose_test_common.hpp for the checks.
+// ctest: skipped under sanitizers -- single-effect diagnoses like test_diagnose_effects_a, which runs under the sanitizers (tools/run-sanitizers.sh; tests/CMakeLists.txt)
 #include <doctest/doctest.h>
 
 #include <algorithm>

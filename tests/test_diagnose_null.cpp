@@ -2,6 +2,7 @@
 // true structure. Over 20 seeds at least 19 must end with no step and verdict "none" (the
 // Bonferroni-guarded family-wise level per round is alpha = 0.01, so ~0.2 false positives are
 // expected in 20).
+// ctest: skipped under sanitizers -- a loop of whole diagnoses over seeds, a statistic, not a memory question (tools/run-sanitizers.sh; tests/CMakeLists.txt)
 #include <doctest/doctest.h>
 
 #include <cmath>

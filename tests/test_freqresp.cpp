@@ -157,4 +157,11 @@ TEST_CASE("freqresp: CLI writes the table and the plot and refuses bad input") {
   CHECK(std::system(bad1.c_str()) != 0);
   const std::string bad2 = exe + " freqresp " + coef + " --alpha0-deg 20 --k-list 0.1,x > /dev/null 2>&1";
   CHECK(std::system(bad2.c_str()) != 0);
+  // gnuplot cannot be run: exit 1 and neither the plot nor the table is written.
+  const std::string csv2 = (dir / "fr2.csv").string(), png2 = (dir / "fr2.png").string();
+  const std::string nogp = exe + " freqresp " + coef + " --alpha0-deg 20 --k-list 0.1 --out " + csv2 + " --plot " + png2 +
+                           " --gnuplot /nonexistent/gnuplot > /dev/null 2>&1";
+  CHECK(std::system(nogp.c_str()) != 0);
+  CHECK_FALSE(fs::exists(csv2));
+  CHECK_FALSE(fs::exists(png2));
 }

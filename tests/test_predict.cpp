@@ -14,6 +14,7 @@
 
 #include "indicial/fitter/io.hpp"
 #include "indicial/fitter/predict.hpp"
+#include "indicial/fitter/prediction_output.hpp"
 #include "indicial/fitter/simulate.hpp"
 #include "test_support.hpp"
 
@@ -192,6 +193,16 @@ TEST_CASE("predict: CLI writes the CSV and metrics and plot and refuses overwrit
 
   CHECK(run(cmd) != 0);                // exists: refused without --force
   CHECK(run(cmd + " --force") == 0);
+  // The plot cannot be drawn (--gnuplot names a missing executable): exit 1 and nothing written
+  // (the plot is made first), no temporary left.
+  const std::string out3 = (tmp.path / "nogp.csv").string();
+  CHECK(run(exe + " predict " + coef + " " + data + " --out " + out3 + " --plot " + (tmp.path / "nogp.png").string() +
+            " --gnuplot /nonexistent/gnuplot") != 0);
+  CHECK_FALSE(fs::exists(out3));
+  CHECK_FALSE(fs::exists(tmp.path / "nogp.png"));
+  CHECK_FALSE(fs::exists(tmp.path / "nogp.metrics.json"));
+  for (const auto& entry : fs::directory_iterator(tmp.path))
+    CHECK(entry.path().filename().string().find(".tmp-") == std::string::npos);
   CHECK(run(exe + " predict " + coef + " " + sim_dir + "/nope.csv --out " + out + "x") != 0);
   CHECK(run(exe + " predict " + data + " " + data + " --out " + out + "y") != 0);  // not a model
 

@@ -61,7 +61,7 @@ TEST_CASE("simulate on a jittered grid: the samples are the reference's at those
   double worst = 0.0;
   for (std::size_t k = 0; k < j.time_s.size(); ++k)
     worst = std::max(worst, std::fabs(p.coefficients[0].predicted[k] - j.coefficient_true[0][k]));
-  // The second-order update's error: 6.2e-5 at 10 ms on the 1 Hz motion (test_discretization),
+  // The second-order update's error: 6.2e-5 at 10 ms on the 1 Hz motion (test_advance_lags),
   // a quarter of that at 0.5 Hz, up to (16 / 10)^2 more on the longest step (both ends jitter by
   // 3 ms): ~4e-5 (measured 3.1e-5). 1e-4 leaves 2.5x; the former 1e-3 was 32x the measured value.
   CHECK(worst < 1e-4);

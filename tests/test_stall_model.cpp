@@ -2,7 +2,8 @@
 // inversion and its clipping, the steady state (the static curve stays exact), f in [0, 1]
 // for any step, the discrete update advance_stall against a Boost.Odeint Dormand-Prince
 // integration of stall_derivatives (error and measured order), double against float, the
-// autodiff sensitivities the fitter uses against central finite differences, the feasible set.
+// autodiff sensitivities the fitter uses against central finite differences, the feasible set,
+// the logistic switch's saturation.
 #include <doctest/doctest.h>
 
 #include <Eigen/Core>
@@ -310,6 +311,20 @@ TEST_CASE("stall autodiff sensitivities match finite differences") {
     const double fd = (objective(mp) - objective(mm)) / (2 * hstep);
     INFO("parameter " << i << " autodiff " << j.derivatives()(i) << " fd " << fd);
     CHECK(j.derivatives()(i) == doctest::Approx(fd).epsilon(1e-5).scale(1.0));
+  }
+}
+
+// The switch skips its exp where 1 + e^-u rounds to 1 (issue 22 item 6): the same bits as the
+// full expression there, and the full expression just below the threshold.
+TEST_CASE_TEMPLATE("logistic saturates exactly where its exp is skipped", S, double, float) {
+  using std::exp;
+  const double threshold = indicial::detail::saturates_above<S>::value;
+  for (double u = 0.0; u < 2.0 * threshold; u += threshold / 997.0) {
+    const S su = S(u);
+    const S full = S(1) / (S(1) + exp(-su));
+    INFO("u = " << u);
+    CHECK(indicial::detail::logistic(su) == full);
+    if (u >= threshold) CHECK(full == S(1));
   }
 }
 

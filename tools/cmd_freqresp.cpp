@@ -1,7 +1,7 @@
 // `indicial freqresp`: the linearised response of a model about a mean angle.
 //
 //   indicial freqresp MODEL.coef --alpha0-deg 20 --k-list 0.05,0.1,0.2 [--out F.csv]
-//                     [--plot F.png] [--airspeed-mps V] [--force]
+//                     [--plot F.png] [--gnuplot EXE] [--airspeed-mps V] [--force]
 //   (roll / yaw models: --mean-deg PHI0 or PSI0 instead of --alpha0-deg; alpha0 is the model's)
 //
 // Prints and writes, per coefficient and reduced frequency k = omega l / V, the in-phase
@@ -14,11 +14,11 @@
 #include <memory>
 #include <sstream>
 #include <string>
-#include <unistd.h>
 
 #include "command.hpp"
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/freqresp.hpp"
+#include "indicial/fitter/freqresp_output.hpp"
 #include "indicial/fitter/io.hpp"
 #include "indicial/fitter/output.hpp"
 #include "indicial/fitter/predict.hpp"
@@ -32,6 +32,7 @@ struct FreqrespOptions {
   std::string k_list;
   std::string out;
   std::string plot;
+  std::string gnuplot = "gnuplot";
   double alpha0_deg = std::nan("");
   double mean_deg = std::nan("");
   double airspeed_mps = 0.0;
@@ -56,47 +57,6 @@ std::vector<double> parse_k_list(const std::string& text) {
   }
   if (ks.empty()) throw indicial::InputError("--k-list", 0, "no reduced frequencies given");
   return ks;
-}
-
-void write_plot(const std::vector<indicial::FrequencyResponse>& r, const std::string& path,
-                const std::string& title, indicial::Overwrite overwrite) {
-  namespace fs = std::filesystem;
-  if (overwrite == indicial::Overwrite::refuse && fs::exists(path))
-    throw indicial::InputError(path, 0, "exists; use --force to replace it");
-  const fs::path parent = fs::path(path).parent_path().empty() ? fs::path(".") : fs::path(path).parent_path();
-  if (!fs::is_directory(parent)) throw indicial::InputError(path, 0, "the directory does not exist");
-  const std::string tmp = path + ".tmp-" + std::to_string(::getpid()) + ".png";
-  std::ostringstream s;
-  s.precision(10);
-  for (std::size_t c = 0; c < r.size(); ++c) {
-    s << "$d" << c << " << EOD\n";
-    for (const auto& p : r[c].points) s << p.k << ' ' << p.in_phase << ' ' << p.out_of_phase << '\n';
-    s << "EOD\n";
-  }
-  s << "set terminal pngcairo size 1100,420 font 'sans,10'\nset output '" << tmp << "'\n";
-  s << "set grid\nset key top right\nset xlabel 'reduced frequency k = omega l / V'\n";
-  s << "set multiplot layout 1,2 title '" << title << "'\n";
-  for (int panel = 0; panel < 2; ++panel) {
-    s << "set ylabel '" << (panel == 0 ? "in-phase Re H, per rad" : "out-of-phase Im H / k, per rad") << "'\n";
-    s << "plot ";
-    for (std::size_t c = 0; c < r.size(); ++c)
-      s << (c ? ", " : "") << "$d" << c << " using 1:" << (panel == 0 ? 2 : 3)
-        << " with linespoints lw 1.5 title '" << r[c].coefficient << "'";
-    s << "\n";
-  }
-  s << "unset multiplot\nset output\n";
-  FILE* g = ::popen("gnuplot > /dev/null 2>&1", "w");
-  if (g == nullptr) throw indicial::InputError(path, 0, "cannot start gnuplot");
-  const std::string script = s.str();
-  std::fwrite(script.data(), 1, script.size(), g);
-  if (::pclose(g) != 0 || !fs::exists(tmp)) {
-    std::error_code ec;
-    fs::remove(tmp, ec);
-    throw indicial::InputError(path, 0, "gnuplot failed");
-  }
-  std::error_code ec;
-  fs::rename(tmp, path, ec);
-  if (ec) throw indicial::InputError(path, 0, "cannot move the plot into place");
 }
 
 // Why refused: a linearised response is the model's response to a vanishing amplitude. With
@@ -153,6 +113,18 @@ void run_freqresp(const FreqrespOptions& o) {
       std::printf("  %8.4g %10.4g %14.6g %14.6g %12.6g %10.4g\n", p.k, p.freq_hz, p.in_phase,
                   p.out_of_phase, p.magnitude, p.phase_deg);
   }
+  // Refuse before writing anything, and draw the plot (the step that can fail on gnuplot) before
+  // the table, so that outputs appear all or none (barring disk errors).
+  if (overwrite == Overwrite::refuse)
+    for (const std::string& f : {o.out, o.plot})
+      if (!f.empty() && std::filesystem::exists(f)) throw InputError(f, 0, "output file exists (use --force to replace it)");
+  if (!o.plot.empty()) {
+    write_frequency_response_plot(r, o.plot,
+                                  "indicial freqresp: " + std::filesystem::path(o.model_path).filename().string() +
+                                      " about " + format_double(mean_deg) + " deg",
+                                  overwrite, o.gnuplot);
+    std::printf("freqresp: plot -> %s\n", o.plot.c_str());
+  }
   if (!o.out.empty()) {
     std::vector<std::string> comments = {
         "indicial freqresp " + o.model_path + " (mean angle " + format_double(mean_deg) + " deg, V " +
@@ -160,12 +132,6 @@ void run_freqresp(const FreqrespOptions& o) {
         "H = dC/d(motion angle) per rad; in_phase = Re H; out_of_phase = Im H / k; k = omega l / V"};
     write_file_atomically(o.out, frequency_response_csv(r, comments), overwrite);
     std::printf("freqresp: table -> %s\n", o.out.c_str());
-  }
-  if (!o.plot.empty()) {
-    write_plot(r, o.plot, "indicial freqresp: " + std::filesystem::path(o.model_path).filename().string() +
-                              " about " + format_double(mean_deg) + " deg",
-               overwrite);
-    std::printf("freqresp: plot -> %s\n", o.plot.c_str());
   }
 }
 
@@ -183,6 +149,7 @@ const indicial::tools::RegisterCommand register_freqresp([](CLI::App& app) {
       ->required();
   sub->add_option("--out", opt->out, "CSV table");
   sub->add_option("--plot", opt->plot, "PNG plot (gnuplot)");
+  sub->add_option("--gnuplot", opt->gnuplot, "gnuplot executable (default: gnuplot on PATH)");
   sub->add_option("--airspeed-mps", opt->airspeed_mps, "airspeed (default: the model's reference airspeed)");
   sub->add_flag("--force", opt->force, "replace existing outputs");
   sub->callback([opt]() { run_freqresp(*opt); });

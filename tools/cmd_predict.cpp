@@ -1,6 +1,6 @@
 // `indicial predict`: run a model on the motion of a run CSV with the embedded runtime.
 //
-//   indicial predict MODEL.coef DATA.csv --out FILE.csv [--plot FILE.png] [--metrics FILE.json]
+//   indicial predict MODEL.coef DATA.csv --out FILE.csv [--plot FILE.png [--gnuplot EXE]] [--metrics FILE.json]
 //                    [--airspeed-mps V] [--time-grid uniform|nonuniform] [--periodic]
 //                    [--frequency-hz F | --reduced-frequency K] [--experiment E.toml] [--force]
 //
@@ -21,6 +21,7 @@
 #include "indicial/fitter/io.hpp"
 #include "indicial/fitter/output.hpp"
 #include "indicial/fitter/predict.hpp"
+#include "indicial/fitter/prediction_output.hpp"
 #include "indicial/fitter/runtime_limits.hpp"
 
 namespace {
@@ -31,6 +32,7 @@ struct PredictOptions {
   std::string out;
   std::string plot;
   std::string metrics;
+  std::string gnuplot = "gnuplot";
   double airspeed_mps = 0.0;  // 0: the model's reference airspeed
   indicial::TimeGrid grid = indicial::TimeGrid::uniform;
   bool grid_given = false;         // --time-grid on the command line
@@ -112,7 +114,7 @@ void run_predict(const PredictOptions& o) {
   for (const auto& w : warnings) comments.push_back("warning: " + w);
   if (!o.plot.empty()) {
     write_prediction_plot(p, o.plot, "indicial predict: " + std::filesystem::path(o.data_path).filename().string(),
-                          overwrite);
+                          overwrite, o.gnuplot);
   }
   if (!metrics_path.empty()) write_file_atomically(metrics_path, prediction_metrics_json(p), overwrite);
   write_file_atomically(o.out, prediction_csv(p, angle_column, comments), overwrite);
@@ -140,6 +142,7 @@ const indicial::tools::RegisterCommand register_predict([](CLI::App& app) {
       ->required();
   sub->add_option("--out", opt->out, "output CSV")->required();
   sub->add_option("--plot", opt->plot, "overlay plot PNG (gnuplot): against time and against angle");
+  sub->add_option("--gnuplot", opt->gnuplot, "gnuplot executable (default: gnuplot on PATH)");
   sub->add_option("--metrics", opt->metrics, "metrics JSON (default: OUT with .metrics.json)");
   sub->add_option("--airspeed-mps", opt->airspeed_mps,
                   "tunnel airspeed of the run (default: the model's reference airspeed)");

@@ -1,6 +1,6 @@
 #!/bin/sh
-# The diagnose evaluation matrix (issue 13): builds tests/test_diagnose_matrix, runs its skipped
-# matrix test case (in JOBS parallel shards) and writes the measured table, with a summary
+# The diagnose evaluation matrix (issue 13): builds bench/experiment_diagnose_matrix, runs its
+# matrix (in JOBS parallel shards) and writes the measured table, with a summary
 # computed from its rows, into docs/diagnose.md between the markers
 # "<!-- diagnose-matrix-MODE:begin -->" and "<!-- diagnose-matrix-MODE:end -->".
 #
@@ -17,13 +17,13 @@ build=${2:-build}
 jobs=${JOBS:-2}
 case "$mode" in quick|full) ;; *) echo "usage: $0 [quick|full] [BUILD_DIR]" >&2; exit 1 ;; esac
 [ -f "$build/build.ninja" ] || cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release
-cmake --build "$build" -j2 --target test_diagnose_matrix
+cmake --build "$build" -j2 --target experiment_diagnose_matrix
 start=$(date +%s)
 i=0
 while [ "$i" -lt "$jobs" ]; do
   INDICIAL_DIAGNOSE_MATRIX=$mode INDICIAL_DIAGNOSE_MATRIX_SHARD="$i/$jobs" \
     INDICIAL_DIAGNOSE_MATRIX_OUT="$build/diagnose-matrix-$mode.$i.md" \
-    "$build/tests/test_diagnose_matrix" --no-skip=true -tc="diagnose matrix: every*" \
+    "$build/bench/experiment_diagnose_matrix" matrix \
     > "$build/diagnose-matrix-$mode.$i.log" 2>&1 &
   i=$((i + 1))
 done

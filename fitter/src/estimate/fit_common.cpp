@@ -1,5 +1,5 @@
-// fit_common.cpp -- prepared runs (eq. 12), least squares with white and colored
-// covariances, shared by the equation-error, stepwise, output-error and two-stage steps.
+// fit_common.cpp -- prepared runs (eq. 12), least squares (its white and colored covariances
+// from numerics::Covariance::linear_least_squares), shared by the equation-error, stepwise, output-error and two-stage steps.
 #include <Eigen/Core>
 #include <Eigen/SVD>
 #include <unsupported/Eigen/AutoDiff>
@@ -133,18 +133,11 @@ LinearFit least_squares(const Eigen::MatrixXd& X, const Eigen::VectorXd& z,
   const double zbar = z.mean();
   const double sst = (z.array() - zbar).square().sum();
   f.r_squared = sst > 0.0 ? 1.0 - f.sse / sst : 0.0;
-  const Eigen::VectorXd inv_s2 = sv.cwiseInverse().cwiseAbs2();
-  // (X'X)^-1 = D^-1 V S^-2 V' D^-1
-  const Eigen::MatrixXd Vd = scale.cwiseInverse().asDiagonal() * svd.matrixV();
-  const Eigen::MatrixXd xtx_inv = Vd * inv_s2.asDiagonal() * Vd.transpose();
-  const double s2 = f.sse / static_cast<double>(n - p);
-  f.cov_white = s2 * xtx_inv;
   f.lag = choose_correlation_lag(f.residual, starts, o);
-  // The sandwich with R(k) normalised by N; scale by N / (N - p) like s^2 so that the colored
-  // bound reduces to the white one for white residuals.
-  const Eigen::MatrixXd mid = numerics::Covariance::correlated_middle(X, f.residual, starts, f.lag) *
-                              (static_cast<double>(n) / static_cast<double>(n - p));
-  f.cov_colored = xtx_inv * mid * xtx_inv;
+  numerics::Covariance::LinearEstimate cov = numerics::Covariance::linear_least_squares(
+      X, scale, sv, svd.matrixV(), f.residual, f.sse, starts, f.lag);
+  f.cov_white = std::move(cov.white);
+  f.cov_colored = std::move(cov.colored);
   return f;
 }
 

@@ -107,7 +107,7 @@ bool periodic_state(const CoefficientModel<S, Cap>& m, const PreparedRun& r, Del
   const std::size_t steps = closed ? n - 1 : n;
   // The spline ends of a step are those of the next step's start: evaluated once per sample
   // and shared by both propagations (what advance_lags would compute, bit for bit).
-  StepEnd<S, Cap> end0, end1;
+  StepEnd<S, Cap> end0{}, end1{};
   f.ends_at(m, 0, &end0);
   for (std::size_t k = 0; k < steps; ++k) {
     const std::size_t k1 = (k + 1 == n) ? 0 : k + 1;
@@ -140,7 +140,7 @@ void propagate(const CoefficientModel<S, Cap>& m, const PreparedRun& r, DelayTer
   // As the runtime does: each sample's spline ends are evaluated once and serve as the end of
   // one step and the start of the next (bit-identical to advance_lags, half the spline work,
   // which dominates the sensitivities' cost).
-  StepEnd<S, Cap> end0, end1;
+  StepEnd<S, Cap> end0{}, end1{};
   f.ends_at(m, 0, &end0);
   for (std::size_t k = 0; k + 1 < r.x.size(); ++k) {
     const S xf1 = f.at(k + 1);

@@ -109,7 +109,8 @@ void OutputDir::commit() {
 
 void write_text(const fs::path& path, const std::string& text) { write_text_as(path, text, path, ""); }
 
-void write_file_atomically(const fs::path& path, const std::string& text, Overwrite overwrite) {
+void write_file_atomically(const fs::path& path, Overwrite overwrite,
+                           const std::function<void(const fs::path& tmp)>& produce) {
   std::error_code ec;
   if (fs::exists(path, ec) && overwrite == Overwrite::refuse) {
     throw InputError(path.string(), 0, "output file exists (use --force to replace it)");
@@ -118,13 +119,15 @@ void write_file_atomically(const fs::path& path, const std::string& text, Overwr
   fs::path tmp = path;
   tmp += ".tmp-" + unique_suffix();
   try {
-    // Reported against `path`: the temporary is removed below, and `path` is what was asked for.
-    write_text_as(tmp, text, path,
-                  fs::exists(path, ec) ? "; " + path.string() + " left as it was"
-                                       : "; " + path.string() + " was not created");
+    produce(tmp);
   } catch (...) {
     fs::remove(tmp, ec);
     throw;
+  }
+  if (!fs::exists(tmp, ec)) {
+    throw InputError(path.string(), 0,
+                     fs::exists(path, ec) ? "nothing was produced; " + path.string() + " left as it was"
+                                          : "nothing was produced; " + path.string() + " was not created");
   }
   fs::rename(tmp, path, ec);
   if (ec) {
@@ -132,6 +135,16 @@ void write_file_atomically(const fs::path& path, const std::string& text, Overwr
     fs::remove(tmp, ec2);
     throw InputError(path.string(), 0, "cannot move output into place: " + ec.message());
   }
+}
+
+void write_file_atomically(const fs::path& path, const std::string& text, Overwrite overwrite) {
+  write_file_atomically(path, overwrite, [&](const fs::path& tmp) {
+    std::error_code ec;
+    // Reported against `path`: the temporary is removed, and `path` is what was asked for.
+    write_text_as(tmp, text, path,
+                  fs::exists(path, ec) ? "; " + path.string() + " left as it was"
+                                       : "; " + path.string() + " was not created");
+  });
 }
 
 std::string read_text(const fs::path& path) {

@@ -142,4 +142,26 @@ int Covariance::correlation_lag(const Eigen::VectorXd& v, const std::vector<std:
   return cap;
 }
 
+Covariance::LinearEstimate Covariance::linear_least_squares(const Eigen::MatrixXd& X,
+                                                           const Eigen::VectorXd& column_scale,
+                                                           const Eigen::VectorXd& singular_values,
+                                                           const Eigen::MatrixXd& V, const Eigen::VectorXd& residual,
+                                                           double sse, const std::vector<std::size_t>& starts,
+                                                           int lag) {
+  const Eigen::Index n = X.rows(), p = X.cols();
+  const Eigen::VectorXd inv_s2 = singular_values.cwiseInverse().cwiseAbs2();
+  // (X'X)^-1 = D^-1 V S^-2 V' D^-1
+  const Eigen::MatrixXd Vd = column_scale.cwiseInverse().asDiagonal() * V;
+  const Eigen::MatrixXd xtx_inv = Vd * inv_s2.asDiagonal() * Vd.transpose();
+  const double s2 = sse / static_cast<double>(n - p);
+  LinearEstimate c;
+  c.white = s2 * xtx_inv;
+  // The sandwich with R(k) normalised by N; scale by N / (N - p) like s^2 so that the colored
+  // bound reduces to the white one for white residuals.
+  const Eigen::MatrixXd mid = correlated_middle(X, residual, starts, lag) *
+                              (static_cast<double>(n) / static_cast<double>(n - p));
+  c.colored = xtx_inv * mid * xtx_inv;
+  return c;
+}
+
 }  // namespace indicial::numerics

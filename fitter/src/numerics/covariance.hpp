@@ -11,9 +11,11 @@
 // the pseudo-inverse on A's numerical range, so a parameter the data cannot determine gets no
 // finite variance: it is reported in the null space instead. Covariance holds all of it:
 // the rank-revealing analysis of A (Compute), the white and colored matrices, the sandwich's
-// middle M (correlated_middle) and the choice of its lag (correlation_lag). The
-// Levenberg-Marquardt solver (numerics/levenberg_marquardt.hpp) uses it every iteration for
-// its step-size test in units of the bounds; the output-error fit uses it at the estimate.
+// middle M (correlated_middle), the choice of its lag (correlation_lag) and the full-rank
+// linear case of the equation error (linear_least_squares). The Levenberg-Marquardt solver
+// (numerics/levenberg_marquardt.hpp) uses it every iteration for its step-size test in units
+// of the bounds; the output-error fit uses it at the estimate; the equation error uses
+// linear_least_squares, the stepwise regression's colored partial F correlated_middle.
 //
 // Modelled on Ceres' include/ceres/covariance.h: a class with its own Options (IsValid), a
 // Compute step, then queries. Unlike Ceres it takes a dense A (the fitter's problems have at
@@ -84,6 +86,24 @@ class Covariance {
   enum class LagRule { fixed, automatic };
   static int correlation_lag(const Eigen::VectorXd& v, const std::vector<std::size_t>& starts,
                              int max_lag, LagRule rule);
+
+  // The covariances of a FULL-RANK linear least-squares estimate (the equation error and the
+  // stepwise regression: z = X b + v, n rows, p < n columns), from the thin SVD of the
+  // column-scaled regressors X D^-1 = U S V' (D = diag(column_scale), the column norms):
+  //   (X'X)^-1 = D^-1 V S^-2 V' D^-1
+  //   white    s^2 (X'X)^-1,            s^2 = sse / (n - p)
+  //   colored  (X'X)^-1 M (X'X)^-1,     M = correlated_middle(X, residual, starts, lag) n / (n - p)
+  // (the N / (N - p) factor, like s^2's, makes the colored bound reduce to the white one for
+  // white residuals). The caller has checked the rank (it names the dependent terms); no
+  // pseudo-inverse here. Allocates (once per regression).
+  struct LinearEstimate {
+    Eigen::MatrixXd white;
+    Eigen::MatrixXd colored;
+  };
+  static LinearEstimate linear_least_squares(const Eigen::MatrixXd& X, const Eigen::VectorXd& column_scale,
+                                             const Eigen::VectorXd& singular_values, const Eigen::MatrixXd& V,
+                                             const Eigen::VectorXd& residual, double sse,
+                                             const std::vector<std::size_t>& starts, int lag);
 
  private:
   void decompose();  // eigen-decomposition of scaled_ into eigenvectors_ / eigenvalues_

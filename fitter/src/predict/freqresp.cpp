@@ -123,20 +123,4 @@ std::vector<FrequencyResponse> linearised_response(const ModelSet<double, FitCap
   return out;
 }
 
-std::string frequency_response_csv(const std::vector<FrequencyResponse>& r,
-                                   const std::vector<std::string>& comment_lines) {
-  std::string s;
-  for (const auto& c : comment_lines) s += "# " + c + "\n";
-  s += "coefficient,k,freq_hz,in_phase_per_rad,out_of_phase_per_rad,magnitude,phase_deg,re,im\n";
-  for (const auto& c : r) {
-    for (const auto& p : c.points) {
-      s += c.coefficient + "," + format_double(p.k) + "," + format_double(p.freq_hz) + "," +
-           format_double(p.in_phase) + "," + format_double(p.out_of_phase) + "," +
-           format_double(p.magnitude) + "," + format_double(p.phase_deg) + "," +
-           format_double(p.h.real()) + "," + format_double(p.h.imag()) + "\n";
-    }
-  }
-  return s;
-}
-
 }  // namespace indicial

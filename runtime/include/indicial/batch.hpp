@@ -591,9 +591,9 @@ inline void advance_lane_families(const RuntimeModel<Scalar, Cap>& m, const Fami
     const StallStep<Scalar> g{b->x0_rad[i], b->x1_rad[i], dt_s, b->l_over_v_s[i]};
     for (int c = 0; c < m.set.n_coefficients; ++c) {
       Scalar value = b->value[c][i];
-      if (!indicial::detail::advance_families(m.set.coefficients[c], s[i].stall[c], g,
-                                              &f->stall[i][c], &value))
-        b->finite_test[i] = std::numeric_limits<Scalar>::quiet_NaN();
+      f->stall[i][c] = s[i].stall[c];
+      const Scalar test = indicial::detail::advance_families(m.set.coefficients[c], g, &f->stall[i][c], &value);
+      if (!(test == Scalar(0))) b->finite_test[i] = std::numeric_limits<Scalar>::quiet_NaN();
       b->value[c][i] = value;
     }
   }

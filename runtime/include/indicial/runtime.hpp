@@ -77,7 +77,10 @@
 // What a step costs: the spline quantities at the previous sample (model.hpp's StepEnd: the
 // antiderivatives B_j(x0) of b_j and A(x0) of a) were computed by the previous step as its new
 // end; the state keeps them and a step evaluates only the new end (advance_lags_between),
-// which gives bit for bit what advance_lags gives. A delayed coefficient recomputes A at the
+// which gives bit for bit what advance_lags gives. The step works in place on the State after
+// one block copy of what it overwrites (StepBackup), tests every number it keeps with one
+// isfinite (finite_test), and copies the block back if one is not finite; its input checks
+// are one branch on the inputs' bit patterns. A delayed coefficient recomputes A at the
 // old end every step. The airspeed ratios (V / V_ref, l / V, the delay at V) are recomputed
 // only when the airspeed changes. With Scalar = float every per-step operation is in float
 // (clamp, axis factor, airspeed ratios), except the delayed path's clock, which is double.
@@ -97,7 +100,7 @@
 //   * the step: after each coefficient's lags, advance_stall(cm.stall, StallStep{x0, x1, dt,
 //     l / V}, &state) on the step's clamped angles, and value = coefficient_output(...) +
 //     stall_output(cm.stall, x1, state) -- the fitter's sum, so they agree bit for bit -- all
-//     on copies, committed only if every number is finite; reset sets stall_steady_state.
+//     in place, restored unless every number is finite; reset sets stall_steady_state.
 //     A family model stepped with a plain State returns StepStatus::families_need_state
 //     (RuntimeModel::stall says whether a model has families).
 //   * validation: validate_model_set applies model.hpp's check_stall_parameters (the feasible
@@ -620,7 +623,7 @@ inline Scalar model_angle_of(const RuntimeModel<Scalar, Cap>& m, double motion_a
   // Why the branch: a finite double beyond Scalar's range (1e300 for float) becomes Inf, whose
   // sine is NaN; roll and yaw are periodic in the motion angle, so take that rare angle's
   // model angle in double. (Pitch needs nothing: Inf clamps to the envelope's end.)
-  return std::isfinite(motion) || m.set.axis == Axis::pitch
+  return m.set.axis == Axis::pitch || std::isfinite(motion)
              ? model_angle_from_factor(m.set.axis, m.angle_factor, motion)
              : Scalar(model_angle<double>(m.set.axis, m.set.alpha0_rad, motion_angle_rad));
 }
@@ -671,8 +674,12 @@ inline bool finite_bits(std::int64_t b) {
   return (b & exponent) != exponent;
 }
 
-// The checks every step makes before touching anything.
-inline StepStatus check_step_input(int phase, const MotionInput& in, double dt_s, const void* out) {
+// The status of a refused step's input: the checks one by one, in order (out of line: only a
+// refused step runs it).
+#if defined(__GNUC__) || defined(__clang__)
+__attribute__((noinline))
+#endif
+inline StepStatus refused_step_input(int phase, const MotionInput& in, double dt_s, const void* out) {
   if (phase != static_cast<int>(PredictorPhase::running)) return StepStatus::not_reset;
   if (out == nullptr) return StepStatus::null_output;
   const std::int64_t dt = double_bits(dt_s);
@@ -686,6 +693,24 @@ inline StepStatus check_step_input(int phase, const MotionInput& in, double dt_s
   return StepStatus::ok;
 }
 
+// The checks every step makes before touching anything. Why two passes: a good step answers
+// every question in one branch (angle and rate finite, 0 < dt_s <= max_step_dt_s and
+// 0 < airspeed_mps < Inf, each a range of the bit pattern read unsigned); only a refused
+// one asks them one by one for its status (refused_step_input, the same questions).
+INDICIAL_HOT_INLINE StepStatus check_step_input(int phase, const MotionInput& in, double dt_s, const void* out) {
+  const std::uint64_t exponent = 0x7FF0000000000000u;
+  const std::uint64_t a = static_cast<std::uint64_t>(double_bits(in.motion_angle_rad));
+  const std::uint64_t r = static_cast<std::uint64_t>(double_bits(in.rate_radps));
+  const std::uint64_t v = static_cast<std::uint64_t>(double_bits(in.airspeed_mps));
+  const std::uint64_t d = static_cast<std::uint64_t>(double_bits(dt_s));
+  const std::uint64_t max_dt = static_cast<std::uint64_t>(double_bits(max_step_dt_s));
+  const bool good = ((a & exponent) != exponent) & ((r & exponent) != exponent) &
+                    (v - 1u < exponent - 1u) & (d - 1u < max_dt) &
+                    (phase == static_cast<int>(PredictorPhase::running)) & (out != nullptr);
+  if (good) return StepStatus::ok;
+  return refused_step_input(phase, in, dt_s, out);
+}
+
 // The forcing angles of delayed coefficients at both ends of a step (x(t - d)).
 template <class Scalar, class Cap>
 struct DelayedForcing {
@@ -693,85 +718,109 @@ struct DelayedForcing {
   Scalar x1_rad[Cap::max_coefficients];
 };
 
-// Everything a step computes before its commit.
+// What a step overwrites in place, saved before it: the lag states and step ends of every
+// coefficient (and, with families, their states). A step whose result is not finite copies
+// them back, so the State keeps its bytes (commit-only-if-finite). Why in place with a copy
+// rather than into a scratch result committed afterwards: the copy is one fixed-size block
+// move, the scratch commit a loop per coefficient and lag (bench_step's callgrind count).
 template <class Scalar, class Cap>
-struct StepResult {
+struct StepBackup {
   Scalar y[Cap::max_coefficients][Cap::max_lags];
   StepEnd<Scalar, Cap> end[Cap::max_coefficients];
-  Scalar value[Cap::max_coefficients];
-  StallState<Scalar> stall[Cap::max_coefficients];  // written only for a model with families
 };
 
-// One coefficient's dynamic-stall families over the step (model.hpp's advance_stall, in
-// place on r's copy) and their output added to the report's; false if a number is not finite.
 template <class Scalar, class Cap>
-inline bool advance_families(const CoefficientModel<Scalar, Cap>& cm, const StallState<Scalar>& s0,
-                             const StallStep<Scalar>& g, StallState<Scalar>* s1, Scalar* value) {
-  *s1 = s0;
-  if (cm.stall.families == StallFamilies::none) return true;
-  advance_stall(cm.stall, g, s1);
-  *value = *value + stall_output(cm.stall, g.x1_rad, *s1);
-  return std::isfinite(s1->separation_point) && std::isfinite(s1->vortex_lift) &&
-         std::isfinite(s1->vortex_clock_semichords);
+INDICIAL_HOT_INLINE void save(const State<Scalar, Cap>& s, StepBackup<Scalar, Cap>* b) {
+  std::memcpy(b->y, s.y, sizeof b->y);
+  std::memcpy(b->end, s.end, sizeof b->end);
 }
 
-// The model equations over one step for every coefficient, on copies; non_finite_result if
-// any number is not finite. forcing == nullptr: no delay (the forcing angle is the angle);
-// stall == nullptr: no families (the model has none).
 template <class Scalar, class Cap>
-inline StepStatus advance_coefficients(const RuntimeModel<Scalar, Cap>& m, const State<Scalar, Cap>& s,
-                                       Scalar x1, Scalar table_x1, Scalar rate, Scalar dt_s,
-                                       const AirspeedTerms<Scalar>& v,
-                                       const DelayedForcing<Scalar, Cap>* forcing,
-                                       const StallState<Scalar>* stall,
-                                       StepResult<Scalar, Cap>* r) {
+inline void restore(const StepBackup<Scalar, Cap>& b, State<Scalar, Cap>* s) {
+  std::memcpy(s->y, b.y, sizeof b.y);
+  std::memcpy(s->end, b.end, sizeof b.end);
+}
+
+// v - v: 0 for a finite v, NaN for an infinite or NaN one. A step sums these over what it
+// keeps and tests the sum once (isfinite): the commit-only-if-finite test in one branch.
+template <class Scalar>
+INDICIAL_HOT_INLINE Scalar finite_test(const Scalar& v) {
+  return v - v;
+}
+
+// One coefficient's dynamic-stall families over the step (model.hpp's advance_stall, in
+// place) and their output added to the report's; the sum of their finite_test.
+template <class Scalar, class Cap>
+inline Scalar advance_families(const CoefficientModel<Scalar, Cap>& cm, const StallStep<Scalar>& g,
+                               StallState<Scalar>* s, Scalar* value) {
+  if (cm.stall.families == StallFamilies::none) return Scalar(0);
+  advance_stall(cm.stall, g, s);
+  *value = *value + stall_output(cm.stall, g.x1_rad, *s);
+  return finite_test(s->separation_point) + finite_test(s->vortex_lift) +
+         finite_test(s->vortex_clock_semichords);
+}
+
+// One coefficient's lags over the step (model.hpp's advance_lags_between, y in place, the new
+// step end into *end1) and its output; g's forcing angles are the coefficient's own. The
+// finite_test of the output, which sums the lag states: a lag state that is not finite makes
+// the output not finite.
+template <class Scalar, class Cap>
+INDICIAL_HOT_INLINE Scalar advance_coefficient(const CoefficientModel<Scalar, Cap>& cm,
+                                               const StepGeometry<Scalar>& g,
+                                               const StepEnd<Scalar, Cap>& end0, Scalar table_x1,
+                                               Scalar rate, Scalar l_over_v_s,
+                                               StepEnd<Scalar, Cap>* end1, Scalar* y, Scalar* value) {
+  advance_lags_to(cm, g, end0, end1, y);
+  *value = coefficient_output(cm, g.x1_rad, table_x1, rate, l_over_v_s, y);
+  return finite_test(*value);
+}
+
+// The model equations over one step for every coefficient, in place on s (whose lag states
+// and step ends `before` holds) and on the family states `stall` (nullptr: the model has
+// none); the outputs into value. Returns the sum of the finite_tests (0 if every number the
+// step keeps is finite). forcing == nullptr: no delay (the forcing angle is the angle).
+template <class Scalar, class Cap>
+INDICIAL_HOT_INLINE Scalar advance_coefficients(const RuntimeModel<Scalar, Cap>& m, State<Scalar, Cap>& s,
+                                                const StepBackup<Scalar, Cap>& before, Scalar x1,
+                                                Scalar table_x1, Scalar rate, Scalar dt_s,
+                                                const AirspeedTerms<Scalar>& v,
+                                                const DelayedForcing<Scalar, Cap>* forcing,
+                                                StallState<Scalar>* stall, Scalar* value) {
+  const StepGeometry<Scalar> g{s.x_prev_rad, x1, s.x_prev_rad, x1, dt_s, v.time_scale};
+  Scalar test = Scalar(0);
   for (int c = 0; c < m.set.n_coefficients; ++c) {
     const CoefficientModel<Scalar, Cap>& cm = m.set.coefficients[c];
-    for (int j = 0; j < Cap::max_lags; ++j) r->y[c][j] = s.y[c][j];
-    StepGeometry<Scalar> g{s.x_prev_rad, x1, s.x_prev_rad, x1, dt_s, v.time_scale};
-    // The old end as the previous step (or reset) left it: B_j(x_prev) and, without a delay,
-    // A(x_prev) -- bit for bit what advance_lags would evaluate again.
-    const StepEnd<Scalar, Cap>* end0 = &s.end[c];
-    StepEnd<Scalar, Cap> delayed_end0;
     // Why the branch: an undelayed coefficient uses the sample angles themselves; only a
     // delayed one has forcing angles of its own, and recomputes A at the old end (x(t0 - d)
     // moves when the airspeed, hence d, changes). B_j(x0) stays valid whatever the delay.
     if (forcing != nullptr && cm.delay_s != Scalar(0)) {
-      g.forcing_x0_rad = forcing->x0_rad[c];
-      g.forcing_x1_rad = forcing->x1_rad[c];
-      delayed_end0 = *end0;
-      delayed_end0.forcing_antiderivative = spline_antiderivative(cm.a, g.forcing_x0_rad);
-      end0 = &delayed_end0;
+      StepGeometry<Scalar> gd = g;
+      gd.forcing_x0_rad = forcing->x0_rad[c];
+      gd.forcing_x1_rad = forcing->x1_rad[c];
+      StepEnd<Scalar, Cap> delayed_end0 = before.end[c];
+      delayed_end0.forcing_antiderivative = spline_antiderivative(cm.a, gd.forcing_x0_rad);
+      test = test + advance_coefficient(cm, gd, delayed_end0, table_x1, rate, v.l_over_v_s,
+                                        &s.end[c], s.y[c], &value[c]);
+    } else {
+      // The old end as the previous step (or reset) left it: B_j(x_prev) and A(x_prev) --
+      // bit for bit what advance_lags would evaluate again.
+      test = test + advance_coefficient(cm, g, before.end[c], table_x1, rate, v.l_over_v_s,
+                                        &s.end[c], s.y[c], &value[c]);
     }
-    evaluate_step_end(cm, g.x1_rad, g.forcing_x1_rad, &r->end[c]);
-    advance_lags_between(cm, g, *end0, r->end[c], r->y[c]);
-    r->value[c] = coefficient_output(cm, x1, table_x1, rate, v.l_over_v_s, r->y[c]);
-    if (stall != nullptr &&
-        !advance_families(cm, stall[c], StallStep<Scalar>{s.x_prev_rad, x1, dt_s, v.l_over_v_s},
-                          &r->stall[c], &r->value[c]))
-      return StepStatus::non_finite_result;
-    if (!std::isfinite(r->value[c])) return StepStatus::non_finite_result;
-    for (int j = 0; j < cm.n_lags; ++j)
-      if (!std::isfinite(r->y[c][j])) return StepStatus::non_finite_result;
+    if (stall != nullptr)
+      test = test + advance_families(cm, StallStep<Scalar>{g.x0_rad, x1, dt_s, v.l_over_v_s},
+                                     &stall[c], &value[c]);
   }
-  return StepStatus::ok;
+  return test;
 }
 
-// The family states of a step that committed.
+// The rest of a step whose numbers are all finite: the angle, the airspeed terms, the outputs.
 template <class Scalar, class Cap>
-inline void commit_families(const RuntimeModel<Scalar, Cap>& m, const StepResult<Scalar, Cap>& r,
-                            FamilyState<Scalar, Cap>* s) {
-  for (int c = 0; c < m.set.n_coefficients; ++c) s->stall[c] = r.stall[c];
-}
-
-template <class Scalar, class Cap>
-inline void commit(const RuntimeModel<Scalar, Cap>& m, const StepResult<Scalar, Cap>& r, Scalar x1,
-                   const AirspeedTerms<Scalar>& v, State<Scalar, Cap>* s, Scalar* out) {
-  for (int c = 0; c < m.set.n_coefficients; ++c) {
-    for (int j = 0; j < Cap::max_lags; ++j) s->y[c][j] = r.y[c][j];
-    s->end[c] = r.end[c];
-    out[c] = r.value[c];
-  }
+INDICIAL_HOT_INLINE void commit(const RuntimeModel<Scalar, Cap>& m, const Scalar* value, Scalar x1,
+                                const AirspeedTerms<Scalar>& v, State<Scalar, Cap>* s, Scalar* out) {
+  // (Over the capacity, not n_coefficients: GCC makes the shorter loop a memcpy call.)
+  for (int c = 0; c < Cap::max_coefficients; ++c)
+    if (c < m.set.n_coefficients) out[c] = value[c];
   s->x_prev_rad = x1;
   s->airspeed_mps = v.airspeed_mps;
   s->time_scale = v.time_scale;
@@ -885,13 +934,33 @@ inline StepStatus step_undelayed(const RuntimeModel<Scalar, Cap>& m, State<Scala
   if (m.stall != StallUse::none && families == nullptr) return StepStatus::families_need_state;
   const Clamped<Scalar> clamp = clamp_model_angle(m, in.motion_angle_rad);
   const AirspeedTerms<Scalar> v = airspeed_terms(m, s, in.airspeed_mps);
-  StepResult<Scalar, Cap> r;
-  const StepStatus st = advance_coefficients(m, s, clamp.x_rad, clamp.model_x_rad, Scalar(in.rate_radps), Scalar(dt_s), v,
+  StepBackup<Scalar, Cap> before;
+  save(s, &before);
+  Scalar value[Cap::max_coefficients];
+  if (families == nullptr) {
+    const Scalar test = advance_coefficients(m, s, before, clamp.x_rad, clamp.model_x_rad,
+                                             Scalar(in.rate_radps), Scalar(dt_s), v,
                                              static_cast<const DelayedForcing<Scalar, Cap>*>(nullptr),
-                                             families != nullptr ? families->stall : nullptr, &r);
-  if (st != StepStatus::ok) return st;
-  commit(m, r, clamp.x_rad, v, &s, out);
-  if (families != nullptr) commit_families(m, r, families);
+                                             static_cast<StallState<Scalar>*>(nullptr), value);
+    if (!std::isfinite(test)) {
+      restore(before, &s);
+      return StepStatus::non_finite_result;
+    }
+    commit(m, value, clamp.x_rad, v, &s, out);
+    return clamp.status;
+  }
+  StallState<Scalar> stall_before[Cap::max_coefficients];
+  std::memcpy(stall_before, families->stall, sizeof stall_before);
+  const Scalar test = advance_coefficients(m, s, before, clamp.x_rad, clamp.model_x_rad,
+                                           Scalar(in.rate_radps), Scalar(dt_s), v,
+                                           static_cast<const DelayedForcing<Scalar, Cap>*>(nullptr),
+                                           families->stall, value);
+  if (!std::isfinite(test)) {
+    restore(before, &s);
+    std::memcpy(families->stall, stall_before, sizeof stall_before);
+    return StepStatus::non_finite_result;
+  }
+  commit(m, value, clamp.x_rad, v, &s, out);
   return clamp.status;
 }
 }  // namespace detail
@@ -908,8 +977,8 @@ inline StepStatus step(const RuntimeModel<Scalar, Cap>& m, State<Scalar, Cap>& s
 
 // The step of a FamilyState: a model without families steps exactly as with a State (the
 // family states are left alone); with families, model.hpp's advance_stall runs after each
-// coefficient's lags and stall_output adds to its value, all on copies, committed only if
-// every number is finite.
+// coefficient's lags and stall_output adds to its value, in place, and restored (with the
+// lag states) unless every number is finite.
 template <class Scalar, class Cap>
 inline StepStatus step(const RuntimeModel<Scalar, Cap>& m, FamilyState<Scalar, Cap>& s,
                        const MotionInput& in, double dt_s, Scalar* out) {
@@ -972,14 +1041,21 @@ inline StepStatus step(const RuntimeModel<Scalar, Cap>& m, DelayedState<Scalar, 
     forcing.x0_rad[c] = Scalar(delayed_angle(view, t0_s, d_s[c]));
     forcing.x1_rad[c] = Scalar(delayed_angle(view, t1_s, d_s[c]));
   }
-  detail::StepResult<Scalar, Cap> r;
+  detail::StepBackup<Scalar, Cap> before;
+  detail::save(s, &before);
+  StallState<Scalar> stall_before[Cap::max_coefficients];
+  std::memcpy(stall_before, s.stall, sizeof stall_before);
+  Scalar value[Cap::max_coefficients];
   const bool families = m.stall != StallUse::none;
-  const StepStatus st = detail::advance_coefficients(m, s, clamp.x_rad, clamp.model_x_rad, Scalar(in.rate_radps),
-                                                     Scalar(dt_s), v, &forcing,
-                                                     families ? s.stall : nullptr, &r);
-  if (st != StepStatus::ok) return st;
-  detail::commit(m, r, clamp.x_rad, v, &s, out);
-  if (families) detail::commit_families(m, r, &s);
+  const Scalar test = detail::advance_coefficients(m, s, before, clamp.x_rad, clamp.model_x_rad,
+                                                   Scalar(in.rate_radps), Scalar(dt_s), v, &forcing,
+                                                   families ? s.stall : nullptr, value);
+  if (!std::isfinite(test)) {
+    detail::restore(before, &s);
+    std::memcpy(s.stall, stall_before, sizeof stall_before);
+    return StepStatus::non_finite_result;
+  }
+  detail::commit(m, value, clamp.x_rad, v, &s, out);
   detail::commit_history(t1_s, clamp.x_rad, ring_full, &s);
   s.delay_airspeed_mps = in.airspeed_mps;
   for (int c = 0; c < Cap::max_coefficients; ++c) s.delay_at_airspeed_s[c] = d_s[c];

@@ -52,6 +52,7 @@
 #include <cstdint>
 #include <cstring>
 #include <limits>
+#include <type_traits>
 
 namespace indicial {
 
@@ -365,6 +366,70 @@ inline void prepare_static_table(StaticCurve<Scalar, P, K, T>& c) {
   for (int i = n - 2; i >= 1; --i) m[i] = m[i] - gamma[i] * m[i + 1];
 }
 
+namespace detail {
+// The plain number of a Scalar, for an index guess only (never in a result): the value itself,
+// or an autodiff type's value() (Eigen::AutoDiffScalar, the fitter's).
+inline double plain_value(double v) { return v; }
+inline float plain_value(float v) { return v; }
+template <class T>
+inline double plain_value(const T& v) { return static_cast<double>(v.value()); }
+// The type of that guess: float for float (a single-precision FPU has no double arithmetic:
+// on the Cortex-M4F each double operation is a library call), double otherwise.
+template <class Scalar>
+struct guess_type { using type = double; };
+template <>
+struct guess_type<float> { using type = float; };
+
+// The row of a table with rows x_rad[0..n) (strictly increasing, n >= 2) that brackets x:
+// the last lo with Scalar(x_rad[lo]) <= x, so that x < Scalar(x_rad[lo + 1]). The caller has
+// clamped: Scalar(x_rad[0]) < x < Scalar(x_rad[n - 1]). The comparisons are made in Scalar,
+// as the interpolation's (a float table may round two rows to one float: the last of them is
+// still the one row), so the row -- hence the value -- is unique however it is found.
+// Why not bisection alone: tables are evenly spaced as a rule (the f0 tables, polars every 1
+// or 2 deg), and then x's position in the table's range names the row with one division;
+// two comparisons confirm it (one more finds a neighbour, for rounding or a slightly uneven
+// table), and bisection between the confirmed bounds takes over for an uneven table. Measured
+// (bench_step, callgrind): six f0 lookups per step of the dynamic-stall model, 36 rows.
+template <class Scalar>
+inline int table_row_from_position(const double* x_rad, int n, const Scalar& x) {
+  using G = typename guess_type<Scalar>::type;
+  const G first = G(x_rad[0]);
+  const G position = (G(plain_value(x)) - first) / (G(x_rad[n - 1]) - first) * G(n - 1);
+  int lo = position > G(0) ? (position < G(n - 2) ? static_cast<int>(position) : n - 2) : 0;
+  int hi = n - 1;
+  if (x < Scalar(x_rad[lo])) {         // the guess is above x (lo >= 1: x > x_rad[0])
+    if (!(x < Scalar(x_rad[lo - 1]))) return lo - 1;
+    hi = lo - 1;
+    lo = 0;
+  } else if (!(x < Scalar(x_rad[lo + 1]))) {  // below x (lo + 2 <= n - 1: x < x_rad[n - 1])
+    if (x < Scalar(x_rad[lo + 2])) return lo + 1;
+    lo = lo + 2;
+  } else {
+    return lo;
+  }
+  while (hi - lo > 1) {  // bisection: Scalar(x_rad[lo]) <= x < Scalar(x_rad[hi])
+    const int mid = (lo + hi) / 2;
+    if (x < Scalar(x_rad[mid])) hi = mid; else lo = mid;
+  }
+  return lo;
+}
+
+// Inline, except in float: the float runtime's targets flatten their calls (the Cortex-M4F
+// firmware), and inlined at every lookup of its model check the guess cost 1.4 KB of flash
+// (its step got shorter out of line too: 914 instead of 924 instructions under QEMU).
+template <class Scalar>
+inline int table_row(const double* x_rad, int n, const Scalar& x) {
+  return table_row_from_position(x_rad, n, x);
+}
+template <>
+#if defined(__GNUC__) || defined(__clang__)
+__attribute__((noinline))
+#endif
+inline int table_row<float>(const double* x_rad, int n, const float& x) {
+  return table_row_from_position(x_rad, n, x);
+}
+}  // namespace detail
+
 template <class Scalar, int P, int K, int T>
 inline Scalar static_value(const StaticCurve<Scalar, P, K, T>& c, const Scalar& x) {
   if (c.kind == StaticKind::polynomial) return spline_value(c.polynomial, x);
@@ -372,11 +437,8 @@ inline Scalar static_value(const StaticCurve<Scalar, P, K, T>& c, const Scalar& 
   // Clamp to the table: a cubic extrapolated beyond measured static data is not data.
   if (!(x > Scalar(c.table_x_rad[0]))) return c.table_value[0];
   if (!(x < Scalar(c.table_x_rad[n - 1]))) return c.table_value[n - 1];
-  int lo = 0, hi = n - 1;  // binary search: table_x_rad[lo] <= x < table_x_rad[hi]
-  while (hi - lo > 1) {
-    const int mid = (lo + hi) / 2;
-    if (x < Scalar(c.table_x_rad[mid])) hi = mid; else lo = mid;
-  }
+  const int lo = detail::table_row(c.table_x_rad, n, x);
+  const int hi = lo + 1;
   const Scalar h = Scalar(c.table_x_rad[hi] - c.table_x_rad[lo]);
   const Scalar A = (Scalar(c.table_x_rad[hi]) - x) / h;
   const Scalar B = Scalar(1) - A;
@@ -778,7 +840,7 @@ struct StepGeometry {
 //     estimate started at 0 can move.)
 //   * it is second order overall: the interpolation error is O(dt^2) and smooth in time, and
 //     advance_lags uses only differences of A(x_f), which telescope, so the delayed update
-//     keeps the order 2 of the undelayed one (tests/test_discretization.cpp measures it).
+//     keeps the order 2 of the undelayed one (tests/test_advance_lags.cpp measures it).
 //
 // A History is any object with
 //   int    size() const;          // number of stored samples, >= 1
@@ -871,21 +933,32 @@ inline Scalar delay_at_airspeed(const Scalar& delay_s, double reference_airspeed
 // A step's end k+1 is the next step's end k, so a caller stepping forward (the runtime) can
 // keep the StepEnd of the last sample and evaluate only the new one: bit-identical results,
 // half the spline work (the runtime does this; the fitter and tests call advance_lags).
+// No default member initializers: a step's scratch StepEnd is written before it is read, and
+// zeroing it first cost the runtime's step instructions; value-initialise (`StepEnd e{}`, or
+// `= {}` as the runtime's State does) for zeros.
 template <class Scalar, class Cap>
 struct StepEnd {
-  Scalar forcing_antiderivative = Scalar(0);
-  Scalar b_antiderivative[Cap::max_lags] = {};
+  Scalar forcing_antiderivative;
+  Scalar b_antiderivative[Cap::max_lags];
 };
 
 // X and XF (the angle and the forcing angle) are Scalar or, in the fitter, double where the
 // angle is data (see spline_antiderivative).
+// The terms one at a time (evaluate_step_end and advance_lags_to).
+template <class Scalar, class Cap, class XF>
+INDICIAL_HOT_INLINE Scalar step_end_forcing(const CoefficientModel<Scalar, Cap>& m, const XF& forcing_x_rad) {
+  return spline_antiderivative(m.a, forcing_x_rad);
+}
+template <class Scalar, class Cap, class X>
+INDICIAL_HOT_INLINE Scalar step_end_b(const CoefficientModel<Scalar, Cap>& m, int j, const X& x_rad) {
+  return spline_antiderivative(m.lags[j].b, x_rad);
+}
+
 template <class Scalar, class Cap, class X, class XF>
-inline void evaluate_step_end(const CoefficientModel<Scalar, Cap>& m, const X& x_rad,
+INDICIAL_HOT_INLINE void evaluate_step_end(const CoefficientModel<Scalar, Cap>& m, const X& x_rad,
                               const XF& forcing_x_rad, StepEnd<Scalar, Cap>* end) {
-  end->forcing_antiderivative = spline_antiderivative(m.a, forcing_x_rad);
-  for (int j = 0; j < m.n_lags; ++j) {
-    end->b_antiderivative[j] = spline_antiderivative(m.lags[j].b, x_rad);
-  }
+  end->forcing_antiderivative = step_end_forcing(m, forcing_x_rad);
+  for (int j = 0; j < m.n_lags; ++j) end->b_antiderivative[j] = step_end_b(m, j, x_rad);
 }
 
 // Advances every lag state of one coefficient over one step, in place (y has n_lags entries):
@@ -905,7 +978,7 @@ inline void evaluate_step_end(const CoefficientModel<Scalar, Cap>& m, const X& x
 //     35 deg / 1 Hz: max error 8.6e-7 with the angle mean, 1.4e-6 and an irregular order with
 //     the trapezoid).
 // The even spread costs O(dt^3) per step, so the method is second order
-// (tests/test_discretization.cpp measures it). It is unconditionally stable for b > 0 and
+// (tests/test_advance_lags.cpp measures it). It is unconditionally stable for b > 0 and
 // exact as b dt -> 0 (phi1 -> 1, no 0/0 branch).
 //
 // The update is split in two per lag so that a batch of instances (the runtime's step_batch)
@@ -956,22 +1029,43 @@ inline void lag_update(const CoefficientModel<Scalar, Cap>& m, const StepGeometr
                                      decay, &y[j]);
 }
 
+// Lag j over the step, given both ends: z_j, exp(-z_j), the update of y[j].
 template <class Scalar, class Cap>
-inline void advance_lags_between(const CoefficientModel<Scalar, Cap>& m,
+INDICIAL_HOT_INLINE void advance_lag(const CoefficientModel<Scalar, Cap>& m, const StepGeometry<Scalar>& g,
+                                     const StepEnd<Scalar, Cap>& end0, const StepEnd<Scalar, Cap>& end1,
+                                     const Scalar& forcing_integral, int j, Scalar* y) {
+  const Scalar z = lag_exponent(m, g, end0, end1, j);
+  const Scalar decay = detail::step_exp(Scalar(-z));
+  lag_update(m, g, forcing_integral, z, decay, j, y);
+}
+
+template <class Scalar, class Cap>
+INDICIAL_HOT_INLINE void advance_lags_between(const CoefficientModel<Scalar, Cap>& m,
                                  const StepGeometry<Scalar>& g, const StepEnd<Scalar, Cap>& end0,
                                  const StepEnd<Scalar, Cap>& end1, Scalar* y) {
   const Scalar forcing_integral = end1.forcing_antiderivative - end0.forcing_antiderivative;
+  for (int j = 0; j < m.n_lags; ++j) advance_lag(m, g, end0, end1, forcing_integral, j, y);
+}
+
+// evaluate_step_end at the step's new end (g.x1_rad, g.forcing_x1_rad) into *end1, then
+// advance_lags_between, with the two loops over the lags made one (the runtime's step: one
+// loop fewer per coefficient). The same numbers, bit for bit.
+template <class Scalar, class Cap>
+INDICIAL_HOT_INLINE void advance_lags_to(const CoefficientModel<Scalar, Cap>& m, const StepGeometry<Scalar>& g,
+                                         const StepEnd<Scalar, Cap>& end0, StepEnd<Scalar, Cap>* end1,
+                                         Scalar* y) {
+  end1->forcing_antiderivative = step_end_forcing(m, g.forcing_x1_rad);
+  const Scalar forcing_integral = end1->forcing_antiderivative - end0.forcing_antiderivative;
   for (int j = 0; j < m.n_lags; ++j) {
-    const Scalar z = lag_exponent(m, g, end0, end1, j);
-    const Scalar decay = detail::step_exp(Scalar(-z));
-    lag_update(m, g, forcing_integral, z, decay, j, y);
+    end1->b_antiderivative[j] = step_end_b(m, j, g.x1_rad);
+    advance_lag(m, g, end0, *end1, forcing_integral, j, y);
   }
 }
 
 template <class Scalar, class Cap>
 inline void advance_lags(const CoefficientModel<Scalar, Cap>& m, const StepGeometry<Scalar>& g,
                          Scalar* y) {
-  StepEnd<Scalar, Cap> end0, end1;
+  StepEnd<Scalar, Cap> end0{}, end1{};
   evaluate_step_end(m, g.x0_rad, g.forcing_x0_rad, &end0);
   evaluate_step_end(m, g.x1_rad, g.forcing_x1_rad, &end1);
   advance_lags_between(m, g, end0, end1, y);
@@ -1014,8 +1108,11 @@ INDICIAL_HOT_INLINE typename Ops::V coefficient_output_with(const CoefficientMod
   } else {
     Ops::table_value(m.static_curve, table_x_rad, &curve);
   }
-  V sum = curve + spline_value_with<Ops>(m.static_correction, x_rad) +
-          l_over_v_s * spline_value_with<Ops>(m.rotary, x_rad) * rate_radps;
+  // Why the test: most models have no static correction, whose value is 0 (curve + 0 is
+  // curve); a call to learn that costs the step ~30 instructions per coefficient.
+  if (m.static_correction.n_powers + m.static_correction.n_knots > 0)
+    curve = curve + spline_value_with<Ops>(m.static_correction, x_rad);
+  V sum = curve + l_over_v_s * spline_value_with<Ops>(m.rotary, x_rad) * rate_radps;
   for (int j = 0; j < m.n_lags; ++j) sum = sum + y[j];
   return sum;
 }
@@ -1181,9 +1278,19 @@ struct StallOutput {
 namespace detail {
 // S(u) = 1 / (1 + exp(-u)), written so that exp never overflows (no inf / inf, and an autodiff
 // type gets a finite derivative for every finite u).
+// Beyond saturates_above<Scalar>, 1 + exp(-u) rounds to 1 (exp(-u) < half an ulp of 1), so S(u)
+// IS 1 and a plain floating-point type skips the exp (same bits; issue 22 item 6: the shedding
+// switch sits there for whole stretches of a stall cycle). An autodiff type keeps the exp
+// (its derivative there is tiny but not 0).
+template <class Scalar>
+struct saturates_above { static constexpr double value = 37.0; };  // e^-37 < 2^-53
+template <>
+struct saturates_above<float> { static constexpr double value = 17.0; };  // e^-17 < 2^-24
 template <class Scalar>
 inline Scalar logistic(const Scalar& u) {
   using std::exp;
+  if (std::is_floating_point<Scalar>::value && u >= Scalar(saturates_above<Scalar>::value))
+    return Scalar(1);
   if (u >= Scalar(0)) return Scalar(1) / (Scalar(1) + exp(-u));
   const Scalar e = exp(u);
   return e / (Scalar(1) + e);
@@ -1234,11 +1341,8 @@ inline Scalar separation_table_value(const SeparationParameters<Scalar, Cap>& p,
   if (n < 1) return Scalar(1);
   if (!(x > Scalar(p.f0_x_rad[0]))) return p.f0_value[0];
   if (!(x < Scalar(p.f0_x_rad[n - 1]))) return p.f0_value[n - 1];
-  int lo = 0, hi = n - 1;  // binary search: f0_x_rad[lo] <= x < f0_x_rad[hi]
-  while (hi - lo > 1) {
-    const int mid = (lo + hi) / 2;
-    if (x < Scalar(p.f0_x_rad[mid])) hi = mid; else lo = mid;
-  }
+  const int lo = detail::table_row(p.f0_x_rad, n, x);
+  const int hi = lo + 1;
   const Scalar w = (x - Scalar(p.f0_x_rad[lo])) / Scalar(p.f0_x_rad[hi] - p.f0_x_rad[lo]);
   return (Scalar(1) - w) * p.f0_value[lo] + w * p.f0_value[hi];
 }
@@ -1246,6 +1350,9 @@ inline Scalar separation_table_value(const SeparationParameters<Scalar, Cap>& p,
 // f0c(x) = clip_[0,1](f0(x) + df0(x)).
 template <class Scalar, class Cap>
 inline Scalar static_separation(const SeparationParameters<Scalar, Cap>& p, const Scalar& x) {
+  // (No call for an empty correction, as coefficient_output's static correction.)
+  if (p.f0_correction.n_powers + p.f0_correction.n_knots == 0)
+    return detail::clip_unit(Scalar(separation_table_value(p, x)));
   return detail::clip_unit(Scalar(separation_table_value(p, x) + spline_value(p.f0_correction, x)));
 }
 
@@ -1335,7 +1442,9 @@ inline void advance_stall(const StallModel<Scalar, Cap>& m, const StallStep<Scal
   const Scalar gate = shedding_switch(m, Scalar((xe0 + xe1) * Scalar(0.5)));
   const Scalar clock0 = s->vortex_clock_semichords;
   const Scalar zc = h * (Scalar(1) - gate) / Scalar(v.clock_reset_semichords);
-  const Scalar ec = exp(-zc);
+  // Why the branch: while the shedding switch is saturated (gate == 1) zc is 0 and e^-0 is 1
+  // exactly; a plain floating-point type skips the exp (same bits), an autodiff type keeps it.
+  const Scalar ec = std::is_floating_point<Scalar>::value && zc == Scalar(0) ? Scalar(1) : Scalar(exp(-zc));
   const Scalar clock1 = ec * clock0 + phi1(zc, ec) * h * gate;
   s->vortex_clock_semichords = clock1;
   const Scalar on_chord = vortex_on_chord(v, Scalar((clock0 + clock1) * Scalar(0.5)));

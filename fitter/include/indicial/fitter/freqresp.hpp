@@ -93,9 +93,4 @@ std::vector<FrequencyResponse> linearised_response(const ModelSet<double, FitCap
 // outside the table where the curve is clamped).
 double static_curve_slope(const CoefficientModel<double, FitCapacity>& cm, double x_rad);
 
-// CSV text: coefficient, k, freq_hz, in_phase_per_rad, out_of_phase_per_rad, magnitude,
-// phase_deg, re, im.
-std::string frequency_response_csv(const std::vector<FrequencyResponse>& r,
-                                   const std::vector<std::string>& comment_lines);
-
 }  // namespace indicial

@@ -7,6 +7,11 @@
 //   out.commit();                             // renamed into place in one step
 //
 //   write_file_atomically(path, text, Overwrite::refuse);   // single files: temp + rename
+//   write_file_atomically(path, Overwrite::refuse, [&](const fs::path& tmp) { ... });
+//                                     // a file another program makes (a gnuplot PNG): same rules
+//
+// These are the ONE place where outputs are staged and renamed: no command or layer writes its
+// own temp-file-then-rename.
 //
 // Warnings
 // 1. If commit() is never called (an exception, a crash) the staging directory is removed by
@@ -18,6 +23,7 @@
 #pragma once
 
 #include <filesystem>
+#include <functional>
 #include <string>
 
 namespace indicial {
@@ -52,10 +58,18 @@ class OutputDir {
 // Non-atomic: for outputs use OutputDir::write or write_file_atomically.
 void write_text(const std::filesystem::path& path, const std::string& text);
 
-// Writes text to path.tmp-<pid> and renames it to path; refuses an existing path unless
+// Writes text to path.tmp-<pid>-<n> and renames it to path; refuses an existing path unless
 // overwrite == Overwrite::replace.
 void write_file_atomically(const std::filesystem::path& path, const std::string& text,
                            Overwrite overwrite);
+
+// The same for an output that something else produces: refuses an existing path unless
+// overwrite == Overwrite::replace, creates path's parent directories, calls produce(tmp) with a
+// temporary sibling of path (path.tmp-<pid>-<n>), then renames tmp to path. If produce throws
+// or leaves tmp missing, tmp is removed and path is left as it was (produce's InputError
+// propagates; a missing tmp throws InputError naming path).
+void write_file_atomically(const std::filesystem::path& path, Overwrite overwrite,
+                           const std::function<void(const std::filesystem::path& tmp)>& produce);
 
 // Reads a whole file (throws InputError naming the path if it cannot be read).
 std::string read_text(const std::filesystem::path& path);

@@ -23,7 +23,7 @@
 //   indicial::Prediction p = indicial::predict_motion(model, run.time_s, run.motion_angle_rad,
 //                                                     run.rate_radps, model.airspeed_mps);
 //   indicial::ErrorMetrics m = indicial::score_prediction(run.coefficient, p.coefficients[0].predicted);
-//   indicial::write_prediction_plot(p, "ramp.png", "alpha_deg");   // gnuplot, pngcairo
+//   // its CSV, metrics and plot: indicial/fitter/prediction_output.hpp
 //
 // Warnings
 // --------
@@ -48,7 +48,6 @@
 #include <string>
 #include <vector>
 
-#include "indicial/fitter/output.hpp"
 #include "indicial/model.hpp"
 
 namespace indicial {
@@ -119,28 +118,5 @@ void score_coefficients(Prediction& p);
 
 // Reads a coefficient file (parse_coef_file, FitCapacity); throws InputError(path, line, ...).
 ModelSet<double, FitCapacity> read_model_file(const std::string& path);
-
-// predict's CSV: time_s, the angle column (angle_column: "<base>_deg" or "<base>_rad"), then
-// per coefficient <c>_pred, <c>_quasi_steady and, where measured, <c>. Metrics go into the
-// comment lines as well.
-std::string prediction_csv(const Prediction& p, const std::string& angle_column,
-                           const std::vector<std::string>& comment_lines);
-
-// The metrics as a JSON document: {"coefficients": [{"name", "n_samples", "model": {rms_error,
-// max_error, theil_inequality}, "quasi_steady": {...}}], "clamped_samples": n}.
-std::string prediction_metrics_json(const Prediction& p);
-
-// One-line human summaries of the metrics (for stdout and the CSV comments).
-std::vector<std::string> prediction_metrics_lines(const Prediction& p);
-
-// The prediction's warnings (samples outside the envelope), one line each without a prefix: the
-// command line prints them on stderr as "indicial: warning: ...", the CSV keeps them as comments.
-std::vector<std::string> prediction_warnings(const Prediction& p);
-
-// Overlay plot (gnuplot, pngcairo): per coefficient, measured / predicted / quasi-steady
-// against time (left) and against the motion angle in degrees (right). Writes `png_path`
-// atomically (refuses an existing file unless overwrite). Throws InputError if gnuplot fails.
-void write_prediction_plot(const Prediction& p, const std::string& png_path,
-                           const std::string& title, Overwrite overwrite);
 
 }  // namespace indicial

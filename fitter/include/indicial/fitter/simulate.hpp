@@ -13,7 +13,7 @@
 // Boost.Odeint's Dormand-Prince 5(4) with error control (abs and rel tolerance 1e-12), with the
 // motion known analytically (sine, ramp) or as a C2 cubic B-spline through a sampled history.
 // The discrete update advance_lags() is NEVER used here: the simulator is the yardstick the
-// discrete update is measured against (tests/test_discretization.cpp).
+// discrete update is measured against (tests/test_advance_lags.cpp).
 //
 // Usage
 // -----

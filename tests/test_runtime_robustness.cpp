@@ -1,4 +1,4 @@
-// tests/test_robustness.cpp -- the runtime Predictor under a long random stream of inputs.
+// tests/test_runtime_robustness.cpp -- the runtime Predictor under a long random stream of inputs.
 //
 // For each of four model sets (Table I Models I and II, a two-coefficient two-lag set with a
 // static table and a bias, a three-coefficient roll set) and for double and float, a fixed-seed

@@ -1,5 +1,6 @@
-// Diagnose: two hidden effects at once (both found, in either order), and the `indicial diagnose` command end to end (contract fields of
-// diagnosis.json, model.coef loaded by the runtime, report and plots, output-directory rules).
+// The `indicial diagnose` command (tools/cmd_diagnose.cpp) end to end: contract fields of
+// diagnosis.json, model.coef loaded by the runtime, report and plots, output-directory rules.
+// Two hidden effects at once in the library are test_diagnose_two_effects.cpp.
 #include <doctest/doctest.h>
 #include <unistd.h>
 #include <sys/wait.h>
@@ -25,31 +26,6 @@ TEST_SUITE_BEGIN("cli");  // the ctest label (tests/CMakeLists.txt)
 namespace fs = std::filesystem;
 using namespace indicial;
 using namespace indicial::testing;
-
-namespace {
-bool contains(const std::vector<std::string>& v, const std::string& s) {
-  return std::find(v.begin(), v.end(), s) != v.end();
-}
-}  // namespace
-
-TEST_CASE("diagnose finds two hidden effects at once: b1_alpha and bias") {
-  const TruthModifier both = [](TruthCoefficient& m) {
-    hidden_effect("b1_alpha")(m);
-    hidden_effect("bias")(m);
-  };
-  for (std::uint64_t seed : test_seeds({201u, 202u})) {
-    double sigma = 0.0;
-    const Experiment e = hidden_effect_experiment("tailless-model-1", "b1+bias", both, 40.0, seed, &sigma);
-    const DiagnoseResult d = diagnose_experiment(e, DiagnoseOptions{});
-    std::string order;
-    for (const auto& s : d.effects_added) order += s + " ";
-    MESSAGE("seed ", seed, ": effects ", order, "initial/sigma ", d.initial_fit_error / sigma,
-            " final/sigma ", d.final_fit_error / sigma);
-    CHECK(contains(d.effects_added, "b1_alpha"));
-    CHECK(contains(d.effects_added, "bias"));
-    CHECK(std::abs(d.final_fit_error / sigma - 1.0) < fit_error_ratio_tolerance(d.fits.back()));
-  }
-}
 
 // ------------------------------------------------------------------------------------------
 namespace {

@@ -1,0 +1,79 @@
+// The one atomic writer (indicial/fitter/output.hpp, io/output.cpp): write_file_atomically for
+// text and for a file something else produces -- whole or not at all, no overwrite without
+// Overwrite::replace, no temporary left behind on any failure.
+#include <doctest/doctest.h>
+
+#include <filesystem>
+#include <stdexcept>
+#include <string>
+
+#include "indicial/fitter/error.hpp"
+#include "indicial/fitter/output.hpp"
+#include "test_support.hpp"
+
+TEST_SUITE_BEGIN("unit");  // the ctest label (tests/CMakeLists.txt)
+
+namespace fs = std::filesystem;
+using indicial::InputError;
+using indicial::Overwrite;
+using indicial::testing::TempDir;
+
+namespace {
+// The directory's entries (a failed write must leave none of its own).
+std::size_t entries(const fs::path& dir) {
+  std::size_t n = 0;
+  for (auto it = fs::directory_iterator(dir); it != fs::directory_iterator(); ++it) ++n;
+  return n;
+}
+}  // namespace
+
+TEST_CASE("write_file_atomically: text written whole, an existing file refused unless replace") {
+  TempDir d;
+  const fs::path f = d.path / "sub" / "out.txt";
+  indicial::write_file_atomically(f, "one\n", Overwrite::refuse);  // makes sub/
+  CHECK(indicial::read_text(f) == "one\n");
+  CHECK_THROWS_WITH_AS(indicial::write_file_atomically(f, "two\n", Overwrite::refuse),
+                       doctest::Contains("use --force"), InputError);
+  CHECK(indicial::read_text(f) == "one\n");
+  indicial::write_file_atomically(f, "two\n", Overwrite::replace);
+  CHECK(indicial::read_text(f) == "two\n");
+  CHECK(entries(f.parent_path()) == 1);
+}
+
+TEST_CASE("write_file_atomically with a producer: renamed into place only when it succeeds") {
+  TempDir d;
+  const fs::path f = d.path / "plot.png";
+  fs::path seen;
+  indicial::write_file_atomically(f, Overwrite::refuse, [&](const fs::path& tmp) {
+    seen = tmp;
+    CHECK(tmp.parent_path() == f.parent_path());  // a sibling: the rename stays on one file system
+    indicial::write_text(tmp, "png bytes");
+  });
+  CHECK(indicial::read_text(f) == "png bytes");
+  CHECK_FALSE(fs::exists(seen));
+  CHECK(entries(d.path) == 1);
+
+  // The producer fails after writing part of its output: its exception reaches the caller, the
+  // temporary is removed and the previous file is untouched.
+  CHECK_THROWS_AS(indicial::write_file_atomically(f, Overwrite::replace,
+                                                  [&](const fs::path& tmp) {
+                                                    indicial::write_text(tmp, "half");
+                                                    throw std::runtime_error("producer failed");
+                                                  }),
+                  std::runtime_error);
+  CHECK(indicial::read_text(f) == "png bytes");
+  CHECK(entries(d.path) == 1);
+
+  // The producer makes nothing: an InputError naming the output, nothing created.
+  const fs::path g = d.path / "never.png";
+  CHECK_THROWS_WITH_AS(indicial::write_file_atomically(g, Overwrite::refuse, [](const fs::path&) {}),
+                       doctest::Contains("never.png: nothing was produced"), InputError);
+  CHECK_FALSE(fs::exists(g));
+  CHECK(entries(d.path) == 1);
+
+  // An existing file is refused before the producer runs.
+  bool ran = false;
+  CHECK_THROWS_AS(indicial::write_file_atomically(f, Overwrite::refuse, [&](const fs::path&) { ran = true; }),
+                  InputError);
+  CHECK_FALSE(ran);
+}
