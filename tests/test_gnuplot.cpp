@@ -19,11 +19,6 @@ using indicial::Overwrite;
 using indicial::testing::TempDir;
 
 namespace {
-std::size_t entries(const fs::path& dir) {
-  std::size_t n = 0;
-  for (auto it = fs::directory_iterator(dir); it != fs::directory_iterator(); ++it) ++n;
-  return n;
-}
 std::string sine_plot(const std::string& output) {
   return "set terminal pngcairo size 320,240\nset output " + indicial::gnuplot_quote(output) +
          "\nplot sin(x) title 'it''s a sine'\nset output\n";
@@ -55,7 +50,7 @@ TEST_CASE("write_gnuplot_png: atomic, refuses an existing PNG, leaves nothing be
   const fs::path png = d.path / "a b.png";  // a space: the shell command quotes its words
   indicial::write_gnuplot_png(png, sine_plot, "gnuplot", Overwrite::refuse);
   CHECK(fs::file_size(png) > 100);
-  CHECK(entries(d.path) == 1);  // the staged script and log are gone
+  CHECK(indicial::testing::directory_entries(d.path) == 1);  // the staged script and log are gone
   const auto size = fs::file_size(png);
   CHECK_THROWS_WITH_AS(indicial::write_gnuplot_png(png, sine_plot, "gnuplot", Overwrite::refuse),
                        doctest::Contains("use --force"), InputError);
@@ -64,12 +59,12 @@ TEST_CASE("write_gnuplot_png: atomic, refuses an existing PNG, leaves nothing be
   CHECK_THROWS_WITH_AS(indicial::write_gnuplot_png(png, sine_plot, "/nonexistent/gnuplot", Overwrite::replace),
                        doctest::Contains("a b.png: gnuplot (/nonexistent/gnuplot) could not be run"), InputError);
   CHECK(fs::file_size(png) == size);
-  CHECK(entries(d.path) == 1);
+  CHECK(indicial::testing::directory_entries(d.path) == 1);
   // gnuplot fails on the script.
   CHECK_THROWS_WITH_AS(
       indicial::write_gnuplot_png(d.path / "b.png", [](const std::string&) { return std::string("plot nonsense(\n"); },
                                   "gnuplot", Overwrite::refuse),
       doctest::Contains("b.png: gnuplot failed"), InputError);
   CHECK_FALSE(fs::exists(d.path / "b.png"));
-  CHECK(entries(d.path) == 1);
+  CHECK(indicial::testing::directory_entries(d.path) == 1);
 }

@@ -19,12 +19,6 @@ using indicial::Overwrite;
 using indicial::testing::TempDir;
 
 namespace {
-// The directory's entries (a failed write must leave none of its own).
-std::size_t entries(const fs::path& dir) {
-  std::size_t n = 0;
-  for (auto it = fs::directory_iterator(dir); it != fs::directory_iterator(); ++it) ++n;
-  return n;
-}
 }  // namespace
 
 TEST_CASE("write_file_atomically: text written whole, an existing file refused unless replace") {
@@ -37,7 +31,7 @@ TEST_CASE("write_file_atomically: text written whole, an existing file refused u
   CHECK(indicial::read_text(f) == "one\n");
   indicial::write_file_atomically(f, "two\n", Overwrite::replace);
   CHECK(indicial::read_text(f) == "two\n");
-  CHECK(entries(f.parent_path()) == 1);
+  CHECK(indicial::testing::directory_entries(f.parent_path()) == 1);
 }
 
 TEST_CASE("write_file_atomically with a producer: renamed into place only when it succeeds") {
@@ -51,7 +45,7 @@ TEST_CASE("write_file_atomically with a producer: renamed into place only when i
   });
   CHECK(indicial::read_text(f) == "png bytes");
   CHECK_FALSE(fs::exists(seen));
-  CHECK(entries(d.path) == 1);
+  CHECK(indicial::testing::directory_entries(d.path) == 1);
 
   // The producer fails after writing part of its output: its exception reaches the caller, the
   // temporary is removed and the previous file is untouched.
@@ -62,14 +56,14 @@ TEST_CASE("write_file_atomically with a producer: renamed into place only when i
                                                   }),
                   std::runtime_error);
   CHECK(indicial::read_text(f) == "png bytes");
-  CHECK(entries(d.path) == 1);
+  CHECK(indicial::testing::directory_entries(d.path) == 1);
 
   // The producer makes nothing: an InputError naming the output, nothing created.
   const fs::path g = d.path / "never.png";
   CHECK_THROWS_WITH_AS(indicial::write_file_atomically(g, Overwrite::refuse, [](const fs::path&) {}),
                        doctest::Contains("never.png: nothing was produced"), InputError);
   CHECK_FALSE(fs::exists(g));
-  CHECK(entries(d.path) == 1);
+  CHECK(indicial::testing::directory_entries(d.path) == 1);
 
   // An existing file is refused before the producer runs.
   bool ran = false;

@@ -13,6 +13,7 @@
 
 #include <stdlib.h>
 
+#include <cstddef>
 #include <filesystem>
 #include <fstream>
 #include <stdexcept>
@@ -45,6 +46,13 @@ inline std::string write_text(const std::filesystem::path& path, const std::stri
   std::filesystem::create_directories(path.parent_path());
   std::ofstream(path, std::ios::binary) << text;
   return path.string();
+}
+
+// The number of entries of a directory (a failed write must leave none of its own).
+inline std::size_t directory_entries(const std::filesystem::path& dir) {
+  std::size_t n = 0;
+  for (auto it = std::filesystem::directory_iterator(dir); it != std::filesystem::directory_iterator(); ++it) ++n;
+  return n;
 }
 
 }  // namespace indicial::testing
