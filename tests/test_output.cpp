@@ -18,9 +18,6 @@ using indicial::InputError;
 using indicial::Overwrite;
 using indicial::testing::TempDir;
 
-namespace {
-}  // namespace
-
 TEST_CASE("write_file_atomically: text written whole, an existing file refused unless replace") {
   TempDir d;
   const fs::path f = d.path / "sub" / "out.txt";
