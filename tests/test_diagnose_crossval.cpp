@@ -46,16 +46,16 @@ TEST_CASE("held-out test: paired one-standard-error rule with a minimum gain") {
   CHECK_FALSE(held_out_test(Effect::bias, "con", "first term", base, held_out({0.5, 1.02, 9.1}), 0.10).enters);
   // Much better on two runs, a little worse on the third: enters.
   CHECK(held_out_test(Effect::bias, "con", "first term", base, held_out({1.0, 0.25, 9.1}), 0.10).enters);
-  // Every run's held-out error halves but the fits to all runs differ by 5 % in MSE: the
-  // in-sample gain bounds the held-out one, so this is not a material effect.
+  // Every run's held-out error halves but the fits to all runs differ by 3 % in MSE (below
+  // the 4 % in-sample floor): not a material effect.
   auto base_fit = base;
   auto with_fit = held_out({2.0, 0.5, 4.5});
   base_fit.fit_error = 1.0;
-  with_fit.fit_error = std::sqrt(0.95);
+  with_fit.fit_error = std::sqrt(0.97);
   const HeldOutTest small = held_out_test(Effect::bias, "con", "first term", base_fit, with_fit, 0.10);
-  CHECK(small.in_sample_log_ratio == doctest::Approx(std::log(0.95)));
+  CHECK(small.in_sample_log_ratio == doctest::Approx(std::log(0.97)));
   CHECK_FALSE(small.enters);
-  with_fit.fit_error = std::sqrt(0.5);
+  with_fit.fit_error = std::sqrt(0.95);  // 5 %: enough
   CHECK(held_out_test(Effect::bias, "con", "first term", base_fit, with_fit, 0.10).enters);
   // A fold that could not be scored: cannot enter, and says why.
   diagnose_detail::HeldOut failed = held_out({2.0, 0.5, 4.5});
