@@ -177,8 +177,11 @@ def main():
                     continue
                 pred = list(csv.DictReader(line for line in open(out) if not line.startswith('#')))
                 res[f'{kind}_{coef}'] = rms([float(p[f'{coef}_pred']) for p in pred], meas)
-                res[f'qs_{coef}'] = rms([float(p[f'{coef}_quasi_steady']) for p in pred], meas) \
-                    if f'{coef}_quasi_steady' in pred[0] else float('nan')
+                # Quasi-steady = the static table alone: the report model's column (C_aq = 0;
+                # a diagnosed model's quasi-steady column includes its rotary term).
+                if kind == 'report':
+                    res[f'qs_{coef}'] = rms([float(p[f'{coef}_quasi_steady']) for p in pred], meas) \
+                        if f'{coef}_quasi_steady' in pred[0] else float('nan')
         results.append(res)
     report(results, polar, fit_runs, models)
 
@@ -194,15 +197,15 @@ def diagnosis_lines(coef, dj):
       f'({dj.get("rule_reason", "")}); verdict `{dj.get("verdict")}`, effects added {dj.get("effects_added")}, '
       f'stopped `{dj.get("stopped")}`, fit error {dj.get("initial_fit_error", float("nan")):.4g} -> '
       f'{dj.get("final_fit_error", float("nan")):.4g}, {dj.get("fits_run", "?")} fits, {dj["wall_s"]:.0f} s wall')
-    for st in dj.get('steps', []):
+    for i, st in enumerate(dj.get('steps', []), start=1):
         before, after = st.get('held_out_rms_before') or [], st.get('held_out_rms_after') or []
         if before and after:
             mb = math.sqrt(sum(v * v for v in before) / len(before))
             ma = math.sqrt(sum(v * v for v in after) / len(after))
-            p(f'  * step {st.get("step")}: `{st.get("effect")}` ({st.get("terms")}): held-out RMS over the '
+            p(f'  * step {i}: `{st.get("effect")}` ({st.get("term")}): held-out RMS over the '
               f"fit cycles' folds {mb:.4f} -> {ma:.4f}")
         else:
-            p(f'  * step {st.get("step")}: `{st.get("effect")}` ({st.get("terms")})')
+            p(f'  * step {i}: `{st.get("effect")}` ({st.get("term")})')
 
 
 def report(results, polar, fit_runs, models):
