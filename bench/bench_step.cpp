@@ -19,6 +19,10 @@
 //                              (the update averages b_j over the angle swept) and one exp().
 //                              The values at the old angle are not in the floor: they were
 //                              computed the step before (the runtime keeps them)
+//   update/<model>/<scalar>    the floor plus the rest of the model's update in its minimal
+//                              form (the angle-mean decay, phi1, the lag update, the output
+//                              sum from kept values): the same model work as the step without
+//                              any of the runtime's checks, clamp, cache or commit copy
 //   rk4/model2/double          classic RK4 of the lag ODE (lag_derivatives) at the same dt,
 //                              angle linear between samples: what a user might write instead
 //   conv1s/model2/double       direct quadrature of the convolution integral of eq. 4b (report
@@ -238,6 +242,67 @@ class FloorStepper {
 };
 
 // ------------------------------------------------------------------------------------------
+// update/: the floor plus the rest of the model's update in its minimal form -- what any
+// implementation of this discretisation must also compute once the floor's evaluations are
+// done: per lag the angle-mean decay (B_j(x1) - B_j(x0)) / (x1 - x0) from the kept B_j(x0),
+// phi1 = (1 - e^-z) / z, the update y = e^-z y + phi1 drive from the kept A(x0), and per
+// coefficient the output static + (l/V) rotary q + sum y. Nothing else: no input checks, no
+// clamp, no airspeed terms (the reference airspeed), no copy for commit-if-finite, and not
+// even the two branches the model needs for a correct result at dx -> 0 and z -> 0 (this
+// motion never takes them): a lower bound on the step's own work, by construction. The floor
+// above leaves that arithmetic out (and with it the loads of the kept values), so step /
+// floor counts it as overhead; step / update is what the runtime's checks and bookkeeping
+// cost. check_update_matches_model checks that it computes the step's numbers.
+// ------------------------------------------------------------------------------------------
+template <class Scalar>
+class UpdateStepper {
+ public:
+  explicit UpdateStepper(ModelKind kind) : set_(ib::make_model_set<Scalar>(kind)) {}
+  void reset(Scalar x_rad) {
+    x_prev_ = x_rad;
+    for (int c = 0; c < set_.n_coefficients; ++c) {
+      const auto& m = set_.coefficients[c];
+      indicial::steady_state(m, x_rad, y_[c]);
+      a0_[c] = floor_antiderivative(m.a, x_rad);
+      for (int j = 0; j < m.n_lags; ++j) b0_[c][j] = floor_antiderivative(m.lags[j].b, x_rad);
+    }
+  }
+  Scalar step(Scalar x1_rad, Scalar q_radps, Scalar dt_s) {
+    using std::exp;
+    const Scalar l_over_v_s = Scalar(set_.reference_length_m / set_.airspeed_mps);
+    const Scalar dx = x1_rad - x_prev_;
+    Scalar sum = Scalar(0);
+    for (int c = 0; c < set_.n_coefficients; ++c) {
+      const auto& m = set_.coefficients[c];
+      const Scalar a1 = floor_antiderivative(m.a, x1_rad);
+      const Scalar forcing = a1 - a0_[c];
+      a0_[c] = a1;
+      Scalar out = floor_value(m.static_curve.polynomial, x1_rad) +
+                   l_over_v_s * floor_value(m.rotary, x1_rad) * q_radps;
+      for (int j = 0; j < m.n_lags; ++j) {
+        const Scalar b1 = floor_antiderivative(m.lags[j].b, x1_rad);
+        const Scalar z = (b1 - b0_[c][j]) / dx * dt_s;
+        b0_[c][j] = b1;
+        const Scalar e = exp(-z);
+        const Scalar drive = j == 0 ? Scalar(-forcing + m.con * dt_s) : Scalar(-m.lags[j].gain * forcing);
+        y_[c][j] = e * y_[c][j] + (Scalar(1) - e) / z * drive;
+        out += y_[c][j];
+      }
+      sum += out;
+    }
+    x_prev_ = x1_rad;
+    return sum;
+  }
+
+ private:
+  indicial::ModelSet<Scalar, Cap> set_;
+  Scalar y_[Cap::max_coefficients][Cap::max_lags] = {};
+  Scalar a0_[Cap::max_coefficients] = {};
+  Scalar b0_[Cap::max_coefficients][Cap::max_lags] = {};
+  Scalar x_prev_ = Scalar(0);
+};
+
+// ------------------------------------------------------------------------------------------
 // rk4/: classic fourth-order Runge-Kutta of y' = -b(x) y - c a(x) x' (lag_derivatives), with
 // the angle linear between samples (x' constant over the step). Four right-hand sides per step.
 // ------------------------------------------------------------------------------------------
@@ -392,6 +457,7 @@ void register_scalar() {
     register_variant<Scalar, StateStepper<Scalar>>("state/" + m + "/" + s, 1000, k);
     register_variant<Scalar, ModelStepper<Scalar>>("model/" + m + "/" + s, 1000, k);
     register_variant<Scalar, FloorStepper<Scalar>>("floor/" + m + "/" + s, 1000, k);
+    register_variant<Scalar, UpdateStepper<Scalar>>("update/" + m + "/" + s, 1000, k);
   }
 }
 
@@ -419,6 +485,29 @@ bool check_step_matches_model() {
       const double yb = b.step(motion.angle_rad(i), motion.rate_radps(i), kDtS);
       if (std::abs(ya - yb) > 1e-12 * (1.0 + std::abs(ya)) || b.bad_steps() != 0) {
         std::fprintf(stderr, "step/%s differs from model.hpp at step %zu: %.17g vs %.17g\n",
+                     ib::model_kind_name(k), i, ya, yb);
+        return false;
+      }
+    }
+  }
+  return true;
+}
+
+// Checks that update/ computes the step's numbers (the same model work): Predictor::step
+// (double) within 1e-9 (update/ has no branch for small z, where phi1's series and the
+// quotient differ in the last digits).
+bool check_update_matches_model() {
+  for (ModelKind k : {ModelKind::model_i, ModelKind::model_ii, ModelKind::two_lags}) {
+    UpdateStepper<double> a(k);
+    PredictorStepper<double> b(k);
+    const ib::Motion<double> motion(1000.0);
+    a.reset(motion.angle_rad(0));
+    b.reset(motion.angle_rad(0));
+    for (std::size_t i = 1; i < 5000; ++i) {
+      const double ya = a.step(motion.angle_rad(i), motion.rate_radps(i), kDtS);
+      const double yb = b.step(motion.angle_rad(i), motion.rate_radps(i), kDtS);
+      if (!(std::abs(ya - yb) <= 1e-9 * (1.0 + std::abs(ya)))) {
+        std::fprintf(stderr, "update/%s differs from the step at step %zu: %.17g vs %.17g\n",
                      ib::model_kind_name(k), i, ya, yb);
         return false;
       }
@@ -467,6 +556,8 @@ int callgrind_main(const std::string& name, std::size_t steps) {
     table.push_back({"model/" + m + "/double", [=] { return callgrind_run<double, ModelStepper<double>>(steps, k); }});
     table.push_back({"floor/" + m + "/double", [=] { return callgrind_run<double, FloorStepper<double>>(steps, k); }});
     table.push_back({"floor/" + m + "/float", [=] { return callgrind_run<float, FloorStepper<float>>(steps, k); }});
+    table.push_back({"update/" + m + "/double", [=] { return callgrind_run<double, UpdateStepper<double>>(steps, k); }});
+    table.push_back({"update/" + m + "/float", [=] { return callgrind_run<float, UpdateStepper<float>>(steps, k); }});
   }
   const ModelKind stall = ModelKind::model_ii_stall;
   table.push_back({"state/stall2/double", [=] {
@@ -487,7 +578,7 @@ int callgrind_main(const std::string& name, std::size_t steps) {
 int main(int argc, char** argv) {
   if (argc == 4 && std::strcmp(argv[1], "--callgrind") == 0)
     return callgrind_main(argv[2], std::strtoull(argv[3], nullptr, 10));
-  if (!check_step_matches_model()) return 1;
+  if (!check_step_matches_model() || !check_update_matches_model()) return 1;
   register_scalar<double>();
   register_scalar<float>();
   for (ModelKind k : {ModelKind::model_i, ModelKind::model_ii, ModelKind::two_lags})

@@ -215,6 +215,12 @@ if cg:
     if si and fi:
         goals.append(("state step / floor <= 1.3 by instructions (issue 25 item 5; Model II C_L + C_m, double)",
                       f"{fmt(si / fi)} ({si:.0f} / {fi:.0f})", "met" if si / fi <= 1.3 else "NOT met"))
+    ui = ins("update/model2/double")
+    if si and ui:
+        # The floor plus the model's own update arithmetic (bench_step's update/): what the
+        # runtime's checks and bookkeeping cost. Beside, not instead of, the floor's goal.
+        goals.append(("state step / update (the floor plus the lag update's arithmetic) <= 1.3 by instructions (issue 25 item 5, second reading)",
+                      f"{fmt(si / ui)} ({si:.0f} / {ui:.0f})", "met" if si / ui <= 1.3 else "NOT met"))
     if si and li:
         goals.append(("step with every dynamic-stall family <= 2 x the step without, by instructions (issue 22 item 6)",
                       f"{fmt(li / si)} ({li:.0f} / {si:.0f})", "met" if li / si <= 2.0 else "NOT met"))
