@@ -94,9 +94,22 @@ TEST_CASE("indicial diagnose: contract outputs, model.coef in the runtime, direc
   const Cmd again = run("diagnose " + (data / "experiment.toml").string() + " --out " + out.string());
   CHECK(again.exit_code == 1);
   CHECK(again.err.find("indicial: error:") != std::string::npos);
+  // The in-sample materiality floor (--min-in-sample-gain, default 0.04) is in diagnosis.json
+  // and is used: the delay lowers the MSE of the fit to all three runs by ~88 % (ln ratio -2.1),
+  // so a floor of 95 % names nothing. With --force the outputs are replaced.
+  CHECK(j["cv_min_in_sample_gain"].get<double>() == doctest::Approx(0.04));
   const Cmd forced = run("diagnose " + (data / "experiment.toml").string() + " --out " + out.string() +
-                         " --force --alpha 0.001");
+                         " --force --alpha 0.001 --min-in-sample-gain 0.95");
+  INFO(forced.out, forced.err);
   CHECK(forced.exit_code == 0);
+  const nlohmann::json jf = nlohmann::json::parse(slurp(out / "diagnosis.json"));
+  CHECK(jf["cv_min_in_sample_gain"].get<double>() == doctest::Approx(0.95));
+  CHECK(jf["verdict"] == "none");
+  const Cmd floor1 = run("diagnose " + (data / "experiment.toml").string() + " --out " +
+                         (scratch() / "floor1").string() + " --min-in-sample-gain 1");
+  CHECK(floor1.exit_code == 1);
+  CHECK(floor1.err.find("--min-in-sample-gain") != std::string::npos);
+  CHECK(!fs::exists(scratch() / "floor1"));
   // Bad input: one line, exit 1, nothing written.
   const Cmd bad = run("diagnose " + (scratch() / "missing.toml").string() + " --out " +
                       (scratch() / "none").string());
@@ -105,4 +118,5 @@ TEST_CASE("indicial diagnose: contract outputs, model.coef in the runtime, direc
   const Cmd help = run("diagnose --help");
   CHECK(help.exit_code == 0);
   CHECK(help.out.find("--alpha") != std::string::npos);
+  CHECK(help.out.find("--min-in-sample-gain") != std::string::npos);
 }

@@ -37,31 +37,38 @@ TEST_CASE("held-out test: paired one-standard-error rule with a minimum gain") {
   CHECK_FALSE(diagnose_detail::majority_improved(1, 3));
   CHECK_FALSE(diagnose_detail::majority_improved(2, 4));
   // Every run's error halves: enters (the runs' different scales do not matter).
-  CHECK(held_out_test(Effect::bias, "con", "first term", base, held_out({2.0, 0.5, 4.5}), 0.10).enters);
+  CHECK(held_out_test(Effect::bias, "con", "first term", base, held_out({2.0, 0.5, 4.5}), 0.10, 0.04).enters);
   // Better on two runs, much worse on the third: the mean is not below one SE.
-  CHECK_FALSE(held_out_test(Effect::bias, "con", "first term", base, held_out({3.0, 0.8, 20.0}), 0.10).enters);
+  CHECK_FALSE(held_out_test(Effect::bias, "con", "first term", base, held_out({3.0, 0.8, 20.0}), 0.10, 0.04).enters);
   // Consistently better by 6 %: below the minimum gain (10 %).
-  CHECK_FALSE(held_out_test(Effect::bias, "con", "first term", base, held_out({3.76, 0.94, 8.46}), 0.10).enters);
+  CHECK_FALSE(held_out_test(Effect::bias, "con", "first term", base, held_out({3.76, 0.94, 8.46}), 0.10, 0.04).enters);
   // Much better on one run, a little worse on two: not a majority.
-  CHECK_FALSE(held_out_test(Effect::bias, "con", "first term", base, held_out({0.5, 1.02, 9.1}), 0.10).enters);
+  CHECK_FALSE(held_out_test(Effect::bias, "con", "first term", base, held_out({0.5, 1.02, 9.1}), 0.10, 0.04).enters);
   // Much better on two runs, a little worse on the third: enters.
-  CHECK(held_out_test(Effect::bias, "con", "first term", base, held_out({1.0, 0.25, 9.1}), 0.10).enters);
+  CHECK(held_out_test(Effect::bias, "con", "first term", base, held_out({1.0, 0.25, 9.1}), 0.10, 0.04).enters);
   // Every run's held-out error halves but the fits to all runs differ by 3 % in MSE (below
   // the 4 % in-sample floor): not a material effect.
   auto base_fit = base;
   auto with_fit = held_out({2.0, 0.5, 4.5});
   base_fit.fit_error = 1.0;
   with_fit.fit_error = std::sqrt(0.97);
-  const HeldOutTest small = held_out_test(Effect::bias, "con", "first term", base_fit, with_fit, 0.10);
+  const HeldOutTest small = held_out_test(Effect::bias, "con", "first term", base_fit, with_fit, 0.10, 0.04);
   CHECK(small.in_sample_log_ratio == doctest::Approx(std::log(0.97)));
   CHECK_FALSE(small.enters);
   with_fit.fit_error = std::sqrt(0.95);  // 5 %: enough
-  CHECK(held_out_test(Effect::bias, "con", "first term", base_fit, with_fit, 0.10).enters);
+  CHECK(held_out_test(Effect::bias, "con", "first term", base_fit, with_fit, 0.10, 0.04).enters);
+  // The floor is the caller's (DiagnoseOptions::cv_min_in_sample_gain): at 6 % the 5 % gain is
+  // refused, at 2 % the 3 % one enters, at 0 the floor is off.
+  CHECK_FALSE(held_out_test(Effect::bias, "con", "first term", base_fit, with_fit, 0.10, 0.06).enters);
+  with_fit.fit_error = std::sqrt(0.97);
+  CHECK(held_out_test(Effect::bias, "con", "first term", base_fit, with_fit, 0.10, 0.02).enters);
+  with_fit.fit_error = std::sqrt(0.999);
+  CHECK(held_out_test(Effect::bias, "con", "first term", base_fit, with_fit, 0.10, 0.0).enters);
   // A fold that could not be scored: cannot enter, and says why.
   diagnose_detail::HeldOut failed = held_out({2.0, 0.5, 4.5});
   failed.ok = false;
   failed.message = "not determined without run 2";
-  const HeldOutTest t = held_out_test(Effect::bias, "con", "first term", base, failed, 0.10);
+  const HeldOutTest t = held_out_test(Effect::bias, "con", "first term", base, failed, 0.10, 0.04);
   CHECK_FALSE(t.enters);
   CHECK(t.message == "not determined without run 2");
 }
@@ -74,12 +81,12 @@ TEST_CASE("held-out test: runs dealt into folds are compared fold by fold") {
   // does not enter.
   auto base = held_out({1.0, 1.0, 1.0, 1.0});
   auto with = held_out({std::exp(-2.0), std::exp(-0.3), std::exp(-2.0), std::exp(0.3)});
-  const HeldOutTest per_run = held_out_test(Effect::bias, "con", "first term", base, with, 0.10);
+  const HeldOutTest per_run = held_out_test(Effect::bias, "con", "first term", base, with, 0.10, 0.04);
   CHECK(per_run.folds == 4);
   CHECK(per_run.mean_log_ratio == doctest::Approx(-1.0));
   CHECK(per_run.enters);
   base.folds = with.folds = 2;
-  const HeldOutTest per_fold = held_out_test(Effect::bias, "con", "first term", base, with, 0.10);
+  const HeldOutTest per_fold = held_out_test(Effect::bias, "con", "first term", base, with, 0.10, 0.04);
   CHECK(per_fold.folds == 2);
   CHECK(per_fold.mean_log_ratio == doctest::Approx(-1.0));
   CHECK(per_fold.standard_error == doctest::Approx(1.0));

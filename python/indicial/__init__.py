@@ -481,13 +481,17 @@ effect_names = _indicial._effect_names()
 
 def diagnose(experiment: Experiment, *, alpha: float = 0.01, max_steps: int = 6, knot_spacing_deg: float = 5.0,
              knot_margin_fraction: float = 0.1, max_scan_knots: int = 16, max_family_terms: int = 4,
-             indistinguishable_bic: float = 6.0, warn: bool = True, **fit_options) -> Diagnosis:
+             indistinguishable_bic: float = 6.0, min_in_sample_gain: float = 0.04, warn: bool = True,
+             **fit_options) -> Diagnosis:
     """Finds where model and measurement disagree, names the missing effect (one of
     ``indicial.effect_names``), adds it and refits until nothing significant is left
-    (``indicial diagnose``). ``fit_options`` as ``fit``'s. The GIL is released meanwhile."""
+    (``indicial diagnose``). ``min_in_sample_gain`` is ``--min-in-sample-gain`` (the in-sample
+    materiality floor of the cross-validation rule, in [0, 1)). ``fit_options`` as ``fit``'s. The
+    GIL is released meanwhile."""
     opts = dict(alpha=alpha, max_steps=max_steps, knot_spacing_deg=knot_spacing_deg,
                 knot_margin_fraction=knot_margin_fraction, max_scan_knots=max_scan_knots,
-                max_family_terms=max_family_terms, indistinguishable_bic=indistinguishable_bic)
+                max_family_terms=max_family_terms, indistinguishable_bic=indistinguishable_bic,
+                min_in_sample_gain=min_in_sample_gain)
     opts.update(_fit_options(**fit_options))
     d = Diagnosis(_indicial._diagnose(experiment._e, opts))
     if warn:

@@ -33,3 +33,11 @@ def test_diagnose_equals_cli(model1_config_on_model2_data, cli, tmp_path):
     assert d.final_fit_error < d.initial_fit_error
     assert d.model.lags() == 1 and d.fit.termination == "converged"
     assert "b1_knots_deg" in d.experiment_toml()
+
+
+def test_diagnose_min_in_sample_gain_is_checked(model1_config_on_model2_data):
+    # The in-sample materiality floor (--min-in-sample-gain) is refused outside [0, 1) before
+    # anything is fitted.
+    e = indicial.Experiment.from_toml(str(model1_config_on_model2_data))
+    with pytest.raises(indicial.InputError, match="min_in_sample_gain"):
+        indicial.diagnose(e, min_in_sample_gain=1.0, warn=False)

@@ -461,7 +461,7 @@ bool enters_held_out(Diagnoser& dg, const RoundContext& rc, const DiagnoseOption
   ho = dg.held_out(rc.w, cand.config, cand.fit);
   const HeldOut& without = first ? *rc.base_held_out : f.held_out;
   rd.held_out.push_back(held_out_test(f.effect, joined_terms(f.path, &cand), first ? "first term" : "next term",
-                                      without, ho, o.cv_min_gain));
+                                      without, ho, o.cv_min_gain, o.cv_min_in_sample_gain));
   return rd.held_out.back().enters;
 }
 
@@ -671,7 +671,8 @@ bool run_round(Diagnoser& dg, const DiagnoseOptions& o, DiagnoseResult& d, bool 
     rd.families.push_back(summarize(f, rc.base, total_samples(w), kappa_common, dg.kappa()));
     if (!cv) continue;
     rd.families.back().has_held_out = true;
-    rd.families.back().held_out = held_out_test(f.effect, joined_terms(f.path), "sub-model", base_ho, f.held_out, o.cv_min_gain);
+    rd.families.back().held_out = held_out_test(f.effect, joined_terms(f.path), "sub-model", base_ho, f.held_out,
+                                                o.cv_min_gain, o.cv_min_in_sample_gain);
   }
   std::vector<Effect> tied;
   rd.winner = cv ? choose_family_held_out(rd.families, tied) : choose_family(rd.families, o, tied);
@@ -725,6 +726,8 @@ void flag_ill_conditioned(DiagnoseResult& d) {
 DiagnoseResult diagnose_experiment(const Experiment& e_in, const DiagnoseOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
   if (!(o.alpha > 0.0 && o.alpha < 1.0)) throw InputError("--alpha", 0, "the significance level must be in (0, 1)");
+  if (!(o.cv_min_in_sample_gain >= 0.0 && o.cv_min_in_sample_gain < 1.0))
+    throw InputError("--min-in-sample-gain", 0, "the in-sample materiality floor must be in [0, 1)");
   DiagnoseResult d;
   d.alpha = o.alpha;
   Experiment e = e_in;

@@ -73,12 +73,19 @@ void gen_a_alpha(const CandidateContext& ctx, std::vector<CandidateSpec>& out) {
   add_grid_knots(ctx, Effect::a_alpha, SplineFamily::a, out);
 }
 
-// C_aq correction powers 0..max(a priori degree, 2) + 1, and knots.
+// The C_aq correction's lowest missing power, and knots. Powers enter in order (x^0 before
+// x^1 before x^2 ...), as b1(x)'s and a(x)'s do above: the marginality principle of polynomial
+// regression (a term enters only with the lower terms of its polynomial), and the physics: the
+// constant damping derivative (C_mq, C_lp) is the leading term of a rotary derivative. Offering
+// x^3 alone before x^0 let a training set at high angles pick a term that is zero in attached
+// flow: on measured pitching cycles (docs/validation-real.md, training `sweep`, C_m) diagnose
+// named C_aq x^3, while the attached cycles' moment follows a constant C_mq (per-cycle least
+// squares of the attached cycles of the development set: -1.0 to -1.5 per rad, every campaign).
 void gen_rotary_alpha(const CandidateContext& ctx, std::vector<CandidateSpec>& out) {
-  const int top = std::max(2, static_cast<int>(ctx.experiment.rotary.polynomial.size()) - 1) + 1;
-  for (int p = 0; p <= top && p < DefaultCapacity::max_powers; ++p)
-    if (!has_power(ctx.model.rotary_correction.powers, p))
-      out.push_back(power_candidate(ctx.model, Effect::rotary_alpha, SplineFamily::rotary, p, "C_aq(x)"));
+  int p = 0;
+  while (has_power(ctx.model.rotary_correction.powers, p)) ++p;
+  if (p < DefaultCapacity::max_powers)
+    out.push_back(power_candidate(ctx.model, Effect::rotary_alpha, SplineFamily::rotary, p, "C_aq(x)"));
   add_grid_knots(ctx, Effect::rotary_alpha, SplineFamily::rotary, out);
 }
 

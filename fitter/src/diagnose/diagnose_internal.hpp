@@ -118,11 +118,12 @@ using FoldFit = std::function<FitResult(const Experiment&, const ModelConfig&, c
 HeldOut held_out_errors(const Experiment& w, const ModelConfig& m, const Estimates& start, int threads,
                         int max_folds, const FoldFit& fit);
 // The paired comparison (HeldOutTest in diagnose.hpp): d_r = ln(mse_with_r / mse_without_r);
-// enters when mean d + SE(d) < 0, mean d < ln(1 - min_gain) and it improves more than half of
-// the runs (majority_improved).
+// enters when mean d + SE(d) < 0, mean d < ln(1 - min_gain), it improves more than half of
+// the runs (majority_improved) and the fits to every run differ by ln(MSE ratio) < ln(1 -
+// min_in_sample_gain) (when both fit errors are known).
 bool majority_improved(int improved, int runs);
 HeldOutTest held_out_test(Effect effect, const std::string& terms, const char* stage, const HeldOut& without,
-                          const HeldOut& with, double min_gain);
+                          const HeldOut& with, double min_gain, double min_in_sample_gain);
 
 // Effects that are the same model as `e` on ANY data, given the model `m` it extends (bias and
 // a constant static offset when b1 is constant); named with it in the step.

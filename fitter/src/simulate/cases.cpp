@@ -7,6 +7,7 @@
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/simulate.hpp"
 #include "indicial/fitter/tailless_model.hpp"
+#include "simulate/cases_internal.hpp"
 
 namespace indicial {
 namespace {
@@ -60,19 +61,20 @@ SimulationCase tailless_case(TaillessB1 kind) {
                       : SplineConfig{{0}, {}, 1};
   e.model.bias = false;
   e.model.structure = StructureMode::fixed;
-  for (const auto& file : c.run_files) {
-    Run r;
-    r.path = file;
-    e.runs.push_back(r);
-  }
+  list_case_runs(c);
   return c;
 }
 
 }  // namespace
 
-// Cases defined in their own files (fitter/src/simulate/cases_f16xl.cpp).
-std::vector<SimulationCase> f16xl_like_cases();
-std::vector<SimulationCase> lateral_cases();
+void list_case_runs(SimulationCase& c) {
+  c.experiment.runs.clear();
+  for (const std::string& file : c.run_files) {
+    Run r;
+    r.path = file;
+    c.experiment.runs.push_back(std::move(r));
+  }
+}
 
 const std::vector<SimulationCase>& simulation_cases() {
   static const std::vector<SimulationCase> cases = [] {

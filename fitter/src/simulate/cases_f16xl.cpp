@@ -1,6 +1,6 @@
 // Built-in simulation cases beyond the report's Example 1: the F-16XL-like pitch models of
 // Example 2 (report Tables V and VI) and a lateral (roll and yaw) pair. Registered by
-// simulation_cases() in simulate.cpp; see indicial/fitter/simulate.hpp.
+// simulation_cases() in cases.cpp (declared in cases_internal.hpp); see indicial/fitter/simulate.hpp.
 //
 // f16xl-like-CL, f16xl-like-Cm
 //   a(x), b1(x), con: Table V. Eq. 29 calls a(x)'s constant and linear terms a_1 and a_2, so the
@@ -37,6 +37,7 @@
 #include <vector>
 
 #include "indicial/fitter/simulate.hpp"
+#include "simulate/cases_internal.hpp"
 
 namespace indicial {
 namespace {
@@ -157,11 +158,7 @@ SimulationCase f16xl_case(F16xlCoefficient which) {
     e.model.a = SplineConfig{{0, 1, 2}, {26.0 * kDeg, 46.0 * kDeg}, 2};
     e.model.b1 = SplineConfig{{0}, {}, 1};
   }
-  for (const auto& file : c.run_files) {
-    Run r;
-    r.path = file;
-    e.runs.push_back(r);
-  }
+  list_case_runs(c);
   return c;
 }
 
@@ -225,11 +222,7 @@ SimulationCase lateral_case(LateralAxis which) {
   e.model.bias = false;
   e.model.a = SplineConfig{{0, 2}, {}, 2};
   e.model.b1 = roll ? SplineConfig{{0, 2}, {}, 1} : SplineConfig{{0}, {}, 1};
-  for (const auto& file : c.run_files) {
-    Run r;
-    r.path = file;
-    e.runs.push_back(r);
-  }
+  list_case_runs(c);
   return c;
 }
 

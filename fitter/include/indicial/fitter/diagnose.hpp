@@ -126,6 +126,10 @@ struct DiagnoseOptions {
   double cv_min_gain = 0.10;         // a term must lower the held-out mean square error by at least
                                      // this fraction (and by one standard error, on more than half
                                      // of the runs: docs/diagnose.md)
+  double cv_min_in_sample_gain = 0.04;  // and, fitted to every run, lower the mean square error by
+                                     // at least this fraction: the materiality floor that keeps a
+                                     // chance held-out gain of three runs out (in [0, 1); 0: off;
+                                     // docs/diagnose.md, "Which rule decides")
   int cv_max_folds = 10;             // more runs than this: runs dealt into this many folds (run r
                                      // into fold r mod cv_max_folds), each fold left out at once
   int threads = 2;                   // fits run in parallel (candidates of a scan, held-out folds)
@@ -142,8 +146,9 @@ struct DiagnoseOptions {
 // every run r, both models are fitted to the other runs (warm start: their full fits) and
 // predict run r with the runtime (periodic runs at their periodic steady state; others from a
 // lag-1 initial state fitted to run r, the one number the fitter also estimates per run). It
-// enters when mean_log_ratio + standard_error < 0, mean_log_ratio < ln(1 - cv_min_gain) and
-// runs_improved is more than half of the runs.
+// enters when mean_log_ratio + standard_error < 0, mean_log_ratio < ln(1 - cv_min_gain),
+// runs_improved is more than half of the runs and in_sample_log_ratio < ln(1 -
+// cv_min_in_sample_gain).
 struct HeldOutTest {
   Effect effect = Effect::bias;
   std::string terms;                 // the terms with it (`; `-separated)
