@@ -103,6 +103,12 @@
 //     in place, restored unless every number is finite; reset sets stall_steady_state.
 //     A family model stepped with a plain State returns StepStatus::families_need_state
 //     (RuntimeModel::stall says whether a model has families).
+//   * shared lookups (issue 22 item 6): a coefficient whose f0 table (and T2, and T1) equal an
+//     earlier coefficient's, bit for bit, takes that coefficient's table values and decay
+//     (model.hpp's StallLookups) instead of computing them again: the same numbers, hence the
+//     same bits. Which coefficient repeats which is a step constant (RuntimeModel::
+//     stall_sharing, derive_stall_sharing). Models fitted from one lift polar share the f0
+//     table (the output's lookup at x1); T2 and T1 are fitted per coefficient.
 //   * validation: validate_model_set applies model.hpp's check_stall_parameters (the feasible
 //     set: positive time constants, f0 in [0, 1], ...); validate_for_runtime also checks the
 //     family outputs finite over the envelope.
@@ -218,6 +224,18 @@ enum class DelayUse : int { none = 0, delayed = 1 };
 // or a DelayedState: a plain State has no room for the family states).
 enum class StallUse : int { none = 0, families = 1 };
 
+// Which earlier coefficient's dynamic-stall lookups (model.hpp's StallLookups) a coefficient
+// with families repeats: the index of the first earlier coefficient with families and the same
+// f0 table (table: the table's value at the step's angle), the same table and T2 (forcing: the
+// same lagged angles and table values), the same T1 (decay: exp(-h / T1) and phi1), or
+// no_sharing (compute its own). Same means bit for bit; derive_stall_sharing derives it.
+struct StallSharing {
+  static constexpr int no_sharing = -1;
+  int table = no_sharing;
+  int forcing = no_sharing;
+  int decay = no_sharing;
+};
+
 // Largest accepted step. The update is stable for any dt, but a step over 1 s at a real-time
 // rate is almost certainly a unit error (milliseconds passed as seconds).
 inline constexpr double max_step_dt_s = 1.0;
@@ -320,7 +338,37 @@ struct RuntimeModel {
   Scalar airspeed_mps = Scalar(1);  // V_ref
   DelayUse delay = DelayUse::none;
   StallUse stall = StallUse::none;
+  StallSharing stall_sharing[Cap::max_coefficients] = {};  // derive_stall_sharing
 };
+
+namespace detail {
+template <class Scalar, class Cap>
+inline bool same_f0_table(const SeparationParameters<Scalar, Cap>& a, const SeparationParameters<Scalar, Cap>& b) {
+  if (a.n_f0 != b.n_f0) return false;
+  for (int i = 0; i < a.n_f0; ++i)
+    if (!(a.f0_x_rad[i] == b.f0_x_rad[i]) || !(a.f0_value[i] == b.f0_value[i])) return false;
+  return true;
+}
+}  // namespace detail
+
+// RuntimeModel::stall_sharing of a set: for each coefficient with families, the first earlier
+// one with families whose table / table and T2 / T1 are the same (==, so a NaN shares nothing).
+template <class Scalar, class Cap>
+inline void derive_stall_sharing(const ModelSet<Scalar, Cap>& s, StallSharing* sharing) {
+  for (int c = 0; c < Cap::max_coefficients; ++c) sharing[c] = StallSharing{};
+  for (int c = 0; c < s.n_coefficients; ++c) {
+    const StallModel<Scalar, Cap>& a = s.coefficients[c].stall;
+    if (a.families == StallFamilies::none) continue;
+    for (int e = c - 1; e >= 0; --e) {  // downwards: the first such coefficient wins
+      const StallModel<Scalar, Cap>& b = s.coefficients[e].stall;
+      if (b.families == StallFamilies::none) continue;
+      const bool table = detail::same_f0_table(a.separation, b.separation);
+      if (table) sharing[c].table = e;
+      if (table && a.separation.tau2_semichords == b.separation.tau2_semichords) sharing[c].forcing = e;
+      if (a.separation.tau1_semichords == b.separation.tau1_semichords) sharing[c].decay = e;
+    }
+  }
+}
 
 // The per-model constants of a RuntimeModel, derived from its set (the one definition, used
 // by make_runtime_model, check_runtime_model and indicial codegen).
@@ -338,6 +386,7 @@ inline void derive_step_constants(RuntimeModel<Scalar, Cap>* m) {
     if (s.coefficients[c].delay_s != Scalar(0)) m->delay = DelayUse::delayed;
     if (s.coefficients[c].stall.families != StallFamilies::none) m->stall = StallUse::families;
   }
+  derive_stall_sharing(s, m->stall_sharing);
 }
 
 namespace detail {
@@ -531,6 +580,13 @@ inline LoadStatus check_runtime_model(const RuntimeModel<Scalar, Cap>& m,
         derived.airspeed_mps == m.airspeed_mps && delay == m.delay && stall == m.stall))
     return detail::refuse(diag, 0, "step constants differ from derive_step_constants",
                           LoadStatus::invalid_value);
+  StallSharing sharing[Cap::max_coefficients];
+  derive_stall_sharing(m.set, sharing);
+  for (int c = 0; c < Cap::max_coefficients; ++c)
+    if (!(sharing[c].table == m.stall_sharing[c].table && sharing[c].forcing == m.stall_sharing[c].forcing &&
+          sharing[c].decay == m.stall_sharing[c].decay))
+      return detail::refuse(diag, 0, "stall_sharing differs from derive_stall_sharing",
+                            LoadStatus::invalid_value);
   return LoadStatus::ok;
 }
 
@@ -760,6 +816,49 @@ inline Scalar advance_families(const CoefficientModel<Scalar, Cap>& cm, const St
          finite_test(s->vortex_clock_semichords);
 }
 
+// The families' lookups of one step, per coefficient (RuntimeModel::stall_sharing): those of
+// the coefficients stepped so far.
+template <class Scalar, class Cap>
+struct StepLookups {
+  StallLookups<Scalar> forcing[Cap::max_coefficients];  // model.hpp's, at the lagged angles
+  Scalar table_x1[Cap::max_coefficients];               // the f0 table's value at x1
+};
+
+// advance_families with the lookups coefficient c shares with earlier ones taken from `looked`
+// and its own added to it: the same numbers as advance_families (same operations, or copies
+// of the same operations on equal parameters), hence the same bits.
+template <class Scalar, class Cap>
+INDICIAL_HOT_INLINE Scalar advance_families_sharing(const RuntimeModel<Scalar, Cap>& m, int c,
+                                                    const StallStep<Scalar>& g,
+                                                    StepLookups<Scalar, Cap>* looked,
+                                                    StallState<Scalar>* s, Scalar* value) {
+  const StallModel<Scalar, Cap>& st = m.set.coefficients[c].stall;
+  if (st.families == StallFamilies::none) return Scalar(0);
+  const StallSharing& sh = m.stall_sharing[c];
+  const SeparationParameters<Scalar, Cap>& p = st.separation;
+  const Scalar h = stall_step_semichords(g);
+  StallLookups<Scalar>& k = looked->forcing[c];
+  if (sh.forcing != StallSharing::no_sharing) {
+    k = looked->forcing[sh.forcing];
+  } else {
+    stall_lagged_angles(p, g, h, &k);
+    stall_table_lookups(p, &k);
+  }
+  if (sh.decay != StallSharing::no_sharing) {
+    k.decay = looked->forcing[sh.decay].decay;
+    k.weight = looked->forcing[sh.decay].weight;
+  } else {
+    stall_decay(p, h, &k);
+  }
+  advance_stall_with(st, g, h, k, s);
+  looked->table_x1[c] = sh.table != StallSharing::no_sharing ? looked->table_x1[sh.table]
+                                                             : separation_table_value(p, g.x1_rad);
+  const StallOutput<Scalar> o = stall_output_parts_from_table(st, g.x1_rad, looked->table_x1[c], *s);
+  *value = *value + (o.separation + o.vortex);
+  return finite_test(s->separation_point) + finite_test(s->vortex_lift) +
+         finite_test(s->vortex_clock_semichords);
+}
+
 // One coefficient's lags over the step (model.hpp's advance_lags_between, y in place, the new
 // step end into *end1) and its output; g's forcing angles are the coefficient's own. The
 // finite_test of the output, which sums the lag states: a lag state that is not finite makes
@@ -788,6 +887,7 @@ INDICIAL_HOT_INLINE Scalar advance_coefficients(const RuntimeModel<Scalar, Cap>&
                                                 StallState<Scalar>* stall, Scalar* value) {
   const StepGeometry<Scalar> g{s.x_prev_rad, x1, s.x_prev_rad, x1, dt_s, v.time_scale};
   Scalar test = Scalar(0);
+  StepLookups<Scalar, Cap> looked;
   for (int c = 0; c < m.set.n_coefficients; ++c) {
     const CoefficientModel<Scalar, Cap>& cm = m.set.coefficients[c];
     // Why the branch: an undelayed coefficient uses the sample angles themselves; only a
@@ -808,8 +908,8 @@ INDICIAL_HOT_INLINE Scalar advance_coefficients(const RuntimeModel<Scalar, Cap>&
                                         &s.end[c], s.y[c], &value[c]);
     }
     if (stall != nullptr)
-      test = test + advance_families(cm, StallStep<Scalar>{g.x0_rad, x1, dt_s, v.l_over_v_s},
-                                     &stall[c], &value[c]);
+      test = test + advance_families_sharing(m, c, StallStep<Scalar>{g.x0_rad, x1, dt_s, v.l_over_v_s},
+                                             &looked, &stall[c], &value[c]);
   }
   return test;
 }

@@ -1362,13 +1362,20 @@ inline Scalar separation_table_value(const SeparationParameters<Scalar, Cap>& p,
   return (Scalar(1) - w) * p.f0_value[lo] + w * p.f0_value[hi];
 }
 
+// f0c(x) = clip_[0,1](f0(x) + df0(x)), given the table's value f0(x) (a runtime whose
+// coefficients share the table looks it up once: StallLookups below).
+template <class Scalar, class Cap>
+inline Scalar static_separation_from_table(const SeparationParameters<Scalar, Cap>& p, const Scalar& x,
+                                           const Scalar& table_value) {
+  // (No call for an empty correction, as coefficient_output's static correction.)
+  if (p.f0_correction.n_powers + p.f0_correction.n_knots == 0) return detail::clip_unit(table_value);
+  return detail::clip_unit(Scalar(table_value + spline_value(p.f0_correction, x)));
+}
+
 // f0c(x) = clip_[0,1](f0(x) + df0(x)).
 template <class Scalar, class Cap>
 inline Scalar static_separation(const SeparationParameters<Scalar, Cap>& p, const Scalar& x) {
-  // (No call for an empty correction, as coefficient_output's static correction.)
-  if (p.f0_correction.n_powers + p.f0_correction.n_knots == 0)
-    return detail::clip_unit(Scalar(separation_table_value(p, x)));
-  return detail::clip_unit(Scalar(separation_table_value(p, x) + spline_value(p.f0_correction, x)));
+  return static_separation_from_table(p, x, Scalar(separation_table_value(p, x)));
 }
 
 // N(x) = C_Na (x - alpha_0).
@@ -1433,28 +1440,74 @@ struct StallStep {
   Scalar l_over_v_s;  // > 0
 };
 
-// Advances f, tau_v and v over one step, in place (see the essay). families == none: nothing.
+// What one step of a coefficient's families looks up in its f0 table and exponentiates, apart
+// from the update that uses it, so that a runtime whose coefficients share a table, T2 or T1
+// computes each once per step (runtime.hpp's StallSharing; issue 22 item 6: the lookups and
+// exps are most of the families' cost). advance_stall computes them itself: the same
+// operations in the same order either way, hence the same bits.
+//   h                 the step in semichords, dt V / l
+//   x_e0, x_e1        the lagged angles x - T2 (x1 - x0) / h at the step's ends
+//   table_e0, _e1     the table's f0 at x_e0, x_e1 (before the correction and the clip)
+//   decay, weight     exp(-h / T1) and phi1(h / T1)
+template <class Scalar>
+struct StallLookups {
+  Scalar lagged_x0_rad;
+  Scalar lagged_x1_rad;
+  Scalar table_e0;
+  Scalar table_e1;
+  Scalar decay;
+  Scalar weight;
+};
+
+template <class Scalar>
+inline Scalar stall_step_semichords(const StallStep<Scalar>& g) {
+  return g.dt_s / g.l_over_v_s;
+}
+
+// x_e0 and x_e1 into *k (they depend on T2 and the step only).
 template <class Scalar, class Cap>
-inline void advance_stall(const StallModel<Scalar, Cap>& m, const StallStep<Scalar>& g,
-                          StallState<Scalar>* s) {
+inline void stall_lagged_angles(const SeparationParameters<Scalar, Cap>& p, const StallStep<Scalar>& g,
+                                const Scalar& h, StallLookups<Scalar>* k) {
+  const Scalar lag = p.tau2_semichords * (g.x1_rad - g.x0_rad) / h;
+  k->lagged_x0_rad = g.x0_rad - lag;
+  k->lagged_x1_rad = g.x1_rad - lag;
+}
+
+// The table's values at the lagged angles (stall_lagged_angles first).
+template <class Scalar, class Cap>
+inline void stall_table_lookups(const SeparationParameters<Scalar, Cap>& p, StallLookups<Scalar>* k) {
+  k->table_e0 = separation_table_value(p, k->lagged_x0_rad);
+  k->table_e1 = separation_table_value(p, k->lagged_x1_rad);
+}
+
+// exp(-h / T1) and phi1(h / T1) (T1 and the step only).
+template <class Scalar, class Cap>
+inline void stall_decay(const SeparationParameters<Scalar, Cap>& p, const Scalar& h,
+                        StallLookups<Scalar>* k) {
+  using std::exp;
+  const Scalar z = h / p.tau1_semichords;
+  k->decay = exp(-z);
+  k->weight = phi1(z, k->decay);
+}
+
+// Advances f, tau_v and v over one step, in place, with the step's lookups k (see the essay
+// and StallLookups). families == none: nothing.
+template <class Scalar, class Cap>
+INDICIAL_HOT_INLINE void advance_stall_with(const StallModel<Scalar, Cap>& m, const StallStep<Scalar>& g,
+                               const Scalar& h, const StallLookups<Scalar>& k, StallState<Scalar>* s) {
   using std::exp;
   if (m.families == StallFamilies::none) return;
   const SeparationParameters<Scalar, Cap>& p = m.separation;
-  const Scalar h = g.dt_s / g.l_over_v_s;  // the step in semichords
-  const Scalar lag = p.tau2_semichords * (g.x1_rad - g.x0_rad) / h;
-  const Scalar xe0 = g.x0_rad - lag;
-  const Scalar xe1 = g.x1_rad - lag;
-  const Scalar u0 = static_separation(p, xe0);
-  const Scalar u1 = static_separation(p, xe1);
-  const Scalar z = h / p.tau1_semichords;
-  const Scalar e = exp(-z);
-  const Scalar w = phi1(z, e);
+  const Scalar u0 = static_separation_from_table(p, k.lagged_x0_rad, k.table_e0);
+  const Scalar u1 = static_separation_from_table(p, k.lagged_x1_rad, k.table_e1);
+  const Scalar e = k.decay;
+  const Scalar w = k.weight;
   const Scalar f0 = s->separation_point;
   const Scalar f1 = e * f0 + (w - e) * u0 + (Scalar(1) - w) * u1;
   s->separation_point = f1;
   if (m.families != StallFamilies::separation_and_vortex) return;
   const VortexParameters<Scalar>& v = m.vortex;
-  const Scalar gate = shedding_switch(m, Scalar((xe0 + xe1) * Scalar(0.5)));
+  const Scalar gate = shedding_switch(m, Scalar((k.lagged_x0_rad + k.lagged_x1_rad) * Scalar(0.5)));
   const Scalar clock0 = s->vortex_clock_semichords;
   const Scalar zc = h * (Scalar(1) - gate) / Scalar(v.clock_reset_semichords);
   // Why the branch: while the shedding switch is saturated (gate == 1) zc is 0 and e^-0 is 1
@@ -1470,20 +1523,43 @@ inline void advance_stall(const StallModel<Scalar, Cap>& m, const StallStep<Scal
   s->vortex_lift = ev * s->vortex_lift + phi1(zv, ev) * feed_gate * feed;
 }
 
-// The outputs at angle x with state s, apart (a delta on top of the report's model).
+// Advances f, tau_v and v over one step, in place (see the essay). families == none: nothing.
 template <class Scalar, class Cap>
-inline StallOutput<Scalar> stall_output_parts(const StallModel<Scalar, Cap>& m, const Scalar& x_rad,
-                                              const StallState<Scalar>& s) {
+inline void advance_stall(const StallModel<Scalar, Cap>& m, const StallStep<Scalar>& g,
+                          StallState<Scalar>* s) {
+  if (m.families == StallFamilies::none) return;
+  const Scalar h = stall_step_semichords(g);
+  StallLookups<Scalar> k;
+  stall_lagged_angles(m.separation, g, h, &k);
+  stall_table_lookups(m.separation, &k);
+  stall_decay(m.separation, h, &k);
+  advance_stall_with(m, g, h, k, s);
+}
+
+// The outputs at angle x with state s, apart (a delta on top of the report's model), given
+// the f0 table's value at x_rad (a runtime whose coefficients share the table: StallLookups).
+template <class Scalar, class Cap>
+INDICIAL_HOT_INLINE StallOutput<Scalar> stall_output_parts_from_table(const StallModel<Scalar, Cap>& m, const Scalar& x_rad,
+                                                         const Scalar& table_value,
+                                                         const StallState<Scalar>& s) {
   StallOutput<Scalar> o;
   if (m.families == StallFamilies::none) return o;
   const SeparationParameters<Scalar, Cap>& p = m.separation;
-  const Scalar f_static = static_separation(p, x_rad);
+  const Scalar f_static = static_separation_from_table(p, x_rad, table_value);
   o.separation = attached_normal_force(p, x_rad) *
                  (separation_shape(p, s.separation_point) - separation_shape(p, f_static));
   if (m.families != StallFamilies::separation_and_vortex) return o;
   o.vortex = s.vortex_lift * (m.vortex.lift_gain -
                               m.vortex.cp_travel * vortex_position(m.vortex, s.vortex_clock_semichords));
   return o;
+}
+
+// The outputs at angle x with state s, apart.
+template <class Scalar, class Cap>
+inline StallOutput<Scalar> stall_output_parts(const StallModel<Scalar, Cap>& m, const Scalar& x_rad,
+                                              const StallState<Scalar>& s) {
+  if (m.families == StallFamilies::none) return StallOutput<Scalar>{};
+  return stall_output_parts_from_table(m, x_rad, Scalar(separation_table_value(m.separation, x_rad)), s);
 }
 
 template <class Scalar, class Cap>
