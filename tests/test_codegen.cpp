@@ -177,6 +177,11 @@ TEST_CASE("the generated dynamic-stall header runs bit for bit like the text fil
   auto changed = dynamic_stall_lift_moment;
   changed.stall = indicial::StallUse::none;
   CHECK(indicial::check_runtime_model(changed) == indicial::LoadStatus::invalid_value);
+  // So is a wrong lookup sharing (C_m repeats C_L's table, T2 and T1 in this example).
+  CHECK(dynamic_stall_lift_moment.stall_sharing[1].forcing == 0);
+  auto unshared = dynamic_stall_lift_moment;
+  unshared.stall_sharing[1].forcing = indicial::StallSharing::no_sharing;
+  CHECK(indicial::check_runtime_model(unshared) == indicial::LoadStatus::invalid_value);
 }
 
 TEST_CASE("codegen refuses damaged files with file:line: reason, and existing output") {

@@ -95,11 +95,30 @@ TEST_CASE("family states cost only the models that have them: 160 / 240 bytes, f
           sizeof(indicial::FamilyState<float, Cap>), " bytes");
 }
 
-TEST_CASE("step with families equals a direct loop over model.hpp's updates, bit for bit") {
+// The lift-and-moment model with C_m's T2, T1 or f0 table changed (or none): which lookups
+// C_m repeats from C_L (RuntimeModel::stall_sharing) changes, the numbers must not.
+enum class Shared : int { everything, table_and_decay, table_and_forcing, decay_only };
+
+Set stall_model_sharing(Shared shared) {
   Set set = indicial::test_models::lift_and_moment_stall();
   for (int c = 0; c < 2; ++c) indicial::prepare_static_table(set.coefficients[c].static_curve);
+  auto& p = set.coefficients[1].stall.separation;
+  if (shared == Shared::table_and_decay) p.tau2_semichords = 1.2;
+  if (shared == Shared::table_and_forcing) p.tau1_semichords = 2.5;
+  if (shared == Shared::decay_only) p.f0_value[20] = p.f0_value[20] * 0.5;
+  return set;
+}
+
+void check_step_equals_direct_loop(Shared shared) {
+  CAPTURE(static_cast<int>(shared));
+  const Set set = stall_model_sharing(shared);
   const Model m = runtime_of(set);
   CHECK(m.stall == indicial::StallUse::families);
+  const indicial::StallSharing& sh = m.stall_sharing[1];
+  CHECK(m.stall_sharing[0].table == indicial::StallSharing::no_sharing);
+  CHECK(sh.table == (shared == Shared::decay_only ? indicial::StallSharing::no_sharing : 0));
+  CHECK(sh.forcing == (shared == Shared::everything || shared == Shared::table_and_forcing ? 0 : indicial::StallSharing::no_sharing));
+  CHECK(sh.decay == (shared == Shared::table_and_forcing ? indicial::StallSharing::no_sharing : 0));
   Families s;
   REQUIRE(indicial::reset(m, s, alpha_at(0), kAirspeed) == StepStatus::ok);
   // The direct loop: what the fitter evaluates (advance_lags, advance_stall, the outputs).
@@ -135,6 +154,11 @@ TEST_CASE("step with families equals a direct loop over model.hpp's updates, bit
   MESSAGE("min f ", min_f, ", max |vortex lift| ", max_vortex);
   CHECK(min_f < 0.3);
   CHECK(max_vortex > 0.05);
+}
+
+TEST_CASE("step with families equals a direct loop over model.hpp's updates, bit for bit") {
+  for (Shared shared : {Shared::everything, Shared::table_and_decay, Shared::table_and_forcing, Shared::decay_only})
+    check_step_equals_direct_loop(shared);
 }
 
 TEST_CASE("a family model refuses a plain State, a FamilyState of a model without families steps as a State") {

@@ -142,6 +142,13 @@ void emit_step_constants(std::string& o, const indicial::RuntimeModel<Scalar, Ca
        (r.delay == indicial::DelayUse::delayed ? "delayed" : "none") + ";\n";
   o += std::string("  r.stall = indicial::StallUse::") +
        (r.stall == indicial::StallUse::families ? "families" : "none") + ";\n";
+  for (int c = 0; c < Cap::max_coefficients; ++c) {
+    const indicial::StallSharing& sh = r.stall_sharing[c];
+    const std::string at = "  r.stall_sharing[" + std::to_string(c) + "].";
+    if (sh.table != indicial::StallSharing::no_sharing) o += at + "table = " + std::to_string(sh.table) + ";\n";
+    if (sh.forcing != indicial::StallSharing::no_sharing) o += at + "forcing = " + std::to_string(sh.forcing) + ";\n";
+    if (sh.decay != indicial::StallSharing::no_sharing) o += at + "decay = " + std::to_string(sh.decay) + ";\n";
+  }
 }
 
 // The dynamic-stall families of a coefficient (only a used family: the defaults stand for the

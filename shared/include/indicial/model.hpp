@@ -1365,7 +1365,7 @@ inline Scalar separation_table_value(const SeparationParameters<Scalar, Cap>& p,
 // f0c(x) = clip_[0,1](f0(x) + df0(x)), given the table's value f0(x) (a runtime whose
 // coefficients share the table looks it up once: StallLookups below).
 template <class Scalar, class Cap>
-inline Scalar static_separation_from_table(const SeparationParameters<Scalar, Cap>& p, const Scalar& x,
+INDICIAL_HOT_INLINE Scalar static_separation_from_table(const SeparationParameters<Scalar, Cap>& p, const Scalar& x,
                                            const Scalar& table_value) {
   // (No call for an empty correction, as coefficient_output's static correction.)
   if (p.f0_correction.n_powers + p.f0_correction.n_knots == 0) return detail::clip_unit(table_value);
