@@ -624,30 +624,40 @@ Run read_run_of_files(const LoadContext& c, const RunEntry& entry, const Experim
 }
 
 // model.stall_known = { T1 = 8.5, ... }: dynamic-stall parameters held at known values (not
-// estimated), each inside the runtime's feasible set (model.hpp check_stall_parameters).
-void read_stall_known(const TomlReader& r, const toml::node& node, StallConfig& s) {
+// estimated), each inside the runtime's feasible set (model.hpp check_stall_parameters). A
+// start value for a held parameter is refused: one of the two is a mistake.
+void read_stall_known(const TomlReader& r, const toml::table& mt, const toml::node& node, StallConfig& s) {
   enum class Bound { any, positive, non_negative };
-  struct Known { const char* name; Bound bound; bool vortex; };
+  enum class Family { separation, vortex };
+  struct Known { const char* name; Bound bound; Family family; const char* start_key; };
   static const Known names[] = {
-      {"T1", Bound::positive, false},  {"T2", Bound::non_negative, false}, {"k0", Bound::any, false},
-      {"k1", Bound::any, false},       {"k2", Bound::any, false},          {"CN1", Bound::positive, true},
-      {"Tv", Bound::positive, true},   {"Tvl", Bound::positive, true},     {"cv", Bound::any, true},
-      {"xv", Bound::any, true}};
+      {"T1", Bound::positive, Family::separation, "stall_T1_start"},
+      {"T2", Bound::non_negative, Family::separation, "stall_T2_start"},
+      {"k0", Bound::any, Family::separation, nullptr},
+      {"k1", Bound::any, Family::separation, nullptr},
+      {"k2", Bound::any, Family::separation, nullptr},
+      {"CN1", Bound::positive, Family::vortex, "stall_CN1_start"},
+      {"Tv", Bound::positive, Family::vortex, "stall_Tv_start"},
+      {"Tvl", Bound::positive, Family::vortex, "stall_Tvl_start"},
+      {"cv", Bound::any, Family::vortex, nullptr},
+      {"xv", Bound::any, Family::vortex, nullptr}};
   for (auto&& [key, value] : r.table(node, "model.stall_known")) {
-    const std::string name(key.str());
+    const std::string name(key.str()), where = "model.stall_known." + name;
     const Known* k = nullptr;
     for (const Known& n : names)
       if (name == n.name) k = &n;
     if (!k)
       r.fail(key.source(), "'model.stall_known' names '" + name + "', not a dynamic-stall parameter (T1, T2, k0, "
                            "k1, k2; with the vortex also CN1, Tv, Tvl, cv, xv)");
-    if (k->vortex && s.families != StallFamilies::separation_and_vortex)
-      r.fail(key.source(), "'model.stall_known." + name + "' is a vortex parameter: it needs model.stall = "
-                           "\"separation_and_vortex\"");
-    const double v = r.number(value, "model.stall_known." + name);
-    if (k->bound == Bound::positive && !(v > 0.0)) r.fail(value, "'model.stall_known." + name + "' must be > 0");
-    if (k->bound == Bound::non_negative && !(v >= 0.0))
-      r.fail(value, "'model.stall_known." + name + "' must be >= 0");
+    if (k->family == Family::vortex && s.families != StallFamilies::separation_and_vortex)
+      r.fail(key.source(), "'" + where + "' is a vortex parameter: it needs model.stall = \"separation_and_vortex\"");
+    const double v = r.number(value, where);
+    if (!std::isfinite(v)) r.fail(value, "'" + where + "' must be finite");
+    if (k->bound == Bound::positive && !(v > 0.0)) r.fail(value, "'" + where + "' must be > 0");
+    if (k->bound == Bound::non_negative && !(v >= 0.0)) r.fail(value, "'" + where + "' must be >= 0");
+    if (k->start_key && mt.get(k->start_key))
+      r.fail(key.source(), "'" + where + "' holds " + name + " at a known value, and 'model." + k->start_key +
+                               "' gives it a start value: drop one of the two");
     s.known.emplace_back(name, v);
   }
 }
@@ -683,7 +693,7 @@ void read_stall_keys(LoadContext& c, const toml::node* model_node, Experiment& e
         r.fail(*n, std::string("'model.") + st.key + (st.lo < 0.0 ? "' must be >= 0" : "' must be > 0"));
     }
   read_spline_terms(c, mt, "stall_f0_correction", s.f0_correction);
-  if (const toml::node* n = mt.get("stall_known")) read_stall_known(r, *n, s);
+  if (const toml::node* n = mt.get("stall_known")) read_stall_known(r, mt, *n, s);
   if (const toml::node* n = mt.get("stall_polar")) {
     s.polar_path = c.resolve(r.string(*n, "model.stall_polar"));
     StaticConfig polar;
