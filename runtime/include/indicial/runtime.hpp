@@ -107,8 +107,11 @@
 //     earlier coefficient's, bit for bit, takes that coefficient's table values and decay
 //     (model.hpp's StallLookups) instead of computing them again: the same numbers, hence the
 //     same bits. Which coefficient repeats which is a step constant (RuntimeModel::
-//     stall_sharing, derive_stall_sharing). Models fitted from one lift polar share the f0
-//     table (the output's lookup at x1); T2 and T1 are fitted per coefficient.
+//     stall_sharing, derive_stall_sharing). Coefficients fitted from one lift polar share
+//     the f0 table (the output's lookup at x1, and the lagged ones with the same T2); a C_m
+//     whose T1 and T2 are held at the C_L fit's values (model.stall_known, as Beddoes-
+//     Leishman's moment takes its separation dynamics from the lift, tools/validate_stall.py)
+//     shares every lookup: three of six table lookups and one of two exp(-h / T1) per step.
 //   * validation: validate_model_set applies model.hpp's check_stall_parameters (the feasible
 //     set: positive time constants, f0 in [0, 1], ...); validate_for_runtime also checks the
 //     family outputs finite over the envelope.
