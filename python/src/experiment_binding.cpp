@@ -8,6 +8,8 @@
 // same Savitzky-Golay derivative when not given. The configuration gets load_experiment's
 // checks that do not depend on TOML: knots strictly inside the data's angle range, the
 // runtime's capacity, at least one moving run. Messages name the run ("run 2 (name): ...").
+// The static table, delay and stall keywords get the file reader's own checks and messages
+// (experiment_checks.hpp, called by both), naming the keyword where the file names its line.
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
