@@ -1072,11 +1072,17 @@ std::string write_experiment_toml(const Experiment& e, const std::vector<std::st
     if (!st.f0_correction.powers.empty()) out += power_terms("stall_f0_correction", st.f0_correction.powers);
     if (!st.f0_correction.knots_rad.empty())
       out += "stall_f0_correction_knots_deg = " + number_list(st.f0_correction.knots_rad, kRadToDeg) + "\n";
-    out += "stall_T1_start = " + format_double(st.tau1_start) + "\n";
-    out += "stall_T2_start = " + format_double(st.tau2_start) + "\n";
-    if (st.shedding_threshold_start > 0.0) out += "stall_CN1_start = " + format_double(st.shedding_threshold_start) + "\n";
-    out += "stall_Tv_start = " + format_double(st.decay_start) + "\n";
-    out += "stall_Tvl_start = " + format_double(st.travel_start) + "\n";
+    // A held parameter (stall_known) has no start value: the reader refuses both together.
+    auto start = [&](const char* name, double value) {
+      for (const auto& k : st.known)
+        if (k.first == name) return;
+      out += std::string("stall_") + name + "_start = " + format_double(value) + "\n";
+    };
+    start("T1", st.tau1_start);
+    start("T2", st.tau2_start);
+    if (st.shedding_threshold_start > 0.0) start("CN1", st.shedding_threshold_start);
+    start("Tv", st.decay_start);
+    start("Tvl", st.travel_start);
     if (!st.known.empty()) {
       std::string list;
       for (const auto& [name, value] : st.known) list += (list.empty() ? "" : ", ") + name + " = " + format_double(value);
