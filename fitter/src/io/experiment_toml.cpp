@@ -1020,17 +1020,17 @@ std::string write_experiment_toml(const Experiment& e, const std::vector<std::st
     if (!st.f0_correction.powers.empty()) out += power_terms("stall_f0_correction", st.f0_correction.powers);
     if (!st.f0_correction.knots_rad.empty())
       out += "stall_f0_correction_knots_deg = " + number_list(st.f0_correction.knots_rad, kRadToDeg) + "\n";
-    // No start value for a parameter held at a known value (the reader refuses both).
-    const auto held = [&st](const char* name) {
-      return std::any_of(st.known.begin(), st.known.end(), [name](const auto& k) { return k.first == name; });
+    // A held parameter (stall_known) has no start value: the reader refuses both together.
+    auto start = [&](const char* name, double value) {
+      for (const auto& k : st.known)
+        if (k.first == name) return;
+      out += std::string("stall_") + name + "_start = " + format_double(value) + "\n";
     };
-    const struct { const char* name; double value; bool write; } starts[] = {
-        {"T1", st.tau1_start, true}, {"T2", st.tau2_start, true},
-        {"CN1", st.shedding_threshold_start, st.shedding_threshold_start > 0.0}, {"Tv", st.decay_start, true},
-        {"Tvl", st.travel_start, true}};
-    for (const auto& start : starts)
-      if (start.write && !held(start.name))
-        out += std::string("stall_") + start.name + "_start = " + format_double(start.value) + "\n";
+    start("T1", st.tau1_start);
+    start("T2", st.tau2_start);
+    if (st.shedding_threshold_start > 0.0) start("CN1", st.shedding_threshold_start);
+    start("Tv", st.decay_start);
+    start("Tvl", st.travel_start);
     if (!st.known.empty()) {
       std::string list;
       for (const auto& [name, value] : st.known) list += (list.empty() ? "" : ", ") + name + " = " + format_double(value);
