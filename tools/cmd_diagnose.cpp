@@ -41,15 +41,7 @@ struct DiagnoseCliOptions {
 void run_diagnose(const DiagnoseCliOptions& o) {
   using namespace indicial;
   if (o.out.empty()) throw InputError("--out", 0, "an output directory is required");
-  if (!(o.diag.alpha > 0.0 && o.diag.alpha < 1.0))
-    throw InputError("--alpha", 0, "the significance level must be in (0, 1)");
-  if (o.diag.max_steps < 0) throw InputError("--max-steps", 0, "must be >= 0");
-  if (o.diag.max_family_terms < 1) throw InputError("--max-family-terms", 0, "must be >= 1");
-  if (!(o.diag.knot_spacing_deg > 0.0)) throw InputError("--knot-spacing-deg", 0, "must be > 0");
-  if (o.diag.threads < 1) throw InputError("--threads", 0, "must be >= 1");
-  if (o.diag.cv_max_folds < 2) throw InputError("--max-folds", 0, "must be >= 2");
-  if (!(o.diag.cv_min_in_sample_gain >= 0.0 && o.diag.cv_min_in_sample_gain < 1.0))
-    throw InputError("--min-in-sample-gain", 0, "must be in [0, 1) (a fraction of the mean square error)");
+  if (std::string bad; !o.diag.IsValid(&bad)) throw InputError(bad);  // before reading or writing anything
   const tools::StageClock clock("diagnose", o.quiet ? tools::Verbosity::quiet : tools::Verbosity::progress);
   Experiment e;
   clock.stage("reading the experiment and its runs", [&] { e = load_experiment(o.experiment, o.coefficient); });

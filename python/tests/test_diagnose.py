@@ -35,9 +35,21 @@ def test_diagnose_equals_cli(model1_config_on_model2_data, cli, tmp_path):
     assert "b1_knots_deg" in d.experiment_toml()
 
 
-def test_diagnose_min_in_sample_gain_is_checked(model1_config_on_model2_data):
-    # The in-sample materiality floor (--min-in-sample-gain) is refused outside [0, 1) before
-    # anything is fitted.
+# One bad option each (DiagnoseOptions::IsValid, fitter/src/diagnose/diagnose_options.cpp): a
+# ValueError (indicial.InputError) with the option's one-line message, before anything is fitted.
+@pytest.mark.parametrize("option, message", [
+    (dict(alpha=0.0), r"^alpha \(--alpha\): must be in \(0, 1\).*found 0$"),
+    (dict(alpha=1.5), r"^alpha \(--alpha\): must be in \(0, 1\).*found 1.5$"),
+    (dict(max_steps=-1), r"^max_steps \(--max-steps\): must be >= 0.*found -1$"),
+    (dict(knot_spacing_deg=0.0), r"^knot_spacing_deg \(--knot-spacing-deg\): must be positive and finite.*found 0$"),
+    (dict(knot_margin_fraction=0.5), r"^knot_margin_fraction: must be in \[0, 0.5\).*found 0.5$"),
+    (dict(max_scan_knots=0), r"^max_scan_knots: must be >= 1.*found 0$"),
+    (dict(max_family_terms=0), r"^max_family_terms \(--max-family-terms\): must be >= 1.*found 0$"),
+    (dict(indistinguishable_bic=-1.0), r"^indistinguishable_bic: must be >= 0.*found -1$"),
+    (dict(min_in_sample_gain=1.0), r"^cv_min_in_sample_gain \(--min-in-sample-gain\): must be in \[0, 1\).*found 1$"),
+])
+def test_diagnose_bad_option_is_refused(model1_config_on_model2_data, option, message):
     e = indicial.Experiment.from_toml(str(model1_config_on_model2_data))
-    with pytest.raises(indicial.InputError, match="min_in_sample_gain"):
-        indicial.diagnose(e, min_in_sample_gain=1.0, warn=False)
+    with pytest.raises(ValueError, match=message) as refused:
+        indicial.diagnose(e, warn=False, **option)
+    assert isinstance(refused.value, indicial.InputError)
