@@ -1,8 +1,10 @@
 // `indicial diagnose`: the missing-effect workflow (fitter/include/indicial/fitter/diagnose.hpp).
 //
 //   indicial diagnose EXPERIMENT.toml --out DIR [--force] [--alpha 0.01] [--max-steps N]
-//                     [--knot-spacing-deg D] [--rule auto|cv|lr] [--max-folds K] [--min-in-sample-gain G]
-//                     [--threads N] [--no-plots] [--gnuplot EXE] [--quiet]
+//                     [--knot-spacing-deg D] [--rule auto|cv|lr] [--max-folds K] [--min-gain G]
+//                     [--min-in-sample-gain G] [--threads N] [--no-plots] [--gnuplot EXE] [--quiet]
+//
+// The options' ranges are DiagnoseOptions::IsValid's (docs/diagnose.md, "Options").
 //
 // Writes DIR/diagnosis.json, DIR/model.coef (the final model), DIR/report.md and DIR/plots/.
 // Exit status (DiagnoseExit): 0 done (whatever the verdict, "none" included); 1 bad input (one
@@ -138,6 +140,9 @@ const indicial::tools::RegisterCommand register_diagnose([](CLI::App& app) {
   sub->add_option("--max-folds", opt->diag.cv_max_folds,
                   "cross-validation with more runs than this: the runs dealt into this many folds (run r "
                   "into fold r mod K), each left out at once (default 10; fewer runs: one run per fold)");
+  sub->add_option("--min-gain", opt->diag.cv_min_gain,
+                  "cross-validation: an effect must lower the held-out mean square error by at least this "
+                  "fraction (default 0.10; in [0, 1); 0: the standard-error and majority conditions alone)");
   sub->add_option("--min-in-sample-gain", opt->diag.cv_min_in_sample_gain,
                   "cross-validation: an effect must also lower the fit error of all runs by at least this "
                   "fraction of the mean square error (default 0.04; in [0, 1), 0: off)");

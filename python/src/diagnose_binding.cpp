@@ -64,6 +64,13 @@ DiagnoseOptions diagnose_options_from(const py::dict& kw) {
     else if (key == "max_family_terms") o.max_family_terms = v.cast<int>();
     else if (key == "indistinguishable_bic") o.indistinguishable_bic = v.cast<double>();
     else if (key == "min_in_sample_gain") o.cv_min_in_sample_gain = v.cast<double>();
+    else if (key == "min_gain") o.cv_min_gain = v.cast<double>();
+    else if (key == "max_folds") o.cv_max_folds = v.cast<int>();
+    else if (key == "threads") o.threads = v.cast<int>();
+    else if (key == "rule")
+      o.rule = pick<RuleChoice>(key, v.cast<std::string>(), {{"auto", RuleChoice::automatic},
+                                                             {"cv", RuleChoice::leave_one_run_out},
+                                                             {"lr", RuleChoice::likelihood_ratio}});
     else fit_kw[item.first] = item.second;
   }
   if (std::string bad; !o.IsValid(&bad)) throw InputError(bad);  // DiagnoseOptions' own message

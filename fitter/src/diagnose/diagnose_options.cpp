@@ -33,7 +33,7 @@ bool DiagnoseOptions::IsValid(std::string* error) const {
     return refuse(error, "alpha (--alpha)", "in (0, 1) (the family-wise significance level per round)", alpha);
   if (cv_min_runs < 2) return refuse(error, "cv_min_runs", ">= 2 (runs: one left out, one fitted)", cv_min_runs);
   if (!(cv_min_gain >= 0.0 && cv_min_gain < 1.0))
-    return refuse(error, "cv_min_gain", "in [0, 1) (a fraction of the held-out mean square error)",
+    return refuse(error, "cv_min_gain (--min-gain)", "in [0, 1) (a fraction of the held-out mean square error)",
                   cv_min_gain);
   if (!(cv_min_in_sample_gain >= 0.0 && cv_min_in_sample_gain < 1.0))
     return refuse(error, "cv_min_in_sample_gain (--min-in-sample-gain)",
