@@ -767,11 +767,12 @@ inline Scalar advance_families(const CoefficientModel<Scalar, Cap>& cm, const St
 template <class Scalar, class Cap>
 INDICIAL_HOT_INLINE Scalar advance_coefficient(const CoefficientModel<Scalar, Cap>& cm,
                                                const StepGeometry<Scalar>& g,
-                                               const StepEnd<Scalar, Cap>& end0, Scalar table_x1,
+                                               const StepEnd<Scalar, Cap>& end0, const Scalar& table_x1,
                                                Scalar rate, Scalar l_over_v_s,
                                                StepEnd<Scalar, Cap>* end1, Scalar* y, Scalar* value) {
+  const Scalar fitted = fitted_terms_with<ScalarOps<Scalar>>(cm, g.x1_rad, table_x1, rate, l_over_v_s);
   advance_lags_to(cm, g, end0, end1, y);
-  *value = coefficient_output(cm, g.x1_rad, table_x1, rate, l_over_v_s, y);
+  *value = add_stepped_lag_states(cm, fitted, y);
   return finite_test(*value);
 }
 
@@ -782,13 +783,15 @@ INDICIAL_HOT_INLINE Scalar advance_coefficient(const CoefficientModel<Scalar, Ca
 template <class Scalar, class Cap>
 INDICIAL_HOT_INLINE Scalar advance_coefficients(const RuntimeModel<Scalar, Cap>& m, State<Scalar, Cap>& s,
                                                 const StepBackup<Scalar, Cap>& before, Scalar x1,
-                                                Scalar table_x1, Scalar rate, Scalar dt_s,
+                                                const Scalar& table_x1, Scalar rate, Scalar dt_s,
                                                 const AirspeedTerms<Scalar>& v,
                                                 const DelayedForcing<Scalar, Cap>* forcing,
                                                 StallState<Scalar>* stall, Scalar* value) {
   const StepGeometry<Scalar> g{s.x_prev_rad, x1, s.x_prev_rad, x1, dt_s, v.time_scale};
   Scalar test = Scalar(0);
-  for (int c = 0; c < m.set.n_coefficients; ++c) {
+#pragma GCC unroll 16
+  for (int c = 0; c < Cap::max_coefficients; ++c) {
+    if (c == m.set.n_coefficients) break;
     const CoefficientModel<Scalar, Cap>& cm = m.set.coefficients[c];
     // Why the branch: an undelayed coefficient uses the sample angles themselves; only a
     // delayed one has forcing angles of its own, and recomputes A at the old end (x(t0 - d)
@@ -932,8 +935,11 @@ inline StepStatus step_undelayed(const RuntimeModel<Scalar, Cap>& m, State<Scala
                                  double dt_s, Scalar* out) {
   const StepStatus checked = check_step_input(s.phase, in, dt_s, out);
   if (checked != StepStatus::ok) return checked;
-  if (m.delay != DelayUse::none) return StepStatus::delay_needs_history;
-  if (Families == StallUse::none && m.stall != StallUse::none) return StepStatus::families_need_state;
+  // Why one test for both: a model with neither (the common case) pays one branch.
+  if ((static_cast<int>(m.delay) | (Families == StallUse::none ? static_cast<int>(m.stall) : 0)) != 0) {
+    if (m.delay != DelayUse::none) return StepStatus::delay_needs_history;
+    if (Families == StallUse::none && m.stall != StallUse::none) return StepStatus::families_need_state;
+  }
   const Clamped<Scalar> clamp = clamp_model_angle(m, in.motion_angle_rad);
   const AirspeedTerms<Scalar> v = airspeed_terms(m, s, in.airspeed_mps);
   StepBackup<Scalar, Cap> before;

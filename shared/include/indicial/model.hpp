@@ -1077,6 +1077,21 @@ INDICIAL_HOT_INLINE void advance_lags_to(const CoefficientModel<Scalar, Cap>& m,
   }
 }
 
+// sum + y_0 + ... + y_(n_lags - 1) after advance_lags_to (coefficient_output's sum, in its
+// order): lag 0 before the loop where advance_lags_to took it so (same precondition, n_lags
+// >= 1), so that the one-lag case tests nothing.
+template <class Scalar, class Cap>
+INDICIAL_HOT_INLINE Scalar add_stepped_lag_states(const CoefficientModel<Scalar, Cap>& m, Scalar sum,
+                                                  const Scalar* y) {
+  int first = 0;
+  if (peel_first_lag<Scalar>::value) {
+    sum = sum + y[0];
+    first = 1;
+  }
+  for (int j = first; j < m.n_lags; ++j) sum = sum + y[j];
+  return sum;
+}
+
 template <class Scalar, class Cap>
 inline void advance_lags(const CoefficientModel<Scalar, Cap>& m, const StepGeometry<Scalar>& g,
                          Scalar* y) {
@@ -1109,13 +1124,16 @@ inline void steady_state(const CoefficientModel<Scalar, Cap>& m, const Scalar& x
 // cycles' range must see the measured static curve where the angle really is, not frozen at
 // the envelope's edge; a polynomial has no range of its own in the model but the envelope it
 // was fitted or checked in. Inside the envelope both angles are the same.
+// In two parts, fitted_terms_with and add_lag_states_with (coefficient_output_with is the one
+// after the other): the runtime's step evaluates the fitted terms before it advances the lags
+// (independent work, so the same bits), and adds the lag states while they are still in
+// registers (bench_step's callgrind count).
 template <class Ops, class Cap>
-INDICIAL_HOT_INLINE typename Ops::V coefficient_output_with(const CoefficientModel<typename Ops::Scalar, Cap>& m,
-                                               const typename Ops::V& x_rad,
-                                               const typename Ops::V& table_x_rad,
-                                               const typename Ops::V& rate_radps,
-                                               const typename Ops::V& l_over_v_s,
-                                               const typename Ops::V* y) {
+INDICIAL_HOT_INLINE typename Ops::V fitted_terms_with(const CoefficientModel<typename Ops::Scalar, Cap>& m,
+                                                      const typename Ops::V& x_rad,
+                                                      const typename Ops::V& table_x_rad,
+                                                      const typename Ops::V& rate_radps,
+                                                      const typename Ops::V& l_over_v_s) {
   using V = typename Ops::V;
   V curve;
   if (m.static_curve.kind == StaticKind::polynomial) {
@@ -1127,9 +1145,24 @@ INDICIAL_HOT_INLINE typename Ops::V coefficient_output_with(const CoefficientMod
   // curve); a call to learn that costs the step ~30 instructions per coefficient.
   if (m.static_correction.n_powers + m.static_correction.n_knots > 0)
     curve = curve + spline_value_with<Ops>(m.static_correction, x_rad);
-  V sum = curve + l_over_v_s * spline_value_with<Ops>(m.rotary, x_rad) * rate_radps;
+  return curve + l_over_v_s * spline_value_with<Ops>(m.rotary, x_rad) * rate_radps;
+}
+
+template <class Ops, class Cap>
+INDICIAL_HOT_INLINE typename Ops::V add_lag_states_with(const CoefficientModel<typename Ops::Scalar, Cap>& m,
+                                                        typename Ops::V sum, const typename Ops::V* y) {
   for (int j = 0; j < m.n_lags; ++j) sum = sum + y[j];
   return sum;
+}
+
+template <class Ops, class Cap>
+INDICIAL_HOT_INLINE typename Ops::V coefficient_output_with(const CoefficientModel<typename Ops::Scalar, Cap>& m,
+                                               const typename Ops::V& x_rad,
+                                               const typename Ops::V& table_x_rad,
+                                               const typename Ops::V& rate_radps,
+                                               const typename Ops::V& l_over_v_s,
+                                               const typename Ops::V* y) {
+  return add_lag_states_with<Ops>(m, fitted_terms_with<Ops>(m, x_rad, table_x_rad, rate_radps, l_over_v_s), y);
 }
 
 // Inside the envelope: one angle for every term.
