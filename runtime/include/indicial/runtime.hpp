@@ -704,10 +704,9 @@ INDICIAL_HOT_INLINE StepStatus check_step_input(int phase, const MotionInput& in
   const std::uint64_t v = static_cast<std::uint64_t>(double_bits(in.airspeed_mps));
   const std::uint64_t d = static_cast<std::uint64_t>(double_bits(dt_s));
   const std::uint64_t max_dt = static_cast<std::uint64_t>(double_bits(max_step_dt_s));
-  const bool good = ((a & exponent) != exponent) & ((r & exponent) != exponent) &
-                    (v - 1u < exponent - 1u) & (d - 1u < max_dt) &
-                    (phase == static_cast<int>(PredictorPhase::running)) & (out != nullptr);
-  if (good) return StepStatus::ok;
+  if ((a & exponent) != exponent && (r & exponent) != exponent && v - 1u < exponent - 1u &&
+      d - 1u < max_dt && phase == static_cast<int>(PredictorPhase::running) && out != nullptr)
+    return StepStatus::ok;
   return refused_step_input(phase, in, dt_s, out);
 }
 
@@ -776,11 +775,21 @@ INDICIAL_HOT_INLINE Scalar advance_coefficient(const CoefficientModel<Scalar, Ca
   return finite_test(*value);
 }
 
+// How advance_coefficients runs over the coefficients: in a loop, or unrolled over the
+// capacity (a copy of the coefficient's step per Cap::max_coefficients, each ending the step
+// at n_coefficients). Why unrolled for the State's step: no loop counters or per-coefficient
+// pointers live across the spline calls (state/model2/double 925 -> 905 instructions,
+// bench_step's callgrind count), and a model known at compile time (indicial codegen) is
+// folded into each copy (the Cortex-M4F step 912 -> 660 instructions, tools/run-cortex-m.sh).
+// Why not for the families' and the delayed steps: each would be another copy of the
+// unrolled body in a Predictor's flash, for steps that cost 2-3x the plain one anyway.
+enum class CoefficientLoop : int { rolled = 0, unrolled = 1 };
+
 // The model equations over one step for every coefficient, in place on s (whose lag states
 // and step ends `before` holds) and on the family states `stall` (nullptr: the model has
 // none); the outputs into value. Returns the sum of the finite_tests (0 if every number the
 // step keeps is finite). forcing == nullptr: no delay (the forcing angle is the angle).
-template <class Scalar, class Cap>
+template <CoefficientLoop Loop, class Scalar, class Cap>
 INDICIAL_HOT_INLINE Scalar advance_coefficients(const RuntimeModel<Scalar, Cap>& m, State<Scalar, Cap>& s,
                                                 const StepBackup<Scalar, Cap>& before, Scalar x1,
                                                 const Scalar& table_x1, Scalar rate, Scalar dt_s,
@@ -788,11 +797,9 @@ INDICIAL_HOT_INLINE Scalar advance_coefficients(const RuntimeModel<Scalar, Cap>&
                                                 const DelayedForcing<Scalar, Cap>* forcing,
                                                 StallState<Scalar>* stall, Scalar* value) {
   const StepGeometry<Scalar> g{s.x_prev_rad, x1, s.x_prev_rad, x1, dt_s, v.time_scale};
-  Scalar test = Scalar(0);
-#pragma GCC unroll 16
-  for (int c = 0; c < Cap::max_coefficients; ++c) {
-    if (c == m.set.n_coefficients) break;
+  const auto coefficient = [&](int c) INDICIAL_HOT_LAMBDA -> Scalar {
     const CoefficientModel<Scalar, Cap>& cm = m.set.coefficients[c];
+    Scalar test;
     // Why the branch: an undelayed coefficient uses the sample angles themselves; only a
     // delayed one has forcing angles of its own, and recomputes A at the old end (x(t0 - d)
     // moves when the airspeed, hence d, changes). B_j(x0) stays valid whatever the delay.
@@ -802,17 +809,28 @@ INDICIAL_HOT_INLINE Scalar advance_coefficients(const RuntimeModel<Scalar, Cap>&
       gd.forcing_x1_rad = forcing->x1_rad[c];
       StepEnd<Scalar, Cap> delayed_end0 = before.end[c];
       delayed_end0.forcing_antiderivative = spline_antiderivative(cm.a, gd.forcing_x0_rad);
-      test = test + advance_coefficient(cm, gd, delayed_end0, table_x1, rate, v.l_over_v_s,
-                                        &s.end[c], s.y[c], &value[c]);
+      test = advance_coefficient(cm, gd, delayed_end0, table_x1, rate, v.l_over_v_s, &s.end[c],
+                                 s.y[c], &value[c]);
     } else {
       // The old end as the previous step (or reset) left it: B_j(x_prev) and A(x_prev) --
       // bit for bit what advance_lags would evaluate again.
-      test = test + advance_coefficient(cm, g, before.end[c], table_x1, rate, v.l_over_v_s,
-                                        &s.end[c], s.y[c], &value[c]);
+      test = advance_coefficient(cm, g, before.end[c], table_x1, rate, v.l_over_v_s, &s.end[c],
+                                 s.y[c], &value[c]);
     }
     if (stall != nullptr)
       test = test + advance_families(cm, StallStep<Scalar>{g.x0_rad, x1, dt_s, v.l_over_v_s},
                                      &stall[c], &value[c]);
+    return test;
+  };
+  Scalar test = Scalar(0);
+  if (Loop == CoefficientLoop::unrolled) {
+#pragma GCC unroll 16
+    for (int c = 0; c < Cap::max_coefficients; ++c) {
+      if (c == m.set.n_coefficients) break;
+      test = test + coefficient(c);
+    }
+  } else {
+    for (int c = 0; c < m.set.n_coefficients; ++c) test = test + coefficient(c);
   }
   return test;
 }
@@ -947,7 +965,8 @@ inline StepStatus step_undelayed(const RuntimeModel<Scalar, Cap>& m, State<Scala
   Scalar value[Cap::max_coefficients];
   StallState<Scalar> stall_before[Cap::max_coefficients];
   if (Families != StallUse::none) std::memcpy(stall_before, families->stall, sizeof stall_before);
-  const Scalar test = advance_coefficients(m, s, before, clamp.x_rad, clamp.model_x_rad,
+  const Scalar test = advance_coefficients<Families == StallUse::none ? CoefficientLoop::unrolled
+                                                                     : CoefficientLoop::rolled>(m, s, before, clamp.x_rad, clamp.model_x_rad,
                                            Scalar(in.rate_radps), Scalar(dt_s), v,
                                            static_cast<const DelayedForcing<Scalar, Cap>*>(nullptr),
                                            Families != StallUse::none ? families->stall : nullptr, value);
@@ -1043,7 +1062,7 @@ inline StepStatus step(const RuntimeModel<Scalar, Cap>& m, DelayedState<Scalar, 
   std::memcpy(stall_before, s.stall, sizeof stall_before);
   Scalar value[Cap::max_coefficients];
   const bool families = m.stall != StallUse::none;
-  const Scalar test = detail::advance_coefficients(m, s, before, clamp.x_rad, clamp.model_x_rad,
+  const Scalar test = detail::advance_coefficients<detail::CoefficientLoop::rolled>(m, s, before, clamp.x_rad, clamp.model_x_rad,
                                                    Scalar(in.rate_radps), Scalar(dt_s), v, &forcing,
                                                    families ? s.stall : nullptr, value);
   if (!std::isfinite(test)) {

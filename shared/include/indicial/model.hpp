@@ -150,8 +150,12 @@ inline Scalar int_power(const Scalar& u, int p) {
 // coefficient costs the scalar step instructions (bench_step's callgrind count).
 #if defined(__GNUC__) || defined(__clang__)
 #define INDICIAL_HOT_INLINE inline __attribute__((always_inline))
+#define INDICIAL_HOT_LAMBDA __attribute__((always_inline))
+#define INDICIAL_LIKELY(c) __builtin_expect(static_cast<bool>(c), 1)
 #else
 #define INDICIAL_HOT_INLINE inline
+#define INDICIAL_HOT_LAMBDA
+#define INDICIAL_LIKELY(c) (c)
 #endif
 
 // ------------------------------------------------------------------------------------------
@@ -792,7 +796,7 @@ inline void interval_mean_with(const Spline<typename Ops::Scalar, P, K>& s,
   const V dx = x1 - x0;
   const auto small = Ops::abs_less(dx, detail::interval_mean_threshold<Scalar>::value);
   const auto quotient = [&] { return V((antiderivative_x1 - antiderivative_x0) / dx); };
-  if (!Ops::any(small)) {
+  if (INDICIAL_LIKELY(!Ops::any(small))) {
     *mean = quotient();
     return;
   }
@@ -1136,7 +1140,7 @@ INDICIAL_HOT_INLINE typename Ops::V fitted_terms_with(const CoefficientModel<typ
                                                       const typename Ops::V& l_over_v_s) {
   using V = typename Ops::V;
   V curve;
-  if (m.static_curve.kind == StaticKind::polynomial) {
+  if (INDICIAL_LIKELY(m.static_curve.kind == StaticKind::polynomial)) {
     curve = spline_value_with<Ops>(m.static_curve.polynomial, x_rad);
   } else {
     Ops::table_value(m.static_curve, table_x_rad, &curve);
