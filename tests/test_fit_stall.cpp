@@ -32,6 +32,7 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kDeg = kPi / 180.0;
 constexpr double kLength = 0.275, kVref = 30.0;
+constexpr double kNoiseSigma = 0.01;  // the recovery tests' white noise, 1% of the lift's scale
 
 // A NACA 0012-like static lift polar (Kirchhoff with Leishman-Beddoes' f0), the static table.
 double polar_f0(double x) {
@@ -85,10 +86,17 @@ Run cycle(const Truth& t, double mean_deg, double amp_deg, double k, double airs
   }
   return r;
 }
-}  // namespace
 
-TEST_CASE("fit stall families recovers a seeded odeint truth within 3 bounds") {
+// The experiment of the recovery tests: the truth (seeded, below) and its noisy cycles.
+struct TruthExperiment {
   Experiment e;
+  Truth t;
+};
+
+TruthExperiment truth_experiment() {
+  TruthExperiment te;
+  Experiment& e = te.e;
+  Truth& t = te.t;
   e.path = "stall.toml";
   e.axis = Axis::pitch;
   e.coefficient = "CL";
@@ -108,7 +116,6 @@ TEST_CASE("fit stall families recovers a seeded odeint truth within 3 bounds") {
 
   // The truth: the polar's static part as the fitter derives it (stall_polar.cpp), the rest
   // drawn from seed 20221 (uniform ranges around the Beddoes-Leishman constants).
-  Truth t;
   const fit_detail::StallStructure st = fit_detail::stall_structure(sc, e.path);
   fit_detail::shape_stall(st, t.cm.stall);
   std::mt19937_64 rng(20221u);
@@ -142,14 +149,23 @@ TEST_CASE("fit stall families recovers a seeded odeint truth within 3 bounds") {
   for (double airspeed : {30.0, 40.0})
     for (double mean : {10.0, 14.0, 18.0})
       for (double k : {0.05, 0.1}) e.runs.push_back(cycle(t, mean, 9.0, k, airspeed));
-  // White noise, 1% of the lift's scale.
-  const double sigma = 0.01;
   std::mt19937_64 noise(7u);
-  std::normal_distribution<double> g(0.0, sigma);
+  std::normal_distribution<double> g(0.0, kNoiseSigma);
   for (Run& r : e.runs)
     for (double& c : r.coefficient) c += g(noise);
   set_data_range(e);
 
+  return te;
+}
+}  // namespace
+
+TEST_CASE("fit stall families recovers a seeded odeint truth within 3 bounds") {
+  TruthExperiment te = truth_experiment();
+  Experiment& e = te.e;
+  const auto& p = te.t.cm.stall.separation;
+  const auto& v = te.t.cm.stall.vortex;
+  Truth& t = te.t;
+  const double sigma = kNoiseSigma;
   const FitResult fit = fit_experiment(e, FitOptions{});
   MESSAGE("termination " << std::string(termination_name(fit.output_error.termination)) << ", s(v) " << fit.fit_error
                          << ", " << fit.output_error.message);
@@ -183,6 +199,46 @@ TEST_CASE("fit stall families recovers a seeded odeint truth within 3 bounds") {
   CHECK(rc.samples_compared == 12 * 127);
   CHECK(rc.steps_not_ok == 0);
   CHECK(rc.max_abs_difference < 1e-12);
+}
+
+// model.stall_known: T1 and T2 held at the truth's values are not estimated (absent from the
+// estimates, written to the model exactly as given) and the rest is still recovered within 3
+// bounds; held at a wrong value they are still held, and the fit error shows it.
+TEST_CASE("fit stall families holds model.stall_known at its values") {
+  TruthExperiment te = truth_experiment();
+  const auto& p = te.t.cm.stall.separation;
+  auto fit_with_known = [&](double t1, double t2) {
+    Experiment e = te.e;
+    e.model.stall.known = {{"T1", t1}, {"T2", t2}};
+    return fit_experiment(e, FitOptions{});
+  };
+  const FitResult fit = fit_with_known(p.tau1_semichords, p.tau2_semichords);
+  CHECK(fit.output_error.termination == Termination::converged);
+  const auto& held = fit.model.coefficients[0].stall.separation;
+  CHECK(held.tau1_semichords == p.tau1_semichords);  // exactly: held, not estimated
+  CHECK(held.tau2_semichords == p.tau2_semichords);
+  for (const auto& q : fit.parameters) {
+    CAPTURE(q.name);
+    CHECK(q.name != "T1");
+    CHECK(q.name != "T2");
+  }
+  const struct { const char* name; double value; } truth[] = {
+      {"k0", p.cp_k0}, {"k1", p.cp_k1}, {"k2", p.cp_k2}, {"Tv", te.t.cm.stall.vortex.decay_semichords},
+      {"a0", te.t.cm.a.power_coef[0]}};
+  for (const auto& tr : truth) {
+    const ParameterEstimate* est = nullptr;
+    for (const auto& q : fit.parameters)
+      if (q.name == tr.name) est = &q;
+    REQUIRE(est != nullptr);
+    MESSAGE(std::string(tr.name) << " = " << est->value << " +- " << est->cr_bound << ", truth " << tr.value);
+    CHECK(std::abs(est->value - tr.value) < 3.0 * est->cr_bound);
+  }
+  CHECK(std::abs(fit.fit_error / kNoiseSigma - 1.0) < 0.1);
+  // Held at twice the truth's T1: still held, and the fit cannot reach the noise.
+  const FitResult wrong = fit_with_known(2.0 * p.tau1_semichords, p.tau2_semichords);
+  CHECK(wrong.model.coefficients[0].stall.separation.tau1_semichords == 2.0 * p.tau1_semichords);
+  MESSAGE("s(v) with T1 held at the truth " << fit.fit_error << ", at twice the truth " << wrong.fit_error);
+  CHECK(wrong.fit_error > 1.3 * kNoiseSigma);
 }
 
 // The experiment file's stall keys: read, defaults, refusals, and written back.
@@ -223,5 +279,26 @@ TEST_CASE("experiment stall keys are read, refused without stall, and written ba
                        doctest::Contains("is used only with model.stall"), InputError);
   write_toml("stall = \"vortex\"\n");
   CHECK_THROWS_AS(load_experiment((dir / "e.toml").string()), InputError);
+  // model.stall_known: read in order, written back; a vortex name without the vortex, an
+  // unknown name, a value outside the feasible set and a start value for a held parameter are
+  // refused with the file and line.
+  write_toml("stall = \"separation_and_vortex\"\nstall_known = { T1 = 3.25, T2 = 0.0, xv = -0.1 }\n");
+  const Experiment k = load_experiment((dir / "e.toml").string());
+  REQUIRE(k.model.stall.known.size() == 3);
+  CHECK(k.model.stall.known[0] == std::pair<std::string, double>("T1", 3.25));
+  CHECK(k.model.stall.known[2] == std::pair<std::string, double>("xv", -0.1));
+  CHECK(write_experiment_toml(k, {}).find("stall_known = { T1 = 3.25, T2 = 0, xv = -0.1 }") != std::string::npos);
+  const struct { const char* model; const char* message; } bad[] = {
+      {"stall = \"separation\"\nstall_known = { Tv = 5.0 }\n", "e.toml:12: 'model.stall_known.Tv' is a vortex parameter"},
+      {"stall = \"separation\"\nstall_known = { tau1 = 5.0 }\n", "names 'tau1', not a dynamic-stall parameter"},
+      {"stall = \"separation\"\nstall_known = { T1 = 0.0 }\n", "'model.stall_known.T1' must be > 0"},
+      {"stall = \"separation\"\nstall_known = { T2 = -1.0 }\n", "'model.stall_known.T2' must be >= 0"},
+      {"stall = \"separation\"\nstall_T1_start = 2.0\nstall_known = { T1 = 3.0 }\n", "drop one of the two"},
+      {"stall_known = { T1 = 3.0 }\n", "is used only with model.stall"}};
+  for (const auto& b : bad) {
+    CAPTURE(b.model);
+    write_toml(b.model);
+    CHECK_THROWS_WITH_AS(load_experiment((dir / "e.toml").string()), doctest::Contains(b.message), InputError);
+  }
   std::filesystem::remove_all(dir);
 }

@@ -154,6 +154,10 @@ const std::vector<KeyDoc>& key_docs() {
                                   "(stall_CN1_start; default where f0 falls below 0.7). Defaults T1 3, T2 1.5,\n"
                                   "Tv 6, Tvl 7 (Beddoes-Leishman's NACA 0012).",
        "stall_T1_start = 3.0"},
+      {"model", "stall_known", "with stall: parameters held at known values, not estimated (T1, T2, k0, k1,\n"
+                               "k2; with the vortex CN1, Tv, Tvl, cv, xv), e.g. a C_m fit taking T1 and T2\n"
+                               "from the C_L fit's model.coef. No start value for a held parameter.",
+       "stall_known = { T1 = 3.0, T2 = 1.5 }"},
   };
   return docs;
 }

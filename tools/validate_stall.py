@@ -25,7 +25,8 @@ What it does (every choice is stated in the report it prints):
     another amplitude than the fit.
  4. Four models per coefficient: quasi-steady (the static table alone), the report's model
     (a(x) of degree 2 with knots at 12 and 16 deg, b1 constant), the extended model (the
-    same plus the separation and vortex families, stall = "separation_and_vortex"), and the
+    same plus the separation and vortex families, stall = "separation_and_vortex"; for C_m with
+    T1 and T2 held at the extended C_L fit's values, model.stall_known), and the
     diagnosed model: `indicial diagnose` started from the report's model on the fit cycles,
     deciding by cross-validation over folds of the fit cycles (--max-folds 10: the held-out
     campaign is never seen by any choice), its final model.coef.
@@ -91,7 +92,7 @@ def static_polar(data, catalog, out):
     return rows
 
 
-def experiment(path, coefficient, runs, stall, vref):
+def experiment(path, coefficient, runs, stall, vref, known=None):
     lines = [f'axis = "pitch"', f'coefficient = "{coefficient}"', f'reference_length_m = {L_M}',
              f'airspeed_mps = {vref}', 'runs = [']
     for r in runs:
@@ -100,6 +101,8 @@ def experiment(path, coefficient, runs, stall, vref):
               'a_knots_deg = [12.0, 16.0]', 'b1_degree = 0']
     if stall:
         lines += ['stall = "separation_and_vortex"', 'stall_polar = "static.csv"', 'stall_polar_column = "CL"']
+        if known:
+            lines.append('stall_known = { ' + ', '.join(f'{k} = {v!r}' for k, v in known.items()) + ' }')
     with open(path, 'w') as f:
         f.write('\n'.join(lines) + '\n')
 
@@ -143,7 +146,11 @@ def main():
     for coef in ('CL', 'Cm'):
         for kind, stall in (('report', False), ('extended', True)):
             exp = os.path.join(work, f'exp-{coef}-{kind}.toml')
-            experiment(exp, coef, fit_runs, stall, vref)
+            # The extended C_m model takes its separation dynamics (T1, T2) from the extended
+            # C_L fit, held (model.stall_known), as Beddoes-Leishman's moment does.
+            cl = models.get(('CL', 'extended', 'json')) if (coef, kind) == ('Cm', 'extended') else None
+            known = {q['name']: q['value'] for q in cl['parameters'] if q['name'] in ('T1', 'T2')} if cl else None
+            experiment(exp, coef, fit_runs, stall, vref, known)
             out = os.path.join(work, f'fit-{coef}-{kind}')
             ok = run([exe, 'fit', exp, '--out', out, '--no-plots', '--quiet'])
             models[(coef, kind)] = os.path.join(out, 'model.coef') if ok else None
@@ -232,7 +239,8 @@ def report(results, polar, fit_runs, models):
             if fj:
                 p(f'* fit {coef} {kind}: {fj.get("termination", "?")}, s(v) = {fj.get("fit_error", float("nan")):.4g}, '
                   f'{fj.get("n_parameters", "?")} parameters, {fj.get("iterations", "?")} iterations, '
-                  f'runtime replay: {fj.get("runtime_check", {})}')
+                  f'runtime replay: {fj.get("runtime_check", {})}' +
+                  (f'; held (model.stall_known): {fj["held_parameters"]}' if fj.get('held_parameters') else ''))
             else:
                 p(f'* fit {coef} {kind}: FAILED (see stderr)')
         dj = models.get((coef, 'diagnosed', 'json'))

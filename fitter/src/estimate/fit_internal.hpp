@@ -58,6 +58,12 @@ struct StallStructure {
   std::vector<double> f0_x_rad, f0_value;
   SplineTerms f0_correction;
   double shedding_threshold_start = 1.0;  // N(x) where f0 first falls below 0.7 (above alpha_0)
+  std::vector<std::pair<ParamId, double>> known;  // StallConfig::known: held, not estimated
+  bool is_known(const ParamId& id) const {
+    for (const auto& k : known)
+      if (same_parameter(k.first, id)) return true;
+    return false;
+  }
 };
 
 struct UnsteadyStructure {
@@ -221,6 +227,8 @@ void ParameterLayout::build_unsteady(const S* structural, CoefficientModel<S, Ca
   m.delay_s = S(0);
   shape_stall(s_.stall, m.stall);
   for (int k = 0; k < n_struct_; ++k) set_parameter(ids_[static_cast<std::size_t>(k)], structural[k], m);
+  if (s_.stall.families != StallFamilies::none)
+    for (const auto& k : s_.stall.known) set_parameter(k.first, S(k.second), m);
 }
 
 // ------------------------------------------------------------------------------------------

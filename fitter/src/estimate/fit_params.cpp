@@ -217,20 +217,24 @@ std::vector<ParamId> structural_terms(const UnsteadyStructure& s) {
   }
   if (s.delay == DelayTerm::estimated) t.push_back(single(ParamKind::delay));
   // The dynamic-stall families: structural too (the output depends on their states).
+  // Known ones (model.stall_known) are held: set by build_unsteady, not in the vector.
+  auto add_stall = [&](const ParamId& id) {
+    if (!s.stall.is_known(id)) t.push_back(id);
+  };
   if (s.stall.families != StallFamilies::none) {
-    t.push_back(single(ParamKind::stall_tau1));
-    t.push_back(single(ParamKind::stall_tau2));
+    add_stall(single(ParamKind::stall_tau1));
+    add_stall(single(ParamKind::stall_tau2));
     add_spline_terms(t, s.stall.f0_correction, ParamKind::f0_power, ParamKind::f0_knot, 0);
     for (int k = 0; k < 3; ++k) {
       ParamId cp = single(ParamKind::stall_cp);
       cp.power = k;
-      t.push_back(cp);
+      add_stall(cp);
     }
   }
   if (s.stall.families == StallFamilies::separation_and_vortex) {
     for (ParamKind k : {ParamKind::shedding_threshold, ParamKind::vortex_decay,
                         ParamKind::vortex_travel, ParamKind::vortex_lift, ParamKind::vortex_cp})
-      t.push_back(single(k));
+      add_stall(single(k));
   }
   return t;
 }

@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fmt/format.h>
+#include <stdexcept>
 
 #include "estimate/fit_internal.hpp"
 #include "indicial/fitter/error.hpp"
@@ -38,6 +39,12 @@ StallStructure stall_structure(const StallConfig& c, const std::string& context_
   s.f0_correction.knots_rad = c.f0_correction.knots_rad;
   s.f0_correction.knot_power = c.f0_correction.knot_power;
   if (c.families == StallFamilies::none) return s;
+  for (const auto& [name, value] : c.known) {
+    ParamId id;
+    if (!parse_parameter_name(name, &id))  // experiment_toml.cpp admits only stall names
+      throw std::logic_error("stall_structure: known parameter '" + name + "' has no identity");
+    s.known.emplace_back(id, value);
+  }
   const std::string where = c.polar_path.empty() ? context_file : c.polar_path;
   const std::size_t n = c.polar_x_rad.size();
   if (n < 2 || c.polar_lift.size() != n)

@@ -536,7 +536,7 @@ std::set<std::string> model_keys() {
                                 "stall", "stall_polar", "stall_polar_column", "stall_attached_max_deg",
                                 "stall_f0_correction_degree", "stall_f0_correction_powers",
                                 "stall_f0_correction_knots_deg", "stall_T1_start", "stall_T2_start",
-                                "stall_CN1_start", "stall_Tv_start", "stall_Tvl_start"};
+                                "stall_CN1_start", "stall_Tv_start", "stall_Tvl_start", "stall_known"};
   for (int k = 1; k <= FitCapacity::max_lags; ++k)
     for (const std::string& key : lag_b_keys(k)) keys.insert(key);
   return keys;
@@ -623,6 +623,45 @@ Run read_run_of_files(const LoadContext& c, const RunEntry& entry, const Experim
   return run;
 }
 
+// model.stall_known = { T1 = 8.5, ... }: dynamic-stall parameters held at known values (not
+// estimated), each inside the runtime's feasible set (model.hpp check_stall_parameters). A
+// start value for a held parameter is refused: one of the two is a mistake.
+void read_stall_known(const TomlReader& r, const toml::table& mt, const toml::node& node, StallConfig& s) {
+  enum class Bound { any, positive, non_negative };
+  enum class Family { separation, vortex };
+  struct Known { const char* name; Bound bound; Family family; const char* start_key; };
+  static const Known names[] = {
+      {"T1", Bound::positive, Family::separation, "stall_T1_start"},
+      {"T2", Bound::non_negative, Family::separation, "stall_T2_start"},
+      {"k0", Bound::any, Family::separation, nullptr},
+      {"k1", Bound::any, Family::separation, nullptr},
+      {"k2", Bound::any, Family::separation, nullptr},
+      {"CN1", Bound::positive, Family::vortex, "stall_CN1_start"},
+      {"Tv", Bound::positive, Family::vortex, "stall_Tv_start"},
+      {"Tvl", Bound::positive, Family::vortex, "stall_Tvl_start"},
+      {"cv", Bound::any, Family::vortex, nullptr},
+      {"xv", Bound::any, Family::vortex, nullptr}};
+  for (auto&& [key, value] : r.table(node, "model.stall_known")) {
+    const std::string name(key.str()), where = "model.stall_known." + name;
+    const Known* k = nullptr;
+    for (const Known& n : names)
+      if (name == n.name) k = &n;
+    if (!k)
+      r.fail(key.source(), "'model.stall_known' names '" + name + "', not a dynamic-stall parameter (T1, T2, k0, "
+                           "k1, k2; with the vortex also CN1, Tv, Tvl, cv, xv)");
+    if (k->family == Family::vortex && s.families != StallFamilies::separation_and_vortex)
+      r.fail(key.source(), "'" + where + "' is a vortex parameter: it needs model.stall = \"separation_and_vortex\"");
+    const double v = r.number(value, where);
+    if (!std::isfinite(v)) r.fail(value, "'" + where + "' must be finite");
+    if (k->bound == Bound::positive && !(v > 0.0)) r.fail(value, "'" + where + "' must be > 0");
+    if (k->bound == Bound::non_negative && !(v >= 0.0)) r.fail(value, "'" + where + "' must be >= 0");
+    if (k->start_key && mt.get(k->start_key))
+      r.fail(key.source(), "'" + where + "' holds " + name + " at a known value, and 'model." + k->start_key +
+                               "' gives it a start value: drop one of the two");
+    s.known.emplace_back(name, v);
+  }
+}
+
 // [model] stall keys (the dynamic-stall families, ModelConfig::stall): which families, the
 // static lift polar they are derived from (default: the [static] table when the experiment
 // models its lift column), its attached part, the f0 correction's terms and the start values.
@@ -636,7 +675,7 @@ void read_stall_keys(LoadContext& c, const toml::node* model_node, Experiment& e
   for (const char* key : {"stall_polar", "stall_polar_column", "stall_attached_max_deg", "stall_T1_start",
                           "stall_T2_start", "stall_CN1_start", "stall_Tv_start", "stall_Tvl_start",
                           "stall_f0_correction_degree", "stall_f0_correction_powers",
-                          "stall_f0_correction_knots_deg"})
+                          "stall_f0_correction_knots_deg", "stall_known"})
     if (const toml::node* n = mt.get(key); n && s.families == StallFamilies::none)
       r.fail(*n, std::string("'model.") + key + "' is used only with model.stall = \"separation\" or "
                                                 "\"separation_and_vortex\"");
@@ -654,6 +693,7 @@ void read_stall_keys(LoadContext& c, const toml::node* model_node, Experiment& e
         r.fail(*n, std::string("'model.") + st.key + (st.lo < 0.0 ? "' must be >= 0" : "' must be > 0"));
     }
   read_spline_terms(c, mt, "stall_f0_correction", s.f0_correction);
+  if (const toml::node* n = mt.get("stall_known")) read_stall_known(r, mt, *n, s);
   if (const toml::node* n = mt.get("stall_polar")) {
     s.polar_path = c.resolve(r.string(*n, "model.stall_polar"));
     StaticConfig polar;
@@ -1037,6 +1077,11 @@ std::string write_experiment_toml(const Experiment& e, const std::vector<std::st
     if (st.shedding_threshold_start > 0.0) out += "stall_CN1_start = " + format_double(st.shedding_threshold_start) + "\n";
     out += "stall_Tv_start = " + format_double(st.decay_start) + "\n";
     out += "stall_Tvl_start = " + format_double(st.travel_start) + "\n";
+    if (!st.known.empty()) {
+      std::string list;
+      for (const auto& [name, value] : st.known) list += (list.empty() ? "" : ", ") + name + " = " + format_double(value);
+      out += "stall_known = { " + list + " }\n";
+    }
   }
   return out;
 }

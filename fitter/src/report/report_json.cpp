@@ -136,6 +136,10 @@ nlohmann::json fit_json(const FitResult& r, const Experiment& e, const FitOption
   }
   j["parameters"] = nlohmann::json::array();
   for (const ParameterEstimate& p : r.parameters) j["parameters"].push_back(parameter_json(p));
+  if (!e.model.stall.known.empty()) {
+    j["held_parameters"] = nlohmann::json::object();  // model.stall_known: not estimated
+    for (const auto& [name, value] : e.model.stall.known) j["held_parameters"][name] = value;
+  }
   if (e.rotary.estimate) {
     j["two_stage"] = nlohmann::json::array();
     for (const TwoStageIteration& it : r.two_stage) j["two_stage"].push_back(two_stage_iteration_json(it));

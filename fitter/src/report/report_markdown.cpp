@@ -115,6 +115,11 @@ std::string report_result(const FitResult& r, const Experiment& e) {
        "same corrected for the residuals' autocorrelation. rel. %: bound / |estimate|.\n\n";
   m += param_table(r.parameters);
   m += "\n";
+  if (!e.model.stall.known.empty()) {
+    std::string held;
+    for (const auto& [name, value] : e.model.stall.known) held += (held.empty() ? "" : ", ") + name + " = " + num(value);
+    m += "Held at known values (`model.stall_known`; not estimated, no bounds): " + held + ".\n\n";
+  }
 
   m += "### Per-run fit\n\n| run | samples | rms residual |\n|---|---:|---:|\n";
   for (const RunSeries& s : r.runs) m += fmt::format("| {} | {} | {} |\n", display_path(s.path, e), s.time_s.size(), num(run_fit_error(s)));

@@ -10,6 +10,7 @@
 #include <limits>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "indicial/model.hpp"
@@ -120,6 +121,10 @@ struct StallConfig {
   double shedding_threshold_start = 0.0;  // 0: from the polar (stall_polar.cpp)
   double decay_start = 6.0;
   double travel_start = 7.0;
+  // [model] stall_known = { T1 = 8.5, T2 = 5.0 }: stall parameters held at known values, not
+  // estimated (by name: T1 T2 k0 k1 k2, and CN1 Tv Tvl cv xv with the vortex), e.g. a C_m fit
+  // that takes its separation dynamics from the C_L fit, as Beddoes-Leishman's moment does.
+  std::vector<std::pair<std::string, double>> known;
 };
 
 struct ModelConfig {
