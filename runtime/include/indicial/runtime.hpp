@@ -959,6 +959,8 @@ inline StepStatus step_undelayed(const RuntimeModel<Scalar, Cap>& m, State<Scala
     if (Families == StallUse::none && m.stall != StallUse::none) return StepStatus::families_need_state;
   }
   const Clamped<Scalar> clamp = clamp_model_angle(m, in.motion_angle_rad);
+  // (A copy: the coefficients take it by reference, and the whole Clamped would live in memory.)
+  const Scalar table_x1 = clamp.model_x_rad;
   const AirspeedTerms<Scalar> v = airspeed_terms(m, s, in.airspeed_mps);
   StepBackup<Scalar, Cap> before;
   save(s, &before);
@@ -966,7 +968,7 @@ inline StepStatus step_undelayed(const RuntimeModel<Scalar, Cap>& m, State<Scala
   StallState<Scalar> stall_before[Cap::max_coefficients];
   if (Families != StallUse::none) std::memcpy(stall_before, families->stall, sizeof stall_before);
   const Scalar test = advance_coefficients<Families == StallUse::none ? CoefficientLoop::unrolled
-                                                                     : CoefficientLoop::rolled>(m, s, before, clamp.x_rad, clamp.model_x_rad,
+                                                                     : CoefficientLoop::rolled>(m, s, before, clamp.x_rad, table_x1,
                                            Scalar(in.rate_radps), Scalar(dt_s), v,
                                            static_cast<const DelayedForcing<Scalar, Cap>*>(nullptr),
                                            Families != StallUse::none ? families->stall : nullptr, value);

@@ -1147,7 +1147,7 @@ INDICIAL_HOT_INLINE typename Ops::V fitted_terms_with(const CoefficientModel<typ
   }
   // Why the test: most models have no static correction, whose value is 0 (curve + 0 is
   // curve); a call to learn that costs the step ~30 instructions per coefficient.
-  if (m.static_correction.n_powers + m.static_correction.n_knots > 0)
+  if ((m.static_correction.n_powers | m.static_correction.n_knots) != 0)
     curve = curve + spline_value_with<Ops>(m.static_correction, x_rad);
   return curve + l_over_v_s * spline_value_with<Ops>(m.rotary, x_rad) * rate_radps;
 }
