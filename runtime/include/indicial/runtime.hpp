@@ -827,7 +827,8 @@ INDICIAL_HOT_INLINE Scalar advance_coefficients(const RuntimeModel<Scalar, Cap>&
 #pragma GCC unroll 16
     for (int c = 0; c < Cap::max_coefficients; ++c) {
       if (c == m.set.n_coefficients) break;
-      test = test + coefficient(c);
+      const Scalar t = coefficient(c);
+      test = c == 0 ? t : test + t;  // (0 + t is not t in IEEE arithmetic: the add stays)
     }
   } else {
     for (int c = 0; c < m.set.n_coefficients; ++c) test = test + coefficient(c);
