@@ -765,12 +765,13 @@ inline Scalar advance_families(const CoefficientModel<Scalar, Cap>& cm, const St
 // the output not finite.
 template <class Scalar, class Cap>
 INDICIAL_HOT_INLINE Scalar advance_coefficient(const CoefficientModel<Scalar, Cap>& cm,
-                                               const StepGeometry<Scalar>& g,
+                                               const StepGeometry<Scalar>& g, const Scalar& x1,
+                                               const Scalar& forcing_x1,
                                                const StepEnd<Scalar, Cap>& end0, const Scalar& table_x1,
                                                Scalar rate, Scalar l_over_v_s,
                                                StepEnd<Scalar, Cap>* end1, Scalar* y, Scalar* value) {
-  const Scalar fitted = fitted_terms_with<ScalarOps<Scalar>>(cm, g.x1_rad, table_x1, rate, l_over_v_s);
-  advance_lags_to(cm, g, end0, end1, y);
+  const Scalar fitted = fitted_terms_with<ScalarOps<Scalar>>(cm, x1, table_x1, rate, l_over_v_s);
+  advance_lags_to(cm, g, x1, forcing_x1, end0, end1, y);
   *value = add_stepped_lag_states(cm, fitted, y);
   return finite_test(*value);
 }
@@ -791,7 +792,7 @@ enum class CoefficientLoop : int { rolled = 0, unrolled = 1 };
 // step keeps is finite). forcing == nullptr: no delay (the forcing angle is the angle).
 template <CoefficientLoop Loop, class Scalar, class Cap>
 INDICIAL_HOT_INLINE Scalar advance_coefficients(const RuntimeModel<Scalar, Cap>& m, State<Scalar, Cap>& s,
-                                                const StepBackup<Scalar, Cap>& before, Scalar x1,
+                                                const StepBackup<Scalar, Cap>& before, const Scalar& x1,
                                                 const Scalar& table_x1, Scalar rate, Scalar dt_s,
                                                 const AirspeedTerms<Scalar>& v,
                                                 const DelayedForcing<Scalar, Cap>* forcing,
@@ -809,13 +810,13 @@ INDICIAL_HOT_INLINE Scalar advance_coefficients(const RuntimeModel<Scalar, Cap>&
       gd.forcing_x1_rad = forcing->x1_rad[c];
       StepEnd<Scalar, Cap> delayed_end0 = before.end[c];
       delayed_end0.forcing_antiderivative = spline_antiderivative(cm.a, gd.forcing_x0_rad);
-      test = advance_coefficient(cm, gd, delayed_end0, table_x1, rate, v.l_over_v_s, &s.end[c],
-                                 s.y[c], &value[c]);
+      test = advance_coefficient(cm, gd, x1, forcing->x1_rad[c], delayed_end0, table_x1, rate,
+                                 v.l_over_v_s, &s.end[c], s.y[c], &value[c]);
     } else {
       // The old end as the previous step (or reset) left it: B_j(x_prev) and A(x_prev) --
       // bit for bit what advance_lags would evaluate again.
-      test = advance_coefficient(cm, g, before.end[c], table_x1, rate, v.l_over_v_s, &s.end[c],
-                                 s.y[c], &value[c]);
+      test = advance_coefficient(cm, g, x1, x1, before.end[c], table_x1, rate, v.l_over_v_s,
+                                 &s.end[c], s.y[c], &value[c]);
     }
     if (stall != nullptr)
       test = test + advance_families(cm, StallStep<Scalar>{g.x0_rad, x1, dt_s, v.l_over_v_s},
@@ -961,6 +962,7 @@ inline StepStatus step_undelayed(const RuntimeModel<Scalar, Cap>& m, State<Scala
   }
   const Clamped<Scalar> clamp = clamp_model_angle(m, in.motion_angle_rad);
   // (A copy: the coefficients take it by reference, and the whole Clamped would live in memory.)
+  const Scalar x1 = clamp.x_rad;
   const Scalar table_x1 = clamp.model_x_rad;
   const AirspeedTerms<Scalar> v = airspeed_terms(m, s, in.airspeed_mps);
   StepBackup<Scalar, Cap> before;
@@ -969,7 +971,7 @@ inline StepStatus step_undelayed(const RuntimeModel<Scalar, Cap>& m, State<Scala
   StallState<Scalar> stall_before[Cap::max_coefficients];
   if (Families != StallUse::none) std::memcpy(stall_before, families->stall, sizeof stall_before);
   const Scalar test = advance_coefficients<Families == StallUse::none ? CoefficientLoop::unrolled
-                                                                     : CoefficientLoop::rolled>(m, s, before, clamp.x_rad, table_x1,
+                                                                     : CoefficientLoop::rolled>(m, s, before, x1, table_x1,
                                            Scalar(in.rate_radps), Scalar(dt_s), v,
                                            static_cast<const DelayedForcing<Scalar, Cap>*>(nullptr),
                                            Families != StallUse::none ? families->stall : nullptr, value);

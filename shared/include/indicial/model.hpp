@@ -1065,18 +1065,19 @@ struct peel_first_lag : std::integral_constant<bool, !std::is_same<Scalar, float
 
 template <class Scalar, class Cap>
 INDICIAL_HOT_INLINE void advance_lags_to(const CoefficientModel<Scalar, Cap>& m, const StepGeometry<Scalar>& g,
+                                         const Scalar& x1_rad, const Scalar& forcing_x1_rad,
                                          const StepEnd<Scalar, Cap>& end0, StepEnd<Scalar, Cap>* end1,
                                          Scalar* y) {
-  end1->forcing_antiderivative = step_end_forcing(m, g.forcing_x1_rad);
+  end1->forcing_antiderivative = step_end_forcing(m, forcing_x1_rad);
   const Scalar forcing_integral = end1->forcing_antiderivative - end0.forcing_antiderivative;
   int first = 0;
   if (peel_first_lag<Scalar>::value) {
-    end1->b_antiderivative[0] = step_end_b(m, 0, g.x1_rad);
+    end1->b_antiderivative[0] = step_end_b(m, 0, x1_rad);
     advance_lag(m, g, end0, *end1, forcing_integral, 0, y);
     first = 1;
   }
   for (int j = first; j < m.n_lags; ++j) {
-    end1->b_antiderivative[j] = step_end_b(m, j, g.x1_rad);
+    end1->b_antiderivative[j] = step_end_b(m, j, x1_rad);
     advance_lag(m, g, end0, *end1, forcing_integral, j, y);
   }
 }
