@@ -785,6 +785,11 @@ INDICIAL_HOT_INLINE Scalar advance_coefficient(const CoefficientModel<Scalar, Ca
 // Why not for the families' and the delayed steps: each would be another copy of the
 // unrolled body in a Predictor's flash, for steps that cost 2-3x the plain one anyway.
 enum class CoefficientLoop : int { rolled = 0, unrolled = 1 };
+#if defined(__GNUC__) || defined(__clang__)
+#define INDICIAL_UNROLL _Pragma("GCC unroll 16")
+#else
+#define INDICIAL_UNROLL
+#endif
 
 // The model equations over one step for every coefficient, in place on s (whose lag states
 // and step ends `before` holds) and on the family states `stall` (nullptr: the model has
@@ -825,7 +830,7 @@ INDICIAL_HOT_INLINE Scalar advance_coefficients(const RuntimeModel<Scalar, Cap>&
   };
   Scalar test = Scalar(0);
   if (Loop == CoefficientLoop::unrolled) {
-#pragma GCC unroll 16
+    INDICIAL_UNROLL
     for (int c = 0; c < Cap::max_coefficients; ++c) {
       if (c == m.set.n_coefficients) break;
       const Scalar t = coefficient(c);
@@ -945,6 +950,20 @@ inline StepStatus reset(const RuntimeModel<Scalar, Cap>& m, DelayedState<Scalar,
 }
 
 namespace detail {
+// The family states a step with families overwrites in place, saved before it (as
+// StepBackup); nothing at all for the State's step (StallUse::none).
+template <StallUse Families, class Scalar, class Cap>
+struct FamilyBackup {
+  StallState<Scalar> stall[Cap::max_coefficients];
+  void save(const FamilyState<Scalar, Cap>* f) { std::memcpy(stall, f->stall, sizeof stall); }
+  void restore(FamilyState<Scalar, Cap>* f) const { std::memcpy(f->stall, stall, sizeof stall); }
+};
+template <class Scalar, class Cap>
+struct FamilyBackup<StallUse::none, Scalar, Cap> {
+  void save(const FamilyState<Scalar, Cap>*) {}
+  void restore(FamilyState<Scalar, Cap>*) const {}
+};
+
 // The undelayed step of a State, with the family states of `families` (nullptr: a model
 // without families). Why a template on whether there are families rather than a branch on
 // the pointer: the State's step then holds none of the families' code, and with it fewer
@@ -955,11 +974,8 @@ inline StepStatus step_undelayed(const RuntimeModel<Scalar, Cap>& m, State<Scala
                                  double dt_s, Scalar* out) {
   const StepStatus checked = check_step_input(s.phase, in, dt_s, out);
   if (checked != StepStatus::ok) return checked;
-  // Why one test for both: a model with neither (the common case) pays one branch.
-  if ((static_cast<int>(m.delay) | (Families == StallUse::none ? static_cast<int>(m.stall) : 0)) != 0) {
-    if (m.delay != DelayUse::none) return StepStatus::delay_needs_history;
-    if (Families == StallUse::none && m.stall != StallUse::none) return StepStatus::families_need_state;
-  }
+  if (m.delay != DelayUse::none) return StepStatus::delay_needs_history;
+  if (Families == StallUse::none && m.stall != StallUse::none) return StepStatus::families_need_state;
   const Clamped<Scalar> clamp = clamp_model_angle(m, in.motion_angle_rad);
   // (A copy: the coefficients take it by reference, and the whole Clamped would live in memory.)
   const Scalar x1 = clamp.x_rad;
@@ -968,8 +984,8 @@ inline StepStatus step_undelayed(const RuntimeModel<Scalar, Cap>& m, State<Scala
   StepBackup<Scalar, Cap> before;
   save(s, &before);
   Scalar value[Cap::max_coefficients];
-  StallState<Scalar> stall_before[Cap::max_coefficients];
-  if (Families != StallUse::none) std::memcpy(stall_before, families->stall, sizeof stall_before);
+  FamilyBackup<Families, Scalar, Cap> stall_before;
+  stall_before.save(families);
   const Scalar test = advance_coefficients<Families == StallUse::none ? CoefficientLoop::unrolled
                                                                      : CoefficientLoop::rolled>(m, s, before, x1, table_x1,
                                            Scalar(in.rate_radps), Scalar(dt_s), v,
@@ -977,7 +993,7 @@ inline StepStatus step_undelayed(const RuntimeModel<Scalar, Cap>& m, State<Scala
                                            Families != StallUse::none ? families->stall : nullptr, value);
   if (!std::isfinite(test)) {
     restore(before, &s);
-    if (Families != StallUse::none) std::memcpy(families->stall, stall_before, sizeof stall_before);
+    stall_before.restore(families);
     return StepStatus::non_finite_result;
   }
   commit(m, value, clamp.x_rad, v, &s, out);
