@@ -1141,7 +1141,7 @@ INDICIAL_HOT_INLINE typename Ops::V fitted_terms_with(const CoefficientModel<typ
                                                       const typename Ops::V& l_over_v_s) {
   using V = typename Ops::V;
   V curve;
-  if (INDICIAL_LIKELY(m.static_curve.kind == StaticKind::polynomial)) {
+  if (m.static_curve.kind == StaticKind::polynomial) {
     curve = spline_value_with<Ops>(m.static_curve.polynomial, x_rad);
   } else {
     Ops::table_value(m.static_curve, table_x_rad, &curve);
