@@ -80,7 +80,8 @@
 // which gives bit for bit what advance_lags gives. The step works in place on the State after
 // one block copy of what it overwrites (StepBackup), tests every number it keeps with one
 // isfinite (finite_test), and copies the block back if one is not finite; its input checks
-// are one branch on the inputs' bit patterns. A delayed coefficient recomputes A at the
+// are tests of the inputs' bit patterns. The State's step runs the coefficients unrolled
+// over the capacity (detail::CoefficientLoop). A delayed coefficient recomputes A at the
 // old end every step. The airspeed ratios (V / V_ref, l / V, the delay at V) are recomputed
 // only when the airspeed changes. With Scalar = float every per-step operation is in float
 // (clamp, axis factor, airspeed ratios), except the delayed path's clock, which is double.
@@ -694,9 +695,12 @@ inline StepStatus refused_step_input(int phase, const MotionInput& in, double dt
 }
 
 // The checks every step makes before touching anything. Why two passes: a good step answers
-// every question in one branch (angle and rate finite, 0 < dt_s <= max_step_dt_s and
-// 0 < airspeed_mps < Inf, each a range of the bit pattern read unsigned); only a refused
-// one asks them one by one for its status (refused_step_input, the same questions).
+// each question with one test of a bit pattern (angle and rate finite, 0 < dt_s <=
+// max_step_dt_s and 0 < airspeed_mps < Inf, each a range of the pattern read unsigned) and
+// one branch, never taken in a good run; only a refused step asks them again for its status
+// (refused_step_input, the same questions). Why a branch per question rather than one on
+// all the answers combined: 4 instructions fewer per double step, 7 per float one
+// (bench_step's callgrind count).
 INDICIAL_HOT_INLINE StepStatus check_step_input(int phase, const MotionInput& in, double dt_s, const void* out) {
   const std::uint64_t exponent = 0x7FF0000000000000u;
   const std::uint64_t a = static_cast<std::uint64_t>(double_bits(in.motion_angle_rad));
@@ -777,13 +781,15 @@ INDICIAL_HOT_INLINE Scalar advance_coefficient(const CoefficientModel<Scalar, Ca
 }
 
 // How advance_coefficients runs over the coefficients: in a loop, or unrolled over the
-// capacity (a copy of the coefficient's step per Cap::max_coefficients, each ending the step
-// at n_coefficients). Why unrolled for the State's step: no loop counters or per-coefficient
-// pointers live across the spline calls (state/model2/double 925 -> 905 instructions,
-// bench_step's callgrind count), and a model known at compile time (indicial codegen) is
-// folded into each copy (the Cortex-M4F step 912 -> 660 instructions, tools/run-cortex-m.sh).
-// Why not for the families' and the delayed steps: each would be another copy of the
-// unrolled body in a Predictor's flash, for steps that cost 2-3x the plain one anyway.
+// capacity (a copy of the coefficient's step per Cap::max_coefficients, the copies after
+// n_coefficients skipped). Why unrolled for the State's step: no loop counter or
+// per-coefficient pointers live across the spline calls (state/model2/double 925 -> 905
+// instructions, bench_step's callgrind count), and a model known at compile time (indicial
+// codegen) is folded into each copy (the Cortex-M4F step 912 -> 660 instructions, flash 128 B
+// less, tools/run-cortex-m.sh). The cost: a Predictor or a parsed model, not known at compile
+// time, carries the copies (flash +1.5 KB and +3.5 KB on the Cortex-M4F, whose steps are
+// still 7% and 3% fewer instructions). Why not for the families' and the delayed steps: more
+// copies in every Predictor's flash, for steps that cost 2-3x the plain one anyway.
 enum class CoefficientLoop : int { rolled = 0, unrolled = 1 };
 #if defined(__GNUC__) || defined(__clang__)
 #define INDICIAL_UNROLL _Pragma("GCC unroll 16")
@@ -834,7 +840,7 @@ INDICIAL_HOT_INLINE Scalar advance_coefficients(const RuntimeModel<Scalar, Cap>&
     for (int c = 0; c < Cap::max_coefficients; ++c) {
       if (c == m.set.n_coefficients) break;
       const Scalar t = coefficient(c);
-      test = c == 0 ? t : test + t;  // (0 + t is not t in IEEE arithmetic: the add stays)
+      test = c == 0 ? t : test + t;  // (0 + t is t only for t != -0: the compiler keeps the add)
     }
   } else {
     for (int c = 0; c < m.set.n_coefficients; ++c) test = test + coefficient(c);
@@ -977,7 +983,8 @@ inline StepStatus step_undelayed(const RuntimeModel<Scalar, Cap>& m, State<Scala
   if (m.delay != DelayUse::none) return StepStatus::delay_needs_history;
   if (Families == StallUse::none && m.stall != StallUse::none) return StepStatus::families_need_state;
   const Clamped<Scalar> clamp = clamp_model_angle(m, in.motion_angle_rad);
-  // (A copy: the coefficients take it by reference, and the whole Clamped would live in memory.)
+  // Copies: the spline evaluations take their angle by reference, and a reference into the
+  // Clamped would keep all of it in memory (3 instructions per step, bench_step's count).
   const Scalar x1 = clamp.x_rad;
   const Scalar table_x1 = clamp.model_x_rad;
   const AirspeedTerms<Scalar> v = airspeed_terms(m, s, in.airspeed_mps);

@@ -151,6 +151,7 @@ inline Scalar int_power(const Scalar& u, int p) {
 #if defined(__GNUC__) || defined(__clang__)
 #define INDICIAL_HOT_INLINE inline __attribute__((always_inline))
 #define INDICIAL_HOT_LAMBDA __attribute__((always_inline))
+// The usual outcome of a branch, for the code's layout only (the other side out of line).
 #define INDICIAL_LIKELY(c) __builtin_expect(static_cast<bool>(c), 1)
 #else
 #define INDICIAL_HOT_INLINE inline
@@ -796,6 +797,7 @@ inline void interval_mean_with(const Spline<typename Ops::Scalar, P, K>& s,
   const V dx = x1 - x0;
   const auto small = Ops::abs_less(dx, detail::interval_mean_threshold<Scalar>::value);
   const auto quotient = [&] { return V((antiderivative_x1 - antiderivative_x0) / dx); };
+  // (Likely: only a step that barely moves takes the midpoint; GCC guessed the other way.)
   if (INDICIAL_LIKELY(!Ops::any(small))) {
     *mean = quotient();
     return;
@@ -1059,7 +1061,10 @@ INDICIAL_HOT_INLINE void advance_lags_between(const CoefficientModel<Scalar, Cap
 // coefficient (the report's Models I and II) runs no loop and no j == 0 test: 33 instructions
 // fewer per double step (bench_step's callgrind count). Not in float: there the exp is
 // exp_on, inlined, and a second copy of it cost the Cortex-M4F 768 bytes of flash and 12
-// instructions per step (tools/run-cortex-m.sh).
+// instructions per step (tools/run-cortex-m.sh). The new end's angles x1_rad and
+// forcing_x1_rad are g's, passed apart as references to the caller's variables: the spline
+// evaluations take their angle by reference, and taking it from g would keep the whole
+// StepGeometry in memory (7 instructions per double step, bench_step's callgrind count).
 template <class Scalar>
 struct peel_first_lag : std::integral_constant<bool, !std::is_same<Scalar, float>::value> {};
 
@@ -1129,10 +1134,11 @@ inline void steady_state(const CoefficientModel<Scalar, Cap>& m, const Scalar& x
 // cycles' range must see the measured static curve where the angle really is, not frozen at
 // the envelope's edge; a polynomial has no range of its own in the model but the envelope it
 // was fitted or checked in. Inside the envelope both angles are the same.
-// In two parts, fitted_terms_with and add_lag_states_with (coefficient_output_with is the one
-// after the other): the runtime's step evaluates the fitted terms before it advances the lags
-// (independent work, so the same bits), and adds the lag states while they are still in
-// registers (bench_step's callgrind count).
+// fitted_terms_with is the first part (static + correction + rotary), coefficient_output_with
+// adds the lag states to it in order. Why apart: the runtime's step evaluates the fitted terms
+// before it advances the lags (independent work, hence the same bits) and adds the new lag
+// states while they are still in registers (add_stepped_lag_states; 6 instructions per double
+// step, bench_step's callgrind count).
 template <class Ops, class Cap>
 INDICIAL_HOT_INLINE typename Ops::V fitted_terms_with(const CoefficientModel<typename Ops::Scalar, Cap>& m,
                                                       const typename Ops::V& x_rad,
@@ -1147,17 +1153,11 @@ INDICIAL_HOT_INLINE typename Ops::V fitted_terms_with(const CoefficientModel<typ
     Ops::table_value(m.static_curve, table_x_rad, &curve);
   }
   // Why the test: most models have no static correction, whose value is 0 (curve + 0 is
-  // curve); a call to learn that costs the step ~30 instructions per coefficient.
+  // curve); a call to learn that costs the step ~30 instructions per coefficient. (| rather
+  // than +: the counts are never negative, and the test is one instruction shorter.)
   if ((m.static_correction.n_powers | m.static_correction.n_knots) != 0)
     curve = curve + spline_value_with<Ops>(m.static_correction, x_rad);
   return curve + l_over_v_s * spline_value_with<Ops>(m.rotary, x_rad) * rate_radps;
-}
-
-template <class Ops, class Cap>
-INDICIAL_HOT_INLINE typename Ops::V add_lag_states_with(const CoefficientModel<typename Ops::Scalar, Cap>& m,
-                                                        typename Ops::V sum, const typename Ops::V* y) {
-  for (int j = 0; j < m.n_lags; ++j) sum = sum + y[j];
-  return sum;
 }
 
 template <class Ops, class Cap>
@@ -1167,7 +1167,9 @@ INDICIAL_HOT_INLINE typename Ops::V coefficient_output_with(const CoefficientMod
                                                const typename Ops::V& rate_radps,
                                                const typename Ops::V& l_over_v_s,
                                                const typename Ops::V* y) {
-  return add_lag_states_with<Ops>(m, fitted_terms_with<Ops>(m, x_rad, table_x_rad, rate_radps, l_over_v_s), y);
+  typename Ops::V sum = fitted_terms_with<Ops>(m, x_rad, table_x_rad, rate_radps, l_over_v_s);
+  for (int j = 0; j < m.n_lags; ++j) sum = sum + y[j];
+  return sum;
 }
 
 // Inside the envelope: one angle for every term.
