@@ -126,6 +126,11 @@ class Experiment:
       runs                 a list of ``Run``
       axis                 "pitch" (default), "roll" or "yaw"; alpha0_rad for roll and yaw
       static_polynomial    C_a(x) coefficients of x^0, x^1, ... (x in rad)
+      static_table_x_rad, static_table_value
+                           instead of static_polynomial: the static curve as a table
+                           ([static] table): x = alpha (pitch) or beta (roll, yaw) in rad,
+                           strictly increasing, 2..64 rows covering the runs' x; the measured
+                           coefficient's value at each (linear between rows)
       rotary_polynomial    a priori C_aq(x) coefficients of x^0, x^1, ...
       rotary_estimate      True: the two-stage loop re-estimates C_aq(x) from
                            rotary_powers / rotary_knots_rad candidates
@@ -134,6 +139,28 @@ class Experiment:
       bias                 the state-equation constant con
       structure            "fixed" or "stepwise" (the terms are then a candidate pool)
       lags                 number of lag states (1 or 2)
+      delay                "none" (default) or "estimated": a pure delay of the unsteady forcing,
+                           parameter delay_s (s at V); delay_start_s its start value, s in [0, 1]
+      The dynamic-stall families ([model] stall keys of docs/formats.md, same names and checks):
+      stall                "none" (default), "separation" (the separation state f) or
+                           "separation_and_vortex" (f and the leading-edge vortex)
+      stall_polar_alpha_rad, stall_polar_lift
+                           the static lift polar (alpha in rad, strictly increasing; C_L); default:
+                           the static table, when the coefficient is stall_polar_column
+      stall_polar_column   the polar's lift column, default "CL"
+      stall_attached_max_deg  polar rows with abs(alpha) <= this (deg, default 8) are its
+                           attached part (C_Na, alpha_0)
+      stall_f0_correction_powers, stall_f0_correction_knots_rad
+                           a fitted correction of f0(x): powers of x and (x - k)_+ knots, k in rad
+      stall_T1_start, stall_T2_start, stall_Tv_start, stall_Tvl_start
+                           start values in semichords (units of l / V; default 3, 1.5, 6, 7;
+                           T2 >= 0, the others > 0)
+      stall_CN1_start      start value of the shedding threshold (C_N; default from the polar)
+      stall_known          {name: value} of stall parameters held at known values, not estimated:
+                           T1, T2 (l / V), k0, k1, k2, and with the vortex CN1 (C_N), Tv, Tvl
+                           (l / V), cv, xv; e.g. {"T1": 3.4, "T2": 1.1} from the C_L fit's model
+      Every stall_* keyword needs ``stall``. Bad values raise InputError naming the keyword, with
+      the experiment file's messages.
     """
 
     def __init__(self, *, coefficient: str, reference_length_m: float, airspeed_mps: float,
@@ -143,7 +170,14 @@ class Experiment:
                  rotary_knots_rad: Sequence[float] = (), a_powers: Sequence[int] = (0, 1, 2),
                  a_knots_rad: Sequence[float] = (), b1_powers: Sequence[int] = (0,),
                  b1_knots_rad: Sequence[float] = (), bias: bool = False, structure: str = "fixed",
-                 lags: int = 1, name: str = "experiment"):
+                 lags: int = 1, name: str = "experiment", static_table_x_rad=None, static_table_value=None,
+                 delay: Optional[str] = None, delay_start_s: Optional[float] = None, stall: Optional[str] = None,
+                 stall_polar_alpha_rad=None, stall_polar_lift=None, stall_polar_column: Optional[str] = None,
+                 stall_attached_max_deg: Optional[float] = None,
+                 stall_f0_correction_powers: Optional[Sequence[int]] = None, stall_f0_correction_knots_rad=None,
+                 stall_T1_start: Optional[float] = None, stall_T2_start: Optional[float] = None,
+                 stall_CN1_start: Optional[float] = None, stall_Tv_start: Optional[float] = None,
+                 stall_Tvl_start: Optional[float] = None, stall_known: Optional[Dict[str, float]] = None):
         if axis not in _ANGLE:
             raise InputError(f"axis: expected one of 'pitch', 'roll', 'yaw', found '{axis}'")
         config = dict(coefficient=coefficient, reference_length_m=float(reference_length_m),
@@ -154,6 +188,18 @@ class Experiment:
                       rotary_knots_rad=list(rotary_knots_rad), a_powers=list(a_powers), a_knots_rad=list(a_knots_rad),
                       b1_powers=list(b1_powers), b1_knots_rad=list(b1_knots_rad), bias=bool(bias),
                       structure=structure, lags=int(lags), name=name)
+        # The keywords of the experiment file's extensions: None is "not given" (the file's
+        # default), as a key left out of the file.
+        config.update(static_table_x_rad=static_table_x_rad, static_table_value=static_table_value, delay=delay,
+                      delay_start_s=delay_start_s, stall=stall, stall_polar_alpha_rad=stall_polar_alpha_rad,
+                      stall_polar_lift=stall_polar_lift, stall_polar_column=stall_polar_column,
+                      stall_attached_max_deg=stall_attached_max_deg,
+                      stall_f0_correction_powers=None if stall_f0_correction_powers is None
+                      else list(stall_f0_correction_powers),
+                      stall_f0_correction_knots_rad=stall_f0_correction_knots_rad, stall_T1_start=stall_T1_start,
+                      stall_T2_start=stall_T2_start, stall_CN1_start=stall_CN1_start, stall_Tv_start=stall_Tv_start,
+                      stall_Tvl_start=stall_Tvl_start,
+                      stall_known=None if stall_known is None else dict(stall_known))
         for i, r in enumerate(runs):
             if not isinstance(r, Run):
                 raise TypeError(f"runs[{i}]: expected indicial.Run, got {type(r).__name__}")
@@ -194,9 +240,15 @@ class Experiment:
         return self._e.runs
 
     def write_files(self, directory: str, force: bool = False) -> None:
-        """Writes DIR/experiment.toml and DIR/run<i>.csv, which ``indicial fit DIR/experiment.toml``
-        reads back to exactly these numbers. Refuses a non-empty DIR unless force=True."""
+        """Writes DIR/experiment.toml and DIR/run<i>.csv (and DIR/static_table.csv with a static
+        table, DIR/stall_polar.csv with a lift polar of its own), which ``indicial fit
+        DIR/experiment.toml`` reads back to exactly these numbers. Refuses a non-empty DIR unless
+        force=True."""
         self._e.write_files(str(directory), force)
+
+    def toml_text(self) -> str:
+        """The experiment.toml ``write_files`` writes (every key, the extensions included)."""
+        return self._e.toml_text()
 
     def __repr__(self) -> str:
         return (f"<indicial.Experiment {self.path!r}: {self.coefficient} ({self.axis}), {len(self.runs)} runs, "

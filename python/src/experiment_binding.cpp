@@ -8,6 +8,8 @@
 // same Savitzky-Golay derivative when not given. The configuration gets load_experiment's
 // checks that do not depend on TOML: knots strictly inside the data's angle range, the
 // runtime's capacity, at least one moving run. Messages name the run ("run 2 (name): ...").
+// The static table, delay and stall keywords get the file reader's own checks and messages
+// (experiment_checks.hpp, called by both), naming the keyword where the file names its line.
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -15,6 +17,7 @@
 #include "bindings.hpp"
 
 #include "indicial/fitter/error.hpp"
+#include "indicial/fitter/experiment_checks.hpp"
 #include "indicial/fitter/io.hpp"
 #include "indicial/fitter/output.hpp"
 
@@ -136,6 +139,115 @@ void check_capacity(Experiment& e, const SplineConfig& s, const std::string& key
   }
 }
 
+bool given(const py::dict& c, const char* key) { return c.contains(key) && !c[key].is_none(); }
+
+// The finite numbers of an array keyword (empty when not given).
+std::vector<double> finite_doubles(const py::dict& c, const char* key) {
+  std::vector<double> v = doubles(c, key);
+  const std::string bad = first_non_finite(v, key);
+  if (!bad.empty()) throw InputError(bad);
+  return v;
+}
+
+// A table from two array keywords (angles `x_key` in rad, values `value_key`), with the checks
+// a static table file gets (experiment_checks.hpp); messages name the keyword and the index.
+void read_array_table(const py::dict& c, const char* x_key, const char* value_key, std::vector<double>& x_rad,
+                      std::vector<double>& value) {
+  if (given(c, x_key) != given(c, value_key))
+    throw InputError(given(c, x_key) ? value_key : x_key, 0,
+                     std::string("required with ") + (given(c, x_key) ? x_key : value_key) + " (the table's " +
+                         (given(c, x_key) ? "values" : "angles, rad") + ")");
+  x_rad = finite_doubles(c, x_key);
+  value = finite_doubles(c, value_key);
+  const std::vector<double>& x = x_rad;
+  check_static_table(x_rad, value,
+                     TableSite{[x_key](std::size_t row, const std::string& problem) {
+                                 return InputError(row == static_cast<std::size_t>(-1)
+                                                       ? std::string(x_key)
+                                                       : std::string(x_key) + "[" + std::to_string(row) + "]",
+                                                   0, problem);
+                               },
+                               [&x](std::size_t row) { return format_double(x[row]); }});
+}
+
+// static_table_x_rad + static_table_value: the [static] table (x = alpha in pitch, beta in roll
+// and yaw, rad), instead of static_polynomial. Named in messages as its keyword.
+void read_static_table_keywords(const py::dict& c, Experiment& e) {
+  if (!given(c, "static_table_x_rad") && !given(c, "static_table_value")) return;
+  if (!e.static_curve.polynomial.empty())
+    throw InputError("static_table_x_rad", 0, "give static_polynomial or static_table_x_rad and static_table_value, "
+                                              "not both");
+  StaticConfig& st = e.static_curve;
+  read_array_table(c, "static_table_x_rad", "static_table_value", st.table_x_rad, st.table_value);
+  st.kind = StaticKind::table;
+  st.table_path = "static_table_x_rad";
+  if (st.table_x_rad.size() > static_cast<std::size_t>(DefaultCapacity::max_table_points))
+    throw InputError("'static_table_x_rad' needs " + std::to_string(st.table_x_rad.size()) +
+                     " rows; the runtime (indicial::DefaultCapacity) holds at most " +
+                     std::to_string(DefaultCapacity::max_table_points));
+}
+
+// The shared checks' KeySite for keywords: a [model] key's keyword (the same name, but
+// stall_polar_alpha_rad for the polar and the f0 correction's knots in rad), a message as is.
+KeySite keyword_site() {
+  return KeySite{[](const std::string& key) {
+                   if (key == "stall_polar") return std::string("stall_polar_alpha_rad");
+                   if (key == "stall_f0_correction_knots_deg") return std::string("stall_f0_correction_knots_rad");
+                   if (key.rfind("stall_known.", 0) == 0) return "stall_known[\"" + key.substr(12) + "\"]";
+                   return key;
+                 },
+                 [](const std::string&, const std::string& problem) { throw InputError(problem); }};
+}
+
+// delay = "estimated" and delay_start_s (s at V_ref).
+void read_delay_keywords(const py::dict& c, ModelConfig& m) {
+  if (given(c, "delay")) m.delay = choice<DelayEstimation>("delay", c["delay"].cast<std::string>());
+  if (given(c, "delay_start_s")) m.delay_start_s = c["delay_start_s"].cast<double>();
+  check_delay_keys(m, given(c, "delay_start_s"), keyword_site());
+}
+
+// The dynamic-stall keywords (StallConfig; the [model] stall keys of docs/formats.md): read,
+// then the experiment file's checks (check_stall_keys), then the polar: the arrays
+// stall_polar_alpha_rad + stall_polar_lift, or the static table of the polar's column.
+void read_stall_keywords(const py::dict& c, Experiment& e) {
+  StallConfig& s = e.model.stall;
+  if (given(c, "stall")) s.families = choice<StallFamilies>("stall", c["stall"].cast<std::string>());
+  const std::pair<const char*, const char*> keys[] = {
+      {"stall_polar_alpha_rad", "stall_polar"}, {"stall_polar_lift", "stall_polar"},
+      {"stall_polar_column", "stall_polar_column"}, {"stall_attached_max_deg", "stall_attached_max_deg"},
+      {"stall_T1_start", "stall_T1_start"}, {"stall_T2_start", "stall_T2_start"}, {"stall_CN1_start", "stall_CN1_start"},
+      {"stall_Tv_start", "stall_Tv_start"}, {"stall_Tvl_start", "stall_Tvl_start"},
+      {"stall_f0_correction_powers", "stall_f0_correction_powers"},
+      {"stall_f0_correction_knots_rad", "stall_f0_correction_knots_deg"}, {"stall_known", "stall_known"}};
+  std::set<std::string> present;
+  for (const auto& [keyword, key] : keys)
+    if (given(c, keyword)) present.insert(key);
+  if (given(c, "stall_polar_column")) s.polar_column = c["stall_polar_column"].cast<std::string>();
+  for (const auto& [key, value] : {std::pair{"stall_attached_max_deg", &s.attached_max_deg},
+                                   {"stall_T1_start", &s.tau1_start}, {"stall_T2_start", &s.tau2_start},
+                                   {"stall_CN1_start", &s.shedding_threshold_start}, {"stall_Tv_start", &s.decay_start},
+                                   {"stall_Tvl_start", &s.travel_start}})
+    if (given(c, key)) *value = c[key].cast<double>();
+  if (given(c, "stall_known")) {
+    for (const auto& [name, value] : c["stall_known"].cast<py::dict>())
+      s.known.emplace_back(py::str(name).cast<std::string>(), value.cast<double>());
+    // The order the experiment file's reader gives (toml++ tables are sorted by key).
+    std::sort(s.known.begin(), s.known.end());
+  }
+  check_stall_keys(s, present, keyword_site());
+  if (s.families == StallFamilies::none) return;
+  s.f0_correction.powers = ints(c, "stall_f0_correction_powers", {});
+  s.f0_correction.knots_rad = finite_doubles(c, "stall_f0_correction_knots_rad");
+  if (given(c, "stall_polar_alpha_rad") || given(c, "stall_polar_lift")) {
+    read_array_table(c, "stall_polar_alpha_rad", "stall_polar_lift", s.polar_x_rad, s.polar_lift);
+    s.polar_path = "stall_polar_alpha_rad";
+  } else if (!stall_polar_from_static_table(e, s)) {
+    throw InputError("stall", 0, "the dynamic-stall families need the static lift polar: give stall_polar_alpha_rad "
+                                 "and stall_polar_lift, or a static table (static_table_x_rad, static_table_value) of "
+                                 "the polar's column stall_polar_column = '" + s.polar_column + "'");
+  }
+}
+
 void read_model_config(const py::dict& c, Experiment& e) {
   ModelConfig& m = e.model;
   m.a.powers = ints(c, "a_powers", m.a.powers);
@@ -160,6 +272,9 @@ void read_model_config(const py::dict& c, Experiment& e) {
   }
   if (m.a.powers.empty() && m.a.knots_rad.empty()) throw InputError("a_powers", 0, "a(x) needs at least one term");
   if (m.b1.powers.empty() && m.b1.knots_rad.empty()) throw InputError("b1_powers", 0, "b1(x) needs at least one term");
+  read_static_table_keywords(c, e);
+  read_delay_keywords(c, m);
+  read_stall_keywords(c, e);
 }
 
 std::shared_ptr<Experiment> make_experiment(const py::dict& c, const py::list& runs) {
@@ -190,6 +305,10 @@ std::shared_ptr<Experiment> make_experiment(const py::dict& c, const py::list& r
   check_knots(*e, e->rotary.candidates.knots_rad, "rotary_knots_rad");
   check_capacity(*e, e->model.a, "a_powers / a_knots_rad", true);
   check_capacity(*e, e->model.b1, "b1_powers / b1_knots_rad", true);
+  check_knots(*e, e->model.stall.f0_correction.knots_rad, "stall_f0_correction_knots_rad");
+  check_capacity(*e, e->model.stall.f0_correction, "stall_f0_correction_powers / stall_f0_correction_knots_rad", false);
+  const std::string uncovered = static_table_coverage_problem(*e);
+  if (!uncovered.empty()) throw InputError(uncovered);
   if (std::none_of(e->runs.begin(), e->runs.end(), [](const Run& r) {
         const auto [lo, hi] = std::minmax_element(r.motion_angle_rad.begin(), r.motion_angle_rad.end());
         return *hi - *lo > 1e-9;
@@ -199,24 +318,46 @@ std::shared_ptr<Experiment> make_experiment(const py::dict& c, const py::list& r
   return e;
 }
 
-// The experiment as files the command line reads: DIR/experiment.toml and DIR/run<i>.csv (the
-// angles in rad and the rate in rad/s as the shortest round-trip numbers, so the command line
-// reads back exactly these doubles). Whole or nothing (OutputDir).
-void write_files(const Experiment& e, const std::string& dir, bool force) {
-  if (e.static_curve.kind == StaticKind::table)
-    throw InputError(dir, 0, "an experiment with a static table is written by its own file; write the polynomial "
-                             "form or use the original experiment file");
-  OutputDir out(dir, force ? Overwrite::replace : Overwrite::refuse);
+// The experiment as files the command line reads: experiment.toml, run<i>.csv, and with a
+// static table static_table.csv (alpha_rad or beta_rad and the coefficient), with a stall
+// polar of its own stall_polar.csv (alpha_rad and the polar's column). The angles in rad and
+// the rate in rad/s as the shortest round-trip numbers, so the command line reads back exactly
+// these doubles. Returns (file name, text) pairs, experiment.toml last.
+std::vector<std::pair<std::string, std::string>> experiment_files(const Experiment& e) {
+  std::vector<std::pair<std::string, std::string>> files;
   Experiment copy = e;
+  const std::string x_column = std::string(e.axis == Axis::pitch ? "alpha" : "beta") + "_rad";
   for (std::size_t i = 0; i < copy.runs.size(); ++i) {
     Run& run = copy.runs[i];
     run.path = "run" + std::to_string(i + 1) + ".csv";
     std::vector<CsvColumn> cols{{"time_s", run.time_s}, {std::string(angle_base(e.axis)) + "_rad", run.motion_angle_rad}};
     if (run.rate_from_file) cols.push_back({std::string(rate_base(e.axis)) + "_radps", run.rate_radps});
     cols.push_back({e.coefficient, run.coefficient});
-    out.write(run.path, write_run_csv(cols, {"written by indicial (Python) from " + e.runs[i].path}));
+    files.emplace_back(run.path, write_run_csv(cols, {"written by indicial (Python) from " + e.runs[i].path}));
   }
-  out.write("experiment.toml", write_experiment_toml(copy, {"written by indicial (Python)"}));
+  StallConfig& st = copy.model.stall;
+  // The polar is the static table's file only when the reader takes it from there by default.
+  const bool polar_in_table = st.polar_path == e.static_curve.table_path && e.coefficient == st.polar_column;
+  if (e.static_curve.kind == StaticKind::table) {
+    copy.static_curve.table_path = "static_table.csv";
+    files.emplace_back(copy.static_curve.table_path,
+                       write_run_csv({{x_column, e.static_curve.table_x_rad}, {e.coefficient, e.static_curve.table_value}},
+                                     {"the static table, written by indicial (Python)"}));
+  }
+  if (st.families != StallFamilies::none) {
+    st.polar_path = polar_in_table ? copy.static_curve.table_path : "stall_polar.csv";
+    if (!polar_in_table)
+      files.emplace_back(st.polar_path, write_run_csv({{"alpha_rad", st.polar_x_rad}, {st.polar_column, st.polar_lift}},
+                                                      {"the static lift polar, written by indicial (Python)"}));
+  }
+  files.emplace_back("experiment.toml", write_experiment_toml(copy, {"written by indicial (Python)"}));
+  return files;
+}
+
+// experiment_files() into DIR, whole or nothing (OutputDir).
+void write_files(const Experiment& e, const std::string& dir, bool force) {
+  OutputDir out(dir, force ? Overwrite::replace : Overwrite::refuse);
+  for (const auto& [name, text] : experiment_files(e)) out.write(name, text);
   out.commit();
 }
 
@@ -254,7 +395,7 @@ void bind_experiment(py::module_& m) {
         return l;
       })
       .def("write_files", &write_files, py::arg("dir"), py::arg("force") = false)
-      .def("toml_text", [](const Experiment& e) { return write_experiment_toml(e, {}); });
+      .def("toml_text", [](const Experiment& e) { return experiment_files(e).back().second; });
 
   m.def("_load_experiments", [](const std::string& path) {
     std::vector<Experiment> es = load_experiments(path);

@@ -47,3 +47,38 @@ def cli_fit(case_dir, tmp_path_factory):
 def py_fit(case_dir):
     import indicial
     return indicial.fit(indicial.Experiment.from_toml(str(case_dir / "experiment.toml")), warn=False)
+
+
+@pytest.fixture
+def stall_experiment_kwargs():
+    """Experiment(...) keywords of a measured-like pitching-airfoil experiment: two periodic
+    C_L cycles (alpha 4..24 deg, k = 0.1, at 30 and 20 m/s) of a NACA 0012-like lift polar
+    (Kirchhoff with Leishman-Beddoes' f0) seen 4 ms late, with white noise (sigma 0.01, seeded),
+    the polar as the static table (-12..36 deg), the separation and vortex families, T2 and Tvl
+    held at known values. The data need not come from the stall model: the tests that use it
+    compare two paths to the same fit, or refuse bad keywords."""
+    import numpy as np
+    import indicial
+    deg = np.pi / 180
+
+    def lift(x):
+        a = np.abs(x) / deg
+        f0 = np.where(a <= 15.25, 1 - 0.3 * np.exp((a - 15.25) / 3), 0.04 + 0.66 * np.exp((15.25 - a) / 2.3))
+        return 6.3 * x * ((1 + np.sqrt(f0)) / 2) ** 2
+
+    length_m = 0.275
+
+    def cycle(airspeed_mps, seed):
+        omega = 0.1 * airspeed_mps / length_m
+        t = np.arange(128) * (2 * np.pi / omega) / 128
+        alpha = (14 - 10 * np.cos(omega * t)) * deg
+        late = (14 - 10 * np.cos(omega * (t - 0.004))) * deg
+        noise = 0.01 * np.random.default_rng(seed).standard_normal(t.size)
+        return indicial.Run(time_s=t, alpha_rad=alpha, coefficient=lift(late) + noise, periodic=True,
+                            airspeed_mps=airspeed_mps, name=f"cycle at {airspeed_mps} m/s")
+
+    table_rad = np.arange(-12, 37) * deg
+    return dict(coefficient="CL", reference_length_m=length_m, airspeed_mps=30.0,
+                runs=[cycle(30.0, 1), cycle(20.0, 2)], a_powers=[0], b1_powers=[0],
+                static_table_x_rad=table_rad, static_table_value=lift(table_rad),
+                stall="separation_and_vortex", stall_T1_start=2.5, stall_known={"T2": 1.5, "Tvl": 7.0})

@@ -99,3 +99,62 @@ def test_write_files_refuses_a_non_empty_directory(tmp_path):
     back = indicial.Experiment.from_toml(str(tmp_path / "x" / "experiment.toml"))
     assert np.array_equal(back.runs[0]["motion_angle_rad"], e.runs[0]["motion_angle_rad"])
     assert np.array_equal(back.runs[0]["rate_radps"], e.runs[0]["rate_radps"])
+
+
+def _bad_table():
+    x = np.arange(-12, 37) * np.pi / 180
+    x[3] = x[2]
+    return x
+
+
+# One bad keyword each: InputError naming the keyword, with the experiment file's message
+# (experiment_checks.hpp: the same checks and words as the TOML reader, the keyword for the
+# file's 'model.' key and line).
+@pytest.mark.parametrize("change, message", [
+    (dict(static_table_x_rad=_bad_table()),
+     r"static_table_x_rad\[3\]: the angle column is not strictly increasing \(-0.17453292519943295 after -0.17453292519943295\)"),
+    (dict(static_table_x_rad=[0.0], static_table_value=[0.0]), r"static_table_x_rad\[0\]: a static table needs at least 2 rows"),
+    (dict(static_table_x_rad=np.linspace(-0.3, 0.7, 70), static_table_value=np.zeros(70)),
+     "'static_table_x_rad' needs 70 rows; the runtime \\(indicial::DefaultCapacity\\) holds at most 64"),
+    (dict(static_table_value=None), "static_table_value: required with static_table_x_rad"),
+    (dict(static_table_value=np.full(49, np.nan)), r"static_table_value\[0\] is NaN"),
+    (dict(static_table_value=np.zeros(48)), "static_table_x_rad: the table has 49 angles and 48 values"),
+    (dict(static_polynomial=[0.0, 6.0]), "static_table_x_rad: give static_polynomial or static_table_x_rad"),
+    (dict(static_table_x_rad=np.linspace(0.1, 0.3, 5), static_table_value=np.zeros(5)),
+     r"the static table 'static_table_x_rad' covers alpha \[5.72958, 17.1887\] deg but the runs reach \[4, 24\] deg"),
+    (dict(delay="later"), "delay: expected one of 'none', 'estimated', found 'later'"),
+    (dict(delay_start_s=0.01), "'delay_start_s' is used only with delay = \"estimated\""),
+    (dict(delay="estimated", delay_start_s=2.0), r"'delay_start_s' must be in \[0, 1\] s"),
+    (dict(stall="deep"), "stall: expected one of 'none', 'separation', 'separation_and_vortex', found 'deep'"),
+    (dict(stall=None, stall_known=None),
+     "'stall_T1_start' is used only with stall = \"separation\" or \"separation_and_vortex\""),
+    (dict(stall_T1_start=0.0), "'stall_T1_start' must be > 0"),
+    (dict(stall_T2_start=-1.0), "'stall_T2_start' must be >= 0"),
+    (dict(stall_Tv_start=float("nan")), "'stall_Tv_start' must be > 0"),
+    (dict(stall_attached_max_deg=-8.0), "'stall_attached_max_deg' must be > 0"),
+    (dict(stall_known={"tau1": 5.0}), "'stall_known' names 'tau1', not a dynamic-stall parameter"),
+    (dict(stall="separation", stall_known={"Tv": 5.0}),
+     "'stall_known\\[\"Tv\"\\]' is a vortex parameter: it needs stall = \"separation_and_vortex\""),
+    (dict(stall_known={"T2": -0.5}), "'stall_known\\[\"T2\"\\]' must be >= 0"),
+    (dict(stall_known={"CN1": float("inf")}), "'stall_known\\[\"CN1\"\\]' must be finite"),
+    (dict(stall_known={"T1": 3.0}),
+     "'stall_known\\[\"T1\"\\]' holds T1 at a known value, and 'stall_T1_start' gives it a start value: drop one"),
+    (dict(static_table_x_rad=None, static_table_value=None, static_polynomial=[0.0, 6.0]),
+     "stall: the dynamic-stall families need the static lift polar: give stall_polar_alpha_rad and stall_polar_lift"),
+    (dict(stall_polar_column="Cnormal"), "stall: the dynamic-stall families need the static lift polar"),
+    (dict(stall_polar_lift=np.zeros(5)), "stall_polar_alpha_rad: required with stall_polar_lift"),
+    (dict(stall_polar_alpha_rad=[0.1, 0.1, 0.2], stall_polar_lift=[0, 1, 2]),
+     r"stall_polar_alpha_rad\[1\]: the angle column is not strictly increasing \(0.1 after 0.1\)"),
+    (dict(stall_f0_correction_knots_rad=[1.0]), "stall_f0_correction_knots_rad: knot 1 rad is outside"),
+    (dict(stall_f0_correction_powers=[1, 0]), "stall_f0_correction_powers: powers must be distinct, ascending"),
+])
+def test_bad_stall_table_and_delay_keywords_raise(stall_experiment_kwargs, change, message):
+    kw = dict(stall_experiment_kwargs)
+    kw.update(change)
+    with pytest.raises(indicial.InputError, match="^" + message):
+        indicial.Experiment(**kw)
+
+
+def test_stall_keywords_fill_what_the_file_does(stall_experiment_kwargs):
+    e = indicial.Experiment(**stall_experiment_kwargs)
+    assert 'stall = "separation_and_vortex"' in e.toml_text() and "stall_known = { T2 = 1.5, Tvl = 7 }" in e.toml_text()

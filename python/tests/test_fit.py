@@ -87,3 +87,57 @@ def test_unknown_start_value_is_the_fitters_message(case_dir):
     e = indicial.Experiment.from_toml(str(case_dir / "experiment.toml"))
     with pytest.raises(indicial.InputError, match="zz9"):
         indicial.fit(e, start_values={"zz9": 1.0})
+
+
+def test_stall_experiment_from_arrays_equals_its_toml(tmp_path, cli, stall_experiment_kwargs):
+    """A static table, the separation and vortex families and stall_known from arrays: the same
+    fit (parameters and s(v) to 1e-12) as the experiment file write_files writes, read by
+    from_toml and by `indicial fit`."""
+    e = indicial.Experiment(**stall_experiment_kwargs)
+    r = indicial.fit(e, warn=False)
+    assert r.termination == "converged"
+    assert [p.name for p in r.parameters] == ["a0", "b1_0", "T1", "k0", "k1", "k2", "CN1", "Tv", "cv", "xv"]
+    assert json.loads(r.fit_json())["held_parameters"] == {"T2": 1.5, "Tvl": 7.0}
+    e.write_files(str(tmp_path / "exp"))
+    text = (tmp_path / "exp" / "experiment.toml").read_text()
+    assert text == e.toml_text()
+    model = tomllib.loads(text)["model"]
+    assert tomllib.loads(text)["static"] == {"table": "static_table.csv"}
+    assert model["stall"] == "separation_and_vortex" and model["stall_known"] == {"T2": 1.5, "Tvl": 7.0}
+    assert model["stall_T1_start"] == 2.5 and "stall_T2_start" not in model and "stall_polar" not in model
+    back = indicial.fit(indicial.Experiment.from_toml(str(tmp_path / "exp" / "experiment.toml")), warn=False)
+    assert [p.name for p in back.parameters] == [p.name for p in r.parameters]
+    for p, q in zip(r.parameters, back.parameters):
+        assert close(p.value, q.value) and close(p.cr_bound, q.cr_bound), (p.name, p.value, q.value)
+    assert close(r.fit_error, back.fit_error)
+    cli("fit", tmp_path / "exp" / "experiment.toml", "--out", tmp_path / "out", "--no-plots", "--quiet")
+    assert_same_as_cli(r, tmp_path / "out" / "fit.json")
+
+
+def test_stall_polar_of_its_own_from_arrays_equals_its_toml(tmp_path, stall_experiment_kwargs):
+    """A lift polar of its own (written as stall_polar.csv), the f0 correction, the attached
+    range and a start value written and read back: the same fit."""
+    kw = dict(stall_experiment_kwargs)
+    kw.update(stall="separation", stall_known={"k2": 0.0}, stall_polar_alpha_rad=kw["static_table_x_rad"],
+              stall_polar_lift=kw["static_table_value"] * 1.01, stall_attached_max_deg=7.0,
+              stall_f0_correction_powers=[0], stall_T2_start=1.2)
+    e = indicial.Experiment(**kw)
+    model = tomllib.loads(e.toml_text())["model"]
+    assert model["stall_polar"] == "stall_polar.csv" and model["stall_f0_correction_degree"] == 0
+    assert model["stall_attached_max_deg"] == 7 and model["stall_T2_start"] == 1.2
+    r = indicial.fit(e, warn=False)
+    assert r.termination == "converged" and "f0c_0" in [p.name for p in r.parameters]
+    e.write_files(str(tmp_path / "exp"))
+    back = indicial.fit(indicial.Experiment.from_toml(str(tmp_path / "exp" / "experiment.toml")), warn=False)
+    assert [(p.name, p.value) for p in r.parameters] == [(p.name, p.value) for p in back.parameters]
+    assert r.fit_error == back.fit_error
+
+
+def test_delay_from_arrays_reads_back_the_same(tmp_path, stall_experiment_kwargs):
+    """delay = "estimated" and delay_start_s: written, read back by the experiment file's reader,
+    and written again to the same text (the configuration is the same)."""
+    e = indicial.Experiment(**stall_experiment_kwargs, delay="estimated", delay_start_s=0.002)
+    model = tomllib.loads(e.toml_text())["model"]
+    assert model["delay"] == "estimated" and model["delay_start_s"] == 0.002
+    e.write_files(str(tmp_path / "exp"))
+    assert indicial.Experiment.from_toml(str(tmp_path / "exp" / "experiment.toml")).toml_text() == e.toml_text()

@@ -15,6 +15,7 @@
 #include "indicial/fitter/derivative.hpp"
 #include "indicial/fitter/did_you_mean.hpp"
 #include "indicial/fitter/error.hpp"
+#include "indicial/fitter/experiment_checks.hpp"
 #include "indicial/fitter/io.hpp"
 #include "io/mat_file.hpp"
 
@@ -1016,21 +1017,12 @@ void read_static_table(const std::string& path, Axis axis, const std::string& co
   config.table_value = derived ? lift_or_drag(coefficient, numeric_column(path, t, normal, 1.0),
                                               numeric_column(path, t, chord, 1.0), config.table_x_rad)
                                : numeric_column(path, t, c_col, 1.0);
-  if (config.table_x_rad.size() < 2) {
-    throw InputError(path, t.row_line.back(), "a static table needs at least 2 rows");
-  }
-  if (config.table_x_rad.size() > static_cast<std::size_t>(FitCapacity::max_table_points)) {
-    throw InputError(path, 0, "a static table may have at most " +
-                                  std::to_string(FitCapacity::max_table_points) + " rows");
-  }
-  for (std::size_t i = 1; i < config.table_x_rad.size(); ++i) {
-    if (!(config.table_x_rad[i] > config.table_x_rad[i - 1])) {
-      throw InputError(path, t.row_line[i], "the angle column is not strictly increasing (" +
-                                                t.rows[i][static_cast<std::size_t>(x_col)] +
-                                                " after " +
-                                                t.rows[i - 1][static_cast<std::size_t>(x_col)] + ")");
-    }
-  }
+  const auto x_field = static_cast<std::size_t>(x_col);
+  check_static_table(config.table_x_rad, config.table_value,
+                     TableSite{[&](std::size_t row, const std::string& problem) {
+                                 return InputError(path, row < t.row_line.size() ? t.row_line[row] : 0, problem);
+                               },
+                               [&](std::size_t row) { return t.rows[row][x_field]; }});
   config.kind = StaticKind::table;
   config.table_path = path;
 }

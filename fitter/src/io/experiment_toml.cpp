@@ -14,6 +14,7 @@
 #include "indicial/coef_file.hpp"
 #include "indicial/fitter/csv_reader.hpp"
 #include "indicial/fitter/error.hpp"
+#include "indicial/fitter/experiment_checks.hpp"
 #include "indicial/fitter/io.hpp"
 #include "indicial/fitter/output.hpp"
 #include "indicial/fitter/phase_resample.hpp"
@@ -32,13 +33,6 @@ using detail::TomlReader;
 const std::set<std::string>& coefficient_names() {
   static const std::set<std::string> names = {"CL", "Cm", "CD", "CY", "Cl", "Cn"};
   return names;
-}
-
-// Degrees for messages: 6 significant digits (59.99999999999999 reads as 60).
-std::string deg_text(double rad) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.6g", rad * kRadToDeg);
-  return buf;
 }
 
 // A knot list's source, for range checks after the runs are read.
@@ -573,6 +567,21 @@ void read_further_lag_b(LoadContext& c, const toml::table& mt, ModelConfig& mode
   }
 }
 
+// The [model] keys as the shared checks (experiment_checks.hpp) name them: "model.KEY", a
+// problem reported at the key's line ("stall_known.T1": the entry's line).
+KeySite model_key_site(const TomlReader& r, const toml::table& mt) {
+  return KeySite{[](const std::string& key) { return "model." + key; },
+                 [&r, &mt](const std::string& key, const std::string& problem) {
+                   const toml::node* n = mt.get(key);
+                   if (const auto dot = key.find('.'); dot != std::string::npos) {
+                     const toml::node* t = mt.get(key.substr(0, dot));
+                     n = t && t->is_table() ? t->as_table()->get(key.substr(dot + 1)) : t;
+                   }
+                   if (n) r.fail(*n, problem);
+                   r.fail(mt.source(), problem);
+                 }};
+}
+
 // [model]: the splines, the structure and what diagnose adds.
 void read_model_section(LoadContext& c, const toml::node* model_node, bool rotary_estimate,
                         ModelConfig& model) {
@@ -595,13 +604,8 @@ void read_model_section(LoadContext& c, const toml::node* model_node, bool rotar
                         "be combined with rotary.estimate = true");
   }
   if (const toml::node* n = mt.get("delay")) model.delay = r.choice<DelayEstimation>(*n, "model.delay");
-  if (const toml::node* n = mt.get("delay_start_s")) {
-    const double d = r.number(*n, "model.delay_start_s");
-    if (!(d >= 0.0 && d <= 1.0)) r.fail(*n, "'model.delay_start_s' must be in [0, 1] s");
-    if (model.delay != DelayEstimation::estimated)
-      r.fail(*n, "'model.delay_start_s' is used only with model.delay = \"estimated\"");
-    model.delay_start_s = d;
-  }
+  if (const toml::node* n = mt.get("delay_start_s")) model.delay_start_s = r.number(*n, "model.delay_start_s");
+  check_delay_keys(model, mt.get("delay_start_s") != nullptr, model_key_site(r, mt));
   if (const toml::node* n = mt.get("further_lag_start"))
     model.further_lag_start = r.choice<LagStart>(*n, "model.further_lag_start");
   if (const toml::node* n = mt.get("bias")) model.bias = r.boolean(*n, "model.bias");
@@ -623,48 +627,10 @@ Run read_run_of_files(const LoadContext& c, const RunEntry& entry, const Experim
   return run;
 }
 
-// model.stall_known = { T1 = 8.5, ... }: dynamic-stall parameters held at known values (not
-// estimated), each inside the runtime's feasible set (model.hpp check_stall_parameters). A
-// start value for a held parameter is refused: one of the two is a mistake.
-void read_stall_known(const TomlReader& r, const toml::table& mt, const toml::node& node, StallConfig& s) {
-  enum class Bound { any, positive, non_negative };
-  enum class Family { separation, vortex };
-  struct Known { const char* name; Bound bound; Family family; const char* start_key; };
-  static const Known names[] = {
-      {"T1", Bound::positive, Family::separation, "stall_T1_start"},
-      {"T2", Bound::non_negative, Family::separation, "stall_T2_start"},
-      {"k0", Bound::any, Family::separation, nullptr},
-      {"k1", Bound::any, Family::separation, nullptr},
-      {"k2", Bound::any, Family::separation, nullptr},
-      {"CN1", Bound::positive, Family::vortex, "stall_CN1_start"},
-      {"Tv", Bound::positive, Family::vortex, "stall_Tv_start"},
-      {"Tvl", Bound::positive, Family::vortex, "stall_Tvl_start"},
-      {"cv", Bound::any, Family::vortex, nullptr},
-      {"xv", Bound::any, Family::vortex, nullptr}};
-  for (auto&& [key, value] : r.table(node, "model.stall_known")) {
-    const std::string name(key.str()), where = "model.stall_known." + name;
-    const Known* k = nullptr;
-    for (const Known& n : names)
-      if (name == n.name) k = &n;
-    if (!k)
-      r.fail(key.source(), "'model.stall_known' names '" + name + "', not a dynamic-stall parameter (T1, T2, k0, "
-                           "k1, k2; with the vortex also CN1, Tv, Tvl, cv, xv)");
-    if (k->family == Family::vortex && s.families != StallFamilies::separation_and_vortex)
-      r.fail(key.source(), "'" + where + "' is a vortex parameter: it needs model.stall = \"separation_and_vortex\"");
-    const double v = r.number(value, where);
-    if (!std::isfinite(v)) r.fail(value, "'" + where + "' must be finite");
-    if (k->bound == Bound::positive && !(v > 0.0)) r.fail(value, "'" + where + "' must be > 0");
-    if (k->bound == Bound::non_negative && !(v >= 0.0)) r.fail(value, "'" + where + "' must be >= 0");
-    if (k->start_key && mt.get(k->start_key))
-      r.fail(key.source(), "'" + where + "' holds " + name + " at a known value, and 'model." + k->start_key +
-                               "' gives it a start value: drop one of the two");
-    s.known.emplace_back(name, v);
-  }
-}
-
 // [model] stall keys (the dynamic-stall families, ModelConfig::stall): which families, the
 // static lift polar they are derived from (default: the [static] table when the experiment
-// models its lift column), its attached part, the f0 correction's terms and the start values.
+// models its lift column), its attached part, the f0 correction's terms, the start values and
+// stall_known (the parameters held at known values). Read here, checked by check_stall_keys.
 void read_stall_keys(LoadContext& c, const toml::node* model_node, Experiment& e) {
   const TomlReader& r = c.r;
   if (!model_node) return;
@@ -672,39 +638,29 @@ void read_stall_keys(LoadContext& c, const toml::node* model_node, Experiment& e
   StallConfig& s = e.model.stall;
   const toml::node* fam = mt.get("stall");
   if (fam) s.families = r.choice<StallFamilies>(*fam, "model.stall");
-  for (const char* key : {"stall_polar", "stall_polar_column", "stall_attached_max_deg", "stall_T1_start",
-                          "stall_T2_start", "stall_CN1_start", "stall_Tv_start", "stall_Tvl_start",
-                          "stall_f0_correction_degree", "stall_f0_correction_powers",
-                          "stall_f0_correction_knots_deg", "stall_known"})
-    if (const toml::node* n = mt.get(key); n && s.families == StallFamilies::none)
-      r.fail(*n, std::string("'model.") + key + "' is used only with model.stall = \"separation\" or "
-                                                "\"separation_and_vortex\"");
-  if (s.families == StallFamilies::none) return;
+  std::set<std::string> given;
+  for (auto&& [key, value] : mt)
+    if (key.str().rfind("stall_", 0) == 0) given.insert(std::string(key.str()));
   if (const toml::node* n = mt.get("stall_polar_column")) s.polar_column = r.string(*n, "model.stall_polar_column");
-  const struct { const char* key; double* value; double lo; } starts[] = {
-      {"stall_attached_max_deg", &s.attached_max_deg, 0.0}, {"stall_T1_start", &s.tau1_start, 0.0},
-      {"stall_T2_start", &s.tau2_start, -1.0},             {"stall_CN1_start", &s.shedding_threshold_start, 0.0},
-      {"stall_Tv_start", &s.decay_start, 0.0},             {"stall_Tvl_start", &s.travel_start, 0.0}};
+  const struct { const char* key; double* value; } starts[] = {
+      {"stall_attached_max_deg", &s.attached_max_deg}, {"stall_T1_start", &s.tau1_start},
+      {"stall_T2_start", &s.tau2_start},               {"stall_CN1_start", &s.shedding_threshold_start},
+      {"stall_Tv_start", &s.decay_start},              {"stall_Tvl_start", &s.travel_start}};
   for (const auto& st : starts)
-    if (const toml::node* n = mt.get(st.key)) {
-      *st.value = r.number(*n, std::string("model.") + st.key);
-      const bool ok = st.lo < 0.0 ? *st.value >= 0.0 : *st.value > st.lo;
-      if (!ok || !std::isfinite(*st.value))
-        r.fail(*n, std::string("'model.") + st.key + (st.lo < 0.0 ? "' must be >= 0" : "' must be > 0"));
-    }
+    if (const toml::node* n = mt.get(st.key)) *st.value = r.number(*n, std::string("model.") + st.key);
+  if (const toml::node* n = mt.get("stall_known"))
+    for (auto&& [key, value] : r.table(*n, "model.stall_known"))
+      s.known.emplace_back(std::string(key.str()), r.number(value, "model.stall_known." + std::string(key.str())));
+  check_stall_keys(s, given, model_key_site(r, mt));
+  if (s.families == StallFamilies::none) return;
   read_spline_terms(c, mt, "stall_f0_correction", s.f0_correction);
-  if (const toml::node* n = mt.get("stall_known")) read_stall_known(r, mt, *n, s);
   if (const toml::node* n = mt.get("stall_polar")) {
     s.polar_path = c.resolve(r.string(*n, "model.stall_polar"));
     StaticConfig polar;
     read_static_table(s.polar_path, e.axis, s.polar_column, polar, c.columns, c.dialect);
     s.polar_x_rad = polar.table_x_rad;
     s.polar_lift = polar.table_value;
-  } else if (e.static_curve.kind == StaticKind::table && e.coefficient == s.polar_column) {
-    s.polar_path = e.static_curve.table_path;
-    s.polar_x_rad = e.static_curve.table_x_rad;
-    s.polar_lift = e.static_curve.table_value;
-  } else {
+  } else if (!stall_polar_from_static_table(e, s)) {
     r.fail(*fam, "'model.stall' needs the static lift polar: 'model.stall_polar' (a CSV with alpha_deg and the "
                  "column model.stall_polar_column, default CL), or a [static] table of that coefficient");
   }
@@ -783,16 +739,8 @@ void check_against_data(const LoadContext& c, const Experiment& e) {
       }
     }
   }
-  if (e.static_curve.kind == StaticKind::table) {
-    const double tmin = e.static_curve.table_x_rad.front();
-    const double tmax = e.static_curve.table_x_rad.back();
-    const double tol = 1e-9;  // rad: rounding of degree columns
-    if (tmin > x_min + tol || tmax < x_max - tol) {
-      c.r.fail(c.static_where, "the static table '" + e.static_curve.table_path + "' covers " + xname +
-                                   " [" + deg_text(tmin) + ", " + deg_text(tmax) + "] deg but the runs reach [" +
-                                   deg_text(x_min) + ", " + deg_text(x_max) + "] deg");
-    }
-  }
+  const std::string uncovered = static_table_coverage_problem(e);
+  if (!uncovered.empty()) c.r.fail(c.static_where, uncovered);
 }
 
 // Every runtime limit at input time, before fitting (issue 12 item 1): a model that exceeds
@@ -1072,11 +1020,17 @@ std::string write_experiment_toml(const Experiment& e, const std::vector<std::st
     if (!st.f0_correction.powers.empty()) out += power_terms("stall_f0_correction", st.f0_correction.powers);
     if (!st.f0_correction.knots_rad.empty())
       out += "stall_f0_correction_knots_deg = " + number_list(st.f0_correction.knots_rad, kRadToDeg) + "\n";
-    out += "stall_T1_start = " + format_double(st.tau1_start) + "\n";
-    out += "stall_T2_start = " + format_double(st.tau2_start) + "\n";
-    if (st.shedding_threshold_start > 0.0) out += "stall_CN1_start = " + format_double(st.shedding_threshold_start) + "\n";
-    out += "stall_Tv_start = " + format_double(st.decay_start) + "\n";
-    out += "stall_Tvl_start = " + format_double(st.travel_start) + "\n";
+    // A held parameter (stall_known) has no start value: the reader refuses both together.
+    auto start = [&](const char* name, double value) {
+      for (const auto& k : st.known)
+        if (k.first == name) return;
+      out += std::string("stall_") + name + "_start = " + format_double(value) + "\n";
+    };
+    start("T1", st.tau1_start);
+    start("T2", st.tau2_start);
+    if (st.shedding_threshold_start > 0.0) start("CN1", st.shedding_threshold_start);
+    start("Tv", st.decay_start);
+    start("Tvl", st.travel_start);
     if (!st.known.empty()) {
       std::string list;
       for (const auto& [name, value] : st.known) list += (list.empty() ? "" : ", ") + name + " = " + format_double(value);

@@ -1,0 +1,131 @@
+// The configuration checks both front ends call. See indicial/fitter/experiment_checks.hpp.
+#include "indicial/fitter/experiment_checks.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <string>
+
+#include "indicial/model.hpp"
+
+namespace indicial {
+namespace {
+
+// The keys of the stall families, as [model] names (docs/formats.md's stall table).
+const char* const kStallKeys[] = {"stall_polar", "stall_polar_column", "stall_attached_max_deg", "stall_T1_start",
+                                  "stall_T2_start", "stall_CN1_start", "stall_Tv_start", "stall_Tvl_start",
+                                  "stall_f0_correction_degree", "stall_f0_correction_powers",
+                                  "stall_f0_correction_knots_deg", "stall_known"};
+
+// stall_known's entries: each a parameter of the separation or the vortex family, with the
+// feasible set model.hpp's check_stall_parameters enforces, and its start value's key.
+void check_stall_known(const StallConfig& s, const std::set<std::string>& given, const KeySite& site) {
+  enum class Bound { any, positive, non_negative };
+  enum class Family { separation, vortex };
+  struct Known { const char* name; Bound bound; Family family; const char* start_key; };
+  static const Known names[] = {
+      {"T1", Bound::positive, Family::separation, "stall_T1_start"},
+      {"T2", Bound::non_negative, Family::separation, "stall_T2_start"},
+      {"k0", Bound::any, Family::separation, nullptr},
+      {"k1", Bound::any, Family::separation, nullptr},
+      {"k2", Bound::any, Family::separation, nullptr},
+      {"CN1", Bound::positive, Family::vortex, "stall_CN1_start"},
+      {"Tv", Bound::positive, Family::vortex, "stall_Tv_start"},
+      {"Tvl", Bound::positive, Family::vortex, "stall_Tvl_start"},
+      {"cv", Bound::any, Family::vortex, nullptr},
+      {"xv", Bound::any, Family::vortex, nullptr}};
+  for (const auto& [name, v] : s.known) {
+    const std::string key = "stall_known." + name, where = site.name(key);
+    const Known* k = nullptr;
+    for (const Known& n : names)
+      if (name == n.name) k = &n;
+    if (!k)
+      site.raise(key, "'" + site.name("stall_known") + "' names '" + name + "', not a dynamic-stall parameter (T1, "
+                      "T2, k0, k1, k2; with the vortex also CN1, Tv, Tvl, cv, xv)");
+    if (k->family == Family::vortex && s.families != StallFamilies::separation_and_vortex)
+      site.raise(key, "'" + where + "' is a vortex parameter: it needs " + site.name("stall") +
+                      " = \"separation_and_vortex\"");
+    if (!std::isfinite(v)) site.raise(key, "'" + where + "' must be finite");
+    if (k->bound == Bound::positive && !(v > 0.0)) site.raise(key, "'" + where + "' must be > 0");
+    if (k->bound == Bound::non_negative && !(v >= 0.0)) site.raise(key, "'" + where + "' must be >= 0");
+    if (k->start_key && given.count(k->start_key))
+      site.raise(key, "'" + where + "' holds " + name + " at a known value, and '" + site.name(k->start_key) +
+                      "' gives it a start value: drop one of the two");
+  }
+}
+}  // namespace
+
+std::string deg_text(double rad) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.6g", rad * (180.0 / 3.14159265358979323846));
+  return buf;
+}
+
+void KeySite::raise(const std::string& key, const std::string& problem) const {
+  fail(key, problem);
+  throw InputError(problem);  // a `fail` that returned: still an error
+}
+
+void check_static_table(const std::vector<double>& x_rad, const std::vector<double>& value, const TableSite& site) {
+  constexpr std::size_t whole = static_cast<std::size_t>(-1);
+  if (x_rad.size() != value.size())
+    throw site.error(whole, "the table has " + std::to_string(x_rad.size()) + " angles and " +
+                                std::to_string(value.size()) + " values");
+  if (x_rad.size() < 2) throw site.error(x_rad.empty() ? whole : x_rad.size() - 1, "a static table needs at least 2 rows");
+  if (x_rad.size() > static_cast<std::size_t>(FitCapacity::max_table_points))
+    throw site.error(whole, "a static table may have at most " + std::to_string(FitCapacity::max_table_points) +
+                                " rows");
+  for (std::size_t i = 1; i < x_rad.size(); ++i)
+    if (!(x_rad[i] > x_rad[i - 1]))
+      throw site.error(i, "the angle column is not strictly increasing (" + site.angle_text(i) + " after " +
+                              site.angle_text(i - 1) + ")");
+}
+
+std::string static_table_coverage_problem(const Experiment& e) {
+  if (e.static_curve.kind != StaticKind::table) return {};
+  const double x_min = e.data_x_min_rad, x_max = e.data_x_max_rad;
+  const double tmin = e.static_curve.table_x_rad.front(), tmax = e.static_curve.table_x_rad.back();
+  const double tol = 1e-9;  // rad: rounding of degree columns
+  if (!(tmin > x_min + tol || tmax < x_max - tol)) return {};
+  const std::string xname = e.axis == Axis::pitch ? "alpha" : "beta";
+  return "the static table '" + e.static_curve.table_path + "' covers " + xname + " [" + deg_text(tmin) + ", " +
+         deg_text(tmax) + "] deg but the runs reach [" + deg_text(x_min) + ", " + deg_text(x_max) + "] deg";
+}
+
+void check_delay_keys(const ModelConfig& m, bool start_given, const KeySite& site) {
+  if (!start_given) return;
+  const std::string key = site.name("delay_start_s");
+  if (!(m.delay_start_s >= 0.0 && m.delay_start_s <= 1.0)) site.raise("delay_start_s", "'" + key + "' must be in [0, 1] s");
+  if (m.delay != DelayEstimation::estimated)
+    site.raise("delay_start_s", "'" + key + "' is used only with " + site.name("delay") + " = \"estimated\"");
+}
+
+void check_stall_keys(const StallConfig& s, const std::set<std::string>& given, const KeySite& site) {
+  if (s.families == StallFamilies::none) {
+    for (const char* key : kStallKeys)
+      if (given.count(key))
+        site.raise(key, "'" + site.name(key) + "' is used only with " + site.name("stall") +
+                            " = \"separation\" or \"separation_and_vortex\"");
+    return;
+  }
+  const struct { const char* key; double value; bool zero_allowed; } starts[] = {
+      {"stall_attached_max_deg", s.attached_max_deg, false}, {"stall_T1_start", s.tau1_start, false},
+      {"stall_T2_start", s.tau2_start, true},               {"stall_CN1_start", s.shedding_threshold_start, false},
+      {"stall_Tv_start", s.decay_start, false},             {"stall_Tvl_start", s.travel_start, false}};
+  for (const auto& st : starts) {
+    if (!given.count(st.key)) continue;
+    const bool ok = st.zero_allowed ? st.value >= 0.0 : st.value > 0.0;
+    if (!ok || !std::isfinite(st.value))
+      site.raise(st.key, "'" + site.name(st.key) + (st.zero_allowed ? "' must be >= 0" : "' must be > 0"));
+  }
+  check_stall_known(s, given, site);
+}
+
+bool stall_polar_from_static_table(const Experiment& e, StallConfig& s) {
+  if (e.static_curve.kind != StaticKind::table || e.coefficient != s.polar_column) return false;
+  s.polar_path = e.static_curve.table_path;
+  s.polar_x_rad = e.static_curve.table_x_rad;
+  s.polar_lift = e.static_curve.table_value;
+  return true;
+}
+
+}  // namespace indicial
