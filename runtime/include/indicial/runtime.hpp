@@ -787,8 +787,8 @@ INDICIAL_HOT_INLINE Scalar advance_coefficient(const CoefficientModel<Scalar, Ca
 // instructions, bench_step's callgrind count), and a model known at compile time (indicial
 // codegen) is folded into each copy (the Cortex-M4F step 912 -> 660 instructions, flash 128 B
 // less, tools/run-cortex-m.sh). The cost: a Predictor or a parsed model, not known at compile
-// time, carries the copies (flash +1.5 KB and +3.5 KB on the Cortex-M4F, whose steps are
-// still 7% and 3% fewer instructions). Why not for the families' and the delayed steps: more
+// time, carries the copies (flash +1.5 KB and +3.4 KB on the Cortex-M4F, whose steps are
+// still 6% and 3% fewer instructions). Why not for the families' and the delayed steps: more
 // copies in every Predictor's flash, for steps that cost 2-3x the plain one anyway.
 enum class CoefficientLoop : int { rolled = 0, unrolled = 1 };
 #if defined(__GNUC__) || defined(__clang__)
