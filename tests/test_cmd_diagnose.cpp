@@ -120,3 +120,50 @@ TEST_CASE("indicial diagnose: contract outputs, model.coef in the runtime, direc
   CHECK(help.out.find("--alpha") != std::string::npos);
   CHECK(help.out.find("--min-in-sample-gain") != std::string::npos);
 }
+
+TEST_CASE("indicial diagnose: the rule's options reach diagnosis.json, a bad one is refused") {
+  // Model I with a hidden delay, three runs (leave-one-run-out by default).
+  SimulationCase c = find_simulation_case("tailless-model-1");
+  c.truth.coefficients[0].delay_s = 0.02;
+  const fs::path data = scratch() / "options-data";
+  write_simulation_case(c, data.string(), 40.0, 7, Overwrite::refuse);
+  const std::string experiment = (data / "experiment.toml").string();
+  // Every option away from its default (--min-gain 0.2 and --min-in-sample-gain 0.05: the
+  // delay gains ~88 % in sample, far more held out, so it still enters).
+  const fs::path cv = scratch() / "options-cv";
+  const Cmd d = run("diagnose " + experiment + " --out " + cv.string() +
+                    " --no-plots --quiet --max-steps 1 --rule cv --max-folds 2 --min-gain 0.2"
+                    " --min-in-sample-gain 0.05 --threads 1");
+  INFO(d.out, d.err);
+  REQUIRE(d.exit_code != 1);
+  const nlohmann::json j = nlohmann::json::parse(slurp(cv / "diagnosis.json"));
+  CHECK(j["rule"] == "leave_one_run_out");
+  CHECK(j["cv_folds"] == 2);  // three runs dealt into two folds
+  CHECK(j["cv_min_gain"].get<double>() == 0.2);
+  CHECK(j["cv_min_in_sample_gain"].get<double>() == 0.05);
+  CHECK(j["threads"] == 1);
+  CHECK(j["test"].get<std::string>().find("ln(1 - 0.2)") != std::string::npos);
+  CHECK(j["verdict"] == "time_delay");
+  // --rule lr: the likelihood ratio decides even with three runs; no cross-validation keys.
+  const fs::path lr = scratch() / "options-lr";
+  const Cmd l = run("diagnose " + experiment + " --out " + lr.string() + " --no-plots --quiet --max-steps 1 --rule lr");
+  INFO(l.out, l.err);
+  REQUIRE(l.exit_code != 1);
+  const nlohmann::json jl = nlohmann::json::parse(slurp(lr / "diagnosis.json"));
+  CHECK(jl["rule"].get<std::string>().rfind("lr_", 0) == 0);
+  CHECK(!jl.contains("cv_folds"));
+  CHECK(!jl.contains("cv_min_gain"));
+  CHECK(jl["threads"] == 2);
+  // A bad value: DiagnoseOptions::IsValid's line, exit 1, nothing written.
+  for (const char* bad : {"--min-gain 1", "--max-folds 1", "--threads 0"}) {
+    const fs::path none = scratch() / "options-none";
+    const Cmd b = run("diagnose " + experiment + " --out " + none.string() + " " + bad);
+    INFO(bad, ": ", b.err);
+    CHECK(b.exit_code == 1);
+    CHECK(b.err.rfind("indicial: error: ", 0) == 0);
+    CHECK(count_lines(b.err) == 1);
+    CHECK(b.err.find(std::string(bad).substr(0, std::string(bad).find(' '))) != std::string::npos);
+    CHECK(!fs::exists(none));
+  }
+  CHECK(run("diagnose --help").out.find("--min-gain") != std::string::npos);
+}

@@ -200,3 +200,27 @@ TEST_CASE("a delayed forcing at several airspeeds: delay_s (at V_ref) recovered,
   CHECK(rc.steps_not_ok == 0);
   CHECK(rc.max_abs_difference < 1e-9);
 }
+
+TEST_CASE("a delay is never estimated below 0: a negative start is projected, model.coef is written") {
+  // Model I without a delay, the delay estimated from a start of -0.01 s (a --start-value): the
+  // start is projected to 0 (said in the message) and no accepted step leaves delay_s >= 0, the
+  // runtime's feasible set (model_check.hpp), so the fitted model is written and replayed. Before
+  // this the estimate could end below 0 and `fit` failed writing model.coef.
+  const SimulationCase& c = find_simulation_case("tailless-model-1");
+  std::vector<SimulatedRun> runs;
+  for (const MotionSpec& m : c.motions) runs.push_back(simulate_reference(c.truth, m));
+  add_measurement_noise(runs, 40.0, 7005u);
+  Experiment e = experiment_from_simulation(c, runs);
+  e.path = "delay-zero.toml";
+  e.model.delay = DelayEstimation::estimated;
+  FitOptions o;
+  o.start_values = {{"delay_s", -0.01}};
+  const FitResult fit = fit_experiment(e, o);
+  const ParameterEstimate* d = find_estimate(fit, "delay_s");
+  REQUIRE(d != nullptr);
+  INFO("delay_s " << d->value << " +- " << d->cr_bound << "; " << fit.output_error.message);
+  CHECK(d->value >= 0.0);
+  CHECK(fit.output_error.message.find("delay_s raised from -0.01 to 0") != std::string::npos);
+  const RuntimeCheck rc = replay_in_runtime(fit, e, model_coef_text(fit, "delay fit"));
+  CHECK(rc.steps_not_ok == 0);
+}

@@ -1,4 +1,5 @@
-// The simulator's measurement noise (simulate.hpp, "Measurement noise"): marginal standard
+// The simulator's measurement noise (fitter/src/simulate/noise.cpp; simulate.hpp, "Measurement noise"):
+// the sequences (colored_noise) and add_measurement_noise: marginal standard
 // deviation, lag-1 autocorrelation, reproducibility, and the white stream left unchanged.
 #include <doctest/doctest.h>
 

@@ -1,8 +1,10 @@
 // `indicial diagnose`: the missing-effect workflow (fitter/include/indicial/fitter/diagnose.hpp).
 //
 //   indicial diagnose EXPERIMENT.toml --out DIR [--force] [--alpha 0.01] [--max-steps N]
-//                     [--knot-spacing-deg D] [--rule auto|cv|lr] [--max-folds K] [--min-in-sample-gain G]
-//                     [--threads N] [--no-plots] [--gnuplot EXE] [--quiet]
+//                     [--knot-spacing-deg D] [--rule auto|cv|lr] [--max-folds K] [--min-gain G]
+//                     [--min-in-sample-gain G] [--threads N] [--no-plots] [--gnuplot EXE] [--quiet]
+//
+// The options' ranges are DiagnoseOptions::IsValid's (docs/diagnose.md, "Options").
 //
 // Writes DIR/diagnosis.json, DIR/model.coef (the final model), DIR/report.md and DIR/plots/.
 // Exit status (DiagnoseExit): 0 done (whatever the verdict, "none" included); 1 bad input (one
@@ -41,15 +43,7 @@ struct DiagnoseCliOptions {
 void run_diagnose(const DiagnoseCliOptions& o) {
   using namespace indicial;
   if (o.out.empty()) throw InputError("--out", 0, "an output directory is required");
-  if (!(o.diag.alpha > 0.0 && o.diag.alpha < 1.0))
-    throw InputError("--alpha", 0, "the significance level must be in (0, 1)");
-  if (o.diag.max_steps < 0) throw InputError("--max-steps", 0, "must be >= 0");
-  if (o.diag.max_family_terms < 1) throw InputError("--max-family-terms", 0, "must be >= 1");
-  if (!(o.diag.knot_spacing_deg > 0.0)) throw InputError("--knot-spacing-deg", 0, "must be > 0");
-  if (o.diag.threads < 1) throw InputError("--threads", 0, "must be >= 1");
-  if (o.diag.cv_max_folds < 2) throw InputError("--max-folds", 0, "must be >= 2");
-  if (!(o.diag.cv_min_in_sample_gain >= 0.0 && o.diag.cv_min_in_sample_gain < 1.0))
-    throw InputError("--min-in-sample-gain", 0, "must be in [0, 1) (a fraction of the mean square error)");
+  if (std::string bad; !o.diag.IsValid(&bad)) throw InputError(bad);  // before reading or writing anything
   const tools::StageClock clock("diagnose", o.quiet ? tools::Verbosity::quiet : tools::Verbosity::progress);
   Experiment e;
   clock.stage("reading the experiment and its runs", [&] { e = load_experiment(o.experiment, o.coefficient); });
@@ -146,6 +140,9 @@ const indicial::tools::RegisterCommand register_diagnose([](CLI::App& app) {
   sub->add_option("--max-folds", opt->diag.cv_max_folds,
                   "cross-validation with more runs than this: the runs dealt into this many folds (run r "
                   "into fold r mod K), each left out at once (default 10; fewer runs: one run per fold)");
+  sub->add_option("--min-gain", opt->diag.cv_min_gain,
+                  "cross-validation: an effect must lower the held-out mean square error by at least this "
+                  "fraction (default 0.10; in [0, 1); 0: the standard-error and majority conditions alone)");
   sub->add_option("--min-in-sample-gain", opt->diag.cv_min_in_sample_gain,
                   "cross-validation: an effect must also lower the fit error of all runs by at least this "
                   "fraction of the mean square error (default 0.04; in [0, 1), 0: off)");

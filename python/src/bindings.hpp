@@ -27,12 +27,14 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <map>
 #include <memory>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "indicial/fitter/diagnose.hpp"
+#include "indicial/fitter/error.hpp"
 #include "indicial/fitter/experiment.hpp"
 #include "indicial/fitter/fit.hpp"
 #include "indicial/fitter/provenance.hpp"
@@ -103,6 +105,14 @@ std::vector<double> to_std(const DoubleArray& a);
 py::array_t<double> to_numpy(const std::vector<double>& v);
 
 // Python-facing option readers: a string choice naming the allowed values on error.
+template <class E>
+E pick(const std::string& option, const std::string& value, const std::map<std::string, E>& allowed) {
+  const auto it = allowed.find(value);
+  if (it != allowed.end()) return it->second;
+  std::string names;
+  for (const auto& [k, v] : allowed) names += (names.empty() ? "'" : ", '") + k + "'";
+  throw InputError(option, 0, "expected one of " + names + ", found '" + value + "'");
+}
 FitOptions fit_options_from(const py::dict& kwargs);
 
 void bind_errors(py::module_& m);

@@ -64,18 +64,16 @@ DiagnoseOptions diagnose_options_from(const py::dict& kw) {
     else if (key == "max_family_terms") o.max_family_terms = v.cast<int>();
     else if (key == "indistinguishable_bic") o.indistinguishable_bic = v.cast<double>();
     else if (key == "min_in_sample_gain") o.cv_min_in_sample_gain = v.cast<double>();
+    else if (key == "min_gain") o.cv_min_gain = v.cast<double>();
+    else if (key == "max_folds") o.cv_max_folds = v.cast<int>();
+    else if (key == "threads") o.threads = v.cast<int>();
+    else if (key == "rule")
+      o.rule = pick<RuleChoice>(key, v.cast<std::string>(), {{"auto", RuleChoice::automatic},
+                                                             {"cv", RuleChoice::leave_one_run_out},
+                                                             {"lr", RuleChoice::likelihood_ratio}});
     else fit_kw[item.first] = item.second;
   }
-  if (!(o.alpha > 0.0 && o.alpha < 1.0)) throw InputError("alpha", 0, "must be in (0, 1)");
-  if (o.max_steps < 0) throw InputError("max_steps", 0, "must be >= 0");
-  if (!(o.knot_spacing_deg > 0.0)) throw InputError("knot_spacing_deg", 0, "must be > 0");
-  if (!(o.knot_margin_fraction >= 0.0 && o.knot_margin_fraction < 0.5))
-    throw InputError("knot_margin_fraction", 0, "must be in [0, 0.5)");
-  if (o.max_scan_knots < 1) throw InputError("max_scan_knots", 0, "must be >= 1");
-  if (o.max_family_terms < 1) throw InputError("max_family_terms", 0, "must be >= 1");
-  if (!(o.indistinguishable_bic >= 0.0)) throw InputError("indistinguishable_bic", 0, "must be >= 0");
-  if (!(o.cv_min_in_sample_gain >= 0.0 && o.cv_min_in_sample_gain < 1.0))
-    throw InputError("min_in_sample_gain", 0, "must be in [0, 1) (a fraction of the mean square error)");
+  if (std::string bad; !o.IsValid(&bad)) throw InputError(bad);  // DiagnoseOptions' own message
   o.fit = fit_options_from(fit_kw);
   return o;
 }

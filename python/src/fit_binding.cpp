@@ -19,15 +19,6 @@
 namespace indicial::python {
 namespace {
 
-template <class E>
-E pick(const std::string& option, const std::string& value, const std::map<std::string, E>& allowed) {
-  const auto it = allowed.find(value);
-  if (it != allowed.end()) return it->second;
-  std::string names;
-  for (const auto& [k, v] : allowed) names += (names.empty() ? "'" : ", '") + k + "'";
-  throw InputError(option, 0, "expected one of " + names + ", found '" + value + "'");
-}
-
 // The options' checks of `indicial fit` (tools/cmd_fit.cpp checked_fit_options), with the
 // same messages; keyword names are the command line's option names with '_' for '-'.
 void check_fit_options(const FitOptions& fo) {

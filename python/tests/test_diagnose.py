@@ -35,9 +35,50 @@ def test_diagnose_equals_cli(model1_config_on_model2_data, cli, tmp_path):
     assert "b1_knots_deg" in d.experiment_toml()
 
 
-def test_diagnose_min_in_sample_gain_is_checked(model1_config_on_model2_data):
-    # The in-sample materiality floor (--min-in-sample-gain) is refused outside [0, 1) before
-    # anything is fitted.
+def test_diagnose_rule_options_reach_diagnosis_json(model1_config_on_model2_data, cli, tmp_path):
+    # rule, max_folds, min_gain, min_in_sample_gain and threads, each away from its default, as
+    # the command line's options: the same diagnosis.json keys, and the same steps (the command
+    # line on 2 threads, Python on 1: the thread count changes no result).
+    options = dict(rule="cv", max_folds=2, min_gain=0.2, min_in_sample_gain=0.05)
+    out = tmp_path / "d"
+    cli("diagnose", model1_config_on_model2_data, "--out", out, "--no-plots", "--quiet", "--max-steps", "1",
+        "--rule", "cv", "--max-folds", "2", "--min-gain", "0.2", "--min-in-sample-gain", "0.05", "--threads", "2",
+        check=False)
+    expected = json.loads((out / "diagnosis.json").read_text())
     e = indicial.Experiment.from_toml(str(model1_config_on_model2_data))
-    with pytest.raises(indicial.InputError, match="min_in_sample_gain"):
-        indicial.diagnose(e, min_in_sample_gain=1.0, warn=False)
+    d = indicial.diagnose(e, max_steps=1, threads=1, warn=False, **options)
+    j = json.loads(d.diagnosis_json())
+    assert j["rule"] == expected["rule"] == "leave_one_run_out"
+    assert j["cv_folds"] == expected["cv_folds"] == 2  # three runs dealt into two folds
+    assert j["cv_min_gain"] == expected["cv_min_gain"] == 0.2
+    assert j["cv_min_in_sample_gain"] == expected["cv_min_in_sample_gain"] == 0.05
+    assert (j["threads"], expected["threads"]) == (1, 2)
+    assert [s["effect"] for s in j["steps"]] == [s["effect"] for s in expected["steps"]]
+    assert abs(j["final_fit_error"] - expected["final_fit_error"]) <= 1e-12 * expected["final_fit_error"]
+    lr = json.loads(indicial.diagnose(e, max_steps=1, rule="lr", warn=False).diagnosis_json())
+    assert lr["rule"].startswith("lr_") and "cv_folds" not in lr and lr["threads"] == 2
+
+
+# One bad option each (DiagnoseOptions::IsValid, fitter/src/diagnose/diagnose_options.cpp): a
+# ValueError (indicial.InputError) with the option's one-line message, before anything is fitted.
+@pytest.mark.parametrize("option, message", [
+    (dict(alpha=0.0), r"^alpha \(--alpha\): must be in \(0, 1\).*found 0$"),
+    (dict(alpha=1.5), r"^alpha \(--alpha\): must be in \(0, 1\).*found 1.5$"),
+    (dict(max_steps=-1), r"^max_steps \(--max-steps\): must be >= 0.*found -1$"),
+    (dict(knot_spacing_deg=0.0), r"^knot_spacing_deg \(--knot-spacing-deg\): must be positive and finite.*found 0$"),
+    (dict(knot_margin_fraction=0.5), r"^knot_margin_fraction: must be in \[0, 0.5\).*found 0.5$"),
+    (dict(max_scan_knots=0), r"^max_scan_knots: must be >= 1.*found 0$"),
+    (dict(max_family_terms=0), r"^max_family_terms \(--max-family-terms\): must be >= 1.*found 0$"),
+    (dict(indistinguishable_bic=-1.0), r"^indistinguishable_bic: must be >= 0.*found -1$"),
+    (dict(min_in_sample_gain=1.0), r"^cv_min_in_sample_gain \(--min-in-sample-gain\): must be in \[0, 1\).*found 1$"),
+    (dict(min_gain=1.0), r"^cv_min_gain \(--min-gain\): must be in \[0, 1\).*found 1$"),
+    (dict(min_gain=-0.5), r"^cv_min_gain \(--min-gain\): must be in \[0, 1\).*found -0.5$"),
+    (dict(max_folds=1), r"^cv_max_folds \(--max-folds\): must be >= 2.*found 1$"),
+    (dict(threads=0), r"^threads \(--threads\): must be >= 1.*found 0$"),
+    (dict(rule="loo"), r"^rule: expected one of 'auto', 'cv', 'lr', found 'loo'$"),
+])
+def test_diagnose_bad_option_is_refused(model1_config_on_model2_data, option, message):
+    e = indicial.Experiment.from_toml(str(model1_config_on_model2_data))
+    with pytest.raises(ValueError, match=message) as refused:
+        indicial.diagnose(e, warn=False, **option)
+    assert isinstance(refused.value, indicial.InputError)

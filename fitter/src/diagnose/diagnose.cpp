@@ -725,9 +725,7 @@ void flag_ill_conditioned(DiagnoseResult& d) {
 
 DiagnoseResult diagnose_experiment(const Experiment& e_in, const DiagnoseOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
-  if (!(o.alpha > 0.0 && o.alpha < 1.0)) throw InputError("--alpha", 0, "the significance level must be in (0, 1)");
-  if (!(o.cv_min_in_sample_gain >= 0.0 && o.cv_min_in_sample_gain < 1.0))
-    throw InputError("--min-in-sample-gain", 0, "the in-sample materiality floor must be in [0, 1)");
+  if (std::string bad; !o.IsValid(&bad)) throw InputError(bad);
   DiagnoseResult d;
   d.alpha = o.alpha;
   Experiment e = e_in;

@@ -499,6 +499,7 @@ nlohmann::json diagnosis_json(const DiagnoseResult& d, const Experiment& e, cons
     params.push_back({{"name", p.name}, {"value", p.value}, {"cr_bound", finite_or_null(p.cr_bound)}});
   j["final_parameters"] = params;
   j["fits_run"] = d.fits_run;
+  j["threads"] = o.threads;  // the fits ran on this many threads (elapsed_s depends on it, the results do not)
   j["elapsed_s"] = d.elapsed_s;
   if (runtime) {
     nlohmann::json r;

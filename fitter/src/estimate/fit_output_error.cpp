@@ -518,6 +518,12 @@ std::string start_failure_message(const ParameterLayout& L, const OutputErrorDat
 // b_j(x) uniformly, the smallest change that restores b_j > 0 without reshaping the spline.
 // Returns what was done (empty when nothing), or why a lag could not be projected (no
 // constant term in the structure).
+ParamId param_id_delay() {
+  ParamId id;
+  id.kind = ParamKind::delay;
+  return id;
+}
+
 std::string project_start(const ParameterLayout& L, const OutputErrorData& d, double lo, double hi,
                           Eigen::VectorXd& theta) {
   std::string said;
@@ -543,6 +549,13 @@ std::string project_start(const ParameterLayout& L, const OutputErrorData& d, do
     said += fmt::format("{}start projected: b{}_0 raised from {:.6g} to {:.6g} (the equation-error start had "
                         "min b{}(x) = {:.6g} <= 0 on the envelope)",
                         said.empty() ? "" : "; ", j + 1, before, theta(k), j + 1, lowest);
+  }
+  // A negative delay (a --start-value) is not a delay: projected to 0.
+  const int kd = L.find(param_id_delay());
+  if (kd >= 0 && !(theta(kd) >= 0.0)) {
+    said += fmt::format("{}start projected: delay_s raised from {:.6g} to 0 (a delay is >= 0)", said.empty() ? "" : "; ",
+                        theta(kd));
+    theta(kd) = 0.0;
   }
   return said;
 }
@@ -584,9 +597,11 @@ MLResult fit_output_error(const UnsteadyStructure& s, const OutputErrorData& d,
   // min_lag_decay) is rejected like a cost increase; an infeasible start is projected first.
   const double lo = d.envelope.min_rad, hi = d.envelope.max_rad;
   const FeasibilityPredicate decaying = [&](const CoefficientModel<double, Cap>& m) {
-    // The runtime's feasible set of the stall families (positive time constants, f0 in [0, 1]).
+    // The runtime's feasible set of the stall families (positive time constants, f0 in [0, 1])
+    // and of the delay (model_check.hpp: a delay >= 0, not a prediction; a negative one would
+    // be estimated and then refused when model.coef is written).
     return lag_decay_positive(m, lo, hi) && check_stall_parameters(m.stall) == StallCheck::valid &&
-           (!feasible || feasible(m));
+           m.delay_s >= 0.0 && (!feasible || feasible(m));
   };
   OutputErrorProblem problem(L, d, decaying);
   check_sizes(L, theta0, static_cast<std::size_t>(problem.num_residuals()), d.context_file);

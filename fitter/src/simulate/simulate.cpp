@@ -9,7 +9,6 @@
 #include <limits>
 #include <map>
 #include <memory>
-#include <random>
 #include <sstream>
 
 #include "indicial/fitter/error.hpp"
@@ -338,41 +337,6 @@ SimulatedRun simulate_reference(const TruthModel& model, const MotionSpec& motio
   }
   out.coefficient_measured = out.coefficient_true;
   return out;
-}
-
-std::vector<double> add_measurement_noise(std::vector<SimulatedRun>& runs, double snr,
-                                          std::uint64_t seed, const NoiseModel& noise_model) {
-  if (runs.empty()) return {};
-  const std::size_t nc = runs.front().y_true.size();
-  std::vector<double> sigma(nc, 0.0);
-  if (!(snr > 0)) throw InputError("--snr", 0, "SNR must be > 0 (or inf for no noise)");
-  if (std::isinf(snr)) return sigma;  // no noise: the measured columns stay the truth
-  for (std::size_t c = 0; c < nc; ++c) {
-    double sum_sq = 0.0;
-    std::size_t count = 0;
-    for (const auto& r : runs) {
-      for (double v : r.y_true[c]) sum_sq += v * v;
-      count += r.y_true[c].size();
-    }
-    sigma[c] = std::sqrt(sum_sq / static_cast<double>(count)) / snr;
-  }
-  std::mt19937_64 rng(seed);
-  for (auto& r : runs) {
-    for (std::size_t c = 0; c < nc; ++c) {
-      auto& measured = r.coefficient_measured[c];
-      if (noise_model.kind == NoiseKind::white) {
-        // Why this branch: the very stream the report's tables were reproduced with.
-        std::normal_distribution<double> noise(0.0, sigma[c]);
-        for (std::size_t k = 0; k < measured.size(); ++k) measured[k] = r.coefficient_true[c][k] + noise(rng);
-        continue;
-      }
-      const std::size_t n = measured.size();
-      const double dt_s = n > 1 ? (r.time_s.back() - r.time_s.front()) / static_cast<double>(n - 1) : 0.0;
-      const std::vector<double> e = colored_noise(noise_model, n, dt_s, sigma[c], rng);
-      for (std::size_t k = 0; k < n; ++k) measured[k] = r.coefficient_true[c][k] + e[k];
-    }
-  }
-  return sigma;
 }
 
 }  // namespace indicial

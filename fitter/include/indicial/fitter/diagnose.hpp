@@ -140,6 +140,13 @@ struct DiagnoseOptions {
   int max_family_terms = 4;          // terms one effect's sub-model may have (stepwise inside it)
   double indistinguishable_bic = 6.0;  // families closer than this in BIC are named together
   FitOptions fit;                    // for every fit (start_values are set per candidate)
+
+  // Every range above in one place (Ceres' Solver::Options::IsValid): true, or false with
+  // *error (when not null) set to one line naming the first bad option -- its field, its
+  // command-line flag where it has one -- its range and the value found. diagnose_experiment
+  // throws InputError with that line; `indicial diagnose` and Python's diagnose report it
+  // before reading anything. `fit` is not checked here.
+  bool IsValid(std::string* error) const;
 };
 
 // A candidate's prediction of runs left out of its fit, against the model without it: for

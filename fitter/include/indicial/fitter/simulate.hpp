@@ -23,8 +23,9 @@
 //   std::vector<double> sigma = indicial::add_measurement_noise(runs, 40.0, 7);   // SNR, seed
 //   indicial::write_simulation_case(c, "out/", 40.0, 7, indicial::Overwrite::refuse);
 //
-// Adding a built-in case: add an entry to simulation_cases() in fitter/src/simulate/simulate.cpp: the
-// truth ModelSet, its motions, the run file names and the experiment configuration to write.
+// Adding a built-in case: add an entry to simulation_cases() in fitter/src/simulate/cases.cpp (a
+// family of cases in its own cases_*.cpp, declared in cases_internal.hpp): the truth ModelSet,
+// its motions, the run file names and the experiment configuration to write.
 //
 // Warnings
 // --------
