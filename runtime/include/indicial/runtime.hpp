@@ -80,7 +80,8 @@
 // which gives bit for bit what advance_lags gives. The step works in place on the State after
 // one block copy of what it overwrites (StepBackup), tests every number it keeps with one
 // isfinite (finite_test), and copies the block back if one is not finite; its input checks
-// are one branch on the inputs' bit patterns. A delayed coefficient recomputes A at the
+// are tests of the inputs' bit patterns. The State's step runs the coefficients unrolled
+// over the capacity (detail::CoefficientLoop). A delayed coefficient recomputes A at the
 // old end every step. The airspeed ratios (V / V_ref, l / V, the delay at V) are recomputed
 // only when the airspeed changes. With Scalar = float every per-step operation is in float
 // (clamp, axis factor, airspeed ratios), except the delayed path's clock, which is double.
@@ -753,9 +754,12 @@ inline StepStatus refused_step_input(int phase, const MotionInput& in, double dt
 }
 
 // The checks every step makes before touching anything. Why two passes: a good step answers
-// every question in one branch (angle and rate finite, 0 < dt_s <= max_step_dt_s and
-// 0 < airspeed_mps < Inf, each a range of the bit pattern read unsigned); only a refused
-// one asks them one by one for its status (refused_step_input, the same questions).
+// each question with one test of a bit pattern (angle and rate finite, 0 < dt_s <=
+// max_step_dt_s and 0 < airspeed_mps < Inf, each a range of the pattern read unsigned) and
+// one branch, never taken in a good run; only a refused step asks them again for its status
+// (refused_step_input, the same questions). Why a branch per question rather than one on
+// all the answers combined: 4 instructions fewer per double step, 7 per float one
+// (bench_step's callgrind count).
 INDICIAL_HOT_INLINE StepStatus check_step_input(int phase, const MotionInput& in, double dt_s, const void* out) {
   const std::uint64_t exponent = 0x7FF0000000000000u;
   const std::uint64_t a = static_cast<std::uint64_t>(double_bits(in.motion_angle_rad));
@@ -763,10 +767,9 @@ INDICIAL_HOT_INLINE StepStatus check_step_input(int phase, const MotionInput& in
   const std::uint64_t v = static_cast<std::uint64_t>(double_bits(in.airspeed_mps));
   const std::uint64_t d = static_cast<std::uint64_t>(double_bits(dt_s));
   const std::uint64_t max_dt = static_cast<std::uint64_t>(double_bits(max_step_dt_s));
-  const bool good = ((a & exponent) != exponent) & ((r & exponent) != exponent) &
-                    (v - 1u < exponent - 1u) & (d - 1u < max_dt) &
-                    (phase == static_cast<int>(PredictorPhase::running)) & (out != nullptr);
-  if (good) return StepStatus::ok;
+  if ((a & exponent) != exponent && (r & exponent) != exponent && v - 1u < exponent - 1u &&
+      d - 1u < max_dt && phase == static_cast<int>(PredictorPhase::running) && out != nullptr)
+    return StepStatus::ok;
   return refused_step_input(phase, in, dt_s, out);
 }
 
@@ -868,31 +871,50 @@ INDICIAL_HOT_INLINE Scalar advance_families_sharing(const RuntimeModel<Scalar, C
 // the output not finite.
 template <class Scalar, class Cap>
 INDICIAL_HOT_INLINE Scalar advance_coefficient(const CoefficientModel<Scalar, Cap>& cm,
-                                               const StepGeometry<Scalar>& g,
-                                               const StepEnd<Scalar, Cap>& end0, Scalar table_x1,
+                                               const StepGeometry<Scalar>& g, const Scalar& x1,
+                                               const Scalar& forcing_x1,
+                                               const StepEnd<Scalar, Cap>& end0, const Scalar& table_x1,
                                                Scalar rate, Scalar l_over_v_s,
                                                StepEnd<Scalar, Cap>* end1, Scalar* y, Scalar* value) {
-  advance_lags_to(cm, g, end0, end1, y);
-  *value = coefficient_output(cm, g.x1_rad, table_x1, rate, l_over_v_s, y);
+  const Scalar fitted = fitted_terms_with<ScalarOps<Scalar>>(cm, x1, table_x1, rate, l_over_v_s);
+  advance_lags_to(cm, g, x1, forcing_x1, end0, end1, y);
+  *value = add_stepped_lag_states(cm, fitted, y);
   return finite_test(*value);
 }
+
+// How advance_coefficients runs over the coefficients: in a loop, or unrolled over the
+// capacity (a copy of the coefficient's step per Cap::max_coefficients, the copies after
+// n_coefficients skipped). Why unrolled for the State's step: no loop counter or
+// per-coefficient pointers live across the spline calls (state/model2/double 925 -> 905
+// instructions, bench_step's callgrind count), and a model known at compile time (indicial
+// codegen) is folded into each copy (the Cortex-M4F step 912 -> 660 instructions, flash 128 B
+// less, tools/run-cortex-m.sh). The cost: a Predictor or a parsed model, not known at compile
+// time, carries the copies (flash +1.5 KB and +3.4 KB on the Cortex-M4F, whose steps are
+// still 6% and 3% fewer instructions). Why not for the families' and the delayed steps: more
+// copies in every Predictor's flash, for steps that cost 2-3x the plain one anyway.
+enum class CoefficientLoop : int { rolled = 0, unrolled = 1 };
+#if defined(__GNUC__) || defined(__clang__)
+#define INDICIAL_UNROLL _Pragma("GCC unroll 16")
+#else
+#define INDICIAL_UNROLL
+#endif
 
 // The model equations over one step for every coefficient, in place on s (whose lag states
 // and step ends `before` holds) and on the family states `stall` (nullptr: the model has
 // none); the outputs into value. Returns the sum of the finite_tests (0 if every number the
 // step keeps is finite). forcing == nullptr: no delay (the forcing angle is the angle).
-template <class Scalar, class Cap>
+template <CoefficientLoop Loop, class Scalar, class Cap>
 INDICIAL_HOT_INLINE Scalar advance_coefficients(const RuntimeModel<Scalar, Cap>& m, State<Scalar, Cap>& s,
-                                                const StepBackup<Scalar, Cap>& before, Scalar x1,
-                                                Scalar table_x1, Scalar rate, Scalar dt_s,
+                                                const StepBackup<Scalar, Cap>& before, const Scalar& x1,
+                                                const Scalar& table_x1, Scalar rate, Scalar dt_s,
                                                 const AirspeedTerms<Scalar>& v,
                                                 const DelayedForcing<Scalar, Cap>* forcing,
                                                 StallState<Scalar>* stall, Scalar* value) {
   const StepGeometry<Scalar> g{s.x_prev_rad, x1, s.x_prev_rad, x1, dt_s, v.time_scale};
-  Scalar test = Scalar(0);
-  StepLookups<Scalar, Cap> looked;
-  for (int c = 0; c < m.set.n_coefficients; ++c) {
+  StepLookups<Scalar, Cap> looked;  // the families' lookups of the coefficients stepped so far
+  const auto coefficient = [&](int c) INDICIAL_HOT_LAMBDA -> Scalar {
     const CoefficientModel<Scalar, Cap>& cm = m.set.coefficients[c];
+    Scalar test;
     // Why the branch: an undelayed coefficient uses the sample angles themselves; only a
     // delayed one has forcing angles of its own, and recomputes A at the old end (x(t0 - d)
     // moves when the airspeed, hence d, changes). B_j(x0) stays valid whatever the delay.
@@ -902,17 +924,29 @@ INDICIAL_HOT_INLINE Scalar advance_coefficients(const RuntimeModel<Scalar, Cap>&
       gd.forcing_x1_rad = forcing->x1_rad[c];
       StepEnd<Scalar, Cap> delayed_end0 = before.end[c];
       delayed_end0.forcing_antiderivative = spline_antiderivative(cm.a, gd.forcing_x0_rad);
-      test = test + advance_coefficient(cm, gd, delayed_end0, table_x1, rate, v.l_over_v_s,
-                                        &s.end[c], s.y[c], &value[c]);
+      test = advance_coefficient(cm, gd, x1, forcing->x1_rad[c], delayed_end0, table_x1, rate,
+                                 v.l_over_v_s, &s.end[c], s.y[c], &value[c]);
     } else {
       // The old end as the previous step (or reset) left it: B_j(x_prev) and A(x_prev) --
       // bit for bit what advance_lags would evaluate again.
-      test = test + advance_coefficient(cm, g, before.end[c], table_x1, rate, v.l_over_v_s,
-                                        &s.end[c], s.y[c], &value[c]);
+      test = advance_coefficient(cm, g, x1, x1, before.end[c], table_x1, rate, v.l_over_v_s,
+                                 &s.end[c], s.y[c], &value[c]);
     }
     if (stall != nullptr)
       test = test + advance_families_sharing(m, c, StallStep<Scalar>{g.x0_rad, x1, dt_s, v.l_over_v_s},
                                              &looked, &stall[c], &value[c]);
+    return test;
+  };
+  Scalar test = Scalar(0);
+  if (Loop == CoefficientLoop::unrolled) {
+    INDICIAL_UNROLL
+    for (int c = 0; c < Cap::max_coefficients; ++c) {
+      if (c == m.set.n_coefficients) break;
+      const Scalar t = coefficient(c);
+      test = c == 0 ? t : test + t;  // (0 + t is t only for t != -0: the compiler keeps the add)
+    }
+  } else {
+    for (int c = 0; c < m.set.n_coefficients; ++c) test = test + coefficient(c);
   }
   return test;
 }
@@ -1025,6 +1059,20 @@ inline StepStatus reset(const RuntimeModel<Scalar, Cap>& m, DelayedState<Scalar,
 }
 
 namespace detail {
+// The family states a step with families overwrites in place, saved before it (as
+// StepBackup); nothing at all for the State's step (StallUse::none).
+template <StallUse Families, class Scalar, class Cap>
+struct FamilyBackup {
+  StallState<Scalar> stall[Cap::max_coefficients];
+  void save(const FamilyState<Scalar, Cap>* f) { std::memcpy(stall, f->stall, sizeof stall); }
+  void restore(FamilyState<Scalar, Cap>* f) const { std::memcpy(f->stall, stall, sizeof stall); }
+};
+template <class Scalar, class Cap>
+struct FamilyBackup<StallUse::none, Scalar, Cap> {
+  void save(const FamilyState<Scalar, Cap>*) {}
+  void restore(FamilyState<Scalar, Cap>*) const {}
+};
+
 // The undelayed step of a State, with the family states of `families` (nullptr: a model
 // without families). Why a template on whether there are families rather than a branch on
 // the pointer: the State's step then holds none of the families' code, and with it fewer
@@ -1038,19 +1086,24 @@ inline StepStatus step_undelayed(const RuntimeModel<Scalar, Cap>& m, State<Scala
   if (m.delay != DelayUse::none) return StepStatus::delay_needs_history;
   if (Families == StallUse::none && m.stall != StallUse::none) return StepStatus::families_need_state;
   const Clamped<Scalar> clamp = clamp_model_angle(m, in.motion_angle_rad);
+  // Copies: the spline evaluations take their angle by reference, and a reference into the
+  // Clamped would keep all of it in memory (3 instructions per step, bench_step's count).
+  const Scalar x1 = clamp.x_rad;
+  const Scalar table_x1 = clamp.model_x_rad;
   const AirspeedTerms<Scalar> v = airspeed_terms(m, s, in.airspeed_mps);
   StepBackup<Scalar, Cap> before;
   save(s, &before);
   Scalar value[Cap::max_coefficients];
-  StallState<Scalar> stall_before[Cap::max_coefficients];
-  if (Families != StallUse::none) std::memcpy(stall_before, families->stall, sizeof stall_before);
-  const Scalar test = advance_coefficients(m, s, before, clamp.x_rad, clamp.model_x_rad,
+  FamilyBackup<Families, Scalar, Cap> stall_before;
+  stall_before.save(families);
+  const Scalar test = advance_coefficients<Families == StallUse::none ? CoefficientLoop::unrolled
+                                                                     : CoefficientLoop::rolled>(m, s, before, x1, table_x1,
                                            Scalar(in.rate_radps), Scalar(dt_s), v,
                                            static_cast<const DelayedForcing<Scalar, Cap>*>(nullptr),
                                            Families != StallUse::none ? families->stall : nullptr, value);
   if (!std::isfinite(test)) {
     restore(before, &s);
-    if (Families != StallUse::none) std::memcpy(families->stall, stall_before, sizeof stall_before);
+    stall_before.restore(families);
     return StepStatus::non_finite_result;
   }
   commit(m, value, clamp.x_rad, v, &s, out);
@@ -1140,7 +1193,7 @@ inline StepStatus step(const RuntimeModel<Scalar, Cap>& m, DelayedState<Scalar, 
   std::memcpy(stall_before, s.stall, sizeof stall_before);
   Scalar value[Cap::max_coefficients];
   const bool families = m.stall != StallUse::none;
-  const Scalar test = detail::advance_coefficients(m, s, before, clamp.x_rad, clamp.model_x_rad,
+  const Scalar test = detail::advance_coefficients<detail::CoefficientLoop::rolled>(m, s, before, clamp.x_rad, clamp.model_x_rad,
                                                    Scalar(in.rate_radps), Scalar(dt_s), v, &forcing,
                                                    families ? s.stall : nullptr, value);
   if (!std::isfinite(test)) {

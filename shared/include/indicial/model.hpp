@@ -150,8 +150,13 @@ inline Scalar int_power(const Scalar& u, int p) {
 // coefficient costs the scalar step instructions (bench_step's callgrind count).
 #if defined(__GNUC__) || defined(__clang__)
 #define INDICIAL_HOT_INLINE inline __attribute__((always_inline))
+#define INDICIAL_HOT_LAMBDA __attribute__((always_inline))
+// The usual outcome of a branch, for the code's layout only (the other side out of line).
+#define INDICIAL_LIKELY(c) __builtin_expect(static_cast<bool>(c), 1)
 #else
 #define INDICIAL_HOT_INLINE inline
+#define INDICIAL_HOT_LAMBDA
+#define INDICIAL_LIKELY(c) (c)
 #endif
 
 // ------------------------------------------------------------------------------------------
@@ -792,7 +797,8 @@ inline void interval_mean_with(const Spline<typename Ops::Scalar, P, K>& s,
   const V dx = x1 - x0;
   const auto small = Ops::abs_less(dx, detail::interval_mean_threshold<Scalar>::value);
   const auto quotient = [&] { return V((antiderivative_x1 - antiderivative_x0) / dx); };
-  if (!Ops::any(small)) {
+  // (Likely: only a step that barely moves takes the midpoint; GCC guessed the other way.)
+  if (INDICIAL_LIKELY(!Ops::any(small))) {
     *mean = quotient();
     return;
   }
@@ -1055,26 +1061,45 @@ INDICIAL_HOT_INLINE void advance_lags_between(const CoefficientModel<Scalar, Cap
 // coefficient (the report's Models I and II) runs no loop and no j == 0 test: 33 instructions
 // fewer per double step (bench_step's callgrind count). Not in float: there the exp is
 // exp_on, inlined, and a second copy of it cost the Cortex-M4F 768 bytes of flash and 12
-// instructions per step (tools/run-cortex-m.sh).
+// instructions per step (tools/run-cortex-m.sh). The new end's angles x1_rad and
+// forcing_x1_rad are g's, passed apart as references to the caller's variables: the spline
+// evaluations take their angle by reference, and taking it from g would keep the whole
+// StepGeometry in memory (7 instructions per double step, bench_step's callgrind count).
 template <class Scalar>
 struct peel_first_lag : std::integral_constant<bool, !std::is_same<Scalar, float>::value> {};
 
 template <class Scalar, class Cap>
 INDICIAL_HOT_INLINE void advance_lags_to(const CoefficientModel<Scalar, Cap>& m, const StepGeometry<Scalar>& g,
+                                         const Scalar& x1_rad, const Scalar& forcing_x1_rad,
                                          const StepEnd<Scalar, Cap>& end0, StepEnd<Scalar, Cap>* end1,
                                          Scalar* y) {
-  end1->forcing_antiderivative = step_end_forcing(m, g.forcing_x1_rad);
+  end1->forcing_antiderivative = step_end_forcing(m, forcing_x1_rad);
   const Scalar forcing_integral = end1->forcing_antiderivative - end0.forcing_antiderivative;
   int first = 0;
   if (peel_first_lag<Scalar>::value) {
-    end1->b_antiderivative[0] = step_end_b(m, 0, g.x1_rad);
+    end1->b_antiderivative[0] = step_end_b(m, 0, x1_rad);
     advance_lag(m, g, end0, *end1, forcing_integral, 0, y);
     first = 1;
   }
   for (int j = first; j < m.n_lags; ++j) {
-    end1->b_antiderivative[j] = step_end_b(m, j, g.x1_rad);
+    end1->b_antiderivative[j] = step_end_b(m, j, x1_rad);
     advance_lag(m, g, end0, *end1, forcing_integral, j, y);
   }
+}
+
+// sum + y_0 + ... + y_(n_lags - 1) after advance_lags_to (coefficient_output's sum, in its
+// order): lag 0 before the loop where advance_lags_to took it so (same precondition, n_lags
+// >= 1), so that the one-lag case tests nothing.
+template <class Scalar, class Cap>
+INDICIAL_HOT_INLINE Scalar add_stepped_lag_states(const CoefficientModel<Scalar, Cap>& m, Scalar sum,
+                                                  const Scalar* y) {
+  int first = 0;
+  if (peel_first_lag<Scalar>::value) {
+    sum = sum + y[0];
+    first = 1;
+  }
+  for (int j = first; j < m.n_lags; ++j) sum = sum + y[j];
+  return sum;
 }
 
 template <class Scalar, class Cap>
@@ -1109,13 +1134,17 @@ inline void steady_state(const CoefficientModel<Scalar, Cap>& m, const Scalar& x
 // cycles' range must see the measured static curve where the angle really is, not frozen at
 // the envelope's edge; a polynomial has no range of its own in the model but the envelope it
 // was fitted or checked in. Inside the envelope both angles are the same.
+// fitted_terms_with is the first part (static + correction + rotary), coefficient_output_with
+// adds the lag states to it in order. Why apart: the runtime's step evaluates the fitted terms
+// before it advances the lags (independent work, hence the same bits) and adds the new lag
+// states while they are still in registers (add_stepped_lag_states; 6 instructions per double
+// step, bench_step's callgrind count).
 template <class Ops, class Cap>
-INDICIAL_HOT_INLINE typename Ops::V coefficient_output_with(const CoefficientModel<typename Ops::Scalar, Cap>& m,
-                                               const typename Ops::V& x_rad,
-                                               const typename Ops::V& table_x_rad,
-                                               const typename Ops::V& rate_radps,
-                                               const typename Ops::V& l_over_v_s,
-                                               const typename Ops::V* y) {
+INDICIAL_HOT_INLINE typename Ops::V fitted_terms_with(const CoefficientModel<typename Ops::Scalar, Cap>& m,
+                                                      const typename Ops::V& x_rad,
+                                                      const typename Ops::V& table_x_rad,
+                                                      const typename Ops::V& rate_radps,
+                                                      const typename Ops::V& l_over_v_s) {
   using V = typename Ops::V;
   V curve;
   if (m.static_curve.kind == StaticKind::polynomial) {
@@ -1124,10 +1153,21 @@ INDICIAL_HOT_INLINE typename Ops::V coefficient_output_with(const CoefficientMod
     Ops::table_value(m.static_curve, table_x_rad, &curve);
   }
   // Why the test: most models have no static correction, whose value is 0 (curve + 0 is
-  // curve); a call to learn that costs the step ~30 instructions per coefficient.
-  if (m.static_correction.n_powers + m.static_correction.n_knots > 0)
+  // curve); a call to learn that costs the step ~30 instructions per coefficient. (| rather
+  // than +: the counts are never negative, and the test is one instruction shorter.)
+  if ((m.static_correction.n_powers | m.static_correction.n_knots) != 0)
     curve = curve + spline_value_with<Ops>(m.static_correction, x_rad);
-  V sum = curve + l_over_v_s * spline_value_with<Ops>(m.rotary, x_rad) * rate_radps;
+  return curve + l_over_v_s * spline_value_with<Ops>(m.rotary, x_rad) * rate_radps;
+}
+
+template <class Ops, class Cap>
+INDICIAL_HOT_INLINE typename Ops::V coefficient_output_with(const CoefficientModel<typename Ops::Scalar, Cap>& m,
+                                               const typename Ops::V& x_rad,
+                                               const typename Ops::V& table_x_rad,
+                                               const typename Ops::V& rate_radps,
+                                               const typename Ops::V& l_over_v_s,
+                                               const typename Ops::V* y) {
+  typename Ops::V sum = fitted_terms_with<Ops>(m, x_rad, table_x_rad, rate_radps, l_over_v_s);
   for (int j = 0; j < m.n_lags; ++j) sum = sum + y[j];
   return sum;
 }
