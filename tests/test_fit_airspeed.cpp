@@ -203,8 +203,8 @@ TEST_CASE("a delayed forcing at several airspeeds: delay_s (at V_ref) recovered,
 
 TEST_CASE("a delay is never estimated below 0: a negative start is projected, model.coef is written") {
   // Model I without a delay, the delay estimated from a start of -0.01 s (a --start-value): the
-  // start is projected to 0 (said in the message) and no accepted step leaves delay_s >= 0, the
-  // runtime's feasible set (model_check.hpp), so the fitted model is written and replayed. Before
+  // start is projected to 0 (said in the message) and no accepted step takes delay_s below 0, out of
+  // the runtime's feasible set (model_check.hpp), so the fitted model is written and replayed. Before
   // this the estimate could end below 0 and `fit` failed writing model.coef.
   const SimulationCase& c = find_simulation_case("tailless-model-1");
   std::vector<SimulatedRun> runs;

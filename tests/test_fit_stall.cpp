@@ -234,6 +234,15 @@ TEST_CASE("fit stall families holds model.stall_known at its values") {
     CHECK(std::abs(est->value - tr.value) < 3.0 * est->cr_bound);
   }
   CHECK(std::abs(fit.fit_error / kNoiseSigma - 1.0) < 0.1);
+  // A start value for a held parameter says so (not "no such parameter").
+  {
+    Experiment e = te.e;
+    e.model.stall.known = {{"T1", 3.0}};
+    FitOptions o;
+    o.start_values = {{"T1", 2.0}};
+    CHECK_THROWS_WITH_AS(fit_experiment(e, o), doctest::Contains("T1: it is held at 3 by model.stall_known"),
+                         InputError);
+  }
   // Held at twice the truth's T1: still held, and the fit cannot reach the noise.
   const FitResult wrong = fit_with_known(2.0 * p.tau1_semichords, p.tau2_semichords);
   CHECK(wrong.model.coefficients[0].stall.separation.tau1_semichords == 2.0 * p.tau1_semichords);

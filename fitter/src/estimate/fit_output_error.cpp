@@ -512,18 +512,19 @@ std::string start_failure_message(const ParameterLayout& L, const OutputErrorDat
          "error's estimates in fit.json)" + what_to_do;
 }
 
-// Projects an infeasible start onto the feasible set: for every lag whose b_j(x) is not
-// positive everywhere on the envelope, its constant term b_j_0 is raised until the minimum is
-// a tenth of max |b_j| on the envelope (1 1/s if that is 0). Why the constant term: it moves
-// b_j(x) uniformly, the smallest change that restores b_j > 0 without reshaping the spline.
-// Returns what was done (empty when nothing), or why a lag could not be projected (no
-// constant term in the structure).
 ParamId param_id_delay() {
   ParamId id;
   id.kind = ParamKind::delay;
   return id;
 }
 
+// Projects an infeasible start onto the feasible set: for every lag whose b_j(x) is not
+// positive everywhere on the envelope, its constant term b_j_0 is raised until the minimum is
+// a tenth of max |b_j| on the envelope (1 1/s if that is 0). Why the constant term: it moves
+// b_j(x) uniformly, the smallest change that restores b_j > 0 without reshaping the spline.
+// A negative delay_s (a --start-value) is projected to 0, the runtime's limit.
+// Returns what was done (empty when nothing), or why a lag could not be projected (no
+// constant term in the structure).
 std::string project_start(const ParameterLayout& L, const OutputErrorData& d, double lo, double hi,
                           Eigen::VectorXd& theta) {
   std::string said;

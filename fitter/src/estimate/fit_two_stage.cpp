@@ -91,9 +91,14 @@ Eigen::VectorXd start_values(const ParameterLayout& L, const std::vector<Prepare
   const std::vector<std::string> names = L.names();
   for (const auto& [name, value] : o.start_values) {
     const auto it = std::find(names.begin(), names.end(), name);
-    if (it == names.end())
+    if (it == names.end()) {
+      for (const auto& held : e.model.stall.known)
+        if (held.first == name)
+          throw InputError(e.path, 0, fmt::format("start value for {}: it is held at {} by model.stall_known, "
+                                                  "not estimated", name, held.second));
       throw InputError(e.path, 0, fmt::format("start value for {}: the model has no such "
                                               "parameter", name));
+    }
     th(it - names.begin()) = value;
   }
   return th;

@@ -346,17 +346,24 @@ struct RuntimeModel {
 };
 
 namespace detail {
+// Bit for bit (== would take -0.0 for +0.0, and a shared step must give the unshared one's
+// bits): the sharing below is decided on the numbers' representations.
+template <class T>
+inline bool same_bits(const T& a, const T& b) {
+  return std::memcmp(&a, &b, sizeof(T)) == 0;
+}
+
 template <class Scalar, class Cap>
 inline bool same_f0_table(const SeparationParameters<Scalar, Cap>& a, const SeparationParameters<Scalar, Cap>& b) {
   if (a.n_f0 != b.n_f0) return false;
   for (int i = 0; i < a.n_f0; ++i)
-    if (!(a.f0_x_rad[i] == b.f0_x_rad[i]) || !(a.f0_value[i] == b.f0_value[i])) return false;
+    if (!same_bits(a.f0_x_rad[i], b.f0_x_rad[i]) || !same_bits(a.f0_value[i], b.f0_value[i])) return false;
   return true;
 }
 }  // namespace detail
 
 // RuntimeModel::stall_sharing of a set: for each coefficient with families, the first earlier
-// one with families whose table / table and T2 / T1 are the same (==, so a NaN shares nothing).
+// one with families whose table / table and T2 / T1 are the same, bit for bit (same_bits).
 template <class Scalar, class Cap>
 inline void derive_stall_sharing(const ModelSet<Scalar, Cap>& s, StallSharing* sharing) {
   for (int c = 0; c < Cap::max_coefficients; ++c) sharing[c] = StallSharing{};
@@ -368,8 +375,8 @@ inline void derive_stall_sharing(const ModelSet<Scalar, Cap>& s, StallSharing* s
       if (b.families == StallFamilies::none) continue;
       const bool table = detail::same_f0_table(a.separation, b.separation);
       if (table) sharing[c].table = e;
-      if (table && a.separation.tau2_semichords == b.separation.tau2_semichords) sharing[c].forcing = e;
-      if (a.separation.tau1_semichords == b.separation.tau1_semichords) sharing[c].decay = e;
+      if (table && detail::same_bits(a.separation.tau2_semichords, b.separation.tau2_semichords)) sharing[c].forcing = e;
+      if (detail::same_bits(a.separation.tau1_semichords, b.separation.tau1_semichords)) sharing[c].decay = e;
     }
   }
 }
