@@ -144,7 +144,7 @@ const std::vector<KeyDoc>& key_docs() {
       {"model", "stall_polar_column", "with stall: the polar's lift column. Default \"CL\".",
        "stall_polar_column = \"CL\""},
       {"model", "stall_attached_max_deg", "with stall: polar rows with |x| <= this (deg) are its attached part,\n"
-                                          "whose least-squares line gives C_Na and alpha_0. Default 8.",
+                                          "whose least-squares line gives C_Na and alpha_0; f0 = 1 there. Default 8.",
        "stall_attached_max_deg = 8.0"},
       {"model", "stall_f0_correction_degree", "with stall: a fitted correction of f0(x), powers 0..degree\n"
                                               "(stall_f0_correction_powers, stall_f0_correction_knots_deg as for\n"

@@ -206,10 +206,13 @@ def main():
             rows = []
             for c in held:
                 r = {"c": c, "qs": None, "rms": []}
-                for _, model in columns:
+                for j, (_, model) in enumerate(columns):
                     m, qs = predict_rms(model, c, exp, work)
                     r["rms"].append(m)
-                    r["qs"] = qs
+                    # The reference is the configured model's quasi-steady part (the static
+                    # table; C_aq = 0): a diagnosed C_aq would move predict's quasi-steady column.
+                    if j == 0:
+                        r["qs"] = qs
                 rows.append(r)
             sections.append((name, label, coef, train, knots, dj, t_diag, columns, rows))
     write_md(sections, static_info, time.time() - t0)

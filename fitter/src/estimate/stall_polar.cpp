@@ -5,6 +5,7 @@
 // The attached part: the polar's rows with |x| <= attached_max_deg (experiment key
 // model.stall_attached_max_deg, default 8 deg; at least 3 rows). C_Na and alpha_0 are the
 // least-squares line through them (slope C_Na > 0 required). The table: one row per polar row,
+// f0 = 1 on the attached part's rows (attached by that assumption), elsewhere
 // f0 = kirchhoff_separation(C, C_Na, x, alpha_0) (clipped to [0, 1]); when the polar has more
 // rows than the runtime's table holds (DefaultCapacity::max_table_points), the polar is
 // sampled at that many equally spaced angles over its range (linear interpolation between its
@@ -81,10 +82,17 @@ StallStructure stall_structure(const StallConfig& c, const std::string& context_
       xs[i] = c.polar_x_rad.front() +
               (c.polar_x_rad.back() - c.polar_x_rad.front()) * static_cast<double>(i) / static_cast<double>(rows - 1);
   }
+  // Rows of the attached part are attached (f0 = 1): the assumption that fitted the line. The
+  // inversion there would only return the polar's noise: f0 = (2 sqrt(C / N) - 1)^2 moves by
+  // about 2 dC / N, and N -> 0 at alpha_0 (a measured NACA 0012 polar, 1 deg above alpha_0:
+  // C = 0.036 against N = 0.051 gave f0 = 0.47, and a shedding threshold start of 0.05).
+  const double attached_rad = c.attached_max_deg * kDeg;
   for (double x : xs) {
     s.f0_x_rad.push_back(x);
-    s.f0_value.push_back(kirchhoff_separation(interpolate(c.polar_x_rad, c.polar_lift, x), slope, x,
-                                              s.zero_lift_angle_rad));
+    s.f0_value.push_back(std::abs(x) <= attached_rad
+                             ? 1.0
+                             : kirchhoff_separation(interpolate(c.polar_x_rad, c.polar_lift, x), slope, x,
+                                                    s.zero_lift_angle_rad));
   }
   // The shedding threshold's start: the attached normal force where the static separation
   // first falls below 0.7 above alpha_0 (Beddoes-Leishman's alpha_1: f0(alpha_1) = 0.7).

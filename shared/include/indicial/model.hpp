@@ -1252,8 +1252,9 @@ inline void lag_derivatives(const CoefficientModel<Scalar, Cap>& m, const Scalar
 //   fully separated Kirchhoff lift, or a polar of the other sign than its line) gives 0;
 //   |x - alpha_0| below 1e-6 rad (N ~ 0, C / N is 0/0) gives 1: the flow there is attached.
 // C_Na and alpha_0 are the least-squares line through the polar's ATTACHED part (the fitter:
-// the rows with |x| <= the experiment's attached_max_deg, default 8 deg; docs/formats.md). The
-// inversion is done once, offline, into the f0 table (rows at the polar's angles); the
+// the rows with |x| <= the experiment's attached_max_deg, default 8 deg; docs/formats.md), and
+// those rows are f0 = 1 (attached by that assumption: near alpha_0 the inversion only returns
+// the polar's noise, f0 moving by about 2 dC / N as N -> 0). The inversion is done once, offline, into the f0 table (rows at the polar's angles); the
 // runtime interpolates it LINEARLY (monotone between rows: a table in [0, 1] stays in it; the
 // angle is clamped to the first / last row). The fitted correction df0(x) is an ordinary
 // Spline; the sum is clipped to [0, 1] (zero derivative where clipped).
