@@ -137,7 +137,8 @@ class Experiment:
       rotary_polynomial    a priori C_aq(x) coefficients of x^0, x^1, ...
       rotary_estimate      True: the two-stage loop re-estimates C_aq(x) from
                            rotary_powers / rotary_knots_rad candidates
-      a_powers, a_knots_rad    a(x) terms (x^i, and (x - k)_+^2 knots in rad); default 0, 1, 2
+      a_powers, a_knots_rad    a(x) terms (x^i, and (x - k)_+^2 knots in rad, strictly increasing
+                               and inside the runs' x, as every knot keyword); default 0, 1, 2
       b1_powers, b1_knots_rad  b1(x) terms (1/s at V); default the constant b1_0
       bias                 the state-equation constant con
       structure            "fixed" or "stepwise" (the terms are then a candidate pool)
@@ -146,7 +147,7 @@ class Experiment:
                            parameter delay_s (s at V); delay_start_s its start value, s in [0, 1]
       The dynamic-stall families ([model] stall keys of docs/formats.md, same names and checks):
       stall                "none" (default), "separation" (the separation state f) or
-                           "separation_and_vortex" (f and the leading-edge vortex)
+                           "separation_and_vortex" (f and the leading-edge vortex); pitch only
       stall_polar_alpha_rad, stall_polar_lift
                            the static lift polar (alpha in rad, strictly increasing; C_L); default:
                            the static table, when the coefficient is stall_polar_column
