@@ -612,8 +612,8 @@ inline AirspeedScaling<Scalar> airspeed_scaling(const Scalar& reference_airspeed
 // The discrete state update.
 // ------------------------------------------------------------------------------------------
 // The exponential of the float step, written once for every place a float step runs: the
-// single step (advance_lags_between with Scalar = float, below), the batch's lanes
-// (batch.hpp's lane_exp, float and double) and every target (the host, a Cortex-M4F). Why
+// single step (the lags' and the stall families' exps: detail::step_exp below), the batch's
+// lanes (batch.hpp's lane_exp, float and double) and every target (host, Cortex-M4F). Why
 // not std::exp in float: the C libraries' expf differ in the last bit (glibc's vs newlib's),
 // and phi1's 1 - exp(-z) amplifies that bit by 1/z (z = b dt is 1e-3..1e-2 at kHz rates)
 // into 1e-5..1e-4 relative differences in the lag states; with this one function the float
@@ -724,8 +724,8 @@ INDICIAL_HOT_INLINE void exp_on(const Part& v, Part* r) {
 }
 
 namespace detail {
-// The exponential of a step's decay: exp_on for float (see above), std::exp (or an autodiff
-// type's exp, found by argument-dependent lookup) otherwise.
+// The exponential of a step (lag and stall decays, stall switches): exp_on for float (see
+// above), std::exp (or an autodiff type's exp, by argument-dependent lookup) otherwise.
 template <class Scalar>
 inline Scalar step_exp(const Scalar& x) {
   using std::exp;
