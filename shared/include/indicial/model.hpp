@@ -492,10 +492,11 @@ struct SeparationParameters {
   Scalar normal_force_slope_per_rad = Scalar(0);  // C_Na of the attached polar
   Scalar zero_lift_angle_rad = Scalar(0);         // alpha_0 of the attached polar
   int n_f0 = 0;                                   // rows of the static separation table
-  // Strictly increasing (in their storage type: a float model whose rows round to one float
-  // is refused). Float in a float model, as a spline's knots (KnotStorage): the table's row
-  // search and interpolation are then float only (on the Cortex-M4F each double comparison,
-  // subtraction or conversion is a libgcc call: 3,050 -> 2,439 instructions per stall step).
+  // Strictly increasing (checked on the double model). Float in a float model, as a spline's
+  // knots (KnotStorage): the row search and interpolation are then float only (on the
+  // Cortex-M4F each double comparison, subtraction or conversion is a libgcc call: 3,050 ->
+  // 2,439 instructions per stall step). Rows that round to one float are harmless: the search
+  // compares in float, so such a row never brackets x (table_row) and no width is 0.
   typename KnotStorage<Scalar>::type f0_x_rad[Cap::max_table_points] = {};
   Scalar f0_value[Cap::max_table_points] = {};    // in [0, 1]; linear between rows
   SplineT f0_correction;                          // fitted, ADDED to the table, then clipped
