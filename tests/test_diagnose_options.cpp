@@ -32,7 +32,7 @@ std::vector<BadOption> bad_options() {
       {"alpha (--alpha): must be in (0, 1)", [](DiagnoseOptions& o) { o.alpha = 0.0; }, "found 0"},
       {"alpha (--alpha): must be in (0, 1)", [](DiagnoseOptions& o) { o.alpha = 1.0; }, "found 1"},
       {"alpha (--alpha): must be in (0, 1)", [](DiagnoseOptions& o) { o.alpha = nan; }, "found nan"},
-      {"cv_min_runs: must be >= 2", [](DiagnoseOptions& o) { o.cv_min_runs = 1; }, "found 1"},
+      {"cv_min_runs (--cv-min-runs): must be >= 2", [](DiagnoseOptions& o) { o.cv_min_runs = 1; }, "found 1"},
       {"cv_min_gain (--min-gain): must be in [0, 1)", [](DiagnoseOptions& o) { o.cv_min_gain = -0.1; }, "found -0.1"},
       {"cv_min_gain (--min-gain): must be in [0, 1)", [](DiagnoseOptions& o) { o.cv_min_gain = 1.0; }, "found 1"},
       {"cv_min_in_sample_gain (--min-in-sample-gain): must be in [0, 1)",

@@ -65,9 +65,6 @@ indicial::FitOptions checked_fit_options(const FitCliOptions& o) {
   else
     throw InputError("--state-derivative", 0,
                      "expected 'smoothed' or 'modulating', found '" + o.state_derivative + "'");
-  if (!(fo.f_to_enter > 0.0) || !(fo.f_to_remove > 0.0) || fo.f_to_remove > fo.f_to_enter)
-    throw InputError("--f-to-enter", 0, "need F to enter >= F to remove > 0");
-  if (fo.max_iterations < 1) throw InputError("--max-iterations", 0, "must be at least 1");
   for (const std::string& sv : o.start_values) {
     const std::size_t eq = sv.find('=');
     std::size_t used = 0;
@@ -77,12 +74,12 @@ indicial::FitOptions checked_fit_options(const FitCliOptions& o) {
     } catch (const std::exception&) {
       used = 0;
     }
-    if (eq == std::string::npos || eq == 0 || used == 0 || used != sv.size() - eq - 1 || !std::isfinite(value))
-      throw InputError("--start-value", 0, "expected NAME=VALUE with a finite number (e.g. b1_0=3), found '" + sv + "'");
+    if (eq == std::string::npos || eq == 0 || used == 0 || used != sv.size() - eq - 1)
+      throw InputError("--start-value", 0, "expected NAME=VALUE with a number (e.g. b1_0=3), found '" + sv + "'");
     fo.start_values.emplace_back(sv.substr(0, eq), value);
   }
-  if (!(fo.fallback_r_squared >= 0.0 && fo.fallback_r_squared <= 1.0))
-    throw InputError("--fallback-r-squared", 0, "must be in [0, 1]");
+  // Every range (a non-finite start value included) is FitOptions::IsValid's, with its message.
+  if (std::string bad; !fo.IsValid(&bad)) throw InputError(bad);
   return fo;
 }
 
