@@ -420,7 +420,9 @@ if os.path.exists(cortex_path):
         cortex = f.read().rstrip()
     w("## Cortex-M4F under QEMU (tools/run-cortex-m.sh)")
     w("")
-    w("Model II C_L + C_m in float (`firmware/cortex-m/model2-cl-cm.coef`, the structure of section 1) "
+    w("Model II C_L + C_m in float (`firmware/cortex-m/model2-cl-cm.coef`, the structure of section 1; "
+      "`stall_state`: the same with every dynamic-stall family on C_L and C_m, `stall2-cl-cm.coef`, "
+      "the `stall2` model of section 1) "
       "built for `-mcpu=cortex-m4 -mfpu=fpv4-sp-d16 -mfloat-abi=hard -O2 -fno-exceptions -fno-rtti` "
       "(Debian's arm-none-eabi GCC 12.2, newlib 3.3), run on `qemu-system-arm -M mps2-an386 -icount "
       "shift=0`; every step bit-identical to the host's float build. Instructions are counted "

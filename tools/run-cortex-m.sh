@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # The runtime on a Cortex-M4F under QEMU (firmware/cortex-m/README.md): builds the replay
-# firmware three ways (codegen_state, codegen_predictor, coef_text) with Debian's
-# arm-none-eabi GCC and newlib, proves that the link refuses malloc/free/new (a planted
-# reference must fail to link), runs each image on `qemu-system-arm -M mps2-an386` with
+# firmware four ways (codegen_state, codegen_predictor, coef_text: Model II; stall_state: Model
+# II with every dynamic-stall family on C_L and C_m) with Debian's arm-none-eabi GCC and
+# newlib, proves that the link refuses malloc/free/new (a planted reference must fail to
+# link), runs each image on `qemu-system-arm -M mps2-an386` with
 # semihosting and -icount shift=0, compares every step with the host's float build (bit for
 # bit) and double build, and reports instructions per step, flash, RAM and stack.
 #
@@ -10,8 +11,8 @@
 #
 # Environment: INDICIAL_BUILD_DIR (the host build with tools/indicial, default build; the
 # `indicial` target is built there if missing), INDICIAL_CORTEX_M_DIR (output, default
-# build-cortex-m). Writes there: *.elf, *.map, *.summary.txt, footprint.md (the table that
-# bench/RESULTS.md's Cortex-M section quotes). Exit status 1 on any mismatch or failed check.
+# build-cortex-m). Writes there: *.elf, *.map, *.summary.txt, *.compare.txt, footprint.md (the
+# table that bench/RESULTS.md's Cortex-M section quotes). Exit status 1 on any mismatch or failed check.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$PWD
@@ -19,6 +20,7 @@ build_dir=${INDICIAL_BUILD_DIR:-build}
 out=${INDICIAL_CORTEX_M_DIR:-build-cortex-m}
 fw=firmware/cortex-m
 model_coef=$fw/model2-cl-cm.coef
+stall_coef=$fw/stall2-cl-cm.coef
 
 # The cross compiler, newlib, libstdc++ for newlib, QEMU: the cortex-m extra of
 # tools/install-deps.sh (installed only if missing).
@@ -43,6 +45,8 @@ c++ -std=c++17 -O2 -ffp-contract=off -Wall -Wextra -Iruntime/include -Ishared/in
 # ---- the two model inputs: the generated float model and the .coef text -------------------------
 "$indicial" codegen "$model_coef" --scalar float --capacity tight --name firmware_model \
   --out "$out/generated_model.hpp" --force
+"$indicial" codegen "$stall_coef" --scalar float --capacity tight --name firmware_model \
+  --out "$out/generated_stall_model.hpp" --force
 { printf 'R"coef('; cat "$model_coef"; printf ')coef"\n'; } > "$out/model_text.inc"
 
 # ---- cross build ------------------------------------------------------------------------------
@@ -86,9 +90,10 @@ if ! grep -q "undefined reference to \`__wrap_malloc'" "$out/planted_heap.log" |
 fi
 echo "run-cortex-m: the planted malloc and new are refused at link time (as they must be)"
 
-variants=(codegen_state codegen_predictor coef_text)
+variants=(codegen_state codegen_predictor coef_text stall_state)
+variant_coef=("$model_coef" "$model_coef" "$model_coef" "$stall_coef")
 failed=()
-for i in 0 1 2; do
+for i in 0 1 2 3; do
   name=${variants[$i]}
   compile_variant "$name" $((i + 1))
   arm-none-eabi-g++ "${cflags[@]}" "${ldflags[@]}" "-Wl,-Map=$out/$name.map" "$out/$name.o" \
@@ -99,8 +104,9 @@ for i in 0 1 2; do
      -serial none -semihosting-config enable=on,target=native -icount shift=0 -kernel "$name.elf") ||
     { echo "run-cortex-m: $name: the firmware failed under QEMU" >&2; failed+=("$name"); continue; }
   echo "=== $name: target vs host"
-  "$out/host_check" compare "$model_coef" "$out/motion.bin" "$out/$name.out.bin" --max-ulp 0 ||
-    failed+=("$name")
+  "$out/host_check" compare "${variant_coef[$i]}" "$out/motion.bin" "$out/$name.out.bin" --max-ulp 0 \
+    > "$out/$name.compare.txt" || failed+=("$name")
+  cat "$out/$name.compare.txt"
 done
 [ ${#failed[@]} -eq 0 ] || { echo "run-cortex-m: FAILED: ${failed[*]}" >&2; exit 1; }
 

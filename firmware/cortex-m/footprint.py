@@ -4,8 +4,9 @@
     footprint.py OUT_DIR VARIANT...
 
 Reads, for each variant, OUT_DIR/VARIANT.summary.txt (written by the firmware under QEMU),
-VARIANT.elf (sizes of sections and symbols, arm-none-eabi-size / nm) and its disassembly
-(stack_depth.py), and prints the table bench/RESULTS.md quotes. Fails (exit 1) when the
+VARIANT.elf (sizes of sections and symbols, arm-none-eabi-size / nm), its disassembly
+(stack_depth.py) and VARIANT.compare.txt (host_check compare's lines: target vs host float and
+double), and prints the table and comparisons bench/RESULTS.md quotes. Fails (exit 1) when the
 instruction counter does not count the known loops right (the method is then broken).
 
 Instructions: under `-icount shift=0` one SysTick tick (25 MHz) is 40 instructions
@@ -76,6 +77,13 @@ def static_stack(elf, fw_dir):
     return total, chain[:-1]
 
 
+def read_compare(path):
+    if not os.path.exists(path):
+        return []
+    with open(path) as f:
+        return [line.rstrip() for line in f if line.strip()]
+
+
 def per_step(segment):
     return (segment["step_ticks"] - segment["empty_ticks"]) * NS_PER_TICK / segment["steps"]
 
@@ -120,6 +128,8 @@ def describe(out_dir, name, fw_dir):
         "ram": ram,
         "ram_runtime": ram - harness_ram,
         "state": values["sizeof_state"],
+        "family_state": values.get("sizeof_family_state"),
+        "compare": read_compare(os.path.join(out_dir, name + ".compare.txt")),
         "predictor": values["sizeof_predictor"],
         "stack_measured": max(s["stack_bytes"] for s in segments),
         "stack_bound": stack_bound,
@@ -146,7 +156,28 @@ def main():
     print(f"Counts +-{r['resolution']:.2f} instructions/step (one 40-instruction tick at each end of a "
           f"{int(2 * NS_PER_TICK / r['resolution'])}-step window). State per instance: "
           f"State<float> {r['state']} B; Predictor<float> {r['predictor']} B (its own model copy and "
-          "the delay ring included).")
+          "the delay ring included).", end="")
+    stall = [x for x in rows if x["name"].startswith("stall")]
+    if stall and stall[0]["family_state"]:
+        print(f" FamilyState<float> {stall[0]['family_state']} B ({stall[0]['name']}: the State plus each "
+              "coefficient's f, v and tau_v).")
+    else:
+        print()
+    print()
+    print("Every step against the host (`host_check compare`: the target's float outputs against the "
+          "host's `Predictor<float>` and `Predictor<double>` on the same motion; relative to "
+          "max(|value|, 0.01)):")
+    print()
+    print("| variant | steps compared | statuses differ | target vs host float | target vs host double, "
+          "max abs | max rel | host float vs host double, max abs |")
+    print("|---|---|---|---|---|---|---|")
+    for x in rows:
+        c = " ".join(x["compare"])
+        m = re.search(r"steps compared: (\d+) \((\d+) statuses differ\).*max (\d+) ulp.*"
+                      r"host double: max abs (\S+), max rel (\S+) .*host float vs host double: max abs (\S+)", c)
+        if m:
+            print(f"| {x['name']} | {m.group(1)} | {m.group(2)} | {m.group(3)} ulp | {m.group(4)} | "
+                  f"{m.group(5)} | {m.group(6)} |")
     print()
     print(f"Deepest static call chain of one step ({r['name']}; frame bytes, function):")
     print()

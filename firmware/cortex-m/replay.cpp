@@ -1,7 +1,7 @@
 // firmware/cortex-m/replay.cpp -- the runtime on a Cortex-M4F: replays a reference motion
 // through Predictor<float> (or the stateless State<float> core) under QEMU and reports, by
 // semihosting, every step's status and outputs, the instructions per step, the stack a step
-// uses and the sizes of the runtime's objects. tools/run-cortex-m.sh builds it three times:
+// uses and the sizes of the runtime's objects. tools/run-cortex-m.sh builds it four times:
 //
 //   INDICIAL_FW_VARIANT=1  codegen_state      the model from `indicial codegen --scalar float`
 //                                             (read-only memory), a State<float> stepped by
@@ -10,6 +10,10 @@
 //   INDICIAL_FW_VARIANT=2  codegen_predictor  the same model through Predictor<float>::use
 //   INDICIAL_FW_VARIANT=3  coef_text          Predictor<float>::load(text) parses the .coef
 //                                             text (coef_file.hpp) on the target
+//   INDICIAL_FW_VARIANT=4  stall_state        as codegen_state, with stall2-cl-cm.coef (every
+//                                             dynamic-stall family on C_L and C_m) generated
+//                                             into generated_stall_model.hpp, stepped on a
+//                                             FamilyState<float>
 //
 // Files (host paths, relative to QEMU's working directory): motion.bin in (written by
 // firmware/cortex-m/host_check.cpp), <variant>.out.bin and <variant>.summary.txt out. The
@@ -26,6 +30,8 @@
 
 #if INDICIAL_FW_VARIANT == 3
 #include "indicial/coef_file.hpp"
+#elif INDICIAL_FW_VARIANT == 4
+#include "generated_stall_model.hpp"  // the same, from stall2-cl-cm.coef
 #else
 #include "generated_model.hpp"  // indicial codegen --scalar float --capacity tight --name firmware_model
 #endif
@@ -34,6 +40,9 @@
 #if defined(INDICIAL_FW_PLANT_HEAP)
 #include <cstdlib>
 #endif
+
+// The stateless core (indicial::step on a model used in place) or the Predictor.
+#define FW_STATE_CORE (INDICIAL_FW_VARIANT == 1 || INDICIAL_FW_VARIANT == 4)
 
 namespace {
 
@@ -55,8 +64,10 @@ constexpr const char* variant_name = "coef_text";
 const char model_text[] =
 #include "model_text.inc"
     ;
+#elif INDICIAL_FW_VARIANT == 4
+constexpr const char* variant_name = "stall_state";
 #else
-#error "INDICIAL_FW_VARIANT must be 1 (codegen_state), 2 (codegen_predictor) or 3 (coef_text)"
+#error "INDICIAL_FW_VARIANT must be 1 (codegen_state), 2 (codegen_predictor), 3 (coef_text) or 4 (stall_state)"
 #endif
 
 // ---- the replay files (replay_format.hpp) ----------------------------------------------------
@@ -74,6 +85,9 @@ __attribute__((section(".replay"))) OutputRecord output[max_steps + 1];
 #if INDICIAL_FW_VARIANT == 1
 constexpr const Model& model = indicial_generated::firmware_model;  // in flash, used in place
 indicial::State<float, Cap> state;
+#elif INDICIAL_FW_VARIANT == 4
+constexpr const Model& model = indicial_generated::firmware_model;
+indicial::FamilyState<float, Cap> state;  // the State plus each coefficient's f, v, tau_v
 #else
 indicial::Predictor<float, Cap> predictor;
 #endif
@@ -91,7 +105,7 @@ indicial::Predictor<float, Cap> predictor;
 #endif
 
 FW_ONE_TIME_CALL indicial::StepStatus load_model() {
-#if INDICIAL_FW_VARIANT == 1
+#if FW_STATE_CORE
   return indicial::check_runtime_model(model) == indicial::LoadStatus::ok
              ? indicial::StepStatus::ok
              : indicial::StepStatus::not_loaded;
@@ -107,7 +121,7 @@ FW_ONE_TIME_CALL indicial::StepStatus load_model() {
 }
 
 FW_ONE_TIME_CALL indicial::StepStatus reset_model(const MotionSample& s) {
-#if INDICIAL_FW_VARIANT == 1
+#if FW_STATE_CORE
   return indicial::reset(model, state, s.angle_rad, s.airspeed_mps);
 #else
   return predictor.reset(s.angle_rad, s.airspeed_mps);
@@ -115,7 +129,7 @@ FW_ONE_TIME_CALL indicial::StepStatus reset_model(const MotionSample& s) {
 }
 
 int coefficient_count() {
-#if INDICIAL_FW_VARIANT == 1
+#if FW_STATE_CORE
   return model.set.n_coefficients;
 #else
   return predictor.coefficient_count();
@@ -127,7 +141,7 @@ int coefficient_count() {
 // model without them -- fold away).
 FW_ONE_TIME_CALL std::int32_t step_once(const MotionSample& s, OutputRecord* r) {
   const indicial::MotionInput in{s.angle_rad, s.rate_radps, s.airspeed_mps};
-#if INDICIAL_FW_VARIANT == 1
+#if FW_STATE_CORE
   return static_cast<std::int32_t>(indicial::step(model, state, in, s.dt_s, r->value));
 #else
   indicial::Predictor<float, Cap>::Outputs out;
@@ -264,6 +278,7 @@ void measure_known_loops() {
 
 void record_sizes() {
   summary.line("sizeof_state", sizeof(indicial::State<float, Cap>));
+  summary.line("sizeof_family_state", sizeof(indicial::FamilyState<float, Cap>));
   summary.line("sizeof_delayed_state", sizeof(indicial::DelayedState<float, Cap>));
   summary.line("sizeof_predictor", sizeof(indicial::Predictor<float, Cap>));
   summary.line("sizeof_runtime_model", sizeof(Model));

@@ -612,8 +612,8 @@ inline AirspeedScaling<Scalar> airspeed_scaling(const Scalar& reference_airspeed
 // The discrete state update.
 // ------------------------------------------------------------------------------------------
 // The exponential of the float step, written once for every place a float step runs: the
-// single step (advance_lags_between with Scalar = float, below), the batch's lanes
-// (batch.hpp's lane_exp, float and double) and every target (the host, a Cortex-M4F). Why
+// single step (the lags' and the stall families' exps: detail::step_exp below), the batch's
+// lanes (batch.hpp's lane_exp, float and double) and every target (host, Cortex-M4F). Why
 // not std::exp in float: the C libraries' expf differ in the last bit (glibc's vs newlib's),
 // and phi1's 1 - exp(-z) amplifies that bit by 1/z (z = b dt is 1e-3..1e-2 at kHz rates)
 // into 1e-5..1e-4 relative differences in the lag states; with this one function the float
@@ -724,8 +724,8 @@ INDICIAL_HOT_INLINE void exp_on(const Part& v, Part* r) {
 }
 
 namespace detail {
-// The exponential of a step's decay: exp_on for float (see above), std::exp (or an autodiff
-// type's exp, found by argument-dependent lookup) otherwise.
+// The exponential of a step (lag and stall decays, stall switches): exp_on for float (see
+// above), std::exp (or an autodiff type's exp, by argument-dependent lookup) otherwise.
 template <class Scalar>
 inline Scalar step_exp(const Scalar& x) {
   using std::exp;
@@ -1343,11 +1343,10 @@ template <>
 struct saturates_above<float> { static constexpr double value = 17.0; };  // e^-17 < 2^-24
 template <class Scalar>
 inline Scalar logistic(const Scalar& u) {
-  using std::exp;
   if (std::is_floating_point<Scalar>::value && u >= Scalar(saturates_above<Scalar>::value))
     return Scalar(1);
-  if (u >= Scalar(0)) return Scalar(1) / (Scalar(1) + exp(-u));
-  const Scalar e = exp(u);
+  if (u >= Scalar(0)) return Scalar(1) / (Scalar(1) + step_exp(Scalar(-u)));
+  const Scalar e = step_exp(u);
   return e / (Scalar(1) + e);
 }
 // sqrt f for f > 0, 0 otherwise (see the essay: finite derivative at f = 0).
@@ -1524,9 +1523,8 @@ inline void stall_table_lookups(const SeparationParameters<Scalar, Cap>& p, Stal
 template <class Scalar, class Cap>
 inline void stall_decay(const SeparationParameters<Scalar, Cap>& p, const Scalar& h,
                         StallLookups<Scalar>* k) {
-  using std::exp;
   const Scalar z = h / p.tau1_semichords;
-  k->decay = exp(-z);
+  k->decay = detail::step_exp(Scalar(-z));
   k->weight = phi1(z, k->decay);
 }
 
@@ -1535,7 +1533,6 @@ inline void stall_decay(const SeparationParameters<Scalar, Cap>& p, const Scalar
 template <class Scalar, class Cap>
 INDICIAL_HOT_INLINE void advance_stall_with(const StallModel<Scalar, Cap>& m, const StallStep<Scalar>& g,
                                const Scalar& h, const StallLookups<Scalar>& k, StallState<Scalar>* s) {
-  using std::exp;
   if (m.families == StallFamilies::none) return;
   const SeparationParameters<Scalar, Cap>& p = m.separation;
   const Scalar u0 = static_separation_from_table(p, k.lagged_x0_rad, k.table_e0);
@@ -1552,13 +1549,13 @@ INDICIAL_HOT_INLINE void advance_stall_with(const StallModel<Scalar, Cap>& m, co
   const Scalar zc = h * (Scalar(1) - gate) / Scalar(v.clock_reset_semichords);
   // Why the branch: while the shedding switch is saturated (gate == 1) zc is 0 and e^-0 is 1
   // exactly; a plain floating-point type skips the exp (same bits), an autodiff type keeps it.
-  const Scalar ec = std::is_floating_point<Scalar>::value && zc == Scalar(0) ? Scalar(1) : Scalar(exp(-zc));
+  const Scalar ec = std::is_floating_point<Scalar>::value && zc == Scalar(0) ? Scalar(1) : detail::step_exp(Scalar(-zc));
   const Scalar clock1 = ec * clock0 + phi1(zc, ec) * h * gate;
   s->vortex_clock_semichords = clock1;
   const Scalar on_chord = vortex_on_chord(v, Scalar((clock0 + clock1) * Scalar(0.5)));
   const Scalar feed_gate = gate * on_chord;
   const Scalar zv = h * (Scalar(2) - on_chord) / v.decay_semichords;
-  const Scalar ev = exp(-zv);
+  const Scalar ev = detail::step_exp(Scalar(-zv));
   const Scalar feed = vortex_feed(p, g.x1_rad, f1) - vortex_feed(p, g.x0_rad, f0);
   s->vortex_lift = ev * s->vortex_lift + phi1(zv, ev) * feed_gate * feed;
 }
