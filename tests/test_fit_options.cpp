@@ -13,6 +13,7 @@
 #include "indicial/fitter/diagnose.hpp"
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/fit.hpp"
+#include "options_test_support.hpp"
 
 TEST_SUITE_BEGIN("unit");  // the ctest label (tests/CMakeLists.txt)
 
@@ -20,11 +21,7 @@ using namespace indicial;
 
 namespace {
 
-struct BadOption {
-  const char* option;  // the start of the message: the field and its flag
-  std::function<void(FitOptions&)> set;
-  const char* found;   // the value the message quotes
-};
+using BadOption = testing::BadOption<FitOptions>;
 
 const double nan = std::numeric_limits<double>::quiet_NaN();
 const double inf = std::numeric_limits<double>::infinity();
@@ -92,39 +89,21 @@ TEST_CASE("fit options: the defaults and the edges of every range are valid") {
 }
 
 TEST_CASE("fit options: each bad option is refused by IsValid with its own one-line message") {
-  for (const BadOption& b : bad_options()) {
-    FitOptions o;
-    b.set(o);
-    std::string error;
-    INFO(b.option, " ", b.found);
-    CHECK(!o.IsValid(&error));
-    CHECK(error.rfind(b.option, 0) == 0);
-    CHECK(error.find(b.found) != std::string::npos);
-    CHECK(error.find('\n') == std::string::npos);
-    CHECK(!o.IsValid(nullptr));  // no message asked for: still refused
-  }
+  testing::check_each_refused(bad_options());
 }
 
 TEST_CASE("fit options: fit_experiment, fit_equation_error and diagnose_experiment throw IsValid's message first") {
   // An empty experiment: with valid options fit_experiment refuses it for something else (no
   // runs), so the message below can only come from the options' check.
   const Experiment empty;
-  std::string no_runs;
-  try {
-    fit_experiment(empty, FitOptions{});
-  } catch (const std::exception& ex) {
-    no_runs = ex.what();
-  }
-  CHECK(no_runs.find("no runs") != std::string::npos);
+  testing::check_entry_throws_first(bad_options(), [&](const FitOptions& o) { fit_experiment(empty, o); }, "no runs");
   for (const BadOption& b : bad_options()) {
     FitOptions o;
     b.set(o);
-    std::string error;
-    o.IsValid(&error);
+    const std::string error = testing::is_valid_line(b);
     INFO(b.option, " ", b.found);
-    CHECK(error != no_runs);
-    CHECK_THROWS_WITH_AS(fit_experiment(empty, o), error.c_str(), InputError);
     CHECK_THROWS_WITH_AS(fit_equation_error(empty, o), error.c_str(), InputError);
+    // DiagnoseOptions::IsValid checks its `fit` last, with FitOptions' line.
     DiagnoseOptions d;
     d.fit = o;
     std::string diagnose_error;

@@ -78,7 +78,8 @@ indicial::FitOptions checked_fit_options(const FitCliOptions& o) {
       throw InputError("--start-value", 0, "expected NAME=VALUE with a number (e.g. b1_0=3), found '" + sv + "'");
     fo.start_values.emplace_back(sv.substr(0, eq), value);
   }
-  // Every range (a non-finite start value included) is FitOptions::IsValid's, with its message.
+  // Every range (a non-finite start value included) is FitOptions::IsValid's, with its message,
+  // before the experiment is read.
   if (std::string bad; !fo.IsValid(&bad)) throw InputError(bad);
   return fo;
 }
@@ -300,7 +301,7 @@ const indicial::tools::RegisterCommand register_fit([](CLI::App& app) {
   sub->add_option("--start-value", opt->start_values,
                   "NAME=VALUE: the output-error start value of a parameter instead of the equation error's "
                   "(repeatable; names as in fit.json: a1, A2, b1_0, y0_1, ...)");
-  sub->add_option("--max-iterations", opt->fit.max_iterations, "output-error iteration limit (default 50)");
+  sub->add_option("--max-iterations", opt->fit.max_iterations, "output-error iteration limit (default 50; 0: the estimates and bounds at the start values)");
   sub->add_option("--state-derivative", opt->state_derivative,
                   "equation error's y_E': smoothed (Savitzky-Golay, default) or modulating (ref. 12)");
   sub->add_flag("--no-plots", opt->no_plots, "do not run gnuplot");
