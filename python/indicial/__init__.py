@@ -131,10 +131,14 @@ class Experiment:
                            ([static] table): x = alpha (pitch) or beta (roll, yaw) in rad,
                            strictly increasing, 2..64 rows covering the runs' x; the measured
                            coefficient's value at each (linear between rows)
+      static_table_lift    a pitch experiment of another coefficient than CL (a Cm): the lift C_L
+                           at each static_table_x_rad, as the [static] table file's CL column;
+                           ``diagnose`` offers the dynamic-stall families with it
       rotary_polynomial    a priori C_aq(x) coefficients of x^0, x^1, ...
       rotary_estimate      True: the two-stage loop re-estimates C_aq(x) from
                            rotary_powers / rotary_knots_rad candidates
-      a_powers, a_knots_rad    a(x) terms (x^i, and (x - k)_+^2 knots in rad); default 0, 1, 2
+      a_powers, a_knots_rad    a(x) terms (x^i, and (x - k)_+^2 knots in rad, strictly increasing
+                               and inside the runs' x, as every knot keyword); default 0, 1, 2
       b1_powers, b1_knots_rad  b1(x) terms (1/s at V); default the constant b1_0
       bias                 the state-equation constant con
       structure            "fixed" or "stepwise" (the terms are then a candidate pool)
@@ -143,7 +147,7 @@ class Experiment:
                            parameter delay_s (s at V); delay_start_s its start value, s in [0, 1]
       The dynamic-stall families ([model] stall keys of docs/formats.md, same names and checks):
       stall                "none" (default), "separation" (the separation state f) or
-                           "separation_and_vortex" (f and the leading-edge vortex)
+                           "separation_and_vortex" (f and the leading-edge vortex); pitch only
       stall_polar_alpha_rad, stall_polar_lift
                            the static lift polar (alpha in rad, strictly increasing; C_L); default:
                            the static table, when the coefficient is stall_polar_column
@@ -171,6 +175,7 @@ class Experiment:
                  a_knots_rad: Sequence[float] = (), b1_powers: Sequence[int] = (0,),
                  b1_knots_rad: Sequence[float] = (), bias: bool = False, structure: str = "fixed",
                  lags: int = 1, name: str = "experiment", static_table_x_rad=None, static_table_value=None,
+                 static_table_lift=None,
                  delay: Optional[str] = None, delay_start_s: Optional[float] = None, stall: Optional[str] = None,
                  stall_polar_alpha_rad=None, stall_polar_lift=None, stall_polar_column: Optional[str] = None,
                  stall_attached_max_deg: Optional[float] = None,
@@ -190,7 +195,8 @@ class Experiment:
                       structure=structure, lags=int(lags), name=name)
         # The keywords of the experiment file's extensions: None is "not given" (the file's
         # default), as a key left out of the file.
-        config.update(static_table_x_rad=static_table_x_rad, static_table_value=static_table_value, delay=delay,
+        config.update(static_table_x_rad=static_table_x_rad, static_table_value=static_table_value,
+                      static_table_lift=static_table_lift, delay=delay,
                       delay_start_s=delay_start_s, stall=stall, stall_polar_alpha_rad=stall_polar_alpha_rad,
                       stall_polar_lift=stall_polar_lift, stall_polar_column=stall_polar_column,
                       stall_attached_max_deg=stall_attached_max_deg,
@@ -241,9 +247,9 @@ class Experiment:
 
     def write_files(self, directory: str, force: bool = False) -> None:
         """Writes DIR/experiment.toml and DIR/run<i>.csv (and DIR/static_table.csv with a static
-        table, DIR/stall_polar.csv with a lift polar of its own), which ``indicial fit
-        DIR/experiment.toml`` reads back to exactly these numbers. Refuses a non-empty DIR unless
-        force=True."""
+        table, its lift column CL included, DIR/stall_polar.csv with a lift polar of its own),
+        which ``indicial fit DIR/experiment.toml`` (and ``diagnose``) reads back to exactly these
+        numbers. Refuses a non-empty DIR unless force=True."""
         self._e.write_files(str(directory), force)
 
     def toml_text(self) -> str:

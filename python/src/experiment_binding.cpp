@@ -117,11 +117,11 @@ std::vector<int> ints(const py::dict& c, const char* key, std::vector<int> fallb
   return v;
 }
 
+// A knot keyword: the experiment file's knot checks (experiment_checks.hpp), its message as is.
 void check_knots(const Experiment& e, const std::vector<double>& knots, const std::string& key) {
-  for (double k : knots)
-    if (!(k > e.data_x_min_rad && k < e.data_x_max_rad))
-      throw InputError(key, 0, "knot " + format_double(k) + " rad is outside the data's model-angle range [" +
-                                   format_double(e.data_x_min_rad) + ", " + format_double(e.data_x_max_rad) + "] rad");
+  const EntryError as_is = [](std::size_t, const std::string& problem) { return InputError(problem); };
+  check_knot_list(knots, key, as_is);
+  check_knots_in_data(e, knots, key, as_is);
 }
 
 // The runtime's capacity at input time, as load_experiment checks it: a model larger than
@@ -170,10 +170,36 @@ void read_array_table(const py::dict& c, const char* x_key, const char* value_ke
                                [&x](std::size_t row) { return format_double(x[row]); }});
 }
 
+// static_table_lift: the lift (CL) at each static_table_x_rad of a pitch experiment of another
+// coefficient, as the [static] table file's CL column (Experiment::table_lift_polar, which
+// diagnose offers the dynamic-stall families with).
+void read_static_table_lift(const py::dict& c, Experiment& e) {
+  if (!given(c, "static_table_lift")) return;
+  const StaticConfig& st = e.static_curve;
+  if (st.kind != StaticKind::table)
+    throw InputError("static_table_lift", 0, "needs the static table (static_table_x_rad, static_table_value)");
+  if (e.axis != Axis::pitch || e.coefficient == "CL")
+    throw InputError("static_table_lift", 0, "the static table's lift column is for a pitch experiment of another "
+                                             "coefficient than CL (this one: " + e.coefficient + ", " +
+                                             axis_name(e.axis) + ")");
+  LiftPolar& lp = e.table_lift_polar;
+  lp.lift = finite_doubles(c, "static_table_lift");
+  if (lp.lift.size() != st.table_x_rad.size())
+    throw InputError("static_table_lift", 0, "has " + std::to_string(lp.lift.size()) + " values for the table's " +
+                                                 std::to_string(st.table_x_rad.size()) + " angles");
+  lp.x_rad = st.table_x_rad;
+  lp.path = st.table_path;
+}
+
 // static_table_x_rad + static_table_value: the [static] table (x = alpha in pitch, beta in roll
-// and yaw, rad), instead of static_polynomial. Named in messages as its keyword.
+// and yaw, rad), instead of static_polynomial, and its lift column. Named in messages as its
+// keyword.
 void read_static_table_keywords(const py::dict& c, Experiment& e) {
-  if (!given(c, "static_table_x_rad") && !given(c, "static_table_value")) return;
+  if (!given(c, "static_table_x_rad") && !given(c, "static_table_value")) {
+    if (given(c, "static_table_lift"))
+      throw InputError("static_table_lift", 0, "needs the static table (static_table_x_rad, static_table_value)");
+    return;
+  }
   if (!e.static_curve.polynomial.empty())
     throw InputError("static_table_x_rad", 0, "give static_polynomial or static_table_x_rad and static_table_value, "
                                               "not both");
@@ -185,6 +211,7 @@ void read_static_table_keywords(const py::dict& c, Experiment& e) {
     throw InputError("'static_table_x_rad' needs " + std::to_string(st.table_x_rad.size()) +
                      " rows; the runtime (indicial::DefaultCapacity) holds at most " +
                      std::to_string(DefaultCapacity::max_table_points));
+  read_static_table_lift(c, e);
 }
 
 // The shared checks' KeySite for keywords: a [model] key's keyword (the same name, but
@@ -234,7 +261,7 @@ void read_stall_keywords(const py::dict& c, Experiment& e) {
     // The order the experiment file's reader gives (toml++ tables are sorted by key).
     std::sort(s.known.begin(), s.known.end());
   }
-  check_stall_keys(s, present, keyword_site());
+  check_stall_keys(s, present, e.axis, keyword_site());
   if (s.families == StallFamilies::none) return;
   s.f0_correction.powers = ints(c, "stall_f0_correction_powers", {});
   s.f0_correction.knots_rad = finite_doubles(c, "stall_f0_correction_knots_rad");
@@ -318,11 +345,12 @@ std::shared_ptr<Experiment> make_experiment(const py::dict& c, const py::list& r
   return e;
 }
 
-// The experiment as files the command line reads: experiment.toml, run<i>.csv, and with a
-// static table static_table.csv (alpha_rad or beta_rad and the coefficient), with a stall
-// polar of its own stall_polar.csv (alpha_rad and the polar's column). The angles in rad and
-// the rate in rad/s as the shortest round-trip numbers, so the command line reads back exactly
-// these doubles. Returns (file name, text) pairs, experiment.toml last.
+// The experiment as files the command line reads: experiment.toml, run<i>.csv, with a static
+// table static_table.csv (alpha_rad or beta_rad, the coefficient, and CL when the experiment has
+// the table's lift column, Experiment::table_lift_polar), with a stall polar of its own
+// stall_polar.csv (alpha_rad and the polar's column). The angles in rad and the rate in rad/s
+// as the shortest round-trip numbers, so the command line reads back exactly these doubles.
+// Returns (file name, text) pairs, experiment.toml last.
 std::vector<std::pair<std::string, std::string>> experiment_files(const Experiment& e) {
   std::vector<std::pair<std::string, std::string>> files;
   Experiment copy = e;
@@ -340,9 +368,16 @@ std::vector<std::pair<std::string, std::string>> experiment_files(const Experime
   const bool polar_in_table = st.polar_path == e.static_curve.table_path && e.coefficient == st.polar_column;
   if (e.static_curve.kind == StaticKind::table) {
     copy.static_curve.table_path = "static_table.csv";
-    files.emplace_back(copy.static_curve.table_path,
-                       write_run_csv({{x_column, e.static_curve.table_x_rad}, {e.coefficient, e.static_curve.table_value}},
-                                     {"the static table, written by indicial (Python)"}));
+    std::vector<CsvColumn> cols{{x_column, e.static_curve.table_x_rad}, {e.coefficient, e.static_curve.table_value}};
+    // The table's lift column (a Cm experiment's CL), which the reader takes as table_lift_polar.
+    if (!e.table_lift_polar.empty()) {
+      if (e.table_lift_polar.x_rad != e.static_curve.table_x_rad)
+        throw InputError(e.table_lift_polar.path + ": the lift polar's angles are not the static table's: it cannot "
+                         "be written as the table's CL column");
+      cols.push_back({"CL", e.table_lift_polar.lift});
+      copy.table_lift_polar.path = copy.static_curve.table_path;
+    }
+    files.emplace_back(copy.static_curve.table_path, write_run_csv(cols, {"the static table, written by indicial (Python)"}));
   }
   if (st.families != StallFamilies::none) {
     st.polar_path = polar_in_table ? copy.static_curve.table_path : "stall_polar.csv";

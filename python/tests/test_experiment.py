@@ -1,5 +1,8 @@
 """indicial.Experiment: from the experiment file (the command line's reader and messages) and
 from arrays (the same checks a run file gets), and bad input as exceptions, never a crash."""
+import json
+import math
+
 import numpy as np
 import pytest
 
@@ -75,7 +78,7 @@ def test_bad_arrays_raise(change, exc, message):
 
 def test_bad_configuration_raises():
     run = indicial.Run(**sine_run())
-    with pytest.raises(indicial.InputError, match="^a_knots_rad: knot 2 rad is outside"):
+    with pytest.raises(indicial.InputError, match=r"^'a_knots_rad': knot 114.592 deg is outside the data's alpha range"):
         indicial.Experiment(coefficient="Cm", reference_length_m=0.5, airspeed_mps=30, runs=[run], a_knots_rad=[2.0])
     with pytest.raises(indicial.InputError, match="^airspeed_mps: must be a finite number > 0"):
         indicial.Experiment(coefficient="Cm", reference_length_m=0.5, airspeed_mps=-1, runs=[run])
@@ -145,7 +148,11 @@ def _bad_table():
     (dict(stall_polar_lift=np.zeros(5)), "stall_polar_alpha_rad: required with stall_polar_lift"),
     (dict(stall_polar_alpha_rad=[0.1, 0.1, 0.2], stall_polar_lift=[0, 1, 2]),
      r"stall_polar_alpha_rad\[1\]: the angle column is not strictly increasing \(0.1 after 0.1\)"),
-    (dict(stall_f0_correction_knots_rad=[1.0]), "stall_f0_correction_knots_rad: knot 1 rad is outside"),
+    (dict(stall_f0_correction_knots_rad=[1.0]),
+     r"'stall_f0_correction_knots_rad': knot 57.2958 deg is outside the data's alpha range \[4, 24\] deg"),
+    (dict(stall_f0_correction_knots_rad=[0.3, 0.2]), "'stall_f0_correction_knots_rad' must be strictly increasing"),
+    (dict(static_table_lift=np.zeros(49)), "static_table_lift: the static table's lift column is for a pitch "
+     "experiment of another coefficient than CL \\(this one: CL, pitch\\)"),
     (dict(stall_f0_correction_powers=[1, 0]), "stall_f0_correction_powers: powers must be distinct, ascending"),
 ])
 def test_bad_stall_table_and_delay_keywords_raise(stall_experiment_kwargs, change, message):
@@ -158,3 +165,82 @@ def test_bad_stall_table_and_delay_keywords_raise(stall_experiment_kwargs, chang
 def test_stall_keywords_fill_what_the_file_does(stall_experiment_kwargs):
     e = indicial.Experiment(**stall_experiment_kwargs)
     assert 'stall = "separation_and_vortex"' in e.toml_text() and "stall_known = { T2 = 1.5, Tvl = 7 }" in e.toml_text()
+
+
+@pytest.mark.parametrize("knots_rad, message", [
+    ([1.0], "'{key}': knot 57.2958 deg is outside the data's alpha range [4, 24] deg"),
+    ([0.3, 0.2], "'{key}' must be strictly increasing"),
+])
+def test_f0_correction_knots_get_the_files_check(tmp_path, stall_experiment_kwargs, knots_rad, message):
+    """A bad stall_f0_correction_knots_rad from arrays and the same knots in the experiment file:
+    one check (experiment_checks.hpp), one message, each naming its own key (the file also its line)."""
+    with pytest.raises(indicial.InputError) as from_arrays:
+        indicial.Experiment(**stall_experiment_kwargs, stall_f0_correction_knots_rad=knots_rad)
+    assert str(from_arrays.value) == message.format(key="stall_f0_correction_knots_rad")
+    good = indicial.Experiment(**stall_experiment_kwargs, stall_f0_correction_knots_rad=[0.2, 0.3])
+    good.write_files(str(tmp_path / "exp"))
+    toml = tmp_path / "exp" / "experiment.toml"
+    lines = toml.read_text().splitlines()
+    at = next(i for i, line in enumerate(lines) if line.startswith("stall_f0_correction_knots_deg = "))
+    lines[at] = "stall_f0_correction_knots_deg = [" + ", ".join(repr(math.degrees(k)) for k in knots_rad) + "]"
+    toml.write_text("\n".join(lines) + "\n")
+    with pytest.raises(indicial.InputError) as from_file:
+        indicial.Experiment.from_toml(str(toml))
+    assert str(from_file.value) == f"{toml}:{at + 1}: " + message.format(key="model.stall_f0_correction_knots_deg")
+
+
+def test_stall_is_refused_outside_pitch(stall_experiment_kwargs):
+    """The dynamic-stall families act on the angle of attack: a roll or yaw experiment with stall
+    is refused (the file's check and message; the file names its line: test_experiment_checks)."""
+    t = np.arange(200) * 0.01
+    for axis, angle in (("roll", "phi_rad"), ("yaw", "psi_rad")):
+        run = indicial.Run(time_s=t, coefficient=0.01 * np.sin(2 * t), **{angle: 0.2 * np.sin(2 * t)})
+        polar = dict(stall_polar_alpha_rad=stall_experiment_kwargs["static_table_x_rad"],
+                     stall_polar_lift=stall_experiment_kwargs["static_table_value"])
+        with pytest.raises(indicial.InputError) as err:
+            indicial.Experiment(coefficient="Cl", reference_length_m=0.5, airspeed_mps=30.0, runs=[run], axis=axis,
+                                alpha0_rad=0.2, stall="separation", **polar)
+        assert str(err.value) == ("'stall' = \"separation\": the dynamic-stall families are for a pitch experiment "
+                                  "(they act on the angle of attack and its lift polar); this experiment's axis is "
+                                  + axis)
+        # Without stall the same experiment is accepted: the refusal is the families' axis.
+        indicial.Experiment(coefficient="Cl", reference_length_m=0.5, airspeed_mps=30.0, runs=[run], axis=axis,
+                            alpha0_rad=0.2)
+
+
+def _cm_with_the_tables_lift(stall_experiment_kwargs):
+    """The stall fixture's cycles as a pitching moment, the static table of Cm with the lift beside
+    it (static_table_lift: the file's [static] table with a CL column); no stall keys."""
+    kw = {k: v for k, v in stall_experiment_kwargs.items() if not k.startswith("stall")}
+
+    def as_moment(run):
+        return indicial.Run(time_s=run.time_s, alpha_rad=run.kwargs["alpha_rad"], coefficient=-0.25 * run.coefficient,
+                            periodic=run.periodic, airspeed_mps=run.airspeed_mps, name=run.name)
+
+    kw.update(coefficient="Cm", runs=[as_moment(r) for r in kw["runs"]], static_table_lift=kw["static_table_value"],
+              static_table_value=-0.25 * kw["static_table_value"])
+    return kw
+
+
+def _first_round(experiment):
+    d = indicial.diagnose(experiment, max_steps=1, rule="lr", warn=False)
+    return [(c["effect"], c["term"], c["status"], c.get("fit_error"), c.get("message"))
+            for c in json.loads(d.diagnosis_json())["rounds"][0]["candidates"]]
+
+
+def test_written_files_keep_the_static_tables_lift(tmp_path, stall_experiment_kwargs):
+    """A Cm experiment whose static table carries the lift (CL): write_files writes that column,
+    so diagnose on the written files tests the same candidates, the stall families among them,
+    as on the experiment in memory, from arrays and again from the files it was read from."""
+    e = indicial.Experiment(**_cm_with_the_tables_lift(stall_experiment_kwargs))
+    e.write_files(str(tmp_path / "a"))
+    table = np.genfromtxt(tmp_path / "a" / "static_table.csv", delimiter=",", names=True, skip_header=1)
+    assert table.dtype.names == ("alpha_rad", "Cm", "CL")
+    assert np.array_equal(table["CL"], stall_experiment_kwargs["static_table_value"])
+    expected = _first_round(e)
+    assert {"separation_lag", "vortex_shedding"} <= {c[0] for c in expected}
+    back = indicial.Experiment.from_toml(str(tmp_path / "a" / "experiment.toml"))
+    assert _first_round(back) == expected
+    back.write_files(str(tmp_path / "b"))
+    assert _first_round(indicial.Experiment.from_toml(str(tmp_path / "b" / "experiment.toml"))) == expected
+    assert (tmp_path / "b" / "static_table.csv").read_text() == (tmp_path / "a" / "static_table.csv").read_text()

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <string>
 
+#include "indicial/fitter/experiment_toml.hpp"
 #include "indicial/model.hpp"
 
 namespace indicial {
@@ -16,28 +17,36 @@ const char* const kStallKeys[] = {"stall_polar", "stall_polar_column", "stall_at
                                   "stall_f0_correction_degree", "stall_f0_correction_powers",
                                   "stall_f0_correction_knots_deg", "stall_known"};
 
-// stall_known's entries: each a parameter of the separation or the vortex family, with the
-// feasible set model.hpp's check_stall_parameters enforces, and its start value's key.
+// The stall parameters stall_known may name, with the feasible set model.hpp's
+// check_stall_parameters enforces and their start value's key (the one map of a held parameter
+// to the start key it excludes: check_stall_known and stall_start_held, the writer's too).
+enum class Bound { any, positive, non_negative };
+enum class Family { separation, vortex };
+struct StallParameter { const char* name; Bound bound; Family family; const char* start_key; };
+const StallParameter kStallParameters[] = {
+    {"T1", Bound::positive, Family::separation, "stall_T1_start"},
+    {"T2", Bound::non_negative, Family::separation, "stall_T2_start"},
+    {"k0", Bound::any, Family::separation, nullptr},
+    {"k1", Bound::any, Family::separation, nullptr},
+    {"k2", Bound::any, Family::separation, nullptr},
+    {"CN1", Bound::positive, Family::vortex, "stall_CN1_start"},
+    {"Tv", Bound::positive, Family::vortex, "stall_Tv_start"},
+    {"Tvl", Bound::positive, Family::vortex, "stall_Tvl_start"},
+    {"cv", Bound::any, Family::vortex, nullptr},
+    {"xv", Bound::any, Family::vortex, nullptr}};
+
+const StallParameter* stall_parameter(const std::string& name) {
+  for (const StallParameter& p : kStallParameters)
+    if (name == p.name) return &p;
+  return nullptr;
+}
+
+// stall_known's entries: each a parameter of the separation or the vortex family, in its
+// feasible set, without a start value beside it.
 void check_stall_known(const StallConfig& s, const std::set<std::string>& given, const KeySite& site) {
-  enum class Bound { any, positive, non_negative };
-  enum class Family { separation, vortex };
-  struct Known { const char* name; Bound bound; Family family; const char* start_key; };
-  static const Known names[] = {
-      {"T1", Bound::positive, Family::separation, "stall_T1_start"},
-      {"T2", Bound::non_negative, Family::separation, "stall_T2_start"},
-      {"k0", Bound::any, Family::separation, nullptr},
-      {"k1", Bound::any, Family::separation, nullptr},
-      {"k2", Bound::any, Family::separation, nullptr},
-      {"CN1", Bound::positive, Family::vortex, "stall_CN1_start"},
-      {"Tv", Bound::positive, Family::vortex, "stall_Tv_start"},
-      {"Tvl", Bound::positive, Family::vortex, "stall_Tvl_start"},
-      {"cv", Bound::any, Family::vortex, nullptr},
-      {"xv", Bound::any, Family::vortex, nullptr}};
   for (const auto& [name, v] : s.known) {
     const std::string key = "stall_known." + name, where = site.name(key);
-    const Known* k = nullptr;
-    for (const Known& n : names)
-      if (name == n.name) k = &n;
+    const StallParameter* k = stall_parameter(name);
     if (!k)
       site.raise(key, "'" + site.name("stall_known") + "' names '" + name + "', not a dynamic-stall parameter (T1, "
                       "T2, k0, k1, k2; with the vortex also CN1, Tv, Tvl, cv, xv)");
@@ -91,6 +100,24 @@ std::string static_table_coverage_problem(const Experiment& e) {
          deg_text(tmax) + "] deg but the runs reach [" + deg_text(x_min) + ", " + deg_text(x_max) + "] deg";
 }
 
+void check_knot_list(const std::vector<double>& knots_rad, const std::string& key, const EntryError& error) {
+  for (std::size_t i = 1; i < knots_rad.size(); ++i)
+    if (!(knots_rad[i] > knots_rad[i - 1])) throw error(i, "'" + key + "' must be strictly increasing");
+  if (knots_rad.size() > static_cast<std::size_t>(FitCapacity::max_knots))
+    throw error(static_cast<std::size_t>(-1),
+                "'" + key + "' has more than " + std::to_string(FitCapacity::max_knots) + " knots");
+}
+
+void check_knots_in_data(const Experiment& e, const std::vector<double>& knots_rad, const std::string& key,
+                         const EntryError& error) {
+  const double x_min = e.data_x_min_rad, x_max = e.data_x_max_rad;
+  const std::string xname = e.axis == Axis::pitch ? "alpha" : "beta";
+  for (std::size_t i = 0; i < knots_rad.size(); ++i)
+    if (!(knots_rad[i] > x_min && knots_rad[i] < x_max))
+      throw error(i, "'" + key + "': knot " + deg_text(knots_rad[i]) + " deg is outside the data's " + xname +
+                         " range [" + deg_text(x_min) + ", " + deg_text(x_max) + "] deg");
+}
+
 void check_delay_keys(const ModelConfig& m, bool start_given, const KeySite& site) {
   if (!start_given) return;
   const std::string key = site.name("delay_start_s");
@@ -99,7 +126,13 @@ void check_delay_keys(const ModelConfig& m, bool start_given, const KeySite& sit
     site.raise("delay_start_s", "'" + key + "' is used only with " + site.name("delay") + " = \"estimated\"");
 }
 
-void check_stall_keys(const StallConfig& s, const std::set<std::string>& given, const KeySite& site) {
+void check_stall_keys(const StallConfig& s, const std::set<std::string>& given, Axis axis, const KeySite& site) {
+  // Why pitch only: the separation point and the vortex are driven by the angle of attack and
+  // its static lift polar (model.hpp, "Dynamic stall"); roll and yaw move another angle.
+  if (s.families != StallFamilies::none && axis != Axis::pitch)
+    site.raise("stall", "'" + site.name("stall") + "' = \"" + name_of(s.families) +
+                            "\": the dynamic-stall families are for a pitch experiment (they act on the angle of "
+                            "attack and its lift polar); this experiment's axis is " + axis_name(axis));
   if (s.families == StallFamilies::none) {
     for (const char* key : kStallKeys)
       if (given.count(key))
@@ -118,6 +151,17 @@ void check_stall_keys(const StallConfig& s, const std::set<std::string>& given, 
       site.raise(st.key, "'" + site.name(st.key) + (st.zero_allowed ? "' must be >= 0" : "' must be > 0"));
   }
   check_stall_known(s, given, site);
+}
+
+const char* stall_start_key(const std::string& parameter) {
+  const StallParameter* p = stall_parameter(parameter);
+  return p ? p->start_key : nullptr;
+}
+
+bool stall_start_held(const StallConfig& s, const std::string& start_key) {
+  for (const auto& held : s.known)
+    if (const char* key = stall_start_key(held.first); key && start_key == key) return true;
+  return false;
 }
 
 bool stall_polar_from_static_table(const Experiment& e, StallConfig& s) {

@@ -651,7 +651,7 @@ void read_stall_keys(LoadContext& c, const toml::node* model_node, Experiment& e
   if (const toml::node* n = mt.get("stall_known"))
     for (auto&& [key, value] : r.table(*n, "model.stall_known"))
       s.known.emplace_back(std::string(key.str()), r.number(value, "model.stall_known." + std::string(key.str())));
-  check_stall_keys(s, given, model_key_site(r, mt));
+  check_stall_keys(s, given, e.axis, model_key_site(r, mt));
   if (s.families == StallFamilies::none) return;
   read_spline_terms(c, mt, "stall_f0_correction", s.f0_correction);
   if (const toml::node* n = mt.get("stall_polar")) {
@@ -727,18 +727,10 @@ void read_runs(const LoadContext& c, const std::vector<RunEntry>& entries, Exper
 
 // Knots strictly inside the data's angle range; the static table covering it.
 void check_against_data(const LoadContext& c, const Experiment& e) {
-  const double x_min = e.data_x_min_rad, x_max = e.data_x_max_rad;
-  const std::string xname = e.axis == Axis::pitch ? "alpha" : "beta";
-  for (const auto& ks : c.knot_sources) {
-    for (double k : *ks.knots_rad) {
-      // Why strictly inside: a knot at or beyond the range makes its term identically zero or
-      // a polynomial on the data, which cannot be identified separately.
-      if (!(k > x_min && k < x_max)) {
-        c.r.fail(ks.where, "'" + ks.key + "': knot " + deg_text(k) + " deg is outside the data's " +
-                               xname + " range [" + deg_text(x_min) + ", " + deg_text(x_max) + "] deg");
-      }
-    }
-  }
+  for (const auto& ks : c.knot_sources)
+    check_knots_in_data(e, *ks.knots_rad, ks.key, [&](std::size_t, const std::string& problem) {
+      return InputError(c.r.file(), static_cast<long>(ks.where.begin.line), problem);
+    });
   const std::string uncovered = static_table_coverage_problem(e);
   if (!uncovered.empty()) c.r.fail(c.static_where, uncovered);
 }
@@ -1021,16 +1013,12 @@ std::string write_experiment_toml(const Experiment& e, const std::vector<std::st
     if (!st.f0_correction.knots_rad.empty())
       out += "stall_f0_correction_knots_deg = " + number_list(st.f0_correction.knots_rad, kRadToDeg) + "\n";
     // A held parameter (stall_known) has no start value: the reader refuses both together.
-    auto start = [&](const char* name, double value) {
-      for (const auto& k : st.known)
-        if (k.first == name) return;
-      out += std::string("stall_") + name + "_start = " + format_double(value) + "\n";
-    };
-    start("T1", st.tau1_start);
-    start("T2", st.tau2_start);
-    if (st.shedding_threshold_start > 0.0) start("CN1", st.shedding_threshold_start);
-    start("Tv", st.decay_start);
-    start("Tvl", st.travel_start);
+    const struct { const char* key; double value; bool given; } starts[] = {
+        {"stall_T1_start", st.tau1_start, true}, {"stall_T2_start", st.tau2_start, true},
+        {"stall_CN1_start", st.shedding_threshold_start, st.shedding_threshold_start > 0.0},
+        {"stall_Tv_start", st.decay_start, true}, {"stall_Tvl_start", st.travel_start, true}};
+    for (const auto& s : starts)
+      if (s.given && !stall_start_held(st, s.key)) out += std::string(s.key) + " = " + format_double(s.value) + "\n";
     if (!st.known.empty()) {
       std::string list;
       for (const auto& [name, value] : st.known) list += (list.empty() ? "" : ", ") + name + " = " + format_double(value);

@@ -11,6 +11,7 @@
 #include <toml++/toml.h>
 
 #include "indicial/fitter/error.hpp"
+#include "indicial/fitter/experiment_checks.hpp"
 #include "indicial/fitter/experiment_toml.hpp"
 
 namespace indicial::detail {
@@ -125,16 +126,15 @@ class TomlReader {
     for (int p = 0; p <= static_cast<int>(d); ++p) out.push_back(p);
     return out;
   }
+  // A spline's knots in deg, as rad, with the checks Python's knots get too (check_knot_list).
   std::vector<double> knots_deg(const toml::node& n, const std::string& key) const {
     std::vector<double> out;
-    for (const auto& e : array(n, key)) {
-      const double k = number(e, key + " entry") * kDegToRad;
-      if (!out.empty() && !(k > out.back())) fail(e, "'" + key + "' must be strictly increasing");
-      out.push_back(k);
-    }
-    if (out.size() > static_cast<std::size_t>(FitCapacity::max_knots)) {
-      fail(n, "'" + key + "' has more than " + std::to_string(FitCapacity::max_knots) + " knots");
-    }
+    const toml::array& entries = array(n, key);
+    for (const auto& e : entries) out.push_back(number(e, key + " entry") * kDegToRad);
+    check_knot_list(out, key, [&](std::size_t i, const std::string& problem) {
+      const toml::node& at = i < entries.size() ? *entries.get(i) : n;
+      return InputError(file_, static_cast<long>(at.source().begin.line), problem);
+    });
     return out;
   }
 

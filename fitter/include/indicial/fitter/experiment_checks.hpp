@@ -8,11 +8,15 @@
 //  * a static table (or a lift polar): at least 2 rows, at most FitCapacity::max_table_points,
 //    angles strictly increasing (finite numbers are each reader's own: a CSV field is parsed,
 //    an array is scanned), and covering the runs' model-angle range;
+//  * a spline's knots: strictly increasing, at most FitCapacity::max_knots, each strictly
+//    inside the runs' model-angle range;
 //  * model.delay_start_s: in [0, 1] s, and only with delay = "estimated";
-//  * the dynamic-stall keys (StallConfig): every stall_* key only with stall; the start values'
-//    ranges; stall_known's names, the vortex's names only with the vortex, finite values in the
-//    runtime's feasible set, never beside a start value of the same parameter; the polar's
-//    default (the static table, when the experiment models the polar's column).
+//  * the dynamic-stall keys (StallConfig): stall only in pitch; every stall_* key only with
+//    stall; the start values' ranges; stall_known's names, the vortex's names only with the
+//    vortex, finite values in the runtime's feasible set, never beside a start value of the same
+//    parameter (stall_start_key: the one map of a parameter to its start key, which the
+//    experiment writer also uses); the polar's default (the static table, when the experiment
+//    models the polar's column).
 #pragma once
 
 #include <cstddef>
@@ -37,11 +41,14 @@ struct KeySite {
   [[noreturn]] void raise(const std::string& key, const std::string& problem) const;
 };
 
-// Where a table's rows came from. error(row, problem): the InputError for row `row` (0-based;
-// npos: the table as a whole); angle_text(row): the row's angle as the user gave it (the CSV
-// field, or the array's number).
+// The InputError for entry `index` of a list or row of a table (0-based; npos: the list as a
+// whole), with the caller's file and line (or keyword and index).
+using EntryError = std::function<InputError(std::size_t index, const std::string& problem)>;
+
+// Where a table's rows came from. error(row, problem): the InputError for row `row`;
+// angle_text(row): the row's angle as the user gave it (the CSV field, or the array's number).
 struct TableSite {
-  std::function<InputError(std::size_t row, const std::string& problem)> error;
+  EntryError error;
   std::function<std::string(std::size_t row)> angle_text;
 };
 
@@ -57,12 +64,31 @@ void check_static_table(const std::vector<double>& x_rad, const std::vector<doub
 // static curve is a polynomial.
 std::string static_table_coverage_problem(const Experiment& e);
 
+// A spline's knots (rad) as given, `key` as the user wrote it ("model.a_knots_deg",
+// "a_knots_rad"): strictly increasing, at most FitCapacity::max_knots.
+void check_knot_list(const std::vector<double>& knots_rad, const std::string& key, const EntryError& error);
+
+// Each knot strictly inside the runs' model-angle range (e.data_x_min_rad .. e.data_x_max_rad:
+// set_data_range first). Why strictly inside: a knot at or beyond the range makes its term
+// identically zero or a polynomial on the data, which cannot be identified separately.
+void check_knots_in_data(const Experiment& e, const std::vector<double>& knots_rad, const std::string& key,
+                         const EntryError& error);
+
 // model.delay and delay_start_s (`start_given`: the key was given).
 void check_delay_keys(const ModelConfig& m, bool start_given, const KeySite& site);
 
 // The stall keys given (their [model] names: "stall_T1_start", "stall_known", ...; "stall"
-// itself need not be listed) with their values read into s (s.known by name, unchecked).
-void check_stall_keys(const StallConfig& s, const std::set<std::string>& given, const KeySite& site);
+// itself need not be listed) with their values read into s (s.known by name, unchecked), in an
+// experiment of `axis` (the families model an airfoil's angle of attack: pitch only).
+void check_stall_keys(const StallConfig& s, const std::set<std::string>& given, Axis axis, const KeySite& site);
+
+// The [model] key of a stall parameter's start value ("T1" -> "stall_T1_start"); nullptr for a
+// parameter without one (k0, k1, k2, cv, xv) or a name that is no stall parameter.
+const char* stall_start_key(const std::string& parameter);
+
+// True when s.known holds the parameter whose start value `start_key` gives ("stall_T1_start"
+// with T1 held): the start value is then neither accepted nor written.
+bool stall_start_held(const StallConfig& s, const std::string& start_key);
 
 // The stall families' lift polar when none was given: the static table, when the experiment
 // models the polar's column (s.polar_column). False when that is not so (the caller reports

@@ -1,0 +1,145 @@
+// The configuration checks both front ends call (fitter/src/io/experiment_checks.cpp), through
+// the experiment file's reader: the message names the file, the line and the key. Python's
+// Experiment(...) gets the same checks and words for its keywords (python/tests/test_experiment.py
+// runs the same bad inputs through both paths and compares the messages).
+#include <doctest/doctest.h>
+
+#include <string>
+#include <vector>
+
+#include "indicial/fitter/error.hpp"
+#include "indicial/fitter/experiment_checks.hpp"
+#include "indicial/fitter/experiment_toml.hpp"
+#include "test_support.hpp"
+
+TEST_SUITE_BEGIN("unit");  // the ctest label (tests/CMakeLists.txt)
+
+using namespace indicial;
+using indicial::testing::kPi;
+
+namespace {
+
+// A run of 64 samples of `angle` (deg) moving 4..20 deg, and the coefficient `coefficient`.
+std::string run_csv(const std::string& angle, const std::string& coefficient) {
+  std::string text = "time_s," + angle + "_deg," + coefficient + "\n";
+  for (int i = 0; i < 64; ++i) {
+    const double a = 12.0 + 8.0 * std::sin(2 * kPi * i / 64.0);
+    text += std::to_string(i * 0.01) + "," + std::to_string(a) + "," + std::to_string(0.1 * a / 57.3) + "\n";
+  }
+  return text;
+}
+
+// A lift polar of x = -10..30 deg named `angle_deg`, and CL.
+std::string polar_csv(const std::string& angle) {
+  std::string text = angle + "_deg,CL\n";
+  for (int a = -10; a <= 30; ++a) text += std::to_string(a) + "," + std::to_string(6.0 * a * kPi / 180 / (1 + 0.002 * a * a)) + "\n";
+  return text;
+}
+
+// The line of `needle`'s first occurrence in text (1-based).
+int line_of(const std::string& text, const std::string& needle) {
+  const std::size_t at = text.find(needle);
+  REQUIRE(at != std::string::npos);
+  int line = 1;
+  for (std::size_t i = 0; i < at; ++i) line += text[i] == '\n';
+  return line;
+}
+
+std::string load_error(const std::string& path) {
+  try {
+    load_experiment(path);
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "(accepted)";
+}
+
+}  // namespace
+
+TEST_CASE("stall is refused outside pitch, naming the key, the axis, the file and the line") {
+  indicial::testing::TempDir dir("experiment-checks");
+  for (const char* axis : {"roll", "yaw"}) {
+    CAPTURE(axis);
+    const std::string angle = std::string(axis) == "roll" ? "phi" : "psi";
+    indicial::testing::write_text(dir.path / "run.csv", run_csv(angle, "Cl"));
+    // The polar with the model angle's column of the axis (beta), so that only the axis is wrong.
+    indicial::testing::write_text(dir.path / "polar.csv", polar_csv("beta"));
+    const std::string toml = std::string("axis = \"") + axis + "\"\ncoefficient = \"Cl\"\nreference_length_m = 0.5\n"
+                             "airspeed_mps = 30.0\nalpha0_deg = 10\nruns = [\"run.csv\"]\n[static]\n"
+                             "polynomial = [0.0, 0.1]\n[rotary]\npolynomial = [0.0]\n[model]\n"
+                             "stall = \"separation\"\nstall_polar = \"polar.csv\"\n";
+    const std::string path = indicial::testing::write_text(dir.path / "e.toml", toml);
+    CHECK_HAS(load_error(path), path + ":" + std::to_string(line_of(toml, "stall =")) +
+                                    ": 'model.stall' = \"separation\": the dynamic-stall families are for a pitch "
+                                    "experiment (they act on the angle of attack and its lift polar); this "
+                                    "experiment's axis is " + axis);
+  }
+  // The same file in pitch is accepted (the refusal is the axis, nothing else).
+  indicial::testing::write_text(dir.path / "run.csv", run_csv("alpha", "Cl"));
+  indicial::testing::write_text(dir.path / "polar.csv", polar_csv("alpha"));
+  const std::string pitch = indicial::testing::write_text(dir.path / "e.toml",
+                                       "axis = \"pitch\"\ncoefficient = \"Cl\"\nreference_length_m = 0.5\n"
+                                       "airspeed_mps = 30.0\nruns = [\"run.csv\"]\n[static]\npolynomial = [0.0, 0.1]\n"
+                                       "[rotary]\npolynomial = [0.0]\n[model]\nstall = \"separation\"\n"
+                                       "stall_polar = \"polar.csv\"\n");
+  CHECK(load_experiment(pitch).model.stall.families == StallFamilies::separation);
+}
+
+TEST_CASE("the knot checks name the entry's line, in the words Python's keywords get") {
+  indicial::testing::TempDir dir("experiment-checks");
+  indicial::testing::write_text(dir.path / "run.csv", run_csv("alpha", "Cm"));
+  auto toml = [](const std::string& knots) {
+    return "axis = \"pitch\"\ncoefficient = \"Cm\"\nreference_length_m = 0.5\nairspeed_mps = 30.0\nruns = [\"run.csv\"]\n"
+           "[static]\npolynomial = [0.0, 0.1]\n[rotary]\npolynomial = [0.0]\n[model]\na_knots_deg = [\n  " + knots +
+           "\n]\n";
+  };
+  const std::string unordered = toml("10,\n  8");
+  const std::string path = indicial::testing::write_text(dir.path / "e.toml", unordered);
+  CHECK(load_error(path) == path + ":" + std::to_string(line_of(unordered, "  8")) +
+                                ": 'model.a_knots_deg' must be strictly increasing");
+  const std::string outside = indicial::testing::write_text(dir.path / "e.toml", toml("10,\n  30"));
+  CHECK(load_error(outside) == outside + ":" + std::to_string(line_of(toml(""), "a_knots_deg")) + ": 'model.a_knots_deg': knot 30 deg is outside the data's alpha range "
+                                         "[4, 20] deg");
+  // The functions Python calls, with its keyword: the same words.
+  const EntryError as_is = [](std::size_t, const std::string& problem) { return InputError(problem); };
+  CHECK_THROWS_WITH_AS(check_knot_list({0.2, 0.1}, "a_knots_rad", as_is), "'a_knots_rad' must be strictly increasing",
+                       InputError);
+  Experiment e;
+  e.data_x_min_rad = 4 * kPi / 180;
+  e.data_x_max_rad = 20 * kPi / 180;
+  CHECK_THROWS_WITH_AS(check_knots_in_data(e, {30 * kPi / 180}, "a_knots_rad", as_is),
+                       "'a_knots_rad': knot 30 deg is outside the data's alpha range [4, 20] deg", InputError);
+}
+
+// stall_start_key is the one map of a held parameter to the start value it excludes: the
+// reader refuses both together (check_stall_known), the writer leaves the held one's out.
+TEST_CASE("a held stall parameter's start key: refused beside it, not written, read back") {
+  CHECK(std::string(stall_start_key("T1")) == "stall_T1_start");
+  CHECK(std::string(stall_start_key("CN1")) == "stall_CN1_start");
+  CHECK(stall_start_key("k0") == nullptr);
+  CHECK(stall_start_key("tau1") == nullptr);
+  indicial::testing::TempDir dir("experiment-checks");
+  indicial::testing::write_text(dir.path / "run.csv", run_csv("alpha", "CL"));
+  indicial::testing::write_text(dir.path / "polar.csv", polar_csv("alpha"));
+  const std::string head = "axis = \"pitch\"\ncoefficient = \"CL\"\nreference_length_m = 0.5\nairspeed_mps = 30.0\nruns = [\"run.csv\"]\n"
+                           "[static]\ntable = \"polar.csv\"\n[rotary]\npolynomial = [0.0]\n[model]\n"
+                           "stall = \"separation_and_vortex\"\n";
+  const std::vector<std::string> starts = {"stall_T1_start", "stall_T2_start", "stall_CN1_start", "stall_Tv_start",
+                                           "stall_Tvl_start"};
+  for (const std::string name : {"T1", "T2", "k0", "k1", "k2", "CN1", "Tv", "Tvl", "cv", "xv"}) {
+    CAPTURE(name);
+    const char* start = stall_start_key(name);
+    const std::string path = indicial::testing::write_text(dir.path / "e.toml", head + "stall_known = { " + name + " = 1.5 }\n");
+    Experiment e = load_experiment(path);
+    e.model.stall.shedding_threshold_start = 1.2;  // written unless CN1 is held
+    const std::string back = write_experiment_toml(e, {});
+    for (const std::string& key : starts)
+      CHECK_MESSAGE((back.find(key + " =") == std::string::npos) == (start && key == start), key);
+    const std::string again = indicial::testing::write_text(dir.path / "back.toml", back);
+    CHECK(load_experiment(again).model.stall.known == e.model.stall.known);
+    if (!start) continue;
+    const std::string both = indicial::testing::write_text(dir.path / "e.toml", head + start + " = 2.0\nstall_known = { " + name + " = 1.5 }\n");
+    CHECK_HAS(load_error(both), "'model.stall_known." + name + "' holds " + name +
+                                    " at a known value, and 'model." + start + "' gives it a start value");
+  }
+}
