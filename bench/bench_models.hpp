@@ -76,7 +76,7 @@ void add_stall_families(StallModel<Scalar, Cap>& st, bool lift) {
   p.n_f0 = 36;
   for (int i = 0; i < p.n_f0; ++i) {
     const double a_deg = 2.0 * i;
-    p.f0_x_rad[i] = a_deg * pi / 180.0;
+    p.f0_x_rad[i] = static_cast<typename KnotStorage<Scalar>::type>(a_deg * pi / 180.0);
     p.f0_value[i] = Scalar(a_deg <= 15.25 ? 1.0 - 0.3 * std::exp((a_deg - 15.25) / 3.0)
                                           : 0.04 + 0.66 * std::exp((15.25 - a_deg) / 2.3));
   }

@@ -418,6 +418,38 @@ TEST_CASE("float families stay close to double") {
   CHECK(max_diff < 2e-3);
 }
 
+// A float model keeps its f0 angles as float (KnotStorage): rows distinct in double that round
+// to one float are never the bracketing row (the search compares in float), so no interval
+// width is 0: the float model loads and steps across them, finite and close to double.
+TEST_CASE("float families: f0 rows that round to one float step finite, close to double") {
+  Set set = indicial::test_models::lift_and_moment_stall();
+  auto& sep = set.coefficients[0].stall.separation;
+  sep.f0_x_rad[4] = std::nextafter(sep.f0_x_rad[3], 1.0);
+  REQUIRE(static_cast<float>(sep.f0_x_rad[4]) == static_cast<float>(sep.f0_x_rad[3]));
+  REQUIRE(sep.f0_x_rad[4] < sep.f0_x_rad[5]);
+  indicial::Predictor<double> pd;
+  indicial::Predictor<float> pf;
+  REQUIRE(pd.load(set) == LoadStatus::ok);
+  REQUIRE(pf.load(set) == LoadStatus::ok);
+  const double x3 = sep.f0_x_rad[3];
+  REQUIRE(pd.reset(x3 - 0.01, kAirspeed) == StepStatus::ok);
+  REQUIRE(pf.reset(x3 - 0.01, kAirspeed) == StepStatus::ok);
+  double max_diff = 0.0;
+  for (int k = 1; k <= 400; ++k) {  // across the collapsed row and back, 1e-4 rad per step
+    const double x = x3 - 0.01 + 1e-4 * (k <= 200 ? k : 400 - k);
+    indicial::Predictor<float>::Outputs of;
+    indicial::Predictor<double>::Outputs od;
+    REQUIRE(pf.step({x, 0.0, kAirspeed}, kDt, &of) == StepStatus::ok);
+    REQUIRE(pd.step({x, 0.0, kAirspeed}, kDt, &od) == StepStatus::ok);
+    REQUIRE(std::isfinite(of.value[0]));
+    max_diff = std::fmax(max_diff, std::fabs(double(of.value[0]) - od.value[0]));
+  }
+  // The bound of "float families stay close to double": the collapsed row makes f0 jump at
+  // x3, and a float angle may fall on the other side of the jump than the double one.
+  MESSAGE("max |float - double| across the collapsed row: ", max_diff);
+  CHECK(max_diff < 2e-3);
+}
+
 TEST_CASE("step_batch of FamilyStates equals single steps within 1e-12, refusals per instance") {
   const Model m = runtime_of(indicial::test_models::lift_and_moment_stall());
   constexpr int n = 13;  // a full block and a partial one

@@ -42,7 +42,7 @@ indicial::StallModel<S, Cap> test_model(indicial::StallFamilies families) {
   p.zero_lift_angle_rad = S(0.2 * kDeg);
   p.n_f0 = 0;
   for (double a = -12.0; a <= 40.0 + 1e-9; a += 0.5) {
-    p.f0_x_rad[p.n_f0] = a * kDeg;
+    p.f0_x_rad[p.n_f0] = static_cast<typename indicial::KnotStorage<S>::type>(a * kDeg);
     p.f0_value[p.n_f0] = S(bl_f0(a * kDeg));
     ++p.n_f0;
   }

@@ -424,8 +424,8 @@ inline bool convert_spline(const Spline<double, P, K>& in, Spline<Scalar, P, K>*
   return ok;
 }
 
-// The dynamic-stall parameters in Scalar (the structure -- family choice, table angles, switch
-// widths -- stays double, as model.hpp declares it).
+// The dynamic-stall parameters in Scalar (the structure -- family choice, switch widths --
+// stays double, as model.hpp declares it; the table angles are KnotStorage, float in float).
 template <class Scalar, class Cap>
 inline bool convert_stall(const StallModel<double, Cap>& a, StallModel<Scalar, Cap>* out) {
   StallModel<Scalar, Cap>& b = *out;
@@ -442,7 +442,7 @@ inline bool convert_stall(const StallModel<double, Cap>& a, StallModel<Scalar, C
   sb.zero_lift_angle_rad = static_cast<Scalar>(sa.zero_lift_angle_rad);
   sb.n_f0 = sa.n_f0;
   for (int i = 0; i < Cap::max_table_points; ++i) {
-    sb.f0_x_rad[i] = sa.f0_x_rad[i];
+    sb.f0_x_rad[i] = static_cast<typename KnotStorage<Scalar>::type>(sa.f0_x_rad[i]);
     sb.f0_value[i] = static_cast<Scalar>(sa.f0_value[i]);
   }
   ok = convert_spline(sa.f0_correction, &sb.f0_correction) && ok;

@@ -395,8 +395,8 @@ struct guess_type<float> { using type = float; };
 // two comparisons confirm it (one more finds a neighbour, for rounding or a slightly uneven
 // table), and bisection between the confirmed bounds takes over for an uneven table. Measured
 // (bench_step, callgrind): six f0 lookups per step of the dynamic-stall model, 36 rows.
-template <class Scalar>
-inline int table_row_from_position(const double* x_rad, int n, const Scalar& x) {
+template <class Scalar, class Key>
+inline int table_row_from_position(const Key* x_rad, int n, const Scalar& x) {
   using G = typename guess_type<Scalar>::type;
   const G first = G(x_rad[0]);
   const G position = (G(plain_value(x)) - first) / (G(x_rad[n - 1]) - first) * G(n - 1);
@@ -431,6 +431,14 @@ template <>
 __attribute__((noinline))
 #endif
 inline int table_row<float>(const double* x_rad, int n, const float& x) {
+  return table_row_from_position(x_rad, n, x);
+}
+// A float table's rows stored as float (a float model's f0 table, KnotStorage): the same row
+// as for the rows as double, since the comparisons are made in float either way.
+#if defined(__GNUC__) || defined(__clang__)
+__attribute__((noinline))
+#endif
+inline int table_row(const float* x_rad, int n, const float& x) {
   return table_row_from_position(x_rad, n, x);
 }
 }  // namespace detail
@@ -484,7 +492,12 @@ struct SeparationParameters {
   Scalar normal_force_slope_per_rad = Scalar(0);  // C_Na of the attached polar
   Scalar zero_lift_angle_rad = Scalar(0);         // alpha_0 of the attached polar
   int n_f0 = 0;                                   // rows of the static separation table
-  double f0_x_rad[Cap::max_table_points] = {};    // strictly increasing
+  // Strictly increasing (checked on the double model). Float in a float model, as a spline's
+  // knots (KnotStorage): the row search and interpolation are then float only (on the
+  // Cortex-M4F each double comparison, subtraction or conversion is a libgcc call: 3,050 ->
+  // 2,439 instructions per stall step). Rows that round to one float are harmless: the search
+  // compares in float, so such a row never brackets x (table_row) and no width is 0.
+  typename KnotStorage<Scalar>::type f0_x_rad[Cap::max_table_points] = {};
   Scalar f0_value[Cap::max_table_points] = {};    // in [0, 1]; linear between rows
   SplineT f0_correction;                          // fitted, ADDED to the table, then clipped
   Scalar tau1_semichords = Scalar(3);             // T1 > 0: relaxation of f
