@@ -166,4 +166,25 @@ TEST_CASE("indicial diagnose: the rule's options reach diagnosis.json, a bad one
     CHECK(!fs::exists(none));
   }
   CHECK(run("diagnose --help").out.find("--min-gain") != std::string::npos);
+  // --cv-min-runs: with 4 runs required, the three runs are too few for cross-validation: `auto`
+  // falls back to the likelihood ratio (the reason asks for 4 runs), `cv` is an error naming 4,
+  // and 1 (below IsValid's range) is IsValid's line.
+  const fs::path few = scratch() / "options-few";
+  const Cmd f = run("diagnose " + experiment + " --out " + few.string() + " --no-plots --quiet --max-steps 0 --cv-min-runs 4");
+  INFO(f.out, f.err);
+  REQUIRE(f.exit_code == 0);
+  const nlohmann::json jfew = nlohmann::json::parse(slurp(few / "diagnosis.json"));
+  CHECK(jfew["rule"].get<std::string>().rfind("lr_", 0) == 0);
+  CHECK(jfew["rule_reason"].get<std::string>().find("give 4 or more runs") != std::string::npos);
+  const Cmd cv4 = run("diagnose " + experiment + " --out " + (scratch() / "options-cv4").string() +
+                      " --no-plots --quiet --rule cv --cv-min-runs 4");
+  CHECK(cv4.exit_code == 1);
+  CHECK(cv4.err.find("leave_one_run_out needs at least 4 runs (--cv-min-runs); the experiment has 3") !=
+        std::string::npos);
+  CHECK(!fs::exists(scratch() / "options-cv4"));
+  const Cmd one = run("diagnose " + experiment + " --out " + (scratch() / "options-one").string() + " --cv-min-runs 1");
+  CHECK(one.exit_code == 1);
+  CHECK(one.err == "indicial: error: cv_min_runs (--cv-min-runs): must be >= 2 (runs: one left out, one fitted), "
+                   "found 1\n");
+  CHECK(!fs::exists(scratch() / "options-one"));
 }

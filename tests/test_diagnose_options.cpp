@@ -12,6 +12,7 @@
 
 #include "indicial/fitter/diagnose.hpp"
 #include "indicial/fitter/error.hpp"
+#include "options_test_support.hpp"
 
 TEST_SUITE_BEGIN("unit");  // the ctest label (tests/CMakeLists.txt)
 
@@ -19,11 +20,7 @@ using namespace indicial;
 
 namespace {
 
-struct BadOption {
-  const char* option;  // the start of the message: the field and its flag
-  std::function<void(DiagnoseOptions&)> set;
-  const char* found;   // the value the message quotes
-};
+using BadOption = testing::BadOption<DiagnoseOptions>;
 
 const double nan = std::numeric_limits<double>::quiet_NaN();
 
@@ -32,7 +29,7 @@ std::vector<BadOption> bad_options() {
       {"alpha (--alpha): must be in (0, 1)", [](DiagnoseOptions& o) { o.alpha = 0.0; }, "found 0"},
       {"alpha (--alpha): must be in (0, 1)", [](DiagnoseOptions& o) { o.alpha = 1.0; }, "found 1"},
       {"alpha (--alpha): must be in (0, 1)", [](DiagnoseOptions& o) { o.alpha = nan; }, "found nan"},
-      {"cv_min_runs: must be >= 2", [](DiagnoseOptions& o) { o.cv_min_runs = 1; }, "found 1"},
+      {"cv_min_runs (--cv-min-runs): must be >= 2", [](DiagnoseOptions& o) { o.cv_min_runs = 1; }, "found 1"},
       {"cv_min_gain (--min-gain): must be in [0, 1)", [](DiagnoseOptions& o) { o.cv_min_gain = -0.1; }, "found -0.1"},
       {"cv_min_gain (--min-gain): must be in [0, 1)", [](DiagnoseOptions& o) { o.cv_min_gain = 1.0; }, "found 1"},
       {"cv_min_in_sample_gain (--min-in-sample-gain): must be in [0, 1)",
@@ -78,37 +75,13 @@ TEST_CASE("diagnose options: the defaults and the edges of every range are valid
 }
 
 TEST_CASE("diagnose options: each bad option is refused by IsValid with its own one-line message") {
-  for (const BadOption& b : bad_options()) {
-    DiagnoseOptions o;
-    b.set(o);
-    std::string error;
-    INFO(b.option, " ", b.found);
-    CHECK(!o.IsValid(&error));
-    CHECK(error.rfind(b.option, 0) == 0);
-    CHECK(error.find(b.found) != std::string::npos);
-    CHECK(error.find('\n') == std::string::npos);
-    CHECK(!o.IsValid(nullptr));  // no message asked for: still refused
-  }
+  testing::check_each_refused(bad_options());
 }
 
 TEST_CASE("diagnose options: diagnose_experiment throws IsValid's message before it reads the experiment") {
   // An empty experiment: with valid options diagnose_experiment refuses it for something else
   // (no runs), so the message below can only come from the options' check.
   const Experiment empty;
-  std::string no_runs;
-  try {
-    diagnose_experiment(empty, DiagnoseOptions{});
-  } catch (const std::exception& ex) {
-    no_runs = ex.what();
-  }
-  CHECK(no_runs.find("no runs") != std::string::npos);
-  for (const BadOption& b : bad_options()) {
-    DiagnoseOptions o;
-    b.set(o);
-    std::string error;
-    o.IsValid(&error);
-    INFO(b.option, " ", b.found);
-    CHECK(error != no_runs);
-    CHECK_THROWS_WITH_AS(diagnose_experiment(empty, o), error.c_str(), InputError);
-  }
+  testing::check_entry_throws_first(
+      bad_options(), [&](const DiagnoseOptions& o) { diagnose_experiment(empty, o); }, "no runs");
 }

@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <set>
@@ -331,4 +332,32 @@ TEST_CASE("bad option values are refused with one line") {
   CHECK(r.exit_code == 1);
   CHECK(count_lines(r.err) == 1);
   CHECK(r.err.find("--state-derivative") != std::string::npos);
+}
+
+TEST_CASE("an option out of its range is FitOptions::IsValid's line, exit 1, nothing written") {
+  // One check for the library, the command line and Python (fitter/src/estimate/fit_options.cpp):
+  // the command line reports IsValid's own line, word for word, before it reads the experiment.
+  struct Case {
+    const char* flags;
+    std::function<void(indicial::FitOptions&)> set;
+  };
+  const Case cases[] = {
+      {"--f-to-enter 2 --f-to-remove 3", [](indicial::FitOptions& o) { o.f_to_enter = 2.0, o.f_to_remove = 3.0; }},
+      {"--max-iterations -1", [](indicial::FitOptions& o) { o.max_iterations = -1; }},
+      {"--fallback-r-squared 1.5", [](indicial::FitOptions& o) { o.fallback_r_squared = 1.5; }},
+      {"--start-value b1_0=nan", [](indicial::FitOptions& o) { o.start_values = {{"b1_0", std::nan("")}}; }},
+  };
+  for (const Case& c : cases) {
+    indicial::FitOptions o;
+    c.set(o);
+    std::string expected;
+    REQUIRE_FALSE(o.IsValid(&expected));
+    const fs::path out = scratch() / "range-out";
+    const Run r = run_cli("fit '" + (data_dir() / "no-such-experiment.toml").string() + "' --out '" + out.string() +
+                          "' " + c.flags);
+    INFO(c.flags, ": ", r.err);
+    CHECK(r.exit_code == 1);
+    CHECK(r.err == "indicial: error: " + expected + "\n");  // before the (missing) experiment is read
+    CHECK_FALSE(fs::exists(out));
+  }
 }

@@ -109,22 +109,16 @@ Set stall_model_sharing(Shared shared) {
   return set;
 }
 
-void check_step_equals_direct_loop(Shared shared) {
-  CAPTURE(static_cast<int>(shared));
-  const Set set = stall_model_sharing(shared);
-  const Model m = runtime_of(set);
-  CHECK(m.stall == indicial::StallUse::families);
-  const indicial::StallSharing& sh = m.stall_sharing[1];
-  CHECK(m.stall_sharing[0].table == indicial::StallSharing::no_sharing);
-  CHECK(sh.table == (shared == Shared::decay_only ? indicial::StallSharing::no_sharing : 0));
-  CHECK(sh.forcing == (shared == Shared::everything || shared == Shared::table_and_forcing ? 0 : indicial::StallSharing::no_sharing));
-  CHECK(sh.decay == (shared == Shared::table_and_forcing ? indicial::StallSharing::no_sharing : 0));
+// Steps the runtime over the deep-stall cycle beside the direct loop -- what the fitter
+// evaluates (advance_lags, advance_stall, the outputs) -- and compares every output and family
+// state byte for byte.
+void check_step_equals_direct_loop(const Set& set, const Model& m) {
+  const int n = set.n_coefficients;
   Families s;
   REQUIRE(indicial::reset(m, s, alpha_at(0), kAirspeed) == StepStatus::ok);
-  // The direct loop: what the fitter evaluates (advance_lags, advance_stall, the outputs).
-  double y[2][Cap::max_lags] = {};
-  indicial::StallState<double> st[2];
-  for (int c = 0; c < 2; ++c) {
+  double y[Cap::max_coefficients][Cap::max_lags] = {};
+  indicial::StallState<double> st[Cap::max_coefficients];
+  for (int c = 0; c < n; ++c) {
     indicial::steady_state(set.coefficients[c], alpha_at(0), y[c]);
     indicial::stall_steady_state(set.coefficients[c].stall, alpha_at(0), &st[c]);
     CHECK(same_bytes(st[c], s.stall[c]));
@@ -135,7 +129,7 @@ void check_step_equals_direct_loop(Shared shared) {
   for (int k = 1; k <= 2000; ++k) {
     double out[Cap::max_coefficients];
     REQUIRE(indicial::step(m, s, {alpha_at(k), q_at(k), kAirspeed}, kDt, out) == StepStatus::ok);
-    for (int c = 0; c < 2; ++c) {
+    for (int c = 0; c < n; ++c) {
       const auto& cm = set.coefficients[c];
       const indicial::StepGeometry<double> g{alpha_at(k - 1), alpha_at(k), alpha_at(k - 1), alpha_at(k), kDt,
                                              v.time_scale};
@@ -156,9 +150,79 @@ void check_step_equals_direct_loop(Shared shared) {
   CHECK(max_vortex > 0.05);
 }
 
+void check_step_equals_direct_loop(Shared shared) {
+  CAPTURE(static_cast<int>(shared));
+  const Set set = stall_model_sharing(shared);
+  const Model m = runtime_of(set);
+  CHECK(m.stall == indicial::StallUse::families);
+  const indicial::StallSharing& sh = m.stall_sharing[1];
+  CHECK(m.stall_sharing[0].table == indicial::StallSharing::no_sharing);
+  CHECK(sh.table == (shared == Shared::decay_only ? indicial::StallSharing::no_sharing : 0));
+  CHECK(sh.forcing == (shared == Shared::everything || shared == Shared::table_and_forcing ? 0 : indicial::StallSharing::no_sharing));
+  CHECK(sh.decay == (shared == Shared::table_and_forcing ? indicial::StallSharing::no_sharing : 0));
+  check_step_equals_direct_loop(set, m);
+}
+
+// Three coefficients, the third sharing its lookups with two DIFFERENT earlier ones: C_m has a
+// table and a T1 of its own (nothing shared with C_L); the third ("CN": C_L's families with
+// C_m's T1) takes its table and lagged angles (forcing) from coefficient 0 and its decay from
+// coefficient 1. A step that took both from one coefficient, or kept only the last
+// coefficient's lookups, gives other bits.
+Set stall_model_three_sharing() {
+  Set set = indicial::test_models::lift_and_moment_stall();
+  auto& cm = set.coefficients[1].stall.separation;
+  cm.f0_value[20] = cm.f0_value[20] * 0.5;
+  cm.tau1_semichords = 2.5;
+  set.coefficients[2] = set.coefficients[0];
+  set.coefficients[2].name[0] = 'C';
+  set.coefficients[2].name[1] = 'N';
+  set.coefficients[2].stall.separation.tau1_semichords = cm.tau1_semichords;
+  set.n_coefficients = 3;
+  for (int c = 0; c < 3; ++c) indicial::prepare_static_table(set.coefficients[c].static_curve);
+  return set;
+}
+
 TEST_CASE("step with families equals a direct loop over model.hpp's updates, bit for bit") {
   for (Shared shared : {Shared::everything, Shared::table_and_decay, Shared::table_and_forcing, Shared::decay_only})
     check_step_equals_direct_loop(shared);
+}
+
+TEST_CASE("three coefficients sharing the forcing with one and the decay with another: a direct loop's bits") {
+  static_assert(Cap::max_coefficients >= 3, "the case needs three coefficients");
+  const Set set = stall_model_three_sharing();
+  const Model m = runtime_of(set);
+  const indicial::StallSharing none{};
+  CHECK(std::memcmp(&m.stall_sharing[0], &none, sizeof none) == 0);
+  CHECK(std::memcmp(&m.stall_sharing[1], &none, sizeof none) == 0);  // C_m: its own table and T1
+  CHECK(m.stall_sharing[2].table == 0);
+  CHECK(m.stall_sharing[2].forcing == 0);
+  CHECK(m.stall_sharing[2].decay == 1);
+  check_step_equals_direct_loop(set, m);
+  // The batch steps the families with the same lookups per instance: its family states are the
+  // single steps' byte for byte (the outputs to rounding, as in the step_batch case below: the lags are stepped by lanes).
+  constexpr int n = 9;  // a full block and a partial one
+  Families batch[n], single[n];
+  for (int i = 0; i < n; ++i) {
+    REQUIRE(indicial::reset(m, batch[i], alpha_at(29 * i), kAirspeed + i) == StepStatus::ok);
+    single[i] = batch[i];
+  }
+  for (int k = 1; k <= 1000; ++k) {
+    double angle[n], rate[n], airspeed[n], out[3 * n];
+    for (int i = 0; i < n; ++i) {
+      angle[i] = alpha_at(k + 29 * i);
+      rate[i] = q_at(k + 29 * i);
+      airspeed[i] = kAirspeed + i;
+    }
+    REQUIRE(indicial::step_batch(m, batch, n, angle, rate, airspeed, kDt, out) == StepStatus::ok);
+    for (int i = 0; i < n; ++i) {
+      double o[3];
+      REQUIRE(indicial::step(m, single[i], {angle[i], rate[i], airspeed[i]}, kDt, o) == StepStatus::ok);
+      for (int c = 0; c < 3; ++c) {
+        CHECK(same_bytes(batch[i].stall[c], single[i].stall[c]));
+        CHECK(std::fabs(out[3 * i + c] - o[c]) <= 1e-12 * std::fmax(std::fabs(o[c]), 0.01));
+      }
+    }
+  }
 }
 
 TEST_CASE("a family model refuses a plain State, a FamilyState of a model without families steps as a State") {

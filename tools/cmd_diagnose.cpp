@@ -1,7 +1,7 @@
 // `indicial diagnose`: the missing-effect workflow (fitter/include/indicial/fitter/diagnose.hpp).
 //
 //   indicial diagnose EXPERIMENT.toml --out DIR [--force] [--alpha 0.01] [--max-steps N]
-//                     [--knot-spacing-deg D] [--rule auto|cv|lr] [--max-folds K] [--min-gain G]
+//                     [--knot-spacing-deg D] [--rule auto|cv|lr] [--cv-min-runs N] [--max-folds K] [--min-gain G]
 //                     [--min-in-sample-gain G] [--threads N] [--no-plots] [--gnuplot EXE] [--quiet]
 //
 // The options' ranges are DiagnoseOptions::IsValid's (docs/diagnose.md, "Options").
@@ -130,13 +130,15 @@ const indicial::tools::RegisterCommand register_diagnose([](CLI::App& app) {
   sub->add_option("--knot-spacing-deg", opt->diag.knot_spacing_deg,
                   "knot scan grid spacing in degrees of the model angle (default 5)");
   sub->add_option("--rule", opt->diag.rule,
-                  "auto (default): leave-one-run-out with 3 or more runs, else likelihood ratio; cv: "
-                  "leave-one-run-out (an error with fewer runs); lr: likelihood ratio")
+                  "auto (default): leave-one-run-out with 3 (--cv-min-runs) or more runs, else likelihood "
+                  "ratio; cv: leave-one-run-out (an error with fewer runs); lr: likelihood ratio")
       ->transform(CLI::CheckedTransformer(
           std::map<std::string, indicial::RuleChoice>{{"auto", indicial::RuleChoice::automatic},
                                                       {"cv", indicial::RuleChoice::leave_one_run_out},
                                                       {"lr", indicial::RuleChoice::likelihood_ratio}},
           CLI::ignore_case));
+  sub->add_option("--cv-min-runs", opt->diag.cv_min_runs,
+                  "runs --rule auto needs for leave-one-run-out, and --rule cv requires (default 3; >= 2)");
   sub->add_option("--max-folds", opt->diag.cv_max_folds,
                   "cross-validation with more runs than this: the runs dealt into this many folds (run r "
                   "into fold r mod K), each left out at once (default 10; fewer runs: one run per fold)");

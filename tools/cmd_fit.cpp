@@ -65,9 +65,6 @@ indicial::FitOptions checked_fit_options(const FitCliOptions& o) {
   else
     throw InputError("--state-derivative", 0,
                      "expected 'smoothed' or 'modulating', found '" + o.state_derivative + "'");
-  if (!(fo.f_to_enter > 0.0) || !(fo.f_to_remove > 0.0) || fo.f_to_remove > fo.f_to_enter)
-    throw InputError("--f-to-enter", 0, "need F to enter >= F to remove > 0");
-  if (fo.max_iterations < 1) throw InputError("--max-iterations", 0, "must be at least 1");
   for (const std::string& sv : o.start_values) {
     const std::size_t eq = sv.find('=');
     std::size_t used = 0;
@@ -77,12 +74,13 @@ indicial::FitOptions checked_fit_options(const FitCliOptions& o) {
     } catch (const std::exception&) {
       used = 0;
     }
-    if (eq == std::string::npos || eq == 0 || used == 0 || used != sv.size() - eq - 1 || !std::isfinite(value))
-      throw InputError("--start-value", 0, "expected NAME=VALUE with a finite number (e.g. b1_0=3), found '" + sv + "'");
+    if (eq == std::string::npos || eq == 0 || used == 0 || used != sv.size() - eq - 1)
+      throw InputError("--start-value", 0, "expected NAME=VALUE with a number (e.g. b1_0=3), found '" + sv + "'");
     fo.start_values.emplace_back(sv.substr(0, eq), value);
   }
-  if (!(fo.fallback_r_squared >= 0.0 && fo.fallback_r_squared <= 1.0))
-    throw InputError("--fallback-r-squared", 0, "must be in [0, 1]");
+  // Every range (a non-finite start value included) is FitOptions::IsValid's, with its message,
+  // before the experiment is read.
+  if (std::string bad; !fo.IsValid(&bad)) throw InputError(bad);
   return fo;
 }
 
@@ -303,7 +301,7 @@ const indicial::tools::RegisterCommand register_fit([](CLI::App& app) {
   sub->add_option("--start-value", opt->start_values,
                   "NAME=VALUE: the output-error start value of a parameter instead of the equation error's "
                   "(repeatable; names as in fit.json: a1, A2, b1_0, y0_1, ...)");
-  sub->add_option("--max-iterations", opt->fit.max_iterations, "output-error iteration limit (default 50)");
+  sub->add_option("--max-iterations", opt->fit.max_iterations, "output-error iteration limit (default 50; 0: the estimates and bounds at the start values)");
   sub->add_option("--state-derivative", opt->state_derivative,
                   "equation error's y_E': smoothed (Savitzky-Golay, default) or modulating (ref. 12)");
   sub->add_flag("--no-plots", opt->no_plots, "do not run gnuplot");

@@ -539,14 +539,15 @@ effect_names = _indicial._effect_names()
 
 def diagnose(experiment: Experiment, *, alpha: float = 0.01, max_steps: int = 6, knot_spacing_deg: float = 5.0,
              knot_margin_fraction: float = 0.1, max_scan_knots: int = 16, max_family_terms: int = 4,
-             indistinguishable_bic: float = 6.0, rule: str = "auto", max_folds: int = 10,
+             indistinguishable_bic: float = 6.0, rule: str = "auto", cv_min_runs: int = 3, max_folds: int = 10,
              min_gain: float = 0.10, min_in_sample_gain: float = 0.04, threads: int = 2, warn: bool = True,
              **fit_options) -> Diagnosis:
     """Finds where model and measurement disagree, names the missing effect (one of
     ``indicial.effect_names``), adds it and refits until nothing significant is left
     (``indicial diagnose``). Keywords are the command line's options with ``_`` for ``-``
-    (docs/diagnose.md, "Options"): ``rule`` ``"auto"`` (leave-one-run-out with 3 or more runs,
-    else likelihood ratio), ``"cv"`` or ``"lr"``; ``max_folds`` (>= 2) the folds runs are dealt
+    (docs/diagnose.md, "Options"): ``rule`` ``"auto"`` (leave-one-run-out with ``cv_min_runs``,
+    3, or more runs, else likelihood ratio), ``"cv"`` or ``"lr"``; ``cv_min_runs`` (>= 2) the runs
+    leave-one-run-out needs; ``max_folds`` (>= 2) the folds runs are dealt
     into; ``min_gain`` and ``min_in_sample_gain`` (each in [0, 1)) the cross-validation rule's
     held-out and in-sample gains, fractions of the mean square error; ``threads`` (>= 1) fits run
     in parallel. A bad value is an ``InputError`` (a ValueError). ``fit_options`` as ``fit``'s.
@@ -554,7 +555,7 @@ def diagnose(experiment: Experiment, *, alpha: float = 0.01, max_steps: int = 6,
     opts = dict(alpha=alpha, max_steps=max_steps, knot_spacing_deg=knot_spacing_deg,
                 knot_margin_fraction=knot_margin_fraction, max_scan_knots=max_scan_knots,
                 max_family_terms=max_family_terms, indistinguishable_bic=indistinguishable_bic,
-                rule=rule, max_folds=max_folds, min_gain=min_gain,
+                rule=rule, cv_min_runs=cv_min_runs, max_folds=max_folds, min_gain=min_gain,
                 min_in_sample_gain=min_in_sample_gain, threads=threads)
     opts.update(_fit_options(**fit_options))
     d = Diagnosis(_indicial._diagnose(experiment._e, opts))

@@ -1,8 +1,8 @@
 // python/src/fit_binding.cpp -- indicial.fit: fit_experiment (fit.hpp) with the checks
 // `indicial fit` makes around it, and the result as Python objects.
 //
-// Around the fit, as the command line: the options are checked with its messages (F to enter
-// >= F to remove > 0, at least one iteration, finite start values); the fitted model must be
+// Around the fit, as the command line: the options are checked by FitOptions::IsValid (its
+// message, the command line's; keywords are the fields' names); the fitted model must be
 // one the runtime accepts (else indicial.InputError, nothing returned: the command line
 // writes nothing then); the warnings are the experiment's, fit_warnings' and the capacity
 // note, in the command line's order. The fit itself runs without the GIL.
@@ -18,19 +18,6 @@
 
 namespace indicial::python {
 namespace {
-
-// The options' checks of `indicial fit` (tools/cmd_fit.cpp checked_fit_options), with the
-// same messages; keyword names are the command line's option names with '_' for '-'.
-void check_fit_options(const FitOptions& fo) {
-  if (!(fo.f_to_enter > 0.0) || !(fo.f_to_remove > 0.0) || fo.f_to_remove > fo.f_to_enter)
-    throw InputError("f_to_enter", 0, "need F to enter >= F to remove > 0");
-  if (fo.max_iterations < 1) throw InputError("max_iterations", 0, "must be at least 1");
-  if (!(fo.fallback_r_squared >= 0.0 && fo.fallback_r_squared <= 1.0))
-    throw InputError("fallback_r_squared", 0, "must be in [0, 1]");
-  for (const auto& [name, value] : fo.start_values)
-    if (!std::isfinite(value))
-      throw InputError("start_values", 0, "expected NAME=VALUE with a finite number (e.g. b1_0=3), found '" + name + "'");
-}
 
 // The provenance of a fit from Python: the version, the call, and the digests of the files
 // an experiment read from disk came from (none for arrays).
@@ -104,7 +91,7 @@ FitOptions fit_options_from(const py::dict& kw) {
       for (const auto& sv : v.cast<std::map<std::string, double>>()) fo.start_values.emplace_back(sv.first, sv.second);
     else throw InputError(key, 0, "not a fit option");
   }
-  check_fit_options(fo);
+  if (std::string bad; !fo.IsValid(&bad)) throw InputError(bad);  // FitOptions' own message, as the CLI's
   return fo;
 }
 

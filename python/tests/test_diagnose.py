@@ -57,10 +57,13 @@ def test_diagnose_rule_options_reach_diagnosis_json(model1_config_on_model2_data
     assert abs(j["final_fit_error"] - expected["final_fit_error"]) <= 1e-12 * expected["final_fit_error"]
     lr = json.loads(indicial.diagnose(e, max_steps=1, rule="lr", warn=False).diagnosis_json())
     assert lr["rule"].startswith("lr_") and "cv_folds" not in lr and lr["threads"] == 2
+    # cv_min_runs (--cv-min-runs): three runs are too few when four are required.
+    few = json.loads(indicial.diagnose(e, max_steps=0, cv_min_runs=4, warn=False).diagnosis_json())
+    assert few["rule"].startswith("lr_") and "cv_folds" not in few
 
 
-# One bad option each (DiagnoseOptions::IsValid, fitter/src/diagnose/diagnose_options.cpp): a
-# ValueError (indicial.InputError) with the option's one-line message, before anything is fitted.
+# One bad option each (DiagnoseOptions::IsValid, fitter/src/diagnose/diagnose_options.cpp, and
+# for a fit option FitOptions::IsValid, fitter/src/estimate/fit_options.cpp): a ValueError (indicial.InputError) with the option's one-line message, before anything is fitted.
 @pytest.mark.parametrize("option, message", [
     (dict(alpha=0.0), r"^alpha \(--alpha\): must be in \(0, 1\).*found 0$"),
     (dict(alpha=1.5), r"^alpha \(--alpha\): must be in \(0, 1\).*found 1.5$"),
@@ -74,6 +77,8 @@ def test_diagnose_rule_options_reach_diagnosis_json(model1_config_on_model2_data
     (dict(min_gain=1.0), r"^cv_min_gain \(--min-gain\): must be in \[0, 1\).*found 1$"),
     (dict(min_gain=-0.5), r"^cv_min_gain \(--min-gain\): must be in \[0, 1\).*found -0.5$"),
     (dict(max_folds=1), r"^cv_max_folds \(--max-folds\): must be >= 2.*found 1$"),
+    (dict(cv_min_runs=1), r"^cv_min_runs \(--cv-min-runs\): must be >= 2.*found 1$"),
+    (dict(f_to_remove=5.0), r"^f_to_remove \(--f-to-remove\): must be in \(0, f_to_enter = 4\].*found 5$"),
     (dict(threads=0), r"^threads \(--threads\): must be >= 1.*found 0$"),
     (dict(rule="loo"), r"^rule: expected one of 'auto', 'cv', 'lr', found 'loo'$"),
 ])

@@ -686,17 +686,18 @@ bool run_round(Diagnoser& dg, const DiagnoseOptions& o, DiagnoseResult& d, bool 
 }
 
 // The rule of the rounds (DecisionRule) and, for lr_replication_noise, the replicates' kappa.
+// The options are valid (diagnose_experiment checked them): cv_min_runs >= 2, cv_max_folds >= 2.
 KappaRule choose_rule(const Experiment& e, const DiagnoseOptions& o, DiagnoseResult& d) {
   const int runs = static_cast<int>(e.runs.size());
-  const bool enough = runs >= std::max(2, o.cv_min_runs);
+  const bool enough = runs >= o.cv_min_runs;
   if (o.rule == RuleChoice::leave_one_run_out && !enough)
-    throw InputError("--rule", 0, fmt::format("leave_one_run_out needs at least {} runs; the experiment has {}",
-                                              std::max(2, o.cv_min_runs), runs));
+    throw InputError("--rule", 0, fmt::format("leave_one_run_out needs at least {} runs (--cv-min-runs); the "
+                                              "experiment has {}", o.cv_min_runs, runs));
   KappaRule kr;
   if (o.rule != RuleChoice::likelihood_ratio && enough) {
     d.rule = DecisionRule::leave_one_run_out;
     d.rule_reason = fmt::format("{} runs: an effect enters only when it lowers the error of runs left out of its fit", runs);
-    d.cv_folds = std::min(runs, std::max(2, o.cv_max_folds));
+    d.cv_folds = std::min(runs, o.cv_max_folds);
     if (d.cv_folds < runs)
       d.rule_reason += fmt::format(" ({} folds of runs: run r left out with fold r mod {})", d.cv_folds, d.cv_folds);
   } else if (d.replication.source != NoiseSource::none) {
@@ -710,7 +711,7 @@ KappaRule choose_rule(const Experiment& e, const DiagnoseOptions& o, DiagnoseRes
     d.rule_reason = fmt::format(
         "{} run(s) and no replication: likelihood ratio with kappa from each candidate's residual -- a "
         "structured model error can read as colored noise and hide itself; give {} or more runs, or replicates",
-        runs, std::max(2, o.cv_min_runs));
+        runs, o.cv_min_runs);
   }
   return kr;
 }

@@ -6,8 +6,8 @@
 //
 // A message names the field and, where there is one, its command-line flag (Python's keyword is
 // the flag with '_' for '-'), the range and the value found: one message per problem, the first
-// problem found in declaration order. The FitOptions inside (DiagnoseOptions::fit) are not
-// checked here.
+// problem found in declaration order. The FitOptions inside (DiagnoseOptions::fit) last, by
+// their own FitOptions::IsValid (fit_options.cpp) and its message.
 #include <cmath>
 #include <fmt/format.h>
 #include <string>
@@ -31,7 +31,7 @@ bool DiagnoseOptions::IsValid(std::string* error) const {
   // Written as !(inside): a NaN is outside every range.
   if (!(alpha > 0.0 && alpha < 1.0))
     return refuse(error, "alpha (--alpha)", "in (0, 1) (the family-wise significance level per round)", alpha);
-  if (cv_min_runs < 2) return refuse(error, "cv_min_runs", ">= 2 (runs: one left out, one fitted)", cv_min_runs);
+  if (cv_min_runs < 2) return refuse(error, "cv_min_runs (--cv-min-runs)", ">= 2 (runs: one left out, one fitted)", cv_min_runs);
   if (!(cv_min_gain >= 0.0 && cv_min_gain < 1.0))
     return refuse(error, "cv_min_gain (--min-gain)", "in [0, 1) (a fraction of the held-out mean square error)",
                   cv_min_gain);
@@ -51,7 +51,7 @@ bool DiagnoseOptions::IsValid(std::string* error) const {
     return refuse(error, "max_family_terms (--max-family-terms)", ">= 1 (terms)", max_family_terms);
   if (!(indistinguishable_bic >= 0.0))
     return refuse(error, "indistinguishable_bic", ">= 0 (a BIC difference)", indistinguishable_bic);
-  return true;
+  return fit.IsValid(error);
 }
 
 }  // namespace indicial

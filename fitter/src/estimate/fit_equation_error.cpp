@@ -14,6 +14,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fmt/format.h>
+#include <string>
 
 #include "estimate/fit_internal.hpp"
 #include "indicial/fitter/error.hpp"
@@ -68,7 +69,7 @@ namespace {
 void smoothed_rows(const PreparedRun& r, const std::vector<ParamId>& terms, const FitOptions& o,
                    std::vector<std::vector<double>>& rows, std::vector<double>& zs) {
   const std::size_t n = r.x.size();
-  const std::size_t need = 2 * static_cast<std::size_t>(std::max(1, o.derivative_half_window)) + 1;
+  const std::size_t need = 2 * static_cast<std::size_t>(o.derivative_half_window) + 1;  // >= 1: IsValid
   if (n < need)
     throw InputError(r.path, 0, fmt::format("run has {} samples; the Savitzky-Golay "
                                             "derivative of y_E needs at least {}", n, need));
@@ -112,10 +113,10 @@ struct ModulatingWindow {
 void modulated_rows(const PreparedRun& r, const std::vector<ParamId>& terms, const FitOptions& o,
                     std::vector<std::vector<double>>& rows, std::vector<double>& zs) {
   const std::size_t n = r.x.size();
-  // Why the clamp: a window longer than the run cannot be placed; use the whole run.
-  const std::size_t m =
-      std::min<std::size_t>(n, static_cast<std::size_t>(std::max(5, o.modulating_window)));
-  const std::size_t shift = static_cast<std::size_t>(std::max(1, o.modulating_shift));
+  // Why the clamp: a window longer than the run cannot be placed; use the whole run. (The window
+  // is >= 5 samples and the shift >= 1: FitOptions::IsValid.)
+  const std::size_t m = std::min<std::size_t>(n, static_cast<std::size_t>(o.modulating_window));
+  const std::size_t shift = static_cast<std::size_t>(o.modulating_shift);
   ModulatingWindow win(m);
   if (r.time_grid == TimeGrid::uniform) win.place(r, 0);  // the same at every position
   for (std::size_t s0 = 0; s0 + m <= n; s0 += shift) {
@@ -216,6 +217,7 @@ EquationErrorResult run_equation_error(const std::vector<PreparedRun>& runs,
 namespace indicial {
 
 EquationErrorResult fit_equation_error(const Experiment& e, const FitOptions& o) {
+  if (std::string bad; !o.IsValid(&bad)) throw InputError(bad);  // first, as fit_experiment
   const ModelSet<double, FitCapacity> base = base_model_set(e);
   const std::vector<fit_detail::PreparedRun> runs = fit_detail::prepare_runs(e, base);
   fit_detail::UnsteadyStructure selected;

@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cmath>
 #include <fmt/format.h>
+#include <string>
 #include <limits>
 
 #include "estimate/fit_internal.hpp"
@@ -507,6 +508,7 @@ std::vector<RunSeries> run_series(const Estimate& est, const CoefficientModel<do
 
 FitResult fit_experiment(const Experiment& e, const FitOptions& o) {
   const auto t_start = std::chrono::steady_clock::now();
+  if (std::string bad; !o.IsValid(&bad)) throw InputError(bad);  // first, as Ceres' Solve
   check_experiment(e);
   FitResult res;
   ModelSet<double, Cap> model = base_model_set(e);

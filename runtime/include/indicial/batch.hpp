@@ -565,10 +565,12 @@ INDICIAL_LANE_INLINE void scatter_lane(const RuntimeModel<Scalar, Cap>& m, const
   s->l_over_v_s = b.l_over_v_s[i];
 }
 
-// The dynamic-stall families of a block (FamilyState only): model.hpp's advance_stall and
-// stall_output lane by lane, on the lanes' own angles and airspeed terms -- the scalar step's
-// code and exp, so the family states are bit for bit a single step's (their update branches
-// on values: it is not on the lane policy); the output joins the lane's value. A plain State
+// The dynamic-stall families of a block (FamilyState only): the single step's
+// detail::advance_families (runtime.hpp) lane by lane, on the lanes' own angles and airspeed
+// terms, with the lookups its coefficients share (RuntimeModel::stall_sharing) made once per
+// lane -- the scalar step's code and exp, so the family states are bit for bit a single step's
+// (their update branches on values: it is not on the lane policy); the output joins the
+// lane's value. A plain State
 // has none: the empty overloads compile to nothing.
 template <class St>
 struct BlockFamilies {};
@@ -589,10 +591,11 @@ inline void advance_lane_families(const RuntimeModel<Scalar, Cap>& m, const Fami
   for (int i = 0; i < batch_block; ++i) {
     if (!b->active[i]) continue;
     const StallStep<Scalar> g{b->x0_rad[i], b->x1_rad[i], dt_s, b->l_over_v_s[i]};
+    indicial::detail::StepLookups<Scalar, Cap> looked;  // this instance's step: its own lookups
     for (int c = 0; c < m.set.n_coefficients; ++c) {
       Scalar value = b->value[c][i];
       f->stall[i][c] = s[i].stall[c];
-      const Scalar test = indicial::detail::advance_families(m.set.coefficients[c], g, &f->stall[i][c], &value);
+      const Scalar test = indicial::detail::advance_families(m, c, g, &looked, &f->stall[i][c], &value);
       if (!(test == Scalar(0))) b->finite_test[i] = std::numeric_limits<Scalar>::quiet_NaN();
       b->value[c][i] = value;
     }

@@ -817,34 +817,28 @@ INDICIAL_HOT_INLINE Scalar finite_test(const Scalar& v) {
   return v - v;
 }
 
-// One coefficient's dynamic-stall families over the step (model.hpp's advance_stall, in
-// place) and their output added to the report's; the sum of their finite_test.
-template <class Scalar, class Cap>
-inline Scalar advance_families(const CoefficientModel<Scalar, Cap>& cm, const StallStep<Scalar>& g,
-                               StallState<Scalar>* s, Scalar* value) {
-  if (cm.stall.families == StallFamilies::none) return Scalar(0);
-  advance_stall(cm.stall, g, s);
-  *value = *value + stall_output(cm.stall, g.x1_rad, *s);
-  return finite_test(s->separation_point) + finite_test(s->vortex_lift) +
-         finite_test(s->vortex_clock_semichords);
-}
-
 // The families' lookups of one step, per coefficient (RuntimeModel::stall_sharing): those of
-// the coefficients stepped so far.
+// the coefficients stepped so far (one per step, or per instance of a batch: the lookups are
+// of the step's own angles and airspeed).
 template <class Scalar, class Cap>
 struct StepLookups {
   StallLookups<Scalar> forcing[Cap::max_coefficients];  // model.hpp's, at the lagged angles
   Scalar table_x1[Cap::max_coefficients];               // the f0 table's value at x1
 };
 
-// advance_families with the lookups coefficient c shares with earlier ones taken from `looked`
-// and its own added to it: the same numbers as advance_families (same operations, or copies
-// of the same operations on equal parameters), hence the same bits.
+// Coefficient c's dynamic-stall families over the step (model.hpp's advance_stall, in place)
+// and their output (stall_output) added to the report's; the sum of their finite_test. The one
+// families step, of the single step (advance_coefficients) and the batch (batch.hpp's
+// advance_lane_families) alike. Coefficients are stepped in order, 0 first, each with the same
+// `looked`: the lookups c shares with an earlier coefficient (RuntimeModel::stall_sharing) are
+// taken from `looked`, its own are added to it. The same numbers as advance_stall and
+// stall_output (model.hpp splits them for this: the same operations, or copies of the same
+// operations on equal parameters), hence the same bits as the fitter's loop.
 template <class Scalar, class Cap>
-INDICIAL_HOT_INLINE Scalar advance_families_sharing(const RuntimeModel<Scalar, Cap>& m, int c,
-                                                    const StallStep<Scalar>& g,
-                                                    StepLookups<Scalar, Cap>* looked,
-                                                    StallState<Scalar>* s, Scalar* value) {
+INDICIAL_HOT_INLINE Scalar advance_families(const RuntimeModel<Scalar, Cap>& m, int c,
+                                            const StallStep<Scalar>& g,
+                                            StepLookups<Scalar, Cap>* looked,
+                                            StallState<Scalar>* s, Scalar* value) {
   const StallModel<Scalar, Cap>& st = m.set.coefficients[c].stall;
   if (st.families == StallFamilies::none) return Scalar(0);
   const StallSharing& sh = m.stall_sharing[c];
@@ -940,8 +934,8 @@ INDICIAL_HOT_INLINE Scalar advance_coefficients(const RuntimeModel<Scalar, Cap>&
                                  &s.end[c], s.y[c], &value[c]);
     }
     if (stall != nullptr)
-      test = test + advance_families_sharing(m, c, StallStep<Scalar>{g.x0_rad, x1, dt_s, v.l_over_v_s},
-                                             &looked, &stall[c], &value[c]);
+      test = test + advance_families(m, c, StallStep<Scalar>{g.x0_rad, x1, dt_s, v.l_over_v_s}, &looked,
+                                     &stall[c], &value[c]);
     return test;
   };
   Scalar test = Scalar(0);

@@ -145,7 +145,7 @@ struct DiagnoseOptions {
   // *error (when not null) set to one line naming the first bad option -- its field, its
   // command-line flag where it has one -- its range and the value found. diagnose_experiment
   // throws InputError with that line; `indicial diagnose` and Python's diagnose report it
-  // before reading anything. `fit` is not checked here.
+  // before reading anything. `fit` last, by FitOptions::IsValid (its message).
   bool IsValid(std::string* error) const;
 };
 

@@ -161,7 +161,8 @@ struct FitOptions {
   // Measured: 0.96-0.99 on the simulator's tailless and F-16XL cases (tests/golden/), 0.69-0.80
   // on the dynamic-stall generator's cycles, 0.09-0.17 on the tunnel data of issue 12.
   double fallback_r_squared = 0.9;
-  // Output error: Gauss-Newton / Levenberg-Marquardt iterations (accepted or rejected steps).
+  // Output error: Gauss-Newton / Levenberg-Marquardt iterations (accepted or rejected steps);
+  // 0 (as Ceres' max_num_iterations): no step, the estimates and bounds at the start values.
   int max_iterations = 50;
   // Convergence: relative cost change below cost_tolerance AND every parameter change below
   // step_tolerance times its Cramer-Rao bound.
@@ -190,6 +191,16 @@ struct FitOptions {
   // Output-error start values that replace the equation-error ones, by parameter name
   // (e.g. {"b1_0", 3.0}, {"y0_2", 0.0}); names not in the model are an InputError.
   std::vector<std::pair<std::string, double>> start_values;
+
+  // Every range above in one place (Ceres' Solver::Options::IsValid, as
+  // DiagnoseOptions::IsValid): true, or false with *error (when not null) set to one line
+  // naming the first bad option -- its field, its command-line flag where it has one (Python's
+  // keyword is the field's name) -- its range and the value found, e.g.
+  // "f_to_remove (--f-to-remove): must be in (0, f_to_enter = 4] (...), found 5".
+  // fit_experiment and fit_equation_error throw InputError with that line before they look at
+  // the experiment; `indicial fit` and Python's fit report it before reading anything.
+  // Start-value names are checked by the fit (they need the model), their values here.
+  bool IsValid(std::string* error) const;
 };
 
 // Parameter identity ------------------------------------------------------------------------
