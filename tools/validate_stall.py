@@ -93,7 +93,7 @@ def static_polar(data, catalog, out):
     return rows
 
 
-def experiment(path, coefficient, runs, stall, vref, known=None):
+def experiment(path, coefficient, runs, stall, vref):
     lines = [f'axis = "pitch"', f'coefficient = "{coefficient}"', f'reference_length_m = {L_M}',
              f'airspeed_mps = {vref}', 'runs = [']
     for r in runs:
@@ -102,8 +102,6 @@ def experiment(path, coefficient, runs, stall, vref, known=None):
               'a_knots_deg = [12.0, 16.0]', 'b1_degree = 0']
     if stall:
         lines += ['stall = "separation_and_vortex"', 'stall_polar = "static.csv"', 'stall_polar_column = "CL"']
-        if known:
-            lines.append('stall_known = { ' + ', '.join(f'{k} = {v!r}' for k, v in known.items()) + ' }')
     with open(path, 'w') as f:
         f.write('\n'.join(lines) + '\n')
 
@@ -236,8 +234,7 @@ def report(results, polar, fit_runs, models):
             if fj:
                 p(f'* fit {coef} {kind}: {fj.get("termination", "?")}, s(v) = {fj.get("fit_error", float("nan")):.4g}, '
                   f'{fj.get("n_parameters", "?")} parameters, {fj.get("iterations", "?")} iterations, '
-                  f'runtime replay: {fj.get("runtime_check", {})}' +
-                  (f'; held (model.stall_known): {fj["held_parameters"]}' if fj.get('held_parameters') else ''))
+                  f'runtime replay: {fj.get("runtime_check", {})}')
             else:
                 p(f'* fit {coef} {kind}: FAILED (see stderr)')
         dj = models.get((coef, 'diagnosed', 'json'))
