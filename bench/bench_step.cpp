@@ -245,8 +245,9 @@ class FloorStepper {
 // update/: the floor plus the rest of the model's update in its minimal form -- what any
 // implementation of this discretisation must also compute once the floor's evaluations are
 // done: per lag the angle-mean decay (B_j(x1) - B_j(x0)) / (x1 - x0) from the kept B_j(x0),
-// phi1 = (1 - e^-z) / z, the update y = e^-z y + phi1 drive from the kept A(x0), and per
-// coefficient the output static + (l/V) rotary q + sum y. Nothing else: no input checks, no
+// phi1 = (1 - e^-z) / z, the update y = e^-z y + phi1 drive from the kept A(x0) (both quotients
+// as model.hpp takes them: times a reciprocal computed off the dependent chain, 1 / (x1 - x0)
+// before B_j(x1) is known and 1 / z while exp(-z) runs), and per coefficient the output static + (l/V) rotary q + sum y. Nothing else: no input checks, no
 // clamp, no airspeed terms (the reference airspeed), no copy for commit-if-finite, and not
 // even the two branches the model needs for a correct result at dx -> 0 and z -> 0 (this
 // motion never takes them): a lower bound on the step's own work, by construction. The floor
@@ -270,7 +271,7 @@ class UpdateStepper {
   Scalar step(Scalar x1_rad, Scalar q_radps, Scalar dt_s) {
     using std::exp;
     const Scalar l_over_v_s = Scalar(set_.reference_length_m / set_.airspeed_mps);
-    const Scalar dx = x1_rad - x_prev_;
+    const Scalar inv_dx = Scalar(1) / (x1_rad - x_prev_);
     Scalar sum = Scalar(0);
     for (int c = 0; c < set_.n_coefficients; ++c) {
       const auto& m = set_.coefficients[c];
@@ -281,11 +282,11 @@ class UpdateStepper {
                    l_over_v_s * floor_value(m.rotary, x1_rad) * q_radps;
       for (int j = 0; j < m.n_lags; ++j) {
         const Scalar b1 = floor_antiderivative(m.lags[j].b, x1_rad);
-        const Scalar z = (b1 - b0_[c][j]) / dx * dt_s;
+        const Scalar z = (b1 - b0_[c][j]) * inv_dx * dt_s;
         b0_[c][j] = b1;
         const Scalar e = exp(-z);
         const Scalar drive = j == 0 ? Scalar(-forcing + m.con * dt_s) : Scalar(-m.lags[j].gain * forcing);
-        y_[c][j] = e * y_[c][j] + (Scalar(1) - e) / z * drive;
+        y_[c][j] = e * y_[c][j] + (Scalar(1) - e) * (Scalar(1) / z) * drive;
         out += y_[c][j];
       }
       sum += out;

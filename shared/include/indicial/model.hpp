@@ -139,6 +139,26 @@ inline T int_power_from(const T& one, const T& u, int p) {
   for (int i = 0; i < p; ++i) r = r * u;
   return r;
 }
+// v / n for an antiderivative's small integer divisor n = p + 1 >= 1. Why the branch: for n a
+// power of two (1, 2, 4, 8: a cubic knot term's 4, a linear one's 2) the product with the exact
+// reciprocal 1 / n is the same number as the quotient, bit for bit (scaling by a power of two
+// rounds nothing, and where it does, into the subnormals, both round the same exact value),
+// and on the runtime step's dependent chain (angle -> B_j(x) -> decay -> output) a multiply
+// costs about 4 cycles of latency where a divide costs 13-20 (bench_step, state/model2). Other
+// n keep the division. The branch is on the model's integer, never on a value; the
+// reciprocals are constants (computing 1.0 / n at run time was a soft-float double division on
+// the Cortex-M4F: 651 -> 955 instructions per float step, tools/run-cortex-m.sh).
+template <class Scalar, class T>
+inline T over_small_int(const T& v, int n) {
+  switch (n) {
+    case 1: return v;
+    case 2: return v * Scalar(0.5);
+    case 4: return v * Scalar(0.25);
+    case 8: return v * Scalar(0.125);
+    default: return v / Scalar(n);
+  }
+}
+
 template <class Scalar>
 inline Scalar int_power(const Scalar& u, int p) {
   return int_power_from(Scalar(1), u, p);
@@ -153,10 +173,14 @@ inline Scalar int_power(const Scalar& u, int p) {
 #define INDICIAL_HOT_LAMBDA __attribute__((always_inline))
 // The usual outcome of a branch, for the code's layout only (the other side out of line).
 #define INDICIAL_LIKELY(c) __builtin_expect(static_cast<bool>(c), 1)
+// Every call in the function's body inlined, recursively (GCC's and Clang's `flatten`): for the
+// one step a real-time loop calls (runtime.hpp's State step), see there.
+#define INDICIAL_FLATTEN __attribute__((flatten))
 #else
 #define INDICIAL_HOT_INLINE inline
 #define INDICIAL_HOT_LAMBDA
 #define INDICIAL_LIKELY(c) (c)
+#define INDICIAL_FLATTEN
 #endif
 
 // ------------------------------------------------------------------------------------------
@@ -228,13 +252,14 @@ inline Scalar basis_value(const BasisTerm& t, const X& x) {
   return u > X(0) ? Scalar(detail::int_power(u, t.power)) : Scalar(0);
 }
 
-// coef times the term's antiderivative, rounded as (coef * u^(p+1)) / (p+1): the form the
-// runtime has always evaluated (spline_antiderivative), kept so that its results do not move.
+// coef times the term's antiderivative, rounded as (coef * u^(p+1)) / (p+1) (over_small_int): the
+// form the runtime has always evaluated (spline_antiderivative), kept so that its results do not
+// move.
 template <class Scalar, class X>
 inline Scalar scaled_basis_antiderivative(const BasisTerm& t, const X& x, const Scalar& coef) {
   const X u = t.kind == BasisKind::power ? x : x - X(t.knot_rad);
   if (t.kind == BasisKind::knot && !(u > X(0))) return Scalar(0);
-  return coef * detail::int_power(u, t.power + 1) / Scalar(t.power + 1);
+  return detail::over_small_int<Scalar>(Scalar(coef * detail::int_power(u, t.power + 1)), t.power + 1);
 }
 
 template <class Scalar, class X>
@@ -264,7 +289,7 @@ inline void add_knot_terms(const Spline<typename Ops::Scalar, P, K>& s, const X&
       const X u = x - Ops::lift(x, s.knot_rad[j]);
       const int p = s.knot_power[j];
       if (sum_kind == KnotSum::value) return Acc(s.knot_coef[j] * int_power_from(Ops::one(u), u, p));
-      return Acc(s.knot_coef[j] * int_power_from(Ops::one(u), u, p + 1) / Scalar(p + 1));
+      return Acc(over_small_int<Scalar>(Acc(s.knot_coef[j] * int_power_from(Ops::one(u), u, p + 1)), p + 1));
     });
   }
 }
@@ -764,10 +789,15 @@ inline void phi1_with(const typename Ops::V& z, const typename Ops::V& exp_minus
   // has truncation error z^4/120 < 1e-14, and, being a polynomial, it also gives an autodiff
   // type the exact derivative -1/2 + z/3 - z^2/8 (no 0/0 in the dual part either). Above it
   // the cancellation costs at most ~1e-13 relative. Both branches agree to 1e-14 at the seam.
+  // Why times 1 / z rather than over z: z is known before exp(-z) is, so the division runs
+  // while exp does and only a multiply is left on the step's dependent chain (one rounding
+  // more: within about an ulp of the quotient, far below the cancellation above).
+  // bench_step: with the interval mean's 1 / dx (below) and the knot terms' over_small_int,
+  // state/model2/double 1.48x -> 1.32-1.34x its floor by time (medians of 8 interleaved runs).
   *r = Ops::choose(
       Ops::abs_less(z, 1e-3),
       [&] { return V(Scalar(1) + z * (Scalar(-0.5) + z * (Scalar(1.0 / 6.0) + z * Scalar(-1.0 / 24.0)))); },
-      [&] { return V((Scalar(1) - exp_minus_z) / z); });
+      [&] { return V((Scalar(1) - exp_minus_z) * (Scalar(1) / z)); });
 }
 
 template <class Scalar>
@@ -799,7 +829,10 @@ struct interval_mean_threshold<float> { static constexpr double value = 3e-4; };
 // not move; there the mean IS the value at the (common) point, and the midpoint value is the
 // smooth continuation (same value and first derivatives for an autodiff type).
 // On a policy: the midpoint value is evaluated only when some lane needs it (a branch on the
-// block, not on a lane; with ScalarOps the plain branch).
+// block, not on a lane; with ScalarOps the plain branch). Why times 1 / dx rather than over
+// dx: dx is known as soon as the angle is, so the division runs while the spline sums do and
+// only a multiply waits for S(x1) on the step's dependent chain (phi1_with says what it
+// bought; one rounding more: within about an ulp of the quotient).
 template <class Ops, int P, int K>
 inline void interval_mean_with(const Spline<typename Ops::Scalar, P, K>& s,
                                const typename Ops::V& x0, const typename Ops::V& x1,
@@ -809,7 +842,7 @@ inline void interval_mean_with(const Spline<typename Ops::Scalar, P, K>& s,
   using V = typename Ops::V;
   const V dx = x1 - x0;
   const auto small = Ops::abs_less(dx, detail::interval_mean_threshold<Scalar>::value);
-  const auto quotient = [&] { return V((antiderivative_x1 - antiderivative_x0) / dx); };
+  const auto quotient = [&] { return V((antiderivative_x1 - antiderivative_x0) * (Scalar(1) / dx)); };
   // (Likely: only a step that barely moves takes the midpoint; GCC guessed the other way.)
   if (INDICIAL_LIKELY(!Ops::any(small))) {
     *mean = quotient();
