@@ -1115,10 +1115,11 @@ inline StepStatus step_undelayed(const RuntimeModel<Scalar, Cap>& m, State<Scala
 // static table and the lag update are inlined into it whatever the caller's translation unit
 // makes of model.hpp's functions. Why: the step is a dependent chain (the next angle waits for
 // this output, in a control loop as in bench_step), and out-of-line spline calls on it cost
-// about 10 ns of 70 on x86-64 although only a few instructions (bench_step state/model2/double,
-// interleaved with floor/: 1.34x -> 1.19x its floor, median of 8 runs; 859 instructions, 41
-// fewer). The C library's indicial_step got the same code from GCC's heuristics already. Why
-// not the families' and the delayed steps: their bodies are 2-3x larger, and no goal asks.
+// about 6 ns of 64 on x86-64 and 42 instructions (bench_step state/model2/double, interleaved
+// with floor/, medians of 6 runs: 1.38x -> 1.23x its floor, 63.5 -> 57.7 ns; 914 -> 872
+// instructions). The C library's indicial_step got the same code from GCC's heuristics
+// already. Why not the families' and the delayed steps: their bodies are 2-3x larger, and no
+// goal asks.
 template <class Scalar, class Cap>
 INDICIAL_FLATTEN inline StepStatus step_state(const RuntimeModel<Scalar, Cap>& m, State<Scalar, Cap>& s,
                                               const MotionInput& in, double dt_s, Scalar* out) {
