@@ -113,6 +113,19 @@ TEST_CASE("the knot checks name the entry's line, in the words Python's keywords
                        "'a_knots_rad': knot 30 deg is outside the data's alpha range [4, 20] deg", InputError);
 }
 
+namespace {
+
+// A C_L run and its lift polar (the static table) in dir; returns the experiment file's text up
+// to the [model] section's stall = "separation_and_vortex", for the test to add stall keys to.
+std::string write_stall_case(const indicial::testing::TempDir& dir) {
+  indicial::testing::write_text(dir.path / "run.csv", run_csv("alpha", "CL"));
+  indicial::testing::write_text(dir.path / "polar.csv", polar_csv("alpha"));
+  return "axis = \"pitch\"\ncoefficient = \"CL\"\nreference_length_m = 0.5\nairspeed_mps = 30.0\nruns = [\"run.csv\"]\n"
+         "[static]\ntable = \"polar.csv\"\n[rotary]\npolynomial = [0.0]\n[model]\nstall = \"separation_and_vortex\"\n";
+}
+
+}  // namespace
+
 // stall_start_key is the one map of a held parameter to the start value it excludes: the
 // reader refuses both together (check_stall_known), the writer leaves the held one's out.
 TEST_CASE("a held stall parameter's start key: refused beside it, not written, read back") {
@@ -121,11 +134,7 @@ TEST_CASE("a held stall parameter's start key: refused beside it, not written, r
   CHECK(stall_start_key("k0") == nullptr);
   CHECK(stall_start_key("tau1") == nullptr);
   indicial::testing::TempDir dir("experiment-checks");
-  indicial::testing::write_text(dir.path / "run.csv", run_csv("alpha", "CL"));
-  indicial::testing::write_text(dir.path / "polar.csv", polar_csv("alpha"));
-  const std::string head = "axis = \"pitch\"\ncoefficient = \"CL\"\nreference_length_m = 0.5\nairspeed_mps = 30.0\nruns = [\"run.csv\"]\n"
-                           "[static]\ntable = \"polar.csv\"\n[rotary]\npolynomial = [0.0]\n[model]\n"
-                           "stall = \"separation_and_vortex\"\n";
+  const std::string head = write_stall_case(dir);
   const std::vector<std::string> starts = {"stall_T1_start", "stall_T2_start", "stall_CN1_start", "stall_Tv_start",
                                            "stall_Tvl_start"};
   for (const std::string name : {"T1", "T2", "k0", "k1", "k2", "CN1", "Tv", "Tvl", "cv", "xv"}) {
@@ -159,11 +168,7 @@ TEST_CASE("the stall start-value table: each key read, bound-checked, written, r
   const std::string formats = formats_text.str();
   REQUIRE(!formats.empty());
   indicial::testing::TempDir dir("experiment-checks-starts");
-  indicial::testing::write_text(dir.path / "run.csv", run_csv("alpha", "CL"));
-  indicial::testing::write_text(dir.path / "polar.csv", polar_csv("alpha"));
-  const std::string head = "axis = \"pitch\"\ncoefficient = \"CL\"\nreference_length_m = 0.5\nairspeed_mps = 30.0\nruns = [\"run.csv\"]\n"
-                           "[static]\ntable = \"polar.csv\"\n[rotary]\npolynomial = [0.0]\n[model]\n"
-                           "stall = \"separation_and_vortex\"\n";
+  const std::string head = write_stall_case(dir);
   for (std::size_t i = 0; i < documented.size(); ++i) {
     const StallStart& st = stall_starts()[i];
     CAPTURE(st.key);
