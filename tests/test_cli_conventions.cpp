@@ -328,7 +328,8 @@ TEST_CASE("init writes a commented template with every key, refuses to overwrite
         "b1_degree", "b1_powers", "b1_knots_deg", "bias", "structure", "lags", "static_correction_degree",
         "static_correction_knots_deg", "rotary_correction_degree", "rotary_correction_knots_deg", "delay",
         "delay_start_s", "further_lag_start", "stall", "stall_polar", "stall_polar_column",
-        "stall_attached_max_deg", "stall_f0_correction_degree", "stall_T1_start", "stall_known", "[columns]", "[csv]",
+        "stall_attached_max_deg", "stall_f0_correction_degree", "stall_T1_start", "stall_T2_start",
+        "stall_CN1_start", "stall_Tv_start", "stall_Tvl_start", "stall_known", "[columns]", "[csv]",
         "delimiter", "comment"}) {
     CAPTURE(key);
     const std::string k = key;

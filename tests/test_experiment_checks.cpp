@@ -4,6 +4,8 @@
 // runs the same bad inputs through both paths and compares the messages).
 #include <doctest/doctest.h>
 
+#include <fstream>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -111,6 +113,19 @@ TEST_CASE("the knot checks name the entry's line, in the words Python's keywords
                        "'a_knots_rad': knot 30 deg is outside the data's alpha range [4, 20] deg", InputError);
 }
 
+namespace {
+
+// A C_L run and its lift polar (the static table) in dir; returns the experiment file's text up
+// to the [model] section's stall = "separation_and_vortex", for the test to add stall keys to.
+std::string write_stall_case(const indicial::testing::TempDir& dir) {
+  indicial::testing::write_text(dir.path / "run.csv", run_csv("alpha", "CL"));
+  indicial::testing::write_text(dir.path / "polar.csv", polar_csv("alpha"));
+  return "axis = \"pitch\"\ncoefficient = \"CL\"\nreference_length_m = 0.5\nairspeed_mps = 30.0\nruns = [\"run.csv\"]\n"
+         "[static]\ntable = \"polar.csv\"\n[rotary]\npolynomial = [0.0]\n[model]\nstall = \"separation_and_vortex\"\n";
+}
+
+}  // namespace
+
 // stall_start_key is the one map of a held parameter to the start value it excludes: the
 // reader refuses both together (check_stall_known), the writer leaves the held one's out.
 TEST_CASE("a held stall parameter's start key: refused beside it, not written, read back") {
@@ -119,11 +134,7 @@ TEST_CASE("a held stall parameter's start key: refused beside it, not written, r
   CHECK(stall_start_key("k0") == nullptr);
   CHECK(stall_start_key("tau1") == nullptr);
   indicial::testing::TempDir dir("experiment-checks");
-  indicial::testing::write_text(dir.path / "run.csv", run_csv("alpha", "CL"));
-  indicial::testing::write_text(dir.path / "polar.csv", polar_csv("alpha"));
-  const std::string head = "axis = \"pitch\"\ncoefficient = \"CL\"\nreference_length_m = 0.5\nairspeed_mps = 30.0\nruns = [\"run.csv\"]\n"
-                           "[static]\ntable = \"polar.csv\"\n[rotary]\npolynomial = [0.0]\n[model]\n"
-                           "stall = \"separation_and_vortex\"\n";
+  const std::string head = write_stall_case(dir);
   const std::vector<std::string> starts = {"stall_T1_start", "stall_T2_start", "stall_CN1_start", "stall_Tv_start",
                                            "stall_Tvl_start"};
   for (const std::string name : {"T1", "T2", "k0", "k1", "k2", "CN1", "Tv", "Tvl", "cv", "xv"}) {
@@ -142,4 +153,72 @@ TEST_CASE("a held stall parameter's start key: refused beside it, not written, r
     CHECK_HAS(load_error(both), "'model.stall_known." + name + "' holds " + name +
                                     " at a known value, and 'model." + start + "' gives it a start value");
   }
+}
+
+// stall_starts() is the one table of the start-value keys: each key is read by the file's reader
+// into its StallConfig member, checked against its bound, written back and read again, and
+// documented under its own name in docs/formats.md and `indicial init`'s keys (cmd_init.cpp).
+TEST_CASE("the stall start-value table: each key read, bound-checked, written, read back and documented") {
+  const std::vector<std::string> documented = {"stall_T1_start", "stall_T2_start", "stall_CN1_start",
+                                               "stall_Tv_start", "stall_Tvl_start"};
+  REQUIRE(stall_starts().size() == documented.size());
+  std::ifstream formats_file(std::string(INDICIAL_SOURCE_DIR) + "/docs/formats.md");
+  std::stringstream formats_text;
+  formats_text << formats_file.rdbuf();
+  const std::string formats = formats_text.str();
+  REQUIRE(!formats.empty());
+  indicial::testing::TempDir dir("experiment-checks-starts");
+  const std::string head = write_stall_case(dir);
+  for (std::size_t i = 0; i < documented.size(); ++i) {
+    const StallStart& st = stall_starts()[i];
+    CAPTURE(st.key);
+    CHECK(std::string(st.key) == documented[i]);
+    CHECK(std::string(stall_start_key(st.parameter)) == st.key);
+    CHECK(formats.find(std::string("`") + st.key + "`") != std::string::npos);
+    const std::string path = indicial::testing::write_text(dir.path / "e.toml", head + st.key + " = 2.25\n");
+    const Experiment e = load_experiment(path);
+    CHECK(e.model.stall.*st.value == 2.25);
+    const std::string back = write_experiment_toml(e, {});
+    CHECK(back.find(std::string(st.key) + " = 2.25\n") != std::string::npos);
+    const std::string again = indicial::testing::write_text(dir.path / "back.toml", back);
+    CHECK(load_experiment(again).model.stall.*st.value == 2.25);
+    const std::string bad = indicial::testing::write_text(dir.path / "e.toml", head + st.key + " = -1.0\n");
+    CHECK_HAS(load_error(bad), std::string("'model.") + st.key +
+                                   (st.bound == StartBound::non_negative ? "' must be >= 0" : "' must be > 0"));
+  }
+  // The default CN1 start (0: from the polar) is outside its bound, so not set and not written.
+  const StallConfig defaults;
+  for (const StallStart& st : stall_starts())
+    CHECK(start_in_bound(st, defaults.*st.value) == (st.default_text == nullptr));
+}
+
+// check_runtime_capacity is the one capacity rule of the file's reader and Python's Experiment:
+// over the limit is refused, a candidate pool (stepwise a/b1, an estimated rotary) only warned
+// about, with the site the caller gives.
+TEST_CASE("the runtime capacity rule: refused over the limit, a candidate pool warned about") {
+  const auto error = [](const std::string& problem) { return InputError("f.toml", 7, problem); };
+  Experiment e;
+  CapacityUse fits{"model.a_knots_deg", "knots", DefaultCapacity::max_knots, DefaultCapacity::max_knots,
+                   CapacityUse::Pool::model_stepwise};
+  check_runtime_capacity(fits, e, error, "f.toml:7: ");
+  CHECK(e.warnings.empty());
+  CapacityUse over = fits;
+  over.needed = DefaultCapacity::max_knots + 1;
+  CHECK_THROWS_WITH_AS(check_runtime_capacity(over, e, error, "f.toml:7: "),
+                       "f.toml:7: 'model.a_knots_deg' needs 9 knots; the runtime (indicial::DefaultCapacity) holds at "
+                       "most 8",
+                       InputError);
+  e.model.structure = StructureMode::stepwise;
+  check_runtime_capacity(over, e, error, "f.toml:7: ");
+  REQUIRE(e.warnings.size() == 1);
+  CHECK(e.warnings[0] == "f.toml:7: 'model.a_knots_deg' needs 9 knots; the runtime (indicial::DefaultCapacity) holds "
+                         "at most 8: a candidate pool may exceed it, the selected model must not");
+  // A rotary pool is one only with rotary.estimate; a use that is no pool is refused even so.
+  CapacityUse rotary{"rotary.knots_deg", "knots", 9, 8, CapacityUse::Pool::rotary_estimate};
+  CHECK_THROWS_AS(check_runtime_capacity(rotary, e, error, ""), InputError);
+  e.rotary.estimate = true;
+  check_runtime_capacity(rotary, e, error, "");
+  CHECK(e.warnings.size() == 2);
+  CapacityUse lags{"model.lags", "lags", 3, DefaultCapacity::max_lags};
+  CHECK_THROWS_AS(check_runtime_capacity(lags, e, error, ""), InputError);
 }

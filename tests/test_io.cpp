@@ -814,7 +814,7 @@ TEST_CASE("a 128-sample cycle with phase rounded to 0.01 rad is uniform, snapped
   }
   const indicial::Run rd = indicial::read_run_csv(write("cycle_deg.csv", deg), indicial::Axis::pitch, "Cm",
                                                   indicial::CoefficientPresence::required,
-                                                  indicial::RunCsvOptions{indicial::TimeGrid::uniform, {}, 1.0});
+                                                  indicial::RunCsvOptions{indicial::TimeGrid::uniform, {}, 1.0, indicial::CsvDialect{}});
   CHECK(rd.time_s[127] == doctest::Approx(127 / 128.0).epsilon(1e-9));
 }
 
@@ -891,13 +891,13 @@ TEST_CASE("phase cycles and run conditions: every wrong combination names the li
   // declared uniform (predict --time-grid uniform) it is refused, never silently nonuniform.
   const indicial::Run rj = indicial::read_run_csv((runs_dir() / "cycle_jitter.csv").string(), indicial::Axis::pitch,
                                                   "Cm", indicial::CoefficientPresence::required,
-                                                  indicial::RunCsvOptions{std::nullopt, {}, 1.0});
+                                                  indicial::RunCsvOptions{std::nullopt, {}, 1.0, indicial::CsvDialect{}});
   CHECK(rj.time_grid == indicial::TimeGrid::nonuniform);
   CHECK(any_note_has(rj.notes, "'phase_rad' is not uniform even to its printed digits"));
   CHECK_HAS(error_of([&] {
               indicial::read_run_csv((runs_dir() / "cycle_jitter.csv").string(), indicial::Axis::pitch, "Cm",
                                      indicial::CoefficientPresence::required,
-                                     indicial::RunCsvOptions{indicial::TimeGrid::uniform, {}, 1.0});
+                                     indicial::RunCsvOptions{indicial::TimeGrid::uniform, {}, 1.0, indicial::CsvDialect{}});
             }),
             "but a uniform grid was declared");
   // Phase outside [0, 2 pi) and time and phase together.
@@ -906,7 +906,7 @@ TEST_CASE("phase cycles and run conditions: every wrong combination names the li
   CHECK_HAS(error_of([&] {
               indicial::read_run_csv(write("over.csv", over), indicial::Axis::pitch, "Cm",
                                      indicial::CoefficientPresence::required,
-                                     indicial::RunCsvOptions{indicial::TimeGrid::uniform, {}, 1.0});
+                                     indicial::RunCsvOptions{indicial::TimeGrid::uniform, {}, 1.0, indicial::CsvDialect{}});
             }),
             "over.csv:21: column 'phase_rad': phase 6.30 is outside [0, 2 pi)");
   CHECK_HAS(csv_error("both.csv", "time_s,phase_rad,alpha_deg,Cm\n0,0,1,1\n"),

@@ -9,6 +9,7 @@
 // as it stands. The values are written by the experiment writer (write_experiment_toml), so
 // the template reads back exactly; this file only adds the documentation around them.
 // docs/formats.md is the same documentation in prose.
+#include <algorithm>
 #include <cstdio>
 #include <memory>
 #include <sstream>
@@ -17,6 +18,7 @@
 
 #include "command.hpp"
 #include "indicial/fitter/error.hpp"
+#include "indicial/fitter/experiment_checks.hpp"
 #include "indicial/fitter/io.hpp"
 #include "indicial/fitter/output.hpp"
 #include "indicial/fitter/simulate.hpp"
@@ -24,15 +26,40 @@
 namespace {
 
 struct KeyDoc {
-  const char* section;  // "" (top level), "static", "rotary", "model"
-  const char* key;
-  const char* doc;      // unit, default and meaning; lines separated by '\n'
-  const char* example;  // the commented-out line written when the key is not set
+  std::string section;  // "" (top level), "static", "rotary", "model"
+  std::string key;
+  std::string doc;      // unit, default and meaning; lines separated by '\n'
+  std::string example;  // the commented-out line written when the key is not set
 };
+
+// The stall start values' docs, one per key of the one table (experiment_checks.hpp
+// stall_starts()), with StallConfig's defaults.
+std::vector<KeyDoc> stall_start_docs() {
+  using indicial::StartBound;
+  const indicial::StallConfig defaults;
+  std::vector<KeyDoc> docs;
+  for (const indicial::StallStart& st : indicial::stall_starts()) {
+    const std::string def = st.default_text ? st.default_text : indicial::format_double(defaults.*st.value);
+    docs.push_back({"model", st.key,
+                    std::string("with stall: the start value of ") + st.parameter + " (" + st.unit +
+                        (st.bound == StartBound::positive ? ", > 0" : ", >= 0") + "). Default " + def +
+                        ".\nNone for a parameter held in stall_known.",
+                    std::string(st.key) + " = " + indicial::format_double(st.example)});
+  }
+  return docs;
+}
+
+// The docs with the stall start values' (stall_start_docs) before stall_known's.
+std::vector<KeyDoc> with_stall_starts(std::vector<KeyDoc> docs) {
+  const auto known = std::find_if(docs.begin(), docs.end(), [](const KeyDoc& d) { return d.key == "stall_known"; });
+  const std::vector<KeyDoc> starts = stall_start_docs();
+  docs.insert(known, starts.begin(), starts.end());
+  return docs;
+}
 
 // The documentation of every experiment key, in file order.
 const std::vector<KeyDoc>& key_docs() {
-  static const std::vector<KeyDoc> docs = {
+  static const std::vector<KeyDoc> docs = with_stall_starts({
       {"", "axis", "pitch | roll | yaw (required). The motion: pitch oscillation (model angle x = alpha),\n"
                    "roll (x = beta = asin(sin phi sin alpha0)) or yaw (x = beta = asin(-sin psi cos alpha0)).",
        "axis = \"pitch\""},
@@ -150,15 +177,11 @@ const std::vector<KeyDoc>& key_docs() {
                                               "(stall_f0_correction_powers, stall_f0_correction_knots_deg as for\n"
                                               "a(x); parameters f0c_i, f0cK j). Default none.",
        "stall_f0_correction_degree = 1"},
-      {"model", "stall_T1_start", "with stall: start values, in semichord times l/V (T1, T2, Tv, Tvl) and C_N\n"
-                                  "(stall_CN1_start; default where f0 falls below 0.7). Defaults T1 3, T2 1.5,\n"
-                                  "Tv 6, Tvl 7 (Beddoes-Leishman's NACA 0012).",
-       "stall_T1_start = 3.0"},
       {"model", "stall_known", "with stall: parameters held at known values, not estimated (T1, T2, k0, k1,\n"
                                "k2; with the vortex CN1, Tv, Tvl, cv, xv), e.g. a C_m fit taking T1 and T2\n"
                                "from the C_L fit's model.coef. No start value for a held parameter.",
        "stall_known = { T1 = 3.0, T2 = 1.5 }"},
-  };
+  });
   return docs;
 }
 

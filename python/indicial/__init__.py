@@ -142,7 +142,8 @@ class Experiment:
       b1_powers, b1_knots_rad  b1(x) terms (1/s at V); default the constant b1_0
       bias                 the state-equation constant con
       structure            "fixed" or "stepwise" (the terms are then a candidate pool)
-      lags                 number of lag states (1 or 2)
+      lags                 number of lag states (1 or 2, the runtime's capacity; 3 is refused
+                           as the file's model.lags = 3 is)
       delay                "none" (default) or "estimated": a pure delay of the unsteady forcing,
                            parameter delay_s (s at V); delay_start_s its start value, s in [0, 1]
       The dynamic-stall families ([model] stall keys of docs/formats.md, same names and checks):

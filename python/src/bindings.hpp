@@ -113,6 +113,10 @@ E pick(const std::string& option, const std::string& value, const std::map<std::
   for (const auto& [k, v] : allowed) names += (names.empty() ? "'" : ", '") + k + "'";
   throw InputError(option, 0, "expected one of " + names + ", found '" + value + "'");
 }
+// FitOptions from fit's keywords (a wrong name or choice is an InputError), unchecked:
+// diagnose checks them inside DiagnoseOptions::IsValid, naming the field alone.
+FitOptions parse_fit_options(const py::dict& kwargs);
+// The same, checked by FitOptions::IsValid (its message with `indicial fit`'s flag).
 FitOptions fit_options_from(const py::dict& kwargs);
 
 void bind_errors(py::module_& m);

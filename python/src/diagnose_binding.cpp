@@ -74,8 +74,10 @@ DiagnoseOptions diagnose_options_from(const py::dict& kw) {
                                                              {"lr", RuleChoice::likelihood_ratio}});
     else fit_kw[item.first] = item.second;
   }
-  if (std::string bad; !o.IsValid(&bad)) throw InputError(bad);  // DiagnoseOptions' own message
-  o.fit = fit_options_from(fit_kw);
+  o.fit = parse_fit_options(fit_kw);
+  // DiagnoseOptions' own message, the library's: a fit option named by its field (keyword), as
+  // diagnose has no `indicial fit` flags.
+  if (std::string bad; !o.IsValid(&bad)) throw InputError(bad);
   return o;
 }
 

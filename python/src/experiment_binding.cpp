@@ -124,19 +124,18 @@ void check_knots(const Experiment& e, const std::vector<double>& knots, const st
   check_knots_in_data(e, knots, key, as_is);
 }
 
-// The runtime's capacity at input time, as load_experiment checks it: a model larger than
-// DefaultCapacity is refused, a stepwise pool only warned about.
-void check_capacity(Experiment& e, const SplineConfig& s, const std::string& key, bool pool) {
-  const int powers = s.powers.empty() ? 0 : s.powers.back() + 1;
-  const int knots = static_cast<int>(s.knots_rad.size());
-  for (const auto& [needed, limit, what] : {std::tuple{powers, DefaultCapacity::max_powers, "powers (x^0..x^n)"},
-                                            {knots, DefaultCapacity::max_knots, "knots"}}) {
-    if (needed <= limit) continue;
-    const std::string text = "'" + key + "' needs " + std::to_string(needed) + " " + what +
-                             "; the runtime (indicial::DefaultCapacity) holds at most " + std::to_string(limit);
-    if (!(pool && e.model.structure == StructureMode::stepwise)) throw InputError(text);
-    e.warnings.push_back(text + ": a candidate pool may exceed it, the selected model must not");
-  }
+// The runtime's capacity at input time: load_experiment's own rule (experiment_checks.hpp
+// check_runtime_capacity), the message as is, a warning without a file and line.
+void check_capacity(Experiment& e, const CapacityUse& use) {
+  check_runtime_capacity(use, e, [](const std::string& problem) { return InputError(problem); }, "");
+}
+
+// A spline's powers and knots (keywords powers_key, knots_key) against the runtime's capacity.
+void check_spline_capacity(Experiment& e, const SplineConfig& s, const std::string& powers_key,
+                           const std::string& knots_key, CapacityUse::Pool pool) {
+  check_capacity(e, {powers_key, "powers (x^0..x^n)", s.powers.empty() ? 0 : s.powers.back() + 1,
+                     DefaultCapacity::max_powers, pool});
+  check_capacity(e, {knots_key, "knots", static_cast<int>(s.knots_rad.size()), DefaultCapacity::max_knots, pool});
 }
 
 bool given(const py::dict& c, const char* key) { return c.contains(key) && !c[key].is_none(); }
@@ -207,10 +206,8 @@ void read_static_table_keywords(const py::dict& c, Experiment& e) {
   read_array_table(c, "static_table_x_rad", "static_table_value", st.table_x_rad, st.table_value);
   st.kind = StaticKind::table;
   st.table_path = "static_table_x_rad";
-  if (st.table_x_rad.size() > static_cast<std::size_t>(DefaultCapacity::max_table_points))
-    throw InputError("'static_table_x_rad' needs " + std::to_string(st.table_x_rad.size()) +
-                     " rows; the runtime (indicial::DefaultCapacity) holds at most " +
-                     std::to_string(DefaultCapacity::max_table_points));
+  check_capacity(e, {"static_table_x_rad", "rows", static_cast<int>(st.table_x_rad.size()),
+                     DefaultCapacity::max_table_points});
   read_static_table_lift(c, e);
 }
 
@@ -242,19 +239,18 @@ void read_stall_keywords(const py::dict& c, Experiment& e) {
   const std::pair<const char*, const char*> keys[] = {
       {"stall_polar_alpha_rad", "stall_polar"}, {"stall_polar_lift", "stall_polar"},
       {"stall_polar_column", "stall_polar_column"}, {"stall_attached_max_deg", "stall_attached_max_deg"},
-      {"stall_T1_start", "stall_T1_start"}, {"stall_T2_start", "stall_T2_start"}, {"stall_CN1_start", "stall_CN1_start"},
-      {"stall_Tv_start", "stall_Tv_start"}, {"stall_Tvl_start", "stall_Tvl_start"},
       {"stall_f0_correction_powers", "stall_f0_correction_powers"},
       {"stall_f0_correction_knots_rad", "stall_f0_correction_knots_deg"}, {"stall_known", "stall_known"}};
   std::set<std::string> present;
   for (const auto& [keyword, key] : keys)
     if (given(c, keyword)) present.insert(key);
   if (given(c, "stall_polar_column")) s.polar_column = c["stall_polar_column"].cast<std::string>();
-  for (const auto& [key, value] : {std::pair{"stall_attached_max_deg", &s.attached_max_deg},
-                                   {"stall_T1_start", &s.tau1_start}, {"stall_T2_start", &s.tau2_start},
-                                   {"stall_CN1_start", &s.shedding_threshold_start}, {"stall_Tv_start", &s.decay_start},
-                                   {"stall_Tvl_start", &s.travel_start}})
-    if (given(c, key)) *value = c[key].cast<double>();
+  if (given(c, "stall_attached_max_deg")) s.attached_max_deg = c["stall_attached_max_deg"].cast<double>();
+  for (const StallStart& st : stall_starts()) {  // the start values: the file's keys as keywords
+    if (!given(c, st.key)) continue;
+    present.insert(st.key);
+    s.*st.value = c[st.key].cast<double>();
+  }
   if (given(c, "stall_known")) {
     for (const auto& [name, value] : c["stall_known"].cast<py::dict>())
       s.known.emplace_back(py::str(name).cast<std::string>(), value.cast<double>());
@@ -284,8 +280,10 @@ void read_model_config(const py::dict& c, Experiment& e) {
   m.bias = c.contains("bias") && c["bias"].cast<bool>();
   if (c.contains("structure")) m.structure = choice<StructureMode>("structure", c["structure"].cast<std::string>());
   if (c.contains("lags")) m.lags = c["lags"].cast<int>();
-  if (m.lags < 1 || m.lags > DefaultCapacity::max_lags)
-    throw InputError("lags", 0, "must be 1.." + std::to_string(DefaultCapacity::max_lags));
+  // As the file's model.lags: 1..FitCapacity::max_lags here, the runtime's capacity with the
+  // other capacity uses (check_model_capacity).
+  if (m.lags < 1 || m.lags > FitCapacity::max_lags)
+    throw InputError("lags", 0, "must be 1.." + std::to_string(FitCapacity::max_lags));
   e.static_curve.polynomial = doubles(c, "static_polynomial");
   e.rotary.polynomial = doubles(c, "rotary_polynomial");
   e.rotary.estimate = c.contains("rotary_estimate") && c["rotary_estimate"].cast<bool>();
@@ -302,6 +300,23 @@ void read_model_config(const py::dict& c, Experiment& e) {
   read_static_table_keywords(c, e);
   read_delay_keywords(c, m);
   read_stall_keywords(c, e);
+}
+
+// Every capacity use of the keywords, as the file's keys (the static table's at its reading,
+// read_static_table_keywords).
+void check_model_capacity(Experiment& e) {
+  using Pool = CapacityUse::Pool;
+  check_spline_capacity(e, e.model.a, "a_powers", "a_knots_rad", Pool::model_stepwise);
+  check_spline_capacity(e, e.model.b1, "b1_powers", "b1_knots_rad", Pool::model_stepwise);
+  check_spline_capacity(e, e.model.stall.f0_correction, "stall_f0_correction_powers", "stall_f0_correction_knots_rad",
+                        Pool::none);
+  if (e.rotary.estimate)
+    check_spline_capacity(e, e.rotary.candidates, "rotary_powers", "rotary_knots_rad", Pool::rotary_estimate);
+  check_capacity(e, {"static_polynomial", "coefficients", static_cast<int>(e.static_curve.polynomial.size()),
+                     DefaultCapacity::max_powers});
+  check_capacity(e, {"rotary_polynomial", "coefficients", static_cast<int>(e.rotary.polynomial.size()),
+                     DefaultCapacity::max_powers});
+  check_capacity(e, {"lags", "lags", e.model.lags, DefaultCapacity::max_lags});
 }
 
 std::shared_ptr<Experiment> make_experiment(const py::dict& c, const py::list& runs) {
@@ -330,10 +345,8 @@ std::shared_ptr<Experiment> make_experiment(const py::dict& c, const py::list& r
   check_knots(*e, e->model.a.knots_rad, "a_knots_rad");
   check_knots(*e, e->model.b1.knots_rad, "b1_knots_rad");
   check_knots(*e, e->rotary.candidates.knots_rad, "rotary_knots_rad");
-  check_capacity(*e, e->model.a, "a_powers / a_knots_rad", true);
-  check_capacity(*e, e->model.b1, "b1_powers / b1_knots_rad", true);
   check_knots(*e, e->model.stall.f0_correction.knots_rad, "stall_f0_correction_knots_rad");
-  check_capacity(*e, e->model.stall.f0_correction, "stall_f0_correction_powers / stall_f0_correction_knots_rad", false);
+  check_model_capacity(*e);
   const std::string uncovered = static_table_coverage_problem(*e);
   if (!uncovered.empty()) throw InputError(uncovered);
   if (std::none_of(e->runs.begin(), e->runs.end(), [](const Run& r) {
@@ -442,6 +455,13 @@ void bind_experiment(py::module_& m) {
     return std::make_shared<Experiment>(load_experiment(path, coefficient));
   }, py::arg("path"), py::arg("coefficient") = "");
   m.def("_make_experiment", &make_experiment, py::arg("config"), py::arg("runs"));
+  // The stall start values' keys (experiment_checks.hpp stall_starts(), the one table), which
+  // Experiment's keywords must list (python/tests/test_experiment.py).
+  m.def("_stall_start_keys", [] {
+    std::vector<std::string> keys;
+    for (const StallStart& st : stall_starts()) keys.emplace_back(st.key);
+    return keys;
+  });
 }
 
 }  // namespace indicial::python

@@ -66,7 +66,7 @@ ModelFunction function_named(const std::string& f) {
 
 }  // namespace
 
-FitOptions fit_options_from(const py::dict& kw) {
+FitOptions parse_fit_options(const py::dict& kw) {
   FitOptions fo;
   for (const auto& item : kw) {
     const std::string key = py::str(item.first);
@@ -91,6 +91,11 @@ FitOptions fit_options_from(const py::dict& kw) {
       for (const auto& sv : v.cast<std::map<std::string, double>>()) fo.start_values.emplace_back(sv.first, sv.second);
     else throw InputError(key, 0, "not a fit option");
   }
+  return fo;
+}
+
+FitOptions fit_options_from(const py::dict& kw) {
+  FitOptions fo = parse_fit_options(kw);
   if (std::string bad; !fo.IsValid(&bad)) throw InputError(bad);  // FitOptions' own message, as the CLI's
   return fo;
 }

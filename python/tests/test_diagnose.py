@@ -78,7 +78,10 @@ def test_diagnose_rule_options_reach_diagnosis_json(model1_config_on_model2_data
     (dict(min_gain=-0.5), r"^cv_min_gain \(--min-gain\): must be in \[0, 1\).*found -0.5$"),
     (dict(max_folds=1), r"^cv_max_folds \(--max-folds\): must be >= 2.*found 1$"),
     (dict(cv_min_runs=1), r"^cv_min_runs \(--cv-min-runs\): must be >= 2.*found 1$"),
-    (dict(f_to_remove=5.0), r"^f_to_remove \(--f-to-remove\): must be in \(0, f_to_enter = 4\].*found 5$"),
+    # A fit option: its field (the keyword) alone, as diagnose has no --f-to-remove.
+    (dict(f_to_remove=5.0), r"^f_to_remove: must be in \(0, f_to_enter = 4\].*found 5$"),
+    (dict(max_iterations=-1), r"^max_iterations: must be >= 0.*found -1$"),
+    (dict(start_values={"b1_0": float("nan")}), r"^start_values: must be finite numbers, found b1_0=nan$"),
     (dict(threads=0), r"^threads \(--threads\): must be >= 1.*found 0$"),
     (dict(rule="loo"), r"^rule: expected one of 'auto', 'cv', 'lr', found 'loo'$"),
 ])

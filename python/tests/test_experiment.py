@@ -162,6 +162,61 @@ def test_bad_stall_table_and_delay_keywords_raise(stall_experiment_kwargs, chang
         indicial.Experiment(**kw)
 
 
+_NINE_KNOTS = list(np.linspace(0.15, 0.45, 9))  # inside sine_run's alpha range (0.1..0.5 rad)
+
+
+# The runtime's capacity (indicial::DefaultCapacity: 8 powers, 8 knots, 2 lags) is the experiment
+# file's own rule (experiment_checks.hpp check_runtime_capacity): the same words, the keyword for
+# the file's key.
+@pytest.mark.parametrize("change, message", [
+    (dict(a_knots_rad=_NINE_KNOTS), "'a_knots_rad' needs 9 knots"),
+    (dict(b1_powers=list(range(9))), r"'b1_powers' needs 9 powers \(x\^0..x\^n\)"),
+    (dict(static_polynomial=[0.0] * 9), "'static_polynomial' needs 9 coefficients"),
+    (dict(rotary_polynomial=[0.0] * 9), "'rotary_polynomial' needs 9 coefficients"),
+    (dict(lags=3), "'lags' needs 3 lags"),
+])
+def test_over_capacity_is_refused_as_the_file_does(change, message):
+    with pytest.raises(indicial.InputError, match="^" + message + "; the runtime \\(indicial::DefaultCapacity\\) "
+                       "holds at most [28]$"):
+        indicial.Experiment(coefficient="Cm", reference_length_m=0.5, airspeed_mps=30.0,
+                            runs=[indicial.Run(**sine_run())], **change)
+
+
+def test_an_over_capacity_candidate_pool_is_the_files_warning(tmp_path):
+    """A stepwise pool (a, b1) or an estimated rotary pool may exceed the capacity: warned about,
+    with the file's words; the same experiment read from its file warns at the key's line."""
+    pools = [(dict(structure="stepwise", a_knots_rad=_NINE_KNOTS), "a_knots_rad", "model.a_knots_deg"),
+             (dict(rotary_estimate=True, rotary_knots_rad=_NINE_KNOTS), "rotary_knots_rad", "rotary.knots_deg")]
+    for change, keyword, key in pools:
+        e = indicial.Experiment(coefficient="Cm", reference_length_m=0.5, airspeed_mps=30.0,
+                                runs=[indicial.Run(**sine_run())], **change)
+        text = ("needs 9 knots; the runtime (indicial::DefaultCapacity) holds at most 8: a candidate pool may "
+                "exceed it, the selected model must not")
+        assert f"'{keyword}' {text}" in e.warnings
+        e.write_files(str(tmp_path / keyword))
+        toml = tmp_path / keyword / "experiment.toml"
+        line = next(i for i, s in enumerate(toml.read_text().splitlines(), 1) if s.startswith(key.split(".")[1] + " ="))
+        assert f"{toml}:{line}: '{key}' {text}" in indicial.Experiment.from_toml(str(toml)).warnings
+
+
+def test_stall_start_keywords_are_the_one_table():
+    """Experiment's stall start keywords are the file's start keys, the one table
+    (experiment_checks.hpp stall_starts()) the readers, the writer and `indicial init` use."""
+    import inspect
+    keys = indicial._indicial._stall_start_keys()
+    assert keys == ["stall_T1_start", "stall_T2_start", "stall_CN1_start", "stall_Tv_start", "stall_Tvl_start"]
+    signature = [k for k in inspect.signature(indicial.Experiment.__init__).parameters
+                 if k.startswith("stall_") and k.endswith("_start")]
+    assert sorted(signature) == sorted(keys)
+
+
+def test_each_stall_start_keyword_reaches_the_experiment_file(stall_experiment_kwargs):
+    for key in indicial._indicial._stall_start_keys():
+        kw = dict(stall_experiment_kwargs, stall_known=None)
+        kw[key] = 2.25
+        assert f"{key} = 2.25\n" in indicial.Experiment(**kw).toml_text()
+
+
 def test_stall_keywords_fill_what_the_file_does(stall_experiment_kwargs):
     e = indicial.Experiment(**stall_experiment_kwargs)
     assert 'stall = "separation_and_vortex"' in e.toml_text() and "stall_known = { T2 = 1.5, Tvl = 7 }" in e.toml_text()

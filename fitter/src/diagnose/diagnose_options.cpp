@@ -7,7 +7,8 @@
 // A message names the field and, where there is one, its command-line flag (Python's keyword is
 // the flag with '_' for '-'), the range and the value found: one message per problem, the first
 // problem found in declaration order. The FitOptions inside (DiagnoseOptions::fit) last, by
-// their own FitOptions::IsValid (fit_options.cpp) and its message.
+// their own FitOptions::IsValid (fit_options.cpp) and its message, naming the field alone
+// (OptionNaming::field: diagnose has no --f-to-enter; Python's keyword is the field's name).
 #include <cmath>
 #include <fmt/format.h>
 #include <string>
@@ -51,7 +52,8 @@ bool DiagnoseOptions::IsValid(std::string* error) const {
     return refuse(error, "max_family_terms (--max-family-terms)", ">= 1 (terms)", max_family_terms);
   if (!(indistinguishable_bic >= 0.0))
     return refuse(error, "indistinguishable_bic", ">= 0 (a BIC difference)", indistinguishable_bic);
-  return fit.IsValid(error);
+  // Why the field alone: diagnose has none of `indicial fit`'s flags (--f-to-enter, ...).
+  return fit.IsValid(error, OptionNaming::field);
 }
 
 }  // namespace indicial

@@ -3,7 +3,9 @@
 
 #include <cmath>
 #include <cstdio>
+#include <iterator>
 #include <string>
+#include <vector>
 
 #include "indicial/fitter/experiment_toml.hpp"
 #include "indicial/model.hpp"
@@ -11,29 +13,24 @@
 namespace indicial {
 namespace {
 
-// The keys of the stall families, as [model] names (docs/formats.md's stall table).
-const char* const kStallKeys[] = {"stall_polar", "stall_polar_column", "stall_attached_max_deg", "stall_T1_start",
-                                  "stall_T2_start", "stall_CN1_start", "stall_Tv_start", "stall_Tvl_start",
+// The keys of the stall families besides the start values (stall_starts()), as [model] names
+// (docs/formats.md's stall table).
+const char* const kStallKeys[] = {"stall_polar", "stall_polar_column", "stall_attached_max_deg",
                                   "stall_f0_correction_degree", "stall_f0_correction_powers",
                                   "stall_f0_correction_knots_deg", "stall_known"};
 
 // The stall parameters stall_known may name, with the feasible set model.hpp's
-// check_stall_parameters enforces and their start value's key (the one map of a held parameter
-// to the start key it excludes: check_stall_known and stall_start_held, the writer's too).
+// check_stall_parameters enforces (a parameter with a start value: the start's bound, the same
+// set). Their start keys are stall_starts()'s (stall_start_key).
 enum class Bound { any, positive, non_negative };
 enum class Family { separation, vortex };
-struct StallParameter { const char* name; Bound bound; Family family; const char* start_key; };
+struct StallParameter { const char* name; Bound bound; Family family; };
 const StallParameter kStallParameters[] = {
-    {"T1", Bound::positive, Family::separation, "stall_T1_start"},
-    {"T2", Bound::non_negative, Family::separation, "stall_T2_start"},
-    {"k0", Bound::any, Family::separation, nullptr},
-    {"k1", Bound::any, Family::separation, nullptr},
-    {"k2", Bound::any, Family::separation, nullptr},
-    {"CN1", Bound::positive, Family::vortex, "stall_CN1_start"},
-    {"Tv", Bound::positive, Family::vortex, "stall_Tv_start"},
-    {"Tvl", Bound::positive, Family::vortex, "stall_Tvl_start"},
-    {"cv", Bound::any, Family::vortex, nullptr},
-    {"xv", Bound::any, Family::vortex, nullptr}};
+    {"T1", Bound::positive, Family::separation},     {"T2", Bound::non_negative, Family::separation},
+    {"k0", Bound::any, Family::separation},          {"k1", Bound::any, Family::separation},
+    {"k2", Bound::any, Family::separation},          {"CN1", Bound::positive, Family::vortex},
+    {"Tv", Bound::positive, Family::vortex},         {"Tvl", Bound::positive, Family::vortex},
+    {"cv", Bound::any, Family::vortex},              {"xv", Bound::any, Family::vortex}};
 
 const StallParameter* stall_parameter(const std::string& name) {
   for (const StallParameter& p : kStallParameters)
@@ -56,8 +53,9 @@ void check_stall_known(const StallConfig& s, const std::set<std::string>& given,
     if (!std::isfinite(v)) site.raise(key, "'" + where + "' must be finite");
     if (k->bound == Bound::positive && !(v > 0.0)) site.raise(key, "'" + where + "' must be > 0");
     if (k->bound == Bound::non_negative && !(v >= 0.0)) site.raise(key, "'" + where + "' must be >= 0");
-    if (k->start_key && given.count(k->start_key))
-      site.raise(key, "'" + where + "' holds " + name + " at a known value, and '" + site.name(k->start_key) +
+    const char* start_key = stall_start_key(name);
+    if (start_key && given.count(start_key))
+      site.raise(key, "'" + where + "' holds " + name + " at a known value, and '" + site.name(start_key) +
                       "' gives it a start value: drop one of the two");
   }
 }
@@ -134,34 +132,61 @@ void check_stall_keys(const StallConfig& s, const std::set<std::string>& given, 
                             "\": the dynamic-stall families are for a pitch experiment (they act on the angle of "
                             "attack and its lift polar); this experiment's axis is " + axis_name(axis));
   if (s.families == StallFamilies::none) {
-    for (const char* key : kStallKeys)
+    std::vector<std::string> keys(std::begin(kStallKeys), std::end(kStallKeys));
+    for (const StallStart& st : stall_starts()) keys.emplace_back(st.key);
+    for (const std::string& key : keys)
       if (given.count(key))
         site.raise(key, "'" + site.name(key) + "' is used only with " + site.name("stall") +
                             " = \"separation\" or \"separation_and_vortex\"");
     return;
   }
-  const struct { const char* key; double value; bool zero_allowed; } starts[] = {
-      {"stall_attached_max_deg", s.attached_max_deg, false}, {"stall_T1_start", s.tau1_start, false},
-      {"stall_T2_start", s.tau2_start, true},               {"stall_CN1_start", s.shedding_threshold_start, false},
-      {"stall_Tv_start", s.decay_start, false},             {"stall_Tvl_start", s.travel_start, false}};
-  for (const auto& st : starts) {
-    if (!given.count(st.key)) continue;
-    const bool ok = st.zero_allowed ? st.value >= 0.0 : st.value > 0.0;
-    if (!ok || !std::isfinite(st.value))
-      site.raise(st.key, "'" + site.name(st.key) + (st.zero_allowed ? "' must be >= 0" : "' must be > 0"));
-  }
+  auto check_bound = [&](const char* key, bool ok, StartBound bound) {
+    if (given.count(key) && !ok)
+      site.raise(key, "'" + site.name(key) + (bound == StartBound::non_negative ? "' must be >= 0" : "' must be > 0"));
+  };
+  check_bound("stall_attached_max_deg", s.attached_max_deg > 0.0 && std::isfinite(s.attached_max_deg),
+              StartBound::positive);
+  for (const StallStart& st : stall_starts()) check_bound(st.key, start_in_bound(st, s.*st.value), st.bound);
   check_stall_known(s, given, site);
 }
 
+const std::vector<StallStart>& stall_starts() {
+  static const std::vector<StallStart> starts = {
+      {"stall_T1_start", "T1", &StallConfig::tau1_start, StartBound::positive, "l / V", nullptr, 3.0},
+      {"stall_T2_start", "T2", &StallConfig::tau2_start, StartBound::non_negative, "l / V", nullptr, 1.5},
+      {"stall_CN1_start", "CN1", &StallConfig::shedding_threshold_start, StartBound::positive, "C_N",
+       "from the polar, where f0 falls below 0.7", 1.2},
+      {"stall_Tv_start", "Tv", &StallConfig::decay_start, StartBound::positive, "l / V", nullptr, 6.0},
+      {"stall_Tvl_start", "Tvl", &StallConfig::travel_start, StartBound::positive, "l / V", nullptr, 7.0}};
+  return starts;
+}
+
+bool start_in_bound(const StallStart& start, double v) {
+  return std::isfinite(v) && (start.bound == StartBound::non_negative ? v >= 0.0 : v > 0.0);
+}
+
 const char* stall_start_key(const std::string& parameter) {
-  const StallParameter* p = stall_parameter(parameter);
-  return p ? p->start_key : nullptr;
+  for (const StallStart& st : stall_starts())
+    if (parameter == st.parameter) return st.key;
+  return nullptr;
 }
 
 bool stall_start_held(const StallConfig& s, const std::string& start_key) {
   for (const auto& held : s.known)
     if (const char* key = stall_start_key(held.first); key && start_key == key) return true;
   return false;
+}
+
+void check_runtime_capacity(const CapacityUse& use, Experiment& e,
+                            const std::function<InputError(const std::string& problem)>& error,
+                            const std::string& warning_site) {
+  if (use.needed <= use.limit) return;
+  const bool pool = (use.pool == CapacityUse::Pool::model_stepwise && e.model.structure == StructureMode::stepwise) ||
+                    (use.pool == CapacityUse::Pool::rotary_estimate && e.rotary.estimate);
+  const std::string text = "'" + use.key + "' needs " + std::to_string(use.needed) + " " + use.what +
+                           "; the runtime (indicial::DefaultCapacity) holds at most " + std::to_string(use.limit);
+  if (!pool) throw error(text);
+  e.warnings.push_back(warning_site + text + ": a candidate pool may exceed it, the selected model must not");
 }
 
 bool stall_polar_from_static_table(const Experiment& e, StallConfig& s) {

@@ -55,14 +55,11 @@ struct RunEntry {
   int cycles_averaged = 0;           // cycles behind an ensemble average's spread column (0: not given)
 };
 
-// A use of a runtime capacity found while reading, checked once the structure is known.
-struct CapacityUse {
-  std::string key;           // "model.a_knots_deg"
-  std::string what;          // "knots", "powers (x^0..x^n)", "rows", "lags"
-  int needed;
-  int limit;                 // indicial::DefaultCapacity's
+// A use of a runtime capacity found while reading, checked once the structure is known
+// (check_runtime_capacity, experiment_checks.hpp), and where the file gives it.
+struct SitedCapacityUse {
+  CapacityUse use;
   toml::source_region where;
-  enum class Pool { none, model_stepwise, rotary_estimate } pool = Pool::none;  // a candidate pool
 };
 
 // What the section readers share: the reader, the file's directory, and the places to check
@@ -74,7 +71,7 @@ struct LoadContext {
   toml::source_region static_where;
   ColumnMap columns;
   CsvDialect dialect;
-  std::vector<CapacityUse> capacity;
+  std::vector<SitedCapacityUse> capacity;
 
   std::string resolve(const std::string& file) const {
     const fs::path p(file);
@@ -384,8 +381,9 @@ void read_static_section(LoadContext& c, const toml::table& root, const toml::no
   if (poly) {
     e.static_curve.kind = StaticKind::polynomial;
     e.static_curve.polynomial = r.numbers(*poly, "static.polynomial");
-    c.capacity.push_back({"static.polynomial", "coefficients", static_cast<int>(e.static_curve.polynomial.size()),
-                          DefaultCapacity::max_powers, poly->source()});
+    c.capacity.push_back({{"static.polynomial", "coefficients", static_cast<int>(e.static_curve.polynomial.size()),
+                           DefaultCapacity::max_powers},
+                          poly->source()});
     if (e.static_curve.polynomial.size() > static_cast<std::size_t>(FitCapacity::max_powers)) {
       r.fail(*poly, "'static.polynomial' has more than " +
                         std::to_string(FitCapacity::max_powers) + " coefficients");
@@ -395,14 +393,15 @@ void read_static_section(LoadContext& c, const toml::table& root, const toml::no
     const std::string tp = c.resolve(r.string(*table, "static.table"));
     read_static_table(tp, e.axis, e.coefficient, e.static_curve, c.columns, c.dialect);
     read_table_lift_polar(tp, c, e);
-    c.capacity.push_back({"static.table", "rows ('" + tp + "')", static_cast<int>(e.static_curve.table_x_rad.size()),
-                          DefaultCapacity::max_table_points, table->source()});
+    c.capacity.push_back({{"static.table", "rows ('" + tp + "')", static_cast<int>(e.static_curve.table_x_rad.size()),
+                           DefaultCapacity::max_table_points},
+                          table->source()});
   }
 }
 
 // [rotary] prior_knots_deg, prior_knot_powers, prior_knot_coefficients.
 void read_prior_knots(const TomlReader& r, const toml::table& rt, RotaryConfig& rotary,
-                      std::vector<CapacityUse>& c_capacity) {
+                      std::vector<SitedCapacityUse>& c_capacity) {
   const toml::node* k = rt.get("prior_knots_deg");
   const toml::node* c = rt.get("prior_knot_coefficients");
   if ((k == nullptr) != (c == nullptr))
@@ -413,8 +412,9 @@ void read_prior_knots(const TomlReader& r, const toml::table& rt, RotaryConfig& 
   // Not knots_deg(): a priori terms may repeat a knot with another power, and need not lie
   // inside the data's range (they are known, not identified).
   rotary.prior_knots_rad = r.numbers(*k, "rotary.prior_knots_deg");
-  c_capacity.push_back({"rotary.prior_knots_deg", "knot terms", static_cast<int>(rotary.prior_knots_rad.size()),
-                        DefaultCapacity::max_knots, k->source()});
+  c_capacity.push_back({{"rotary.prior_knots_deg", "knot terms", static_cast<int>(rotary.prior_knots_rad.size()),
+                         DefaultCapacity::max_knots},
+                        k->source()});
   for (double& v : rotary.prior_knots_rad) v *= kDegToRad;
   rotary.prior_knot_coefficients = r.numbers(*c, "rotary.prior_knot_coefficients");
   const std::size_t n = rotary.prior_knots_rad.size();
@@ -455,8 +455,9 @@ void read_rotary_section(LoadContext& c, const toml::node* rot_node, RotaryConfi
   read_prior_knots(r, rt, rotary, c.capacity);
   if (const toml::node* n = rt.get("polynomial")) {
     rotary.polynomial = r.numbers(*n, "rotary.polynomial");
-    c.capacity.push_back({"rotary.polynomial", "coefficients", static_cast<int>(rotary.polynomial.size()),
-                          DefaultCapacity::max_powers, n->source()});
+    c.capacity.push_back({{"rotary.polynomial", "coefficients", static_cast<int>(rotary.polynomial.size()),
+                           DefaultCapacity::max_powers},
+                          n->source()});
     if (rotary.polynomial.size() > static_cast<std::size_t>(FitCapacity::max_powers)) {
       r.fail(*n, "'rotary.polynomial' has more than " + std::to_string(FitCapacity::max_powers) +
                      " coefficients");
@@ -466,8 +467,9 @@ void read_rotary_section(LoadContext& c, const toml::node* rot_node, RotaryConfi
   rotary.candidates.knot_power = 1;
   if (const toml::node* n = rt.get("degree")) {
     rotary.candidates.powers = r.degree_powers(*n, "rotary.degree");
-    c.capacity.push_back({"rotary.degree", "powers (x^0..x^degree)", rotary.candidates.powers.back() + 1,
-                          DefaultCapacity::max_powers, n->source(), CapacityUse::Pool::rotary_estimate});
+    c.capacity.push_back({{"rotary.degree", "powers (x^0..x^degree)", rotary.candidates.powers.back() + 1,
+                           DefaultCapacity::max_powers, CapacityUse::Pool::rotary_estimate},
+                          n->source()});
   } else {
     // Why this default: without a degree the pool is the a-priori polynomial's own powers
     // (at least a constant), so estimate = true re-estimates the same shape.
@@ -477,8 +479,9 @@ void read_rotary_section(LoadContext& c, const toml::node* rot_node, RotaryConfi
   if (const toml::node* n = rt.get("knots_deg")) {
     rotary.candidates.knots_rad = r.knots_deg(*n, "rotary.knots_deg");
     c.knot_sources.push_back({"rotary.knots_deg", &rotary.candidates.knots_rad, n->source()});
-    c.capacity.push_back({"rotary.knots_deg", "knots", static_cast<int>(rotary.candidates.knots_rad.size()),
-                          DefaultCapacity::max_knots, n->source(), CapacityUse::Pool::rotary_estimate});
+    c.capacity.push_back({{"rotary.knots_deg", "knots", static_cast<int>(rotary.candidates.knots_rad.size()),
+                           DefaultCapacity::max_knots, CapacityUse::Pool::rotary_estimate},
+                          n->source()});
   }
   if (!rotary.estimate && (rt.get("degree") || rt.get("knots_deg"))) {
     r.fail(*rot_node, "'rotary.degree' and 'rotary.knots_deg' are used only with "
@@ -499,15 +502,16 @@ void read_spline_terms(LoadContext& c, const toml::table& mt, const std::string&
   // corrections diagnose adds are always in the model.
   const auto pool = name == "a" || name == "b1" ? CapacityUse::Pool::model_stepwise : CapacityUse::Pool::none;
   if (deg || pw) {
-    c.capacity.push_back({"model." + name + (deg ? "_degree" : "_powers"), "powers (x^0..x^n)",
-                          cfg.powers.empty() ? 0 : cfg.powers.back() + 1, DefaultCapacity::max_powers,
-                          (deg ? deg : pw)->source(), pool});
+    c.capacity.push_back({{"model." + name + (deg ? "_degree" : "_powers"), "powers (x^0..x^n)",
+                           cfg.powers.empty() ? 0 : cfg.powers.back() + 1, DefaultCapacity::max_powers, pool},
+                          (deg ? deg : pw)->source()});
   }
   if (const toml::node* k = mt.get(name + "_knots_deg")) {
     cfg.knots_rad = r.knots_deg(*k, "model." + name + "_knots_deg");
     c.knot_sources.push_back({"model." + name + "_knots_deg", &cfg.knots_rad, k->source()});
-    c.capacity.push_back({"model." + name + "_knots_deg", "knots", static_cast<int>(cfg.knots_rad.size()),
-                          DefaultCapacity::max_knots, k->source(), pool});
+    c.capacity.push_back({{"model." + name + "_knots_deg", "knots", static_cast<int>(cfg.knots_rad.size()),
+                           DefaultCapacity::max_knots, pool},
+                          k->source()});
   }
 }
 
@@ -529,8 +533,8 @@ std::set<std::string> model_keys() {
                                 // the dynamic-stall families (issue 22)
                                 "stall", "stall_polar", "stall_polar_column", "stall_attached_max_deg",
                                 "stall_f0_correction_degree", "stall_f0_correction_powers",
-                                "stall_f0_correction_knots_deg", "stall_T1_start", "stall_T2_start",
-                                "stall_CN1_start", "stall_Tv_start", "stall_Tvl_start", "stall_known"};
+                                "stall_f0_correction_knots_deg", "stall_known"};
+  for (const StallStart& st : stall_starts()) keys.insert(st.key);
   for (int k = 1; k <= FitCapacity::max_lags; ++k)
     for (const std::string& key : lag_b_keys(k)) keys.insert(key);
   return keys;
@@ -547,7 +551,7 @@ void read_lag_count(LoadContext& c, const toml::table& mt, ModelConfig& model) {
     r.fail(*n, "'model.lags' must be 1.." + std::to_string(FitCapacity::max_lags));
   }
   model.lags = static_cast<int>(lags);
-  c.capacity.push_back({"model.lags", "lags", model.lags, DefaultCapacity::max_lags, n->source()});
+  c.capacity.push_back({{"model.lags", "lags", model.lags, DefaultCapacity::max_lags}, n->source()});
 }
 
 // b_k(x) of lags k = 2..model.lags (ModelConfig::further_lag_b); a lag without keys keeps the
@@ -642,12 +646,10 @@ void read_stall_keys(LoadContext& c, const toml::node* model_node, Experiment& e
   for (auto&& [key, value] : mt)
     if (key.str().rfind("stall_", 0) == 0) given.insert(std::string(key.str()));
   if (const toml::node* n = mt.get("stall_polar_column")) s.polar_column = r.string(*n, "model.stall_polar_column");
-  const struct { const char* key; double* value; } starts[] = {
-      {"stall_attached_max_deg", &s.attached_max_deg}, {"stall_T1_start", &s.tau1_start},
-      {"stall_T2_start", &s.tau2_start},               {"stall_CN1_start", &s.shedding_threshold_start},
-      {"stall_Tv_start", &s.decay_start},              {"stall_Tvl_start", &s.travel_start}};
-  for (const auto& st : starts)
-    if (const toml::node* n = mt.get(st.key)) *st.value = r.number(*n, std::string("model.") + st.key);
+  if (const toml::node* n = mt.get("stall_attached_max_deg"))
+    s.attached_max_deg = r.number(*n, "model.stall_attached_max_deg");
+  for (const StallStart& st : stall_starts())
+    if (const toml::node* n = mt.get(st.key)) s.*st.value = r.number(*n, std::string("model.") + st.key);
   if (const toml::node* n = mt.get("stall_known"))
     for (auto&& [key, value] : r.table(*n, "model.stall_known"))
       s.known.emplace_back(std::string(key.str()), r.number(value, "model.stall_known." + std::string(key.str())));
@@ -735,19 +737,14 @@ void check_against_data(const LoadContext& c, const Experiment& e) {
   if (!uncovered.empty()) c.r.fail(c.static_where, uncovered);
 }
 
-// Every runtime limit at input time, before fitting (issue 12 item 1): a model that exceeds
-// indicial::DefaultCapacity is refused; a stepwise candidate pool that exceeds it is only
-// warned about (the selected model is usually smaller; the fit reports if it is not).
-void check_runtime_capacity(const LoadContext& c, Experiment& e) {
-  for (const CapacityUse& u : c.capacity) {
-    if (u.needed <= u.limit) continue;
-    const bool pool = (u.pool == CapacityUse::Pool::model_stepwise && e.model.structure == StructureMode::stepwise) ||
-                      (u.pool == CapacityUse::Pool::rotary_estimate && e.rotary.estimate);
-    const std::string text = "'" + u.key + "' needs " + std::to_string(u.needed) + " " + u.what +
-                             "; the runtime (indicial::DefaultCapacity) holds at most " + std::to_string(u.limit);
-    if (!pool) c.r.fail(u.where, text);
-    e.warnings.push_back(c.r.file() + ":" + std::to_string(u.where.begin.line) + ": " + text +
-                         ": a candidate pool may exceed it, the selected model must not");
+// Every runtime limit at input time, before fitting: the one capacity rule
+// (experiment_checks.hpp check_runtime_capacity) on each use the file gives, at its line.
+void check_file_capacity(const LoadContext& c, Experiment& e) {
+  for (const SitedCapacityUse& u : c.capacity) {
+    const long line = static_cast<long>(u.where.begin.line);
+    check_runtime_capacity(
+        u.use, e, [&](const std::string& problem) { return InputError(c.r.file(), line, problem); },
+        c.r.file() + ":" + std::to_string(line) + ": ");
   }
 }
 
@@ -816,7 +813,7 @@ Experiment load_one(const std::string& toml_path, const toml::table& root, const
   read_stall_keys(c, model, e);
   read_runs(c, entries, e);
   check_against_data(c, e);
-  check_runtime_capacity(c, e);
+  check_file_capacity(c, e);
   check_motion(r, e);
   warn_defaulted_sections(r, rotary, model, e);
   return e;
@@ -1012,13 +1009,11 @@ std::string write_experiment_toml(const Experiment& e, const std::vector<std::st
     if (!st.f0_correction.powers.empty()) out += power_terms("stall_f0_correction", st.f0_correction.powers);
     if (!st.f0_correction.knots_rad.empty())
       out += "stall_f0_correction_knots_deg = " + number_list(st.f0_correction.knots_rad, kRadToDeg) + "\n";
-    // A held parameter (stall_known) has no start value: the reader refuses both together.
-    const struct { const char* key; double value; bool given; } starts[] = {
-        {"stall_T1_start", st.tau1_start, true}, {"stall_T2_start", st.tau2_start, true},
-        {"stall_CN1_start", st.shedding_threshold_start, st.shedding_threshold_start > 0.0},
-        {"stall_Tv_start", st.decay_start, true}, {"stall_Tvl_start", st.travel_start, true}};
-    for (const auto& s : starts)
-      if (s.given && !stall_start_held(st, s.key)) out += std::string(s.key) + " = " + format_double(s.value) + "\n";
+    // A held parameter (stall_known) has no start value: the reader refuses both together. A
+    // value outside the start's feasible set is "not set" (CN1's 0: from the polar).
+    for (const StallStart& start : stall_starts())
+      if (start_in_bound(start, st.*start.value) && !stall_start_held(st, start.key))
+        out += std::string(start.key) + " = " + format_double(st.*start.value) + "\n";
     if (!st.known.empty()) {
       std::string list;
       for (const auto& [name, value] : st.known) list += (list.empty() ? "" : ", ") + name + " = " + format_double(value);

@@ -145,7 +145,8 @@ struct DiagnoseOptions {
   // *error (when not null) set to one line naming the first bad option -- its field, its
   // command-line flag where it has one -- its range and the value found. diagnose_experiment
   // throws InputError with that line; `indicial diagnose` and Python's diagnose report it
-  // before reading anything. `fit` last, by FitOptions::IsValid (its message).
+  // before reading anything. `fit` last, by FitOptions::IsValid (its message, naming the field
+  // without `indicial fit`'s flag: OptionNaming::field).
   bool IsValid(std::string* error) const;
 };
 

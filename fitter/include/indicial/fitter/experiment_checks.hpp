@@ -14,9 +14,11 @@
 //  * the dynamic-stall keys (StallConfig): stall only in pitch; every stall_* key only with
 //    stall; the start values' ranges; stall_known's names, the vortex's names only with the
 //    vortex, finite values in the runtime's feasible set, never beside a start value of the same
-//    parameter (stall_start_key: the one map of a parameter to its start key, which the
-//    experiment writer also uses); the polar's default (the static table, when the experiment
-//    models the polar's column).
+//    parameter (stall_starts(): the one table of the start-value keys, which both readers,
+//    the experiment writer and `indicial init`'s key documentation use); the polar's default
+//    (the static table, when the experiment models the polar's column);
+//  * the runtime's capacity at input time (check_runtime_capacity): a model larger than
+//    indicial::DefaultCapacity is refused, a candidate pool larger than it only warned about.
 #pragma once
 
 #include <cstddef>
@@ -82,6 +84,29 @@ void check_delay_keys(const ModelConfig& m, bool start_given, const KeySite& sit
 // experiment of `axis` (the families model an airfoil's angle of attack: pitch only).
 void check_stall_keys(const StallConfig& s, const std::set<std::string>& given, Axis axis, const KeySite& site);
 
+// Which values a stall start value may take (check_stall_keys).
+enum class StartBound { positive, non_negative };
+
+// A start value of a dynamic-stall parameter: its [model] key (the same keyword in Python's
+// Experiment; docs/formats.md's stall table), the stall_known name of the parameter it
+// starts, where StallConfig holds it, its feasible set, unit and default.
+struct StallStart {
+  const char* key;             // "stall_T1_start"
+  const char* parameter;       // "T1"
+  double StallConfig::*value;  // &StallConfig::tau1_start (its initialiser is the default)
+  StartBound bound;
+  const char* unit;            // "l / V" (semichord times) or "C_N"
+  const char* default_text;    // nullptr: StallConfig's value; else the default in words
+  double example;              // a typical value (`indicial init`'s commented-out line)
+};
+
+// The one table of the start-value keys, in docs/formats.md's order: T1, T2, CN1, Tv, Tvl.
+const std::vector<StallStart>& stall_starts();
+
+// Whether v is in the start value's feasible set. A default outside it is "not set" (CN1's 0:
+// from the polar), which the experiment writer leaves out.
+bool start_in_bound(const StallStart& start, double v);
+
 // The [model] key of a stall parameter's start value ("T1" -> "stall_T1_start"); nullptr for a
 // parameter without one (k0, k1, k2, cv, xv) or a name that is no stall parameter.
 const char* stall_start_key(const std::string& parameter);
@@ -94,5 +119,27 @@ bool stall_start_held(const StallConfig& s, const std::string& start_key);
 // models the polar's column (s.polar_column). False when that is not so (the caller reports
 // it, naming its own keys for the polar).
 bool stall_polar_from_static_table(const Experiment& e, StallConfig& s);
+
+// A use of one of the runtime's capacities (indicial::DefaultCapacity): `needed` `what`
+// against its `limit`, given by `key` as the user wrote it ("model.a_knots_deg" in the file,
+// "a_knots_rad" in Python).
+struct CapacityUse {
+  std::string key;
+  std::string what;  // "knots", "powers (x^0..x^n)", "rows", "lags"
+  int needed = 0;
+  int limit = 0;
+  // A candidate pool: model_stepwise is one with structure = "stepwise", rotary_estimate one
+  // with rotary.estimate = true; otherwise the terms are all in the model.
+  enum class Pool { none, model_stepwise, rotary_estimate } pool = Pool::none;
+};
+
+// The one capacity rule of both front ends (issue 12 item 1), before fitting: a use over its
+// limit throws error(problem) ("'KEY' needs N WHAT; the runtime (indicial::DefaultCapacity)
+// holds at most L"), unless it is a candidate pool of e (the selected model is usually smaller;
+// the fit reports if it is not): then e.warnings gets warning_site + problem + ": a candidate
+// pool may exceed it, the selected model must not" (warning_site: "FILE:LINE: " or "").
+void check_runtime_capacity(const CapacityUse& use, Experiment& e,
+                            const std::function<InputError(const std::string& problem)>& error,
+                            const std::string& warning_site);
 
 }  // namespace indicial

@@ -146,6 +146,12 @@ struct OutputErrorStepwiseResult {
                                                // the pool (EquationErrorResult::stepwise)
 };
 
+// How FitOptions::IsValid names a bad option: its field and `indicial fit`'s flag ("f_to_enter
+// (--f-to-enter)": the fit command, Python's fit), or its field alone (a caller without the
+// fit's flags: DiagnoseOptions::IsValid, for the library, `indicial diagnose` and Python's
+// diagnose, whose keyword is the field's name).
+enum class OptionNaming { field_and_fit_flag, field };
+
 struct FitOptions {
   // Singular values below sv_cutoff * (largest singular value) are treated as zero, in the
   // equation-error solve and in the information matrix (rank decision). Columns (regressors,
@@ -194,13 +200,15 @@ struct FitOptions {
 
   // Every range above in one place (Ceres' Solver::Options::IsValid, as
   // DiagnoseOptions::IsValid): true, or false with *error (when not null) set to one line
-  // naming the first bad option -- its field, its command-line flag where it has one (Python's
-  // keyword is the field's name) -- its range and the value found, e.g.
-  // "f_to_remove (--f-to-remove): must be in (0, f_to_enter = 4] (...), found 5".
-  // fit_experiment and fit_equation_error throw InputError with that line before they look at
-  // the experiment; `indicial fit` and Python's fit report it before reading anything.
-  // Start-value names are checked by the fit (they need the model), their values here.
-  bool IsValid(std::string* error) const;
+  // naming the first bad option -- its field and, with OptionNaming::field_and_fit_flag,
+  // `indicial fit`'s flag where it has one (Python's keyword is the field's name) -- its range
+  // and the value found, e.g. "f_to_remove (--f-to-remove): must be in (0, f_to_enter = 4]
+  // (...), found 5". A caller without those flags (diagnose) asks for OptionNaming::field:
+  // "f_to_remove: must be ...". fit_experiment and fit_equation_error throw InputError with
+  // that line before they look at the experiment; `indicial fit` and Python's fit report it
+  // before reading anything. Start-value names are checked by the fit (they need the model),
+  // their values here.
+  bool IsValid(std::string* error, OptionNaming naming = OptionNaming::field_and_fit_flag) const;
 };
 
 // Parameter identity ------------------------------------------------------------------------

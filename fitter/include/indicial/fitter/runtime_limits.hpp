@@ -6,8 +6,8 @@
 // runtime's OWN validation (runtime.hpp validate_for_runtime: structure, finite values,
 // capacities, b_j(x) > 0 over the envelope; Predictor::load's delay limit) on a model before
 // any command writes it. (The runtime's capacities are checked at input time, before a fit,
-// by load_experiment: experiment_toml.cpp check_runtime_capacity.) min_lag_decay is the
-// feasibility predicate of the constrained output-error fit.
+// by load_experiment and Python's Experiment: experiment_checks.hpp check_runtime_capacity.)
+// min_lag_decay is the feasibility predicate of the constrained output-error fit.
 //
 // Usage
 // -----
