@@ -1,7 +1,10 @@
 // The warnings about a finished fit (see report.hpp, fit_warnings): the fit error against the
-// noise (replicates' spread, or the residual's short-lag level) and ill-conditioned estimates.
+// noise (replicates' spread, or the residual's short-lag level), lags that do not decay over the
+// runs, and ill-conditioned estimates.
+#include <algorithm>
 #include <cmath>
 #include <fmt/format.h>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -11,8 +14,46 @@
 
 namespace indicial {
 
+namespace {
+
+// Lags whose decay over the longest run is under kLagDecayFloor: b_j(x) T < 0.05 everywhere in
+// the envelope (b_j sampled at 257 angles). Why: y' = -b y - a(x) x' with b T << 1 integrates
+// a(x) x' without decay, y = -A(x) + y(0): a static correction plus each run's initial state,
+// not a lag. A fit lands there when the data show no lag of this structure (measured on the
+// Glasgow NACA 0012 C_m cycles, tools/validate-real.sh: b1 = 8e-5 1/s +- 2.4 against runs of
+// 0.43 s, a(x) coefficients of 1e3), and the ill-conditioned list alone does not say why.
+constexpr double kLagDecayFloor = 0.05;
+
+void warn_undamped_lags(const FitResult& r, const Experiment& e, std::vector<std::string>* w) {
+  double longest_s = 0.0;
+  for (const RunSeries& run : r.runs)
+    if (run.time_s.size() > 1) longest_s = std::max(longest_s, run.time_s.back() - run.time_s.front());
+  if (!(longest_s > 0.0) || r.model.n_coefficients < 1) return;
+  const auto& cm = r.model.coefficients[0];
+  constexpr int kSamples = 257;
+  for (int j = 0; j < cm.n_lags; ++j) {
+    double b_max = -std::numeric_limits<double>::infinity();
+    for (int i = 0; i < kSamples; ++i) {
+      const double x = r.model.x_min_rad + (r.model.x_max_rad - r.model.x_min_rad) * i / (kSamples - 1);
+      b_max = std::max(b_max, spline_value(cm.lags[j].b, x));
+    }
+    if (!(b_max * longest_s < kLagDecayFloor)) continue;
+    w->push_back(fmt::format(
+        "{}: lag {} does not decay over the runs: b{}(x) <= {:.3g} 1/s over the envelope, a time constant "
+        "of at least {:.3g} s against {:.3g} s of the longest run. Such a lag only integrates a(x) x': a "
+        "static correction -A(x) plus each run's initial state, not an unsteady effect (its a(x) and "
+        "b{} are then ill-conditioned). The fit found no decaying lag of this structure (or stopped at the "
+        "boundary b -> 0 from its start): a rate term (`[rotary]`) or a dynamic-stall family may be what "
+        "the data need; `indicial diagnose` decides",
+        e.path, j + 1, j + 1, b_max, 1.0 / b_max, longest_s, j + 1));
+  }
+}
+
+}  // namespace
+
 std::vector<std::string> fit_warnings(const FitResult& r, const Experiment& e) {
   std::vector<std::string> w;
+  warn_undamped_lags(r, e, &w);
   // Why first: replicates' spread is the noise; a residual's short-lag level is noise only
   // where the model is right (replication.hpp).
   const ReplicationNoise rep = replication_noise(e);

@@ -119,6 +119,8 @@ nlohmann::json with_provenance_and_warnings(nlohmann::json j, const ReportOption
 //    model error; AR(1) noise with phi above ~0.85 reads below its level there, so a complete
 //    model can warn on such noise: the message gives phi). A ratio that high
 //    means a missing effect or wrong input (units, columns), not noise.
+//  * a lag that does not decay over the runs (b_j(x) times the longest run under 0.05
+//    everywhere in the envelope): it only integrates a(x) x', a static correction, not a lag;
 //  * estimates whose Cramer-Rao bound exceeds their value (bound_exceeds_value, fit.hpp: the
 //    rule diagnose's "ill-conditioned" list uses), with value +- bound.
 inline constexpr double kFitErrorNoiseRatio = 3.0;

@@ -1,0 +1,66 @@
+// The warnings about a finished fit (fitter/src/report/fit_warnings.cpp): here the lag that
+// does not decay over the runs, which a fit reaches when the data show no lag of the model's
+// structure (the Glasgow NACA 0012 C_m cycles: b1 = 8e-5 1/s against runs of 0.43 s).
+#include <doctest/doctest.h>
+
+#include <string>
+#include <vector>
+
+#include "indicial/fitter/fit.hpp"
+#include "indicial/fitter/experiment.hpp"
+#include "indicial/fitter/report.hpp"
+
+TEST_SUITE_BEGIN("unit");  // the ctest label (tests/CMakeLists.txt)
+
+using namespace indicial;
+
+namespace {
+
+// One coefficient, one lag with b1(x) = b0 + b1_slope x over the envelope [-0.1, 0.4] rad, and
+// one run of run_s seconds at 1 kHz; no residual (no noise warning) and no parameters.
+FitResult lag_fit(double b0_per_s, double b1_slope, double run_s) {
+  FitResult r;
+  r.fit_error = 0.0;
+  r.model.n_coefficients = 1;
+  r.model.x_min_rad = -0.1;
+  r.model.x_max_rad = 0.4;
+  auto& cm = r.model.coefficients[0];
+  cm.n_lags = 1;
+  cm.lags[0].b.n_powers = 2;
+  cm.lags[0].b.power_coef[0] = b0_per_s;
+  cm.lags[0].b.power_coef[1] = b1_slope;
+  RunSeries run;
+  for (int i = 0; i * 1e-3 <= run_s; ++i) run.time_s.push_back(i * 1e-3);
+  r.runs.push_back(run);
+  return r;
+}
+
+int undamped_warnings(const std::vector<std::string>& w) {
+  int n = 0;
+  for (const std::string& s : w) n += s.find("does not decay over the runs") != std::string::npos;
+  return n;
+}
+
+}  // namespace
+
+TEST_CASE("fit warnings: a lag that does not decay over the runs is named, with its time constant") {
+  Experiment e;
+  e.path = "exp.toml";
+  // b1 = 8e-5 1/s over 0.43 s: b T = 3.4e-5, the measured case.
+  const std::vector<std::string> w = fit_warnings(lag_fit(8e-5, 0.0, 0.43), e);
+  REQUIRE(undamped_warnings(w) == 1);
+  const std::string& msg = w[0];
+  CHECK(msg.rfind("exp.toml: lag 1 does not decay over the runs: b1(x) <= 8e-05 1/s", 0) == 0);
+  CHECK(msg.find("a time constant of at least 1.25e+04 s against 0.43 s of the longest run") != std::string::npos);
+  CHECK(msg.find("static correction -A(x)") != std::string::npos);
+  // The largest b over the envelope decides: 0.2 1/s at its top end (b T = 0.086) is a lag.
+  CHECK(undamped_warnings(fit_warnings(lag_fit(0.0, 0.5, 0.43), e)) == 0);
+  // Just under the 0.05 floor (b T = 0.043) it is not.
+  CHECK(undamped_warnings(fit_warnings(lag_fit(0.1, 0.0, 0.43), e)) == 1);
+  // A real lag (b1 = 13 1/s, the C_L fits of the same cycles) is not named.
+  CHECK(undamped_warnings(fit_warnings(lag_fit(13.0, 0.0, 0.43), e)) == 0);
+  // No runs: nothing to compare with, no warning.
+  FitResult no_runs = lag_fit(8e-5, 0.0, 0.43);
+  no_runs.runs.clear();
+  CHECK(undamped_warnings(fit_warnings(no_runs, e)) == 0);
+}
