@@ -121,6 +121,49 @@ TEST_CASE("indicial diagnose: contract outputs, model.coef in the runtime, direc
   CHECK(help.out.find("--min-in-sample-gain") != std::string::npos);
 }
 
+TEST_CASE("indicial diagnose: the written experiment.toml keeps the run files' [columns] and [csv]") {
+  // Runs as a database writes them: whitespace-delimited, the header a `%` comment line, the
+  // angle under the database's own name (Model I, SNR 40). Before, diagnose's experiment.toml
+  // dropped [columns] and [csv], and `indicial fit` on it could not read these runs.
+  const SimulationCase& c = find_simulation_case("tailless-model-1");
+  const fs::path sim = scratch() / "db-sim";
+  write_simulation_case(c, sim.string(), 40.0, 1, Overwrite::replace);
+  const fs::path data = scratch() / "db-data";
+  fs::create_directories(data);
+  std::string runs;
+  for (const auto& entry : fs::directory_iterator(sim)) {
+    if (entry.path().extension() != ".csv") continue;
+    std::istringstream in(slurp(entry.path()));
+    std::ofstream out(data / entry.path().filename().replace_extension(".dat"));
+    std::string line;
+    while (std::getline(in, line)) {
+      if (line.empty() || line[0] == '#') continue;
+      std::replace(line.begin(), line.end(), ',', ' ');
+      if (line.rfind("time_s", 0) == 0) line = "% time_s AoA(deg) q_degps Cm Cm_true y_true";
+      out << line << "\n";
+    }
+    runs += (runs.empty() ? "\"" : ", \"") + entry.path().filename().replace_extension(".dat").string() + "\"";
+  }
+  const std::string toml = slurp(sim / "experiment.toml");
+  const std::string head = "runs = [" + runs + "]\n\n[columns]\nalpha_deg = \"AoA(deg)\"\n\n[csv]\n"
+                           "delimiter = \"whitespace\"\ncomment = \"%\"\n";
+  const std::size_t r0 = toml.find("runs = ["), r1 = toml.find('\n', r0);
+  REQUIRE(r0 != std::string::npos);
+  std::ofstream(data / "experiment.toml") << toml.substr(0, r0) + head + toml.substr(r1 + 1);
+  const fs::path out = scratch() / "db-diag";
+  const Cmd d = run("diagnose " + (data / "experiment.toml").string() + " --out " + out.string() +
+                    " --no-plots --max-steps 1 --force");
+  INFO(d.out, d.err);
+  REQUIRE(d.exit_code == 0);
+  const std::string next = slurp(out / "experiment.toml");
+  CHECK(next.find("[columns]\nalpha_deg = \"AoA(deg)\"\n") != std::string::npos);
+  CHECK(next.find("[csv]\ndelimiter = \"whitespace\"\ncomment = \"%\"\n") != std::string::npos);
+  const Cmd f = run("fit " + (out / "experiment.toml").string() + " --out " + (scratch() / "db-refit").string() +
+                    " --no-plots --force");
+  INFO(f.out, f.err);
+  CHECK(f.exit_code == 0);
+}
+
 TEST_CASE("indicial diagnose: the rule's options reach diagnosis.json, a bad one is refused") {
   // Model I with a hidden delay, three runs (leave-one-run-out by default).
   SimulationCase c = find_simulation_case("tailless-model-1");

@@ -81,12 +81,31 @@ void gen_a_alpha(const CandidateContext& ctx, std::vector<CandidateSpec>& out) {
 // flow: on measured pitching cycles (docs/validation-real.md, training `sweep`, C_m) diagnose
 // named C_aq x^3, while the attached cycles' moment follows a constant C_mq (per-cycle least
 // squares of the attached cycles of the development set: -1.0 to -1.5 per rad, every campaign).
+//
+// And, while the correction has no constant, the constant with one knot together, c0 + c1 (x -
+// k)_+ at each grid knot. Why: the damping derivative changes sign through stall (the same
+// C_m cycles, per-run least squares of the residual on q l / V: -1.39 at mean 6 deg, -0.59 at
+// 8, +0.42 at 15, the negative damping of dynamic stall), so over runs that span the regimes
+// neither term alone lowers the error (x^0 alone fitted to 0: gain 0) while the two together
+// are the physics. One step adds the pair; the held-out runs decide as for any candidate.
 void gen_rotary_alpha(const CandidateContext& ctx, std::vector<CandidateSpec>& out) {
   int p = 0;
-  while (has_power(ctx.model.rotary_correction.powers, p)) ++p;
+  const SplineConfig& rc = ctx.model.rotary_correction;
+  while (has_power(rc.powers, p)) ++p;
   if (p < DefaultCapacity::max_powers)
     out.push_back(power_candidate(ctx.model, Effect::rotary_alpha, SplineFamily::rotary, p, "C_aq(x)"));
   add_grid_knots(ctx, Effect::rotary_alpha, SplineFamily::rotary, out);
+  if (p != 0 || static_cast<int>(rc.knots_rad.size()) >= DefaultCapacity::max_knots) return;
+  for (double k : ctx.knot_grid) {
+    if (has_knot(rc.knots_rad, k, 0.5 * ctx.knot_spacing_rad)) continue;
+    CandidateSpec c = knot_candidate(ctx.model, Effect::rotary_alpha, SplineFamily::rotary, k);
+    family_spline(c.config, SplineFamily::rotary).powers.insert(
+        family_spline(c.config, SplineFamily::rotary).powers.begin(), 0);
+    c.term = fmt::format("C_aq(x) x^0 + {} at {:.2f} deg", family_knot_label(SplineFamily::rotary), k * kRadToDeg);
+    c.detail = fmt::format("x^0 + knot {:.2f} deg", k * kRadToDeg);
+    c.is_knot = false;  // (the grid's knot only: a refined knot would move the pair's second term)
+    out.push_back(c);
+  }
 }
 
 void gen_bias(const CandidateContext& ctx, std::vector<CandidateSpec>& out) {

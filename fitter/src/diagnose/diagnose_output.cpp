@@ -532,7 +532,11 @@ std::string diagnosed_experiment_toml(const DiagnoseResult& d) {
       "written by indicial diagnose: the experiment with the diagnosed model structure",
       "(effects added: " + (added.empty() ? std::string("none") : added) +
           "); refit it with: indicial fit experiment.toml --out DIR"};
-  return write_experiment_toml(next, comments);
+  // The source file's [columns] and [csv], so that the written file reads the same run files
+  // (an experiment built in memory, without a file, has the defaults).
+  RunCsvOptions format;
+  if (!d.experiment.path.empty() && fs::exists(d.experiment.path, ec)) format = run_file_format(d.experiment.path);
+  return write_experiment_toml(next, comments, format);
 }
 
 DiagnoseOutputs write_diagnose_outputs(const DiagnoseResult& d, const Experiment& e,

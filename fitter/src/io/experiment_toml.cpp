@@ -931,9 +931,39 @@ std::string run_entry(const Run& run, double experiment_airspeed_mps) {
   return keys.empty() ? toml_string(run.path) : "{file = " + toml_string(run.path) + keys + "}";
 }
 
+// A TOML key: bare when it can be (letters, digits, '_', '-'), quoted otherwise.
+std::string toml_key(const std::string& k) {
+  const bool bare = !k.empty() && std::all_of(k.begin(), k.end(), [](char ch) {
+    return (ch >= 'a' && ch <= 'z') || (ch >= 'A' && ch <= 'Z') || (ch >= '0' && ch <= '9') || ch == '_' || ch == '-';
+  });
+  return bare ? k : toml_string(k);
+}
+
+// The [columns] and [csv] sections of a run-file format, each only where it is not the
+// default (read_columns_section, read_csv_section read them back).
+std::string file_format_sections(const RunCsvOptions& f) {
+  std::string out;
+  if (!f.columns.empty()) {
+    out += "\n[columns]\n";
+    for (const auto& [ours, theirs] : f.columns) out += toml_key(ours) + " = " + toml_string(theirs) + "\n";
+  }
+  const CsvDialect defaults;
+  if (f.dialect.delimiter != defaults.delimiter || f.dialect.comment_chars != defaults.comment_chars) {
+    out += "\n[csv]\n";
+    out += std::string("delimiter = \"") + name_of(f.dialect.delimiter) + "\"\n";
+    out += "comment = " + toml_string(f.dialect.comment_chars) + "\n";
+  }
+  return out;
+}
+
 }  // namespace
 
 std::string write_experiment_toml(const Experiment& e, const std::vector<std::string>& comment_lines) {
+  return write_experiment_toml(e, comment_lines, RunCsvOptions{});
+}
+
+std::string write_experiment_toml(const Experiment& e, const std::vector<std::string>& comment_lines,
+                                  const RunCsvOptions& file_format) {
   std::string out;
   for (const auto& c : comment_lines) out += "# " + c + "\n";
   out += std::string("axis = \"") + name_of(e.axis) + "\"\n";
@@ -946,7 +976,7 @@ std::string write_experiment_toml(const Experiment& e, const std::vector<std::st
     out += i ? ", " : "";
     out += run_entry(e.runs[i], e.airspeed_mps);
   }
-  out += "]\n\n[static]\n";
+  out += "]\n" + file_format_sections(file_format) + "\n[static]\n";
   if (e.static_curve.kind == StaticKind::polynomial) {
     out += "polynomial = " + number_list(e.static_curve.polynomial, 1.0) + "  # x^0, x^1, ... with x in rad\n";
   } else {

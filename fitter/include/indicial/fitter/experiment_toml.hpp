@@ -119,4 +119,13 @@ void set_data_range(Experiment& experiment);
 std::string write_experiment_toml(const Experiment& experiment,
                                   const std::vector<std::string>& comment_lines);
 
+// The same, with the run files' format: its [columns] map and [csv] dialect written where they
+// are not the defaults, so that the written file reads its runs and tables as the file the
+// format came from (run_file_format) did. Why: an experiment over a database's files
+// (whitespace-delimited, `%` header, Cn / Ct columns) rewritten without them names files that
+// `fit` cannot read (diagnose's experiment.toml did, found on the Glasgow cycles).
+std::string write_experiment_toml(const Experiment& experiment,
+                                  const std::vector<std::string>& comment_lines,
+                                  const RunCsvOptions& file_format);
+
 }  // namespace indicial
