@@ -232,10 +232,16 @@ class Diagnoser {
     s.family = c.family;
     s.score.status = CandidateStatus::fit_failed;
     bool have = false;
-    const std::vector<StartValues> starts = c.starts.empty() ? std::vector<StartValues>{{}} : c.starts;
-    for (const StartValues& extra : starts) {
+    // Each start: the current estimates with the start's extra values, and (OwnStart) the
+    // fitter's own start with nothing from the current model (an empty StartValues: equation
+    // error and the file's start keys).
+    std::vector<StartValues> starts;
+    for (const StartValues& extra : c.starts.empty() ? std::vector<StartValues>{{}} : c.starts)
+      starts.push_back(start_values_for(c.config, current, e.runs.size(), extra));
+    if (c.own_start == CandidateSpec::OwnStart::yes) starts.emplace_back();
+    for (const StartValues& start : starts) {
       try {
-        FitResult r = fit(e, c.config, start_values_for(c.config, current, e.runs.size(), extra));
+        FitResult r = fit(e, c.config, start);
         if (!std::isfinite(r.fit_error)) {
           s.score.message = r.output_error.message;
           continue;
