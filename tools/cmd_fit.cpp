@@ -2,8 +2,8 @@
 // report.md and plots.
 //
 //   indicial fit EXPERIMENT.toml --out DIR [--force] [--f-to-enter F] [--f-to-remove F]
-//                [--max-iterations N] [--state-derivative smoothed|modulating] [--no-plots]
-//                [--quiet]
+//                [--max-iterations N] [--stall-start-search grid|configured] [--threads N]
+//                [--state-derivative smoothed|modulating] [--no-plots] [--quiet]
 //
 // Warnings (input warnings of the experiment, and a fit error far above the data's noise
 // level) go to stderr as "indicial: warning: ..." lines and into fit.json "warnings"; a
@@ -50,7 +50,12 @@ struct FitCliOptions {
   std::string gnuplot = "gnuplot";
   std::string state_derivative = "smoothed";
   std::vector<std::string> start_values;  // NAME=VALUE
-  indicial::FitOptions fit;
+  indicial::FitOptions fit = with_two_threads();
+  static indicial::FitOptions with_two_threads() {
+    indicial::FitOptions o;
+    o.threads = 2;  // as diagnose's --threads; the library's default is 1
+    return o;
+  }
 };
 
 // Exit codes of `indicial fit` when outputs were written (see the file comment).
@@ -302,6 +307,13 @@ const indicial::tools::RegisterCommand register_fit([](CLI::App& app) {
                   "NAME=VALUE: the output-error start value of a parameter instead of the equation error's "
                   "(repeatable; names as in fit.json: a1, A2, b1_0, y0_1, ...)");
   sub->add_option("--max-iterations", opt->fit.max_iterations, "output-error iteration limit (default 50; 0: the estimates and bounds at the start values)");
+  sub->add_option("--stall-start-search", opt->fit.stall_start_search,
+                  "with model.stall: grid (default: the configured stall starts and 17 more, T1 x {1/2,1,2}, "
+                  "Tv x {1/2,1,2}, T2 x {1/3,1}, the lowest cost kept; fit.json's stall_start_search lists them) "
+                  "or configured (the stall_*_start keys only)")
+      ->transform(CLI::CheckedTransformer(std::map<std::string, indicial::StallStartSearch>{
+          {"grid", indicial::StallStartSearch::grid}, {"configured", indicial::StallStartSearch::configured}}));
+  sub->add_option("--threads", opt->fit.threads, "fits run in parallel (the stall start grid; default 2)");
   sub->add_option("--state-derivative", opt->state_derivative,
                   "equation error's y_E': smoothed (Savitzky-Golay, default) or modulating (ref. 12)");
   sub->add_flag("--no-plots", opt->no_plots, "do not run gnuplot");

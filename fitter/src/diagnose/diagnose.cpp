@@ -19,7 +19,7 @@
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/io.hpp"
 #include "indicial/runtime.hpp"
-#include "diagnose/parallel_for.hpp"
+#include "numerics/parallel_for.hpp"
 
 namespace indicial {
 

@@ -43,7 +43,7 @@
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/predict.hpp"
 #include "indicial/runtime.hpp"
-#include "diagnose/parallel_for.hpp"
+#include "numerics/parallel_for.hpp"
 
 namespace indicial::diagnose_detail {
 

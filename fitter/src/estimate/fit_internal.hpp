@@ -397,4 +397,14 @@ MLResult refine_structure_output_error(const UnsteadyStructure& pool, const Outp
                                        MLResult ml, const FitOptions& o,
                                        OutputErrorStepwiseResult* log);
 
+// The stall start grid (FitOptions::stall_start_search; fit_stall_starts.cpp): whether it runs
+// for layout L under options o, and its points, the configured start theta0 first (`varied`:
+// the grid's parameters by name with their start values).
+struct StallStartGridPoint {
+  std::vector<std::pair<std::string, double>> varied;
+  Eigen::VectorXd theta;
+};
+bool stall_start_search_runs(const ParameterLayout& L, const FitOptions& o);
+std::vector<StallStartGridPoint> stall_start_grid(const ParameterLayout& L, const Eigen::VectorXd& theta0);
+
 }  // namespace indicial::fit_detail

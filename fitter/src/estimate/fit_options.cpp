@@ -77,6 +77,7 @@ bool FitOptions::IsValid(std::string* error, OptionNaming naming) const {
   if (modulating_window < 5) return refuse(error, "modulating_window", ">= 5 (samples)", modulating_window);
   if (modulating_shift < 1) return refuse(error, "modulating_shift", ">= 1 (samples)", modulating_shift);
   if (max_correlation_lag < 0) return refuse(error, "max_correlation_lag", ">= 0 (samples)", max_correlation_lag);
+  if (threads < 1) return refuse(error, option_name("threads", "--threads", naming), ">= 1", threads);
   for (const auto& [name, value] : start_values)
     if (!std::isfinite(value))
       return refuse(error, option_name("start_values", "--start-value", naming), "finite numbers",

@@ -12,6 +12,7 @@
 #include <limits>
 
 #include "estimate/fit_internal.hpp"
+#include "numerics/parallel_for.hpp"
 #include "indicial/fitter/error.hpp"
 
 namespace indicial {
@@ -335,6 +336,28 @@ void two_stage_loop(const FitContext& c, Estimate& est, std::vector<TwoStageIter
   }
 }
 
+// The stall start grid (FitOptions::stall_start_search): est.ml, the fit from the configured
+// start theta0, is replaced by the lowest-cost fit of the grid's starts (fitted in parallel,
+// c.o.threads); every trial is recorded in `out`.
+void search_stall_starts(const FitContext& c, Estimate& est, const Eigen::VectorXd& theta0,
+                         StallStartSearchResult& out) {
+  const ParameterLayout L(est.s, est.runs);
+  if (!stall_start_search_runs(L, c.o)) return;
+  const std::vector<StallStartGridPoint> grid = stall_start_grid(L, theta0);
+  std::vector<MLResult> fits(grid.size());
+  fits[0] = std::move(est.ml);
+  detail::parallel_for(grid.size() - 1, c.o.threads,
+                       [&](std::size_t k) { fits[k + 1] = c.fit(est.s, est.runs, est.rotary, grid[k + 1].theta); });
+  std::size_t best = 0;
+  for (std::size_t k = 0; k < grid.size(); ++k) {
+    out.trials.push_back({grid[k].varied, fits[k].summary.fit_error});
+    const double cost = fits[k].summary.cost;
+    if (std::isfinite(cost) && !(cost >= fits[best].summary.cost)) best = k;
+  }
+  out.chosen = static_cast<int>(best);
+  est.ml = std::move(fits[best]);
+}
+
 // ------------------------------------------------------------------------------------------
 // The simple start of the output-error stepwise.
 // ------------------------------------------------------------------------------------------
@@ -525,6 +548,7 @@ FitResult fit_experiment(const Experiment& e, const FitOptions& o) {
   const Eigen::VectorXd theta0 =
       start_values(ParameterLayout(est.s, est.runs), est.runs, res.equation_error.parameters, e, o);
   est.ml = c.fit(est.s, est.runs, est.rotary, theta0);
+  search_stall_starts(c, est, theta0, res.stall_start_search);
   res.stepwise_fallback = fallback_reason(e, o, res.equation_error);
   const bool refine = e.model.structure == StructureMode::stepwise &&
                       (o.stepwise_refinement == StepwiseRefinement::output_error || !res.stepwise_fallback.empty());

@@ -199,6 +199,15 @@ nlohmann::json fit_json(const FitResult& r, const Experiment& e, const FitOption
     j["output_error_stepwise"] = {{"steps", steps}, {"selected", r.output_error_stepwise.selected}};
   }
   if (!r.stepwise_fallback.empty()) j["stepwise_fallback"] = r.stepwise_fallback;
+  if (r.stall_start_search.chosen >= 0) {
+    nlohmann::json trials = nlohmann::json::array();
+    for (const StallStartTrial& t : r.stall_start_search.trials) {
+      nlohmann::json start = nlohmann::json::object();
+      for (const auto& [name, value] : t.start) start[name] = value;
+      trials.push_back({{"start", start}, {"fit_error", finite_or_null(t.fit_error)}});
+    }
+    j["stall_start_search"] = {{"chosen", r.stall_start_search.chosen}, {"trials", trials}};
+  }
   j["options"] = {{"f_to_enter", o.f_to_enter},
                   {"f_to_remove", o.f_to_remove},
                   {"stepwise_refinement",
@@ -212,7 +221,9 @@ nlohmann::json fit_json(const FitResult& r, const Experiment& e, const FitOption
                   {"step_tolerance", o.step_tolerance},
                   {"sv_cutoff", o.sv_cutoff},
                   {"state_derivative", state_derivative_name(o.state_derivative)},
-                  {"max_two_stage_iterations", o.max_two_stage_iterations}};
+                  {"max_two_stage_iterations", o.max_two_stage_iterations},
+                  {"stall_start_search", o.stall_start_search == StallStartSearch::grid ? "grid" : "configured"},
+                  {"threads", o.threads}};
   if (runtime != nullptr) {
     j["runtime_check"] = {{"loads_with", runtime_fit_name(runtime->fit)},
                           {"load_status", to_string(runtime->load_status)},

@@ -205,6 +205,20 @@ std::string report_output_error_log(const OutputErrorSummary& oe) {
   return m;
 }
 
+// With the stall start grid: each start and the fit error it ended at, the kept one marked.
+std::string report_stall_start_search(const StallStartSearchResult& ss) {
+  if (ss.chosen < 0) return "";
+  std::string m = "## Stall start search (the output error from each start; the lowest cost kept)\n\n"
+                  "| start | varied start values (l / V) | s(v) | kept |\n|---:|---|---:|---|\n";
+  for (std::size_t k = 0; k < ss.trials.size(); ++k) {
+    std::string start;
+    for (const auto& [name, value] : ss.trials[k].start) start += fmt::format("{}{} = {}", start.empty() ? "" : ", ", name, num(value));
+    m += fmt::format("| {} | {} | {} | {} |\n", k == 0 ? "configured" : std::to_string(k), start,
+                     num(ss.trials[k].fit_error), static_cast<int>(k) == ss.chosen ? "**kept**" : "");
+  }
+  return m + "\n";
+}
+
 // With rotary.estimate: the two-stage iterations and their stepwise logs.
 std::string report_two_stage(const FitResult& r, const Experiment& e) {
   std::string m;
@@ -238,7 +252,8 @@ std::string report_two_stage(const FitResult& r, const Experiment& e) {
 std::string report_markdown(const FitResult& r, const Experiment& e, const FitOptions& o,
                             const RuntimeCheck& rc, const PlotSet& ps, const ReportOptions& ro) {
   return report_header(r, e, o, ro) + report_result(r, e) + report_runtime_check(rc) + report_plots(r, e, ps) +
-         report_equation_error(r, o) + report_output_error_log(r.output_error) + report_two_stage(r, e) +
+         report_equation_error(r, o) + report_stall_start_search(r.stall_start_search) +
+         report_output_error_log(r.output_error) + report_two_stage(r, e) +
          "## Files\n\n"
          "* `fit.json`: the estimates, bounds and logs (contract fields plus extensions)\n"
          "* `model.coef`: the identified model for the runtime (`indicial::Predictor`)\n"

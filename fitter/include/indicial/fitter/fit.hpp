@@ -129,6 +129,21 @@ enum class StepwiseFallback {
   off         // never: the regression's selection is kept (no term selected is an InputError)
 };
 
+// Where the output-error fit of the dynamic-stall families starts (docs/formats.md, fit.json's
+// `stall_start_search`). Why a search: that fit is multimodal in the time constants. The
+// vortex's shedding threshold switches its lift on and off, so from a start whose vortex
+// misses the data the cost is flat in T_v and T_vl, and the fit converges where it began.
+// Measured on the Glasgow C_m cycles (docs/validation-stall.md): from the 18 starts of the grid
+// below the fit ended at s(v) between 0.031 and 0.088, from the configured start alone at 0.068.
+enum class StallStartSearch {
+  grid,       // the configured starts and 17 more: T1 x {1/2, 1, 2}, T_v x {1/2, 1, 2},
+              // T2 x {1/3, 1} (with the separation family alone: T1 and T2, 6 starts); a
+              // parameter held (model.stall_known) is not varied; the lowest cost is kept.
+              // Not run when FitOptions::start_values names a stall parameter (the caller
+              // chose the start: diagnose's warm starts and held-out folds).
+  configured  // the configured starts only (the experiment's stall_*_start keys)
+};
+
 // One step of the output-error refinement.
 struct OutputErrorStepwiseStep {
   enum class Action { entered, removed };
@@ -197,6 +212,9 @@ struct FitOptions {
   // Output-error start values that replace the equation-error ones, by parameter name
   // (e.g. {"b1_0", 3.0}, {"y0_2", 0.0}); names not in the model are an InputError.
   std::vector<std::pair<std::string, double>> start_values;
+  StallStartSearch stall_start_search = StallStartSearch::grid;
+  // Threads for independent fits inside one fit (the stall start grid); >= 1.
+  int threads = 1;
 
   // Every range above in one place (Ceres' Solver::Options::IsValid, as
   // DiagnoseOptions::IsValid): true, or false with *error (when not null) set to one line
@@ -401,6 +419,17 @@ struct RunSeries {
 // Indices of a spline's coefficients in FitResult::parameters / covariance, for bands.
 enum class ModelFunction { a, b1, rotary };
 
+// The stall start grid's trials (StallStartSearch::grid): each start's varied values (by
+// parameter name, in l / V) and the fit error it ended at (NaN: it could not be propagated).
+struct StallStartTrial {
+  std::vector<std::pair<std::string, double>> start;
+  double fit_error = 0.0;
+};
+struct StallStartSearchResult {
+  std::vector<StallStartTrial> trials;  // trials[0]: the configured start
+  int chosen = -1;                      // the index of the kept fit; -1: no search
+};
+
 struct FitResult {
   ModelSet<double, FitCapacity> model;         // one coefficient; loadable by the runtime
   std::vector<ParameterEstimate> parameters;   // final estimates (ML), y0_r last
@@ -417,6 +446,7 @@ struct FitResult {
                                                // regression's selection, and whether it began
                                                // from the simple start (the start values gave
                                                // a non-finite output); empty: neither
+  StallStartSearchResult stall_start_search;  // empty unless the grid ran
   double fit_error = 0.0;                      // s(v) of the final model
   double elapsed_s = 0.0;                      // wall time of fit_experiment
 };

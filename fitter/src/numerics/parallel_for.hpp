@@ -1,6 +1,6 @@
 // parallel_for.hpp -- f(0) ... f(n - 1) on up to `threads` threads (the caller's included), each
 // taking the next index; the first exception any call throws is rethrown after all have
-// joined. For independent fits (diagnose's candidates and held-out folds). Not installed.
+// joined. For independent fits (diagnose's candidates and held-out folds, the fit's stall start grid). Not installed.
 #pragma once
 
 #include <algorithm>

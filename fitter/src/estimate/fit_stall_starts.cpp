@@ -1,0 +1,80 @@
+// fit_stall_starts.cpp -- the starts of the stall start grid (FitOptions::stall_start_search,
+// fit.hpp, which says why a search). The grid varies the time constants that decide WHERE in
+// the cycle the separation lags and the vortex sheds and decays: T1, T2 and T_v, each a
+// multiple of its configured start (l / V units, so the same grid at every airspeed). Not
+// varied: T_vl (its cost is smooth once the vortex is shed, measured: the C_L fits of
+// docs/validation-stall.md ended at the same minimum from T1 x {1/2, 1, 2} and T_v x {1/2, 1,
+// 2}), C_N1 (the polar's own start, stall_polar.cpp) and the output gains (linear in the
+// output, found from any start). The factors are the ones measured on the Glasgow C_m cycles
+// (the lowest cost came from T_v x 2, T1 x {1/2, 1}, T2 x 1); a finer grid was not measured.
+#include <Eigen/Dense>
+#include <cmath>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "estimate/fit_internal.hpp"
+
+namespace indicial::fit_detail {
+
+namespace {
+bool is_stall_parameter(const ParamId& id) {
+  switch (id.kind) {
+    case ParamKind::stall_tau1:
+    case ParamKind::stall_tau2:
+    case ParamKind::f0_power:
+    case ParamKind::f0_knot:
+    case ParamKind::stall_cp:
+    case ParamKind::shedding_threshold:
+    case ParamKind::vortex_decay:
+    case ParamKind::vortex_travel:
+    case ParamKind::vortex_lift:
+    case ParamKind::vortex_cp: return true;
+    default: return false;
+  }
+}
+}  // namespace
+
+bool stall_start_search_runs(const ParameterLayout& L, const FitOptions& o) {
+  if (o.stall_start_search != StallStartSearch::grid) return false;
+  if (L.structure().stall.families == StallFamilies::none) return false;
+  // A start the caller chose for a stall parameter is theirs: no search.
+  const std::vector<std::string> names = L.names();
+  for (const auto& [name, value] : o.start_values)
+    for (int i = 0; i < L.size(); ++i)
+      if (names[static_cast<std::size_t>(i)] == name && is_stall_parameter(L.ids()[static_cast<std::size_t>(i)]))
+        return false;
+  return true;
+}
+
+std::vector<StallStartGridPoint> stall_start_grid(const ParameterLayout& L, const Eigen::VectorXd& theta0) {
+  struct Axis {
+    ParamKind kind;
+    std::vector<double> factors;  // the first is 1: the configured start comes first
+  };
+  const Axis axes[] = {{ParamKind::stall_tau1, {1.0, 0.5, 2.0}},
+                       {ParamKind::vortex_decay, {1.0, 0.5, 2.0}},
+                       {ParamKind::stall_tau2, {1.0, 1.0 / 3.0}}};
+  const std::vector<std::string> names = L.names();
+  std::vector<StallStartGridPoint> grid{{{}, theta0}};
+  for (const Axis& axis : axes) {
+    int index = -1;
+    for (int i = 0; i < L.size(); ++i)
+      if (L.ids()[static_cast<std::size_t>(i)].kind == axis.kind) index = i;
+    if (index < 0) continue;  // held (model.stall_known) or not in the families
+    std::vector<StallStartGridPoint> next;
+    for (const StallStartGridPoint& p : grid)
+      for (double f : axis.factors) {
+        StallStartGridPoint q = p;
+        q.theta(index) = theta0(index) * f;
+        q.varied.emplace_back(names[static_cast<std::size_t>(index)], q.theta(index));
+        // A zero start (T2 may start at 0) scales to itself: one point, not two.
+        const bool duplicate = f != 1.0 && q.theta(index) == theta0(index);
+        if (!duplicate) next.push_back(std::move(q));
+      }
+    grid = std::move(next);
+  }
+  return grid;
+}
+
+}  // namespace indicial::fit_detail
