@@ -232,13 +232,13 @@ class Diagnoser {
     s.family = c.family;
     s.score.status = CandidateStatus::fit_failed;
     bool have = false;
-    // Each start: the current estimates with the start's extra values, and (OwnStart) the
-    // fitter's own start with nothing from the current model (an empty StartValues: equation
-    // error and the file's start keys).
+    // Each start: the current estimates with the start's extra values, and (StartFrom::
+    // current_and_own) the fitter's own start with nothing from the current model (an empty
+    // StartValues: equation error and the file's start keys).
     std::vector<StartValues> starts;
     for (const StartValues& extra : c.starts.empty() ? std::vector<StartValues>{{}} : c.starts)
       starts.push_back(start_values_for(c.config, current, e.runs.size(), extra));
-    if (c.own_start == CandidateSpec::OwnStart::yes) starts.emplace_back();
+    if (c.start_from == CandidateSpec::StartFrom::current_and_own) starts.emplace_back();
     for (const StartValues& start : starts) {
       try {
         FitResult r = fit(e, c.config, start);

@@ -192,7 +192,7 @@ bool stall_candidate(const CandidateContext& ctx, StallFamilies families, Effect
     }
   }
   s.families = families;
-  c.own_start = CandidateSpec::OwnStart::yes;
+  c.start_from = CandidateSpec::StartFrom::current_and_own;
   c.term = families == StallFamilies::separation ? "T1, T2, k0, k1, k2" : "CN1, Tv, Tvl, cv, xv";
   c.detail = stall_families_name(families);
   out.push_back(c);

@@ -45,12 +45,13 @@ struct CandidateSpec {
   std::string detail;  // for reports: "knot 30.00 deg"
   ModelConfig config;
   std::vector<StartValues> starts;  // extra start values (empty: one start, new terms at 0)
-  // Also fit from the fitter's own start (`indicial fit`'s: equation error and the file's
-  // start keys, nothing taken from the current model), the better fit kept. Why (the stall
-  // families): warm-started from a current model whose lag had fitted to b1 -> 0 (measured C_m
-  // cycles, validate-real `sweep`), the vortex candidate kept that lag and ended at 0.0566,
-  // where `indicial fit` of the same structure ends at 0.0500 with b1 = 45 1/s.
-  enum class OwnStart : int { no = 0, yes = 1 } own_start = OwnStart::no;
+  // Where the candidate's fits start. current_and_own also fits from the fitter's own start
+  // (`indicial fit`'s: equation error and the file's start keys, nothing taken from the
+  // current model), the better fit kept. Why (the stall families): warm-started from a current
+  // model whose lag had fitted to b1 -> 0 (measured C_m cycles, validate-real `sweep`), the
+  // vortex candidate kept that lag and ended at 0.0566, where `indicial fit` of the same
+  // structure ends at 0.0500 with b1 = 45 1/s.
+  enum class StartFrom { current, current_and_own } start_from = StartFrom::current;
   SplineFamily family = SplineFamily::none;
   bool is_knot = false;
   double knot_rad = 0.0;
