@@ -409,6 +409,14 @@ StartValues start_values_for(const ModelConfig& m, const Estimates& current, std
   return sv;
 }
 
+std::vector<StartValues> candidate_starts(const CandidateSpec& c, const Estimates& current, std::size_t n_runs) {
+  std::vector<StartValues> starts;
+  for (const StartValues& extra : c.starts.empty() ? std::vector<StartValues>{{}} : c.starts)
+    starts.push_back(start_values_for(c.config, current, n_runs, extra));
+  if (c.start_from == CandidateSpec::StartFrom::current_and_own) starts.emplace_back();
+  return starts;
+}
+
 std::vector<Effect> structural_look_alikes(Effect e, const ModelConfig& m) {
   const bool b1_constant = m.b1.knots_rad.empty() && (m.b1.powers.empty() || max_power(m.b1.powers) == 0);
   // Why: y' = -b1 y + con with constant b1 and a free initial state per run is y_hom + con / b1,
