@@ -145,6 +145,52 @@ bool runtime_accepts(const FitResult& r, std::string& why) {
   return false;
 }
 
+}  // namespace
+
+namespace diagnose_detail {
+
+CandidateFit best_usable_fit(const std::vector<StartValues>& starts, const StartFit& fit) {
+  CandidateFit best;
+  bool have = false;
+  for (const StartValues& start : starts) {
+    try {
+      FitResult r = fit(start);
+      if (!std::isfinite(r.fit_error)) {
+        best.message = r.output_error.message;
+        continue;
+      }
+      // Why: a rank-deficient extension has a direction the data do not determine; its cost
+      // is not evidence for the effect.
+      if (r.output_error.termination == Termination::rank_deficient) {
+        if (!have) best.status = CandidateStatus::not_identifiable;
+        best.message = r.output_error.message;
+        continue;
+      }
+      std::string why;
+      if (!runtime_accepts(r, why)) {
+        if (!have) best.status = CandidateStatus::refused_by_runtime;
+        best.message = why;
+        continue;
+      }
+      if (!have || r.fit_error < best.fit.fit_error) {
+        best.fit = std::move(r);
+        have = true;
+      }
+    } catch (const InputError& err) {
+      best.message = err.what();
+    }
+  }
+  if (have) {
+    best.status = CandidateStatus::fitted;
+    best.message.clear();
+  }
+  return best;
+}
+
+}  // namespace diagnose_detail
+
+namespace {
+
 void describe_estimates(Scored& s, Effect effect) {
   const FitResult& f = s.fit;
   const double nan = std::numeric_limits<double>::quiet_NaN();
@@ -219,7 +265,8 @@ class Diagnoser {
     return h;
   }
 
-  // Fits a candidate from every start, keeps the best usable fit, scores it against `base`.
+  // Fits a candidate from each of its starts (candidate_starts), keeps the best usable fit
+  // (best_usable_fit), scores it against `base`.
   Scored evaluate(const Experiment& e, const CandidateSpec& c, const FitResult& base,
                   const Estimates& current) {
     Scored s;
@@ -230,46 +277,12 @@ class Diagnoser {
     s.is_knot = c.is_knot;
     s.knot_rad = c.knot_rad;
     s.family = c.family;
-    s.score.status = CandidateStatus::fit_failed;
-    bool have = false;
-    // Each start: the current estimates with the start's extra values, and (OwnStart) the
-    // fitter's own start with nothing from the current model (an empty StartValues: equation
-    // error and the file's start keys).
-    std::vector<StartValues> starts;
-    for (const StartValues& extra : c.starts.empty() ? std::vector<StartValues>{{}} : c.starts)
-      starts.push_back(start_values_for(c.config, current, e.runs.size(), extra));
-    if (c.own_start == CandidateSpec::OwnStart::yes) starts.emplace_back();
-    for (const StartValues& start : starts) {
-      try {
-        FitResult r = fit(e, c.config, start);
-        if (!std::isfinite(r.fit_error)) {
-          s.score.message = r.output_error.message;
-          continue;
-        }
-        // Why: a rank-deficient extension has a direction the data do not determine; its cost
-        // is not evidence for the effect.
-        if (r.output_error.termination == Termination::rank_deficient) {
-          if (!have) s.score.status = CandidateStatus::not_identifiable;
-          s.score.message = r.output_error.message;
-          continue;
-        }
-        std::string why;
-        if (!runtime_accepts(r, why)) {
-          if (!have) s.score.status = CandidateStatus::refused_by_runtime;
-          s.score.message = why;
-          continue;
-        }
-        if (!have || r.fit_error < s.fit.fit_error) {
-          s.fit = std::move(r);
-          have = true;
-        }
-      } catch (const InputError& err) {
-        s.score.message = err.what();
-      }
-    }
-    if (!have) return s;
-    s.score.status = CandidateStatus::fitted;
-    s.score.message.clear();
+    CandidateFit best = best_usable_fit(candidate_starts(c, current, e.runs.size()),
+                                        [&](const StartValues& sv) { return fit(e, c.config, sv); });
+    s.score.status = best.status;
+    s.score.message = std::move(best.message);
+    if (best.status != CandidateStatus::fitted) return s;
+    s.fit = std::move(best.fit);
     score_against(s.score, base, s.fit, total_samples(e), kappa_);
     describe_estimates(s, c.effect);
     return s;

@@ -192,7 +192,7 @@ bool stall_candidate(const CandidateContext& ctx, StallFamilies families, Effect
     }
   }
   s.families = families;
-  c.own_start = CandidateSpec::OwnStart::yes;
+  c.start_from = CandidateSpec::StartFrom::current_and_own;
   c.term = families == StallFamilies::separation ? "T1, T2, k0, k1, k2" : "CN1, Tv, Tvl, cv, xv";
   c.detail = stall_families_name(families);
   out.push_back(c);
@@ -407,6 +407,14 @@ StartValues start_values_for(const ModelConfig& m, const Estimates& current, std
       sv.push_back(e);
   }
   return sv;
+}
+
+std::vector<StartValues> candidate_starts(const CandidateSpec& c, const Estimates& current, std::size_t n_runs) {
+  std::vector<StartValues> starts;
+  for (const StartValues& extra : c.starts.empty() ? std::vector<StartValues>{{}} : c.starts)
+    starts.push_back(start_values_for(c.config, current, n_runs, extra));
+  if (c.start_from == CandidateSpec::StartFrom::current_and_own) starts.emplace_back();
+  return starts;
 }
 
 std::vector<Effect> structural_look_alikes(Effect e, const ModelConfig& m) {

@@ -45,12 +45,13 @@ struct CandidateSpec {
   std::string detail;  // for reports: "knot 30.00 deg"
   ModelConfig config;
   std::vector<StartValues> starts;  // extra start values (empty: one start, new terms at 0)
-  // Also fit from the fitter's own start (`indicial fit`'s: equation error and the file's
-  // start keys, nothing taken from the current model), the better fit kept. Why (the stall
-  // families): warm-started from a current model whose lag had fitted to b1 -> 0 (measured C_m
-  // cycles, validate-real `sweep`), the vortex candidate kept that lag and ended at 0.0566,
-  // where `indicial fit` of the same structure ends at 0.0500 with b1 = 45 1/s.
-  enum class OwnStart : int { no = 0, yes = 1 } own_start = OwnStart::no;
+  // Where the candidate's fits start (candidate_starts). current_and_own also fits from the
+  // fitter's own start (`indicial fit`'s: equation error and the file's start keys, nothing
+  // taken from the current model), the better fit kept. Why (the stall families): warm-started
+  // from a current model whose lag had fitted to b1 -> 0 (measured C_m cycles, validate-real
+  // `sweep`), the vortex candidate kept that lag and ended at 0.0566, where `indicial fit` of
+  // the same structure ends at 0.0500 with b1 = 45 1/s.
+  enum class StartFrom { current, current_and_own } start_from = StartFrom::current;
   SplineFamily family = SplineFamily::none;
   bool is_knot = false;
   double knot_rad = 0.0;
@@ -95,6 +96,22 @@ Estimates estimates_by_id(const FitResult& r);
 // `current`), then `extra` (replacing or adding).
 StartValues start_values_for(const ModelConfig& m, const Estimates& current, std::size_t n_runs,
                              const StartValues& extra);
+// The starts of candidate c's fits: the current estimates with each of c.starts' extra values
+// (one start when it has none), then, with StartFrom::current_and_own, the fitter's own start
+// (an empty StartValues: equation error and the file's start keys).
+std::vector<StartValues> candidate_starts(const CandidateSpec& c, const Estimates& current, std::size_t n_runs);
+// The best usable fit of one candidate over its starts (diagnose.cpp): `fit` from each start;
+// a fit is usable when its error is finite, its information matrix is not rank deficient and
+// the runtime accepts its model; the usable fit of lowest error is kept (status fitted).
+// Otherwise the status is the last rank-deficient (not_identifiable) or runtime-refused
+// (refused_by_runtime) start's, fit_failed when none got that far; `message` the last failure's.
+struct CandidateFit {
+  FitResult fit;
+  CandidateStatus status = CandidateStatus::fit_failed;
+  std::string message;
+};
+using StartFit = std::function<FitResult(const StartValues&)>;
+CandidateFit best_usable_fit(const std::vector<StartValues>& starts, const StartFit& fit);
 // The value of parameter `id` in a fit, or `fallback`.
 double estimate_of(const FitResult& r, const ParamId& id, double fallback);
 

@@ -3,10 +3,12 @@
 // No numerics here beyond formatting (the algorithm is diagnose.cpp).
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <fmt/format.h>
 
 #include "diagnose/diagnose_internal.hpp"
 #include "estimate/fit_internal.hpp"
+#include "indicial/fitter/error.hpp"
 #include "indicial/fitter/io.hpp"
 
 namespace indicial {
@@ -512,6 +514,30 @@ nlohmann::json diagnosis_json(const DiagnoseResult& d, const Experiment& e, cons
   return j;
 }
 
+namespace {
+
+// The source file's [columns] and [csv], so that the written experiment.toml reads the same run
+// files. An experiment built in memory has no source file, and its path may still name one: a
+// Python Experiment's path is its name ("experiment" by default), which may be a directory or
+// any other file in the working directory. So only a regular file is read, and one whose
+// [columns] / [csv] cannot be read gives the defaults with a warning instead of losing the
+// outputs: the Experiment diagnosed, not that file, is what the written file describes.
+RunCsvOptions source_run_file_format(const Experiment& e) {
+  std::error_code ec;
+  if (e.path.empty() || !fs::is_regular_file(e.path, ec)) return {};
+  try {
+    return run_file_format(e.path);
+  } catch (const InputError& err) {
+    std::fprintf(stderr,
+                 "indicial: warning: %s: [columns] and [csv] not read (%s); the diagnosed experiment.toml "
+                 "has the defaults\n",
+                 e.path.c_str(), err.what());
+    return {};
+  }
+}
+
+}  // namespace
+
 std::string diagnosed_experiment_toml(const DiagnoseResult& d) {
   Experiment next = d.experiment;
   next.model = d.configs.back();
@@ -532,11 +558,7 @@ std::string diagnosed_experiment_toml(const DiagnoseResult& d) {
       "written by indicial diagnose: the experiment with the diagnosed model structure",
       "(effects added: " + (added.empty() ? std::string("none") : added) +
           "); refit it with: indicial fit experiment.toml --out DIR"};
-  // The source file's [columns] and [csv], so that the written file reads the same run files
-  // (an experiment built in memory, without a file, has the defaults).
-  RunCsvOptions format;
-  if (!d.experiment.path.empty() && fs::exists(d.experiment.path, ec)) format = run_file_format(d.experiment.path);
-  return write_experiment_toml(next, comments, format);
+  return write_experiment_toml(next, comments, source_run_file_format(d.experiment));
 }
 
 DiagnoseOutputs write_diagnose_outputs(const DiagnoseResult& d, const Experiment& e,

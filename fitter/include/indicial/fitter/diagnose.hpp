@@ -333,7 +333,9 @@ struct DiagnoseOutputs {
 // The experiment file of the diagnosed model: the working experiment (warning 4) with the
 // final model configuration (extension keys of docs/formats.md: static_correction_*,
 // rotary_correction_*, delay, further_lag_start), its runs and static table by absolute path,
-// and the delay's start value at the diagnosed estimate. `indicial fit` on it refits the
+// the run files' [columns] and [csv] from the experiment's path when that is a regular file
+// (the defaults otherwise; a file that is not an experiment file: a warning on stderr), and the
+// delay's start value at the diagnosed estimate. `indicial fit` on it refits the
 // diagnosed model.
 std::string diagnosed_experiment_toml(const DiagnoseResult& d);
 
