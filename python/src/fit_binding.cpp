@@ -21,9 +21,15 @@ namespace {
 
 // The provenance of a fit from Python: the version, the call, and the digests of the files
 // an experiment read from disk came from (none for arrays).
+// The inputs are hashed when they are files: an Experiment read from a file names its files; one
+// built from arrays names its runs ("run 1", ...) and itself ("experiment"), which are not
+// files even when a file of the experiment's name happens to be in the working directory (that
+// raised "run 1: cannot be read" before).
 Provenance provenance_for(const Experiment& e, const std::string& call) {
   std::error_code ec;
-  if (std::filesystem::is_regular_file(e.path, ec)) return experiment_provenance(e, call, "unknown");
+  bool files = std::filesystem::is_regular_file(e.path, ec);
+  for (const Run& r : e.runs) files = files && std::filesystem::is_regular_file(r.path, ec);
+  if (files) return experiment_provenance(e, call, "unknown");
   return make_provenance(call, "unknown");
 }
 
@@ -87,6 +93,10 @@ FitOptions parse_fit_options(const py::dict& kw) {
     else if (key == "stepwise_fallback")
       fo.stepwise_fallback = pick<StepwiseFallback>(key, v.cast<std::string>(),
           {{"automatic", StepwiseFallback::automatic}, {"off", StepwiseFallback::off}});
+    else if (key == "stall_start_search")
+      fo.stall_start_search = pick<StallStartSearch>(key, v.cast<std::string>(),
+          {{"grid", StallStartSearch::grid}, {"configured", StallStartSearch::configured}});
+    else if (key == "threads") fo.threads = v.cast<int>();
     else if (key == "start_values")
       for (const auto& sv : v.cast<std::map<std::string, double>>()) fo.start_values.emplace_back(sv.first, sv.second);
     else throw InputError(key, 0, "not a fit option");
@@ -95,7 +105,12 @@ FitOptions parse_fit_options(const py::dict& kw) {
 }
 
 FitOptions fit_options_from(const py::dict& kw) {
-  FitOptions fo = parse_fit_options(kw);
+  // fit's default threads are `indicial fit --threads`'s, 2 (the library's and diagnose's fits
+  // are 1: diagnose runs its fits in parallel already).
+  py::dict with_threads;
+  with_threads["threads"] = 2;
+  for (const auto& item : kw) with_threads[item.first] = item.second;
+  FitOptions fo = parse_fit_options(with_threads);
   if (std::string bad; !fo.IsValid(&bad)) throw InputError(bad);  // FitOptions' own message, as the CLI's
   return fo;
 }

@@ -59,6 +59,24 @@ def test_fit_from_arrays_equals_cli_on_the_written_files(tmp_path, cli):
     assert_same_as_cli(r, tmp_path / "out" / "fit.json")
 
 
+def test_fit_from_arrays_beside_a_file_of_its_name(tmp_path, monkeypatch):
+    """An Experiment from arrays is named "experiment", its runs "run 1", ...: names, not files.
+    A file called "experiment" in the working directory made fit hash the runs as files and
+    raise "run 1: cannot be read"; the fit runs, and its provenance lists no inputs."""
+    case = indicial.simulation_case("tailless-model-1", snr=40, seed=5)
+    config = tomllib.loads(case.experiment_toml)
+    runs = [indicial.Run(time_s=r.time_s, alpha_rad=r.motion_angle_rad, q_radps=r.rate_radps,
+                         coefficient=r.measured["Cm"]) for r in case.runs]
+    e = indicial.Experiment(coefficient="Cm", reference_length_m=config["reference_length_m"],
+                            airspeed_mps=config["airspeed_mps"], runs=runs,
+                            static_polynomial=config["static"]["polynomial"], b1_powers=[0])
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "experiment").write_text("not an experiment\n")
+    r = indicial.fit(e, warn=False)
+    assert r.termination == "converged"
+    assert "sha256" not in r.model.text
+
+
 def test_result_objects(py_fit):
     p = py_fit.parameter("b1_0")
     assert p.value > 0 and 0 < p.cr_bound < p.value and p.cr_bound_colored > 0
