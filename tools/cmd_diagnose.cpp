@@ -2,7 +2,8 @@
 //
 //   indicial diagnose EXPERIMENT.toml --out DIR [--force] [--alpha 0.01] [--max-steps N]
 //                     [--knot-spacing-deg D] [--rule auto|cv|lr] [--cv-min-runs N] [--max-folds K] [--min-gain G]
-//                     [--min-in-sample-gain G] [--threads N] [--no-plots] [--gnuplot EXE] [--quiet]
+//                     [--min-in-sample-gain G] [--threads N] [--stall-start-search configured|grid]
+//                     [--no-plots] [--gnuplot EXE] [--quiet]
 //
 // The options' ranges are DiagnoseOptions::IsValid's (docs/diagnose.md, "Options").
 //
@@ -149,6 +150,11 @@ const indicial::tools::RegisterCommand register_diagnose([](CLI::App& app) {
                   "cross-validation: an effect must also lower the fit error of all runs by at least this "
                   "fraction of the mean square error (default 0.04; in [0, 1), 0: off)");
   sub->add_option("--threads", opt->diag.threads, "fits run in parallel (default 2)");
+  sub->add_option("--stall-start-search", opt->diag.fit.stall_start_search,
+                  "a stall candidate's own start: configured (default: the stall_*_start keys) or grid (as "
+                  "indicial fit's default: 18 starts of the time constants, the lowest cost kept; slower)")
+      ->transform(CLI::CheckedTransformer(std::map<std::string, indicial::StallStartSearch>{
+          {"grid", indicial::StallStartSearch::grid}, {"configured", indicial::StallStartSearch::configured}}));
   sub->add_flag("--no-plots", opt->no_plots, "do not run gnuplot");
   sub->add_flag("--quiet", opt->quiet, "no progress lines on stderr (warnings and errors are still printed)");
   sub->add_option("--coefficient", opt->coefficient,

@@ -53,6 +53,7 @@ py::dict noise_dict(const NoiseEstimate& n) {
 DiagnoseOptions diagnose_options_from(const py::dict& kw) {
   DiagnoseOptions o;
   py::dict fit_kw;
+  fit_kw["stall_start_search"] = "configured";  // DiagnoseOptions::fit_defaults(), overridable
   for (const auto& item : kw) {
     const std::string key = py::str(item.first);
     const py::handle v = item.second;

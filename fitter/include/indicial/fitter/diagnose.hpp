@@ -139,7 +139,21 @@ struct DiagnoseOptions {
   int max_scan_knots = 16;           // the spacing widens when the range needs more
   int max_family_terms = 4;          // terms one effect's sub-model may have (stepwise inside it)
   double indistinguishable_bic = 6.0;  // families closer than this in BIC are named together
-  FitOptions fit;                    // for every fit (start_values are set per candidate)
+  FitOptions fit = fit_defaults();   // for every fit (start_values are set per candidate)
+
+  // FitOptions' defaults with stall_start_search = configured: a stall candidate's own start is
+  // fitted once, not from the fit's grid of 18 starts. Measured on docs/validation-real.md's
+  // three-run studies, both on the same loaded machine: with the grid the four diagnoses took
+  // 21-81 s (496 s the study), without 2-18 s (166 s; unloaded 0.3-2.5 s, a three-cycle
+  // diagnosis should take seconds), and with it the choices predicted the held-out cycles no better
+  // (sweep C_L: the grid's better in-sample separation fit displaced the vortex, held-out
+  // median 0.55 -> 0.71 of quasi-steady). `--stall-start-search grid` (fit.stall_start_search)
+  // turns it on, e.g. with many runs (docs/validation-stall.md).
+  static FitOptions fit_defaults() {
+    FitOptions f;
+    f.stall_start_search = StallStartSearch::configured;
+    return f;
+  }
 
   // Every range above in one place (Ceres' Solver::Options::IsValid): true, or false with
   // *error (when not null) set to one line naming the first bad option -- its field, its
