@@ -74,6 +74,17 @@ TEST_CASE("diagnose options: the defaults and the edges of every range are valid
   CHECK(edges.IsValid(&error));
 }
 
+TEST_CASE("diagnose options: a stall candidate's own start is the configured one, not the fit's grid") {
+  // The two defaults differ on purpose (DiagnoseOptions::fit_defaults: the grid made the
+  // three-run studies of docs/validation-real.md up to 10 times slower and chose no better).
+  CHECK(FitOptions{}.stall_start_search == StallStartSearch::grid);
+  CHECK(DiagnoseOptions{}.fit.stall_start_search == StallStartSearch::configured);
+  CHECK(DiagnoseOptions{}.fit.threads == 1);  // diagnose runs its fits in parallel itself
+  DiagnoseOptions grid;
+  grid.fit.stall_start_search = StallStartSearch::grid;
+  CHECK(grid.IsValid(nullptr));
+}
+
 TEST_CASE("diagnose options: each bad option is refused by IsValid with its own one-line message") {
   testing::check_each_refused(bad_options());
 }

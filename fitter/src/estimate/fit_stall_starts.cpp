@@ -2,11 +2,12 @@
 // fit.hpp, which says why a search). The grid varies the time constants that decide WHERE in
 // the cycle the separation lags and the vortex sheds and decays: T1, T2 and T_v, each a
 // multiple of its configured start (l / V units, so the same grid at every airspeed). Not
-// varied: T_vl (its cost is smooth once the vortex is shed, measured: the C_L fits of
-// docs/validation-stall.md ended at the same minimum from T1 x {1/2, 1, 2} and T_v x {1/2, 1,
-// 2}), C_N1 (the polar's own start, stall_polar.cpp) and the output gains (linear in the
-// output, found from any start). The factors are the ones measured on the Glasgow C_m cycles
-// (the lowest cost came from T_v x 2, T1 x {1/2, 1}, T2 x 1); a finer grid was not measured.
+// varied, to keep the grid at 18 fits: T_vl, C_N1 (the polar's own start, stall_polar.cpp)
+// and the output gains (linear in the output). Whether varying T_vl or C_N1 too would find
+// lower minima was not measured. The factors are the ones tried on the Glasgow fit cycles of
+// tools/validate_stall.py (C_m with a constant C_mq: the lowest cost came from T_v x 2, T1 x
+// {1/2, 1}, T2 x 1; C_L: every start of T1 x {1/2, 1, 2}, T_v x {1/2, 1, 2} but one ended at
+// the same minimum); a finer grid was not measured.
 #include <Eigen/Dense>
 #include <cmath>
 #include <string>
