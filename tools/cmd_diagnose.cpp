@@ -153,8 +153,7 @@ const indicial::tools::RegisterCommand register_diagnose([](CLI::App& app) {
   sub->add_option("--stall-start-search", opt->diag.fit.stall_start_search,
                   "a stall candidate's own start: configured (default: the stall_*_start keys) or grid (as "
                   "indicial fit's default: 18 starts of the time constants, the lowest cost kept; slower)")
-      ->transform(CLI::CheckedTransformer(std::map<std::string, indicial::StallStartSearch>{
-          {"grid", indicial::StallStartSearch::grid}, {"configured", indicial::StallStartSearch::configured}}));
+      ->transform(indicial::tools::stall_start_search_words());
   sub->add_flag("--no-plots", opt->no_plots, "do not run gnuplot");
   sub->add_flag("--quiet", opt->quiet, "no progress lines on stderr (warnings and errors are still printed)");
   sub->add_option("--coefficient", opt->coefficient,

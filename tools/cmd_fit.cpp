@@ -311,8 +311,7 @@ const indicial::tools::RegisterCommand register_fit([](CLI::App& app) {
                   "with model.stall: grid (default: the configured stall starts and 17 more, T1 x {1/2,1,2}, "
                   "Tv x {1/2,1,2}, T2 x {1/3,1}, the lowest cost kept; fit.json's stall_start_search lists them) "
                   "or configured (the stall_*_start keys only)")
-      ->transform(CLI::CheckedTransformer(std::map<std::string, indicial::StallStartSearch>{
-          {"grid", indicial::StallStartSearch::grid}, {"configured", indicial::StallStartSearch::configured}}));
+      ->transform(indicial::tools::stall_start_search_words());
   sub->add_option("--threads", opt->fit.threads, "fits run in parallel (the stall start grid; default 2)");
   sub->add_option("--state-derivative", opt->state_derivative,
                   "equation error's y_E': smoothed (Savitzky-Golay, default) or modulating (ref. 12)");

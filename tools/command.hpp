@@ -29,12 +29,14 @@
 #include <condition_variable>
 #include <cstdio>
 #include <functional>
+#include <map>
 #include <mutex>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include "indicial/fitter/error.hpp"
+#include "indicial/fitter/fit.hpp"
 #include "indicial/fitter/experiment.hpp"
 #include "indicial/fitter/provenance.hpp"
 
@@ -149,5 +151,12 @@ class StageClock {
   std::chrono::milliseconds threshold_;
   std::chrono::steady_clock::time_point command_start_;
 };
+
+// The words of FitOptions::stall_start_search on the command line (fit's and diagnose's
+// --stall-start-search): one map.
+inline CLI::CheckedTransformer stall_start_search_words() {
+  return CLI::CheckedTransformer(std::map<std::string, StallStartSearch>{{"grid", StallStartSearch::grid},
+                                                                         {"configured", StallStartSearch::configured}});
+}
 
 }  // namespace indicial::tools

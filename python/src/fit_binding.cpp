@@ -105,12 +105,10 @@ FitOptions parse_fit_options(const py::dict& kw) {
 }
 
 FitOptions fit_options_from(const py::dict& kw) {
+  FitOptions fo = parse_fit_options(kw);
   // fit's default threads are `indicial fit --threads`'s, 2 (the library's and diagnose's fits
   // are 1: diagnose runs its fits in parallel already).
-  py::dict with_threads;
-  with_threads["threads"] = 2;
-  for (const auto& item : kw) with_threads[item.first] = item.second;
-  FitOptions fo = parse_fit_options(with_threads);
+  if (!kw.contains("threads")) fo.threads = 2;
   if (std::string bad; !fo.IsValid(&bad)) throw InputError(bad);  // FitOptions' own message, as the CLI's
   return fo;
 }

@@ -3,7 +3,6 @@
 // No numerics here beyond formatting (the algorithm is diagnose.cpp).
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <fmt/format.h>
 
 #include "diagnose/diagnose_internal.hpp"
@@ -21,6 +20,26 @@ using diagnose_detail::total_samples;
 // Outputs
 // ==========================================================================================
 namespace {
+
+// The source file's [columns] and [csv], so that the written experiment.toml reads the same run
+// files. An experiment built in memory has no source file, and its path may still name one: a
+// Python Experiment's path is its name ("experiment" by default), which may be a directory or
+// any other file in the working directory. So only a regular file is read, and one whose
+// [columns] / [csv] cannot be read gives the defaults (the Experiment diagnosed, not that
+// file, is what the written file describes), and *problem (when given) says why, for
+// diagnose_warnings.
+RunCsvOptions source_run_file_format(const Experiment& e, std::string* problem = nullptr) {
+  std::error_code ec;
+  if (e.path.empty() || !fs::is_regular_file(e.path, ec)) return {};
+  try {
+    return run_file_format(e.path);
+  } catch (const InputError& err) {
+    if (problem != nullptr)
+      *problem = fmt::format("{}: [columns] and [csv] not read ({}); the diagnosed experiment.toml has the defaults",
+                             e.path, err.what());
+    return {};
+  }
+}
 
 nlohmann::json candidate_json(const CandidateScore& c) {
   nlohmann::json j;
@@ -429,6 +448,9 @@ nlohmann::json round_json(const DiagnoseRound& r) {
 
 std::vector<std::string> diagnose_warnings(const DiagnoseResult& d) {
   std::vector<std::string> w;
+  std::string problem;
+  source_run_file_format(d.experiment, &problem);
+  if (!problem.empty()) w.push_back(problem);
   if (d.rule == DecisionRule::lr_residual) w.push_back("decided without prediction or replication: " + d.rule_reason);
   if (d.stopped == DiagnoseStop::max_steps)
     w.push_back(fmt::format("stopped at --max-steps {} with {} still significant; the model is not complete",
@@ -513,30 +535,6 @@ nlohmann::json diagnosis_json(const DiagnoseResult& d, const Experiment& e, cons
   }
   return j;
 }
-
-namespace {
-
-// The source file's [columns] and [csv], so that the written experiment.toml reads the same run
-// files. An experiment built in memory has no source file, and its path may still name one: a
-// Python Experiment's path is its name ("experiment" by default), which may be a directory or
-// any other file in the working directory. So only a regular file is read, and one whose
-// [columns] / [csv] cannot be read gives the defaults with a warning instead of losing the
-// outputs: the Experiment diagnosed, not that file, is what the written file describes.
-RunCsvOptions source_run_file_format(const Experiment& e) {
-  std::error_code ec;
-  if (e.path.empty() || !fs::is_regular_file(e.path, ec)) return {};
-  try {
-    return run_file_format(e.path);
-  } catch (const InputError& err) {
-    std::fprintf(stderr,
-                 "indicial: warning: %s: [columns] and [csv] not read (%s); the diagnosed experiment.toml "
-                 "has the defaults\n",
-                 e.path.c_str(), err.what());
-    return {};
-  }
-}
-
-}  // namespace
 
 std::string diagnosed_experiment_toml(const DiagnoseResult& d) {
   Experiment next = d.experiment;
