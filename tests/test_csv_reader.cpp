@@ -212,6 +212,35 @@ TEST_CASE("a Cm experiment's static table that also has the lift gives diagnose 
   CHECK(indicial::load_experiment(write("cm_only.toml", t)).table_lift_polar.empty());
 }
 
+TEST_CASE("a Cm experiment's stall families take their lift polar from its static table") {
+  // The polar diagnose offers the families with (Experiment::table_lift_polar) is the one the
+  // experiment file's model.stall takes without a model.stall_polar: an experiment diagnose
+  // writes, and one a user writes by hand, mean the same.
+  std::string with_lift = "alpha_deg;Cnormal;Ctangential;Cm\n", cm_only = "alpha_deg;Cm\n";
+  for (int k = 0; k <= 20; ++k) {
+    with_lift += std::to_string(k) + ";" + std::to_string(0.1 * k) + ";0,01;-0,01\n";
+    cm_only += std::to_string(k) + ";-0,01\n";
+  }
+  write("cycle.dat", database_text(database_cycle()));
+  write("static_lift.csv", with_lift);
+  write("static_cm.csv", cm_only);
+  std::string t = experiment("Cm", kMapped);
+  t.replace(t.find("polynomial = [0.1, 5.0]"), 23, "table = \"static_lift.csv\"");
+  t.replace(t.find("a_degree = 1\n"), 13, "a_degree = 1\nstall = \"separation\"\n");
+  const indicial::Experiment e = indicial::load_experiment(write("cm_stall.toml", t));
+  REQUIRE(e.model.stall.polar_lift.size() == 21);
+  CHECK(e.model.stall.polar_lift == e.table_lift_polar.lift);
+  CHECK(e.model.stall.polar_x_rad == e.table_lift_polar.x_rad);
+  CHECK(e.model.stall.polar_path.find("static_lift.csv") != std::string::npos);
+  // The model.stall_polar_column names another column: not the table's lift.
+  std::string other = t;
+  other.replace(other.find("stall = \"separation\"\n"), 21, "stall = \"separation\"\nstall_polar_column = \"CN\"\n");
+  CHECK_HAS(load_error("cm_stall_cn.toml", other), "'model.stall' needs the static lift polar");
+  // A table without the lift: refused, naming the key that gives the polar.
+  t.replace(t.find("static_lift.csv"), 15, "static_cm.csv");
+  CHECK_HAS(load_error("cm_stall_no_lift.toml", t), "'model.stall' needs the static lift polar");
+}
+
 TEST_CASE("a phase column not uniform to its digits: nonuniform with a note, refused when uniform is declared") {
   // 40 digitized phases (deg) at irregular spacing.
   std::string s = "phase_deg,alpha_deg,Cm\n";

@@ -190,10 +190,18 @@ void check_runtime_capacity(const CapacityUse& use, Experiment& e,
 }
 
 bool stall_polar_from_static_table(const Experiment& e, StallConfig& s) {
-  if (e.static_curve.kind != StaticKind::table || e.coefficient != s.polar_column) return false;
-  s.polar_path = e.static_curve.table_path;
-  s.polar_x_rad = e.static_curve.table_x_rad;
-  s.polar_lift = e.static_curve.table_value;
+  if (e.static_curve.kind != StaticKind::table) return false;
+  if (e.coefficient == s.polar_column) {
+    s.polar_path = e.static_curve.table_path;
+    s.polar_x_rad = e.static_curve.table_x_rad;
+    s.polar_lift = e.static_curve.table_value;
+    return true;
+  }
+  // A Cm experiment whose table also has the lift: the polar diagnose offers the families with.
+  if (s.polar_column != "CL" || e.table_lift_polar.empty()) return false;
+  s.polar_path = e.table_lift_polar.path;
+  s.polar_x_rad = e.table_lift_polar.x_rad;
+  s.polar_lift = e.table_lift_polar.lift;
   return true;
 }
 

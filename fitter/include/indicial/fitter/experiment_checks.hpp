@@ -116,8 +116,10 @@ const char* stall_start_key(const std::string& parameter);
 bool stall_start_held(const StallConfig& s, const std::string& start_key);
 
 // The stall families' lift polar when none was given: the static table, when the experiment
-// models the polar's column (s.polar_column). False when that is not so (the caller reports
-// it, naming its own keys for the polar).
+// models the polar's column (s.polar_column), or the table's lift (Experiment::table_lift_polar,
+// a Cm experiment whose table has CL, or Cnormal and Ctangential) when that column is CL: the
+// polar diagnose offers the families with. False when neither is so (the caller reports it,
+// naming its own keys for the polar).
 bool stall_polar_from_static_table(const Experiment& e, StallConfig& s);
 
 // A use of one of the runtime's capacities (indicial::DefaultCapacity): `needed` `what`
