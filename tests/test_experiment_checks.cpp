@@ -160,7 +160,7 @@ TEST_CASE("a held stall parameter's start key: refused beside it, not written, r
 // documented under its own name in docs/formats.md and `indicial init`'s keys (cmd_init.cpp).
 TEST_CASE("the stall start-value table: each key read, bound-checked, written, read back and documented") {
   const std::vector<std::string> documented = {"stall_T1_start", "stall_T2_start", "stall_CN1_start",
-                                               "stall_Tv_start", "stall_Tvl_start"};
+                                               "stall_Tv_start", "stall_Tvl_start", "stall_T1r_start"};
   REQUIRE(stall_starts().size() == documented.size());
   std::ifstream formats_file(std::string(INDICIAL_SOURCE_DIR) + "/docs/formats.md");
   std::stringstream formats_text;
@@ -175,14 +175,20 @@ TEST_CASE("the stall start-value table: each key read, bound-checked, written, r
     CHECK(std::string(st.key) == documented[i]);
     CHECK(std::string(stall_start_key(st.parameter)) == st.key);
     CHECK(formats.find(std::string("`") + st.key + "`") != std::string::npos);
-    const std::string path = indicial::testing::write_text(dir.path / "e.toml", head + st.key + " = 2.25\n");
+    // T1r's start needs its parameter: model.stall_reattachment = "estimated" (refused without).
+    const bool reattach = std::string(st.key) == "stall_T1r_start";
+    if (reattach)
+      CHECK_HAS(load_error(indicial::testing::write_text(dir.path / "e.toml", head + st.key + " = 2.25\n")),
+                "'model.stall_T1r_start' is used only with model.stall_reattachment = \"estimated\"");
+    const std::string head_here = reattach ? head + "stall_reattachment = \"estimated\"\n" : head;
+    const std::string path = indicial::testing::write_text(dir.path / "e.toml", head_here + st.key + " = 2.25\n");
     const Experiment e = load_experiment(path);
     CHECK(e.model.stall.*st.value == 2.25);
     const std::string back = write_experiment_toml(e, {});
     CHECK(back.find(std::string(st.key) + " = 2.25\n") != std::string::npos);
     const std::string again = indicial::testing::write_text(dir.path / "back.toml", back);
     CHECK(load_experiment(again).model.stall.*st.value == 2.25);
-    const std::string bad = indicial::testing::write_text(dir.path / "e.toml", head + st.key + " = -1.0\n");
+    const std::string bad = indicial::testing::write_text(dir.path / "e.toml", head_here + st.key + " = -1.0\n");
     CHECK_HAS(load_error(bad), std::string("'model.") + st.key +
                                    (st.bound == StartBound::non_negative ? "' must be >= 0" : "' must be > 0"));
   }

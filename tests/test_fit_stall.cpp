@@ -203,6 +203,71 @@ TEST_CASE("fit stall families recovers a seeded odeint truth within 3 bounds") {
   CHECK(rc.max_abs_difference < 1e-12);
 }
 
+// model.stall_reattachment = "estimated" (model.hpp's T1r): a truth whose flow reattaches 2.5
+// times slower than it separates (the factor fixed before the fitter was run on it), the same
+// seeded odeint truth otherwise. T1r and T1 are told apart within 3 bounds and the fit reaches
+// the noise; the symmetric model (T1 both ways) fitted to the same cycles cannot.
+TEST_CASE("fit stall families recovers a reattachment time constant of its own") {
+  TruthExperiment te = truth_experiment([](StallModel<double, FitCapacity>& m) {
+    m.separation.tau1_reattach_semichords = 2.5 * m.separation.tau1_semichords;
+  });
+  const auto& p = te.t.cm.stall.separation;
+  Experiment e = te.e;
+  e.model.stall.reattachment = StallReattachment::estimated;
+  FitOptions one_start;  // the configured start (T1r = 3 as T1): one fit, not the grid's 18
+  one_start.stall_start_search = StallStartSearch::configured;
+  const FitResult fit = fit_experiment(e, one_start);
+  CHECK(fit.output_error.termination == Termination::converged);
+  const struct { const char* name; double value; } truth[] = {
+      {"T1", p.tau1_semichords}, {"T1r", p.tau1_reattach_semichords}, {"T2", p.tau2_semichords}};
+  for (const auto& tr : truth) {
+    const ParameterEstimate* est = nullptr;
+    for (const auto& q : fit.parameters)
+      if (q.name == tr.name) est = &q;
+    REQUIRE(est != nullptr);
+    MESSAGE(std::string(tr.name) << " = " << est->value << " +- " << est->cr_bound << ", truth " << tr.value);
+    CHECK(std::abs(est->value - tr.value) < 3.0 * est->cr_bound);
+  }
+  CHECK(std::abs(fit.fit_error / kNoiseSigma - 1.0) < 0.1);
+  CHECK(fit.model.coefficients[0].stall.separation.tau1_reattach_semichords > 0.0);
+  // The coefficient file carries it (sep_reattachment) and the runtime steps it as the fitter.
+  const std::string text = coef_file_text(fit.model, "stall.coef");
+  CHECK(text.find("sep_reattachment ") != std::string::npos);
+  const RuntimeCheck rc = replay_in_runtime(fit, e, text);
+  CHECK(rc.load_status == LoadStatus::ok);
+  CHECK(rc.steps_not_ok == 0);
+  CHECK(rc.max_abs_difference < 1e-12);
+  // One time constant both ways cannot reach the noise on these cycles.
+  const FitResult symmetric = fit_experiment(te.e, one_start);
+  MESSAGE("s(v): T1r estimated " << fit.fit_error << ", T1 both ways " << symmetric.fit_error);
+  CHECK(symmetric.fit_error > 1.2 * kNoiseSigma);
+  CHECK(coef_file_text(symmetric.model, "s.coef").find("sep_reattachment") == std::string::npos);
+}
+
+// The stall start grid scales T1r with T1, so that each of its points with T1r starts as the
+// symmetric model of the same point (fit_stall_starts.cpp).
+TEST_CASE("the stall start grid moves T1r with T1") {
+  fit_detail::UnsteadyStructure s;
+  s.stall.families = StallFamilies::separation_and_vortex;
+  s.stall.reattachment = StallReattachment::estimated;
+  const fit_detail::ParameterLayout L(s, {});
+  ParamId t1, t1r;
+  t1.kind = ParamKind::stall_tau1;
+  t1r.kind = ParamKind::stall_tau1_reattach;
+  const int i1 = L.find(t1), ir = L.find(t1r);
+  REQUIRE(i1 >= 0);
+  REQUIRE(ir >= 0);
+  const Eigen::VectorXd theta0 = Eigen::VectorXd::LinSpaced(L.size(), 1.0, 2.0);
+  const auto grid = fit_detail::stall_start_grid(L, theta0);
+  CHECK(grid.size() == 18);
+  int t1_moved = 0;
+  for (const auto& pt : grid) {
+    CHECK(pt.theta(ir) / theta0(ir) == doctest::Approx(pt.theta(i1) / theta0(i1)));
+    t1_moved += pt.theta(i1) != theta0(i1);
+  }
+  CHECK(t1_moved == 12);
+}
+
 // model.stall_known: T1 and T2 held at the truth's values are not estimated (absent from the
 // estimates, written to the model exactly as given) and the rest is still recovered within 3
 // bounds; held at a wrong value they are still held, and the fit error shows it.
@@ -310,13 +375,29 @@ TEST_CASE("experiment stall keys are read, refused without stall, and written ba
     t << known_back;
   }
   CHECK(load_experiment((dir / "back.toml").string()).model.stall.known == k.model.stall.known);
+  // stall_reattachment = "estimated" (T1r): read, its start and a held value, written back.
+  write_toml("stall = \"separation\"\nstall_reattachment = \"estimated\"\nstall_T1r_start = 8.5\n");
+  const Experiment r = load_experiment((dir / "e.toml").string());
+  CHECK(r.model.stall.reattachment == StallReattachment::estimated);
+  CHECK(r.model.stall.tau1_reattach_start == 8.5);
+  const std::string r_back = write_experiment_toml(r, {});
+  CHECK(r_back.find("stall_reattachment = \"estimated\"") != std::string::npos);
+  CHECK(r_back.find("stall_T1r_start = 8.5") != std::string::npos);
+  CHECK(known_back.find("stall_reattachment") == std::string::npos);  // the default is not written
+  CHECK(known_back.find("stall_T1r_start") == std::string::npos);     // (it would be refused)
+  write_toml("stall = \"separation\"\nstall_reattachment = \"estimated\"\nstall_known = { T1r = 9.0 }\n");
+  CHECK(load_experiment((dir / "e.toml").string()).model.stall.known[0] == std::pair<std::string, double>("T1r", 9.0));
   const struct { const char* model; const char* message; } bad[] = {
       {"stall = \"separation\"\nstall_known = { Tv = 5.0 }\n", "e.toml:12: 'model.stall_known.Tv' is a vortex parameter"},
       {"stall = \"separation\"\nstall_known = { tau1 = 5.0 }\n", "names 'tau1', not a dynamic-stall parameter"},
       {"stall = \"separation\"\nstall_known = { T1 = 0.0 }\n", "'model.stall_known.T1' must be > 0"},
       {"stall = \"separation\"\nstall_known = { T2 = -1.0 }\n", "'model.stall_known.T2' must be >= 0"},
       {"stall = \"separation\"\nstall_T1_start = 2.0\nstall_known = { T1 = 3.0 }\n", "drop one of the two"},
-      {"stall_known = { T1 = 3.0 }\n", "is used only with model.stall"}};
+      {"stall_known = { T1 = 3.0 }\n", "is used only with model.stall"},
+      {"stall = \"separation\"\nstall_known = { T1r = 9.0 }\n", "it needs model.stall_reattachment = \"estimated\""},
+      {"stall = \"separation\"\nstall_T1r_start = 9.0\n", "'model.stall_T1r_start' is used only with"},
+      {"stall = \"separation\"\nstall_reattachment = \"slow\"\n", "model.stall_reattachment"},
+      {"stall_reattachment = \"estimated\"\n", "is used only with model.stall"}};
   for (const auto& b : bad) {
     CAPTURE(b.model);
     write_toml(b.model);

@@ -310,6 +310,18 @@ TEST_CASE("coefficient file: families round-trip byte for byte as version 2, ver
   REQUIRE(indicial::parse_coef_file(sep_text.data(), sep_text.size(), &back, &diag) == LoadStatus::ok);
   CHECK(back.coefficients[0].stall.families == indicial::StallFamilies::separation);
   CHECK(text_of(back) == sep_text);
+  // A reattachment time constant of its own (sep_reattachment) is written and read back; a
+  // model without it (0: T1 both ways) has no such line.
+  CHECK(text.find("sep_reattachment") == std::string::npos);
+  Set reattach = set;
+  reattach.coefficients[1].stall.separation.tau1_reattach_semichords = 8.25;
+  const std::string r_text = text_of(reattach);
+  CHECK(r_text.find("sep_reattachment 8.25\n") != std::string::npos);
+  Set r_back{};
+  REQUIRE(indicial::parse_coef_file(r_text.data(), r_text.size(), &r_back, &diag) == LoadStatus::ok);
+  CHECK(r_back.coefficients[1].stall.separation.tau1_reattach_semichords == 8.25);
+  CHECK(r_back.coefficients[0].stall.separation.tau1_reattach_semichords == 0.0);
+  CHECK(text_of(r_back) == r_text);
 }
 
 TEST_CASE("coefficient file: bad family values are refused with their line and reason") {
@@ -332,6 +344,8 @@ TEST_CASE("coefficient file: bad family values are refused with their line and r
       {"vortex_clock 0.5 1\n", "", LoadStatus::syntax_error, "vortex family needs"},
       {"sep_cp 1 0 0\n", "", LoadStatus::syntax_error, "separation family needs"},
       {"sep_cp 1 0 0\n", "sep_cp 1 0 0\nsep_cp 1 0 0\n", LoadStatus::syntax_error, "key given twice"},
+      {"sep_cp 1 0 0\n", "sep_cp 1 0 0\nsep_reattachment 0\n", LoadStatus::invalid_value, "T1r must be > 0"},
+      {"sep_cp 1 0 0\n", "sep_cp 1 0 0\nsep_reattachment 9 1\n", LoadStatus::syntax_error, ""},
   };
   for (const Case& c : cases) {
     CAPTURE(c.to);

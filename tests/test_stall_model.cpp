@@ -196,8 +196,15 @@ TEST_CASE("advance stall is second order against an odeint integration") {
   mo.mean_rad = 15.0 * kDeg;
   mo.omega_radps = 0.1 / l_over_v;
   const double period = 2.0 * kPi / mo.omega_radps;
-  for (auto fam : {indicial::StallFamilies::separation, indicial::StallFamilies::separation_and_vortex}) {
-    const auto m = test_model<double>(fam);
+  // The third case: a reattachment time constant of its own (T1r = 3 T1, model.hpp): the update
+  // switches its decay at the step where the forcing crosses f, still order 2.
+  struct Case { indicial::StallFamilies fam; double t1r; };
+  for (const Case c : {Case{indicial::StallFamilies::separation, 0.0},
+                       Case{indicial::StallFamilies::separation_and_vortex, 0.0},
+                       Case{indicial::StallFamilies::separation_and_vortex, 9.0}}) {
+    const indicial::StallFamilies fam = c.fam;
+    auto m = test_model<double>(fam);
+    m.separation.tau1_reattach_semichords = c.t1r;
     // The vortex really is shed: the clock passes T_vl and the vortex lift is not small.
     if (fam == indicial::StallFamilies::separation_and_vortex) {
       const auto states = discrete(m, mo, l_over_v, period / 2000, 4000);
@@ -211,8 +218,8 @@ TEST_CASE("advance stall is second order against an odeint integration") {
     }
     std::vector<double> err;
     for (int n : {500, 1000, 2000, 4000}) err.push_back(max_output_error(m, mo, l_over_v, 2 * period / n, n));
-    for (std::size_t i = 0; i < err.size(); ++i) std::printf("stall %s n=%d err %.3e\n",
-        indicial::stall_families_name(fam), 500 << i, err[i]);
+    for (std::size_t i = 0; i < err.size(); ++i) std::printf("stall %s T1r %g n=%d err %.3e\n",
+        indicial::stall_families_name(fam), c.t1r, 500 << i, err[i]);
     CHECK(err.back() < 2e-5);
     // The order over the three halvings: single halvings scatter (2.2 .. 1.5) because the
     // forcing has kinks (the linear f0 table's rows every 0.5 deg, the clipping), where one
@@ -343,6 +350,13 @@ TEST_CASE("check stall parameters names the infeasible models") {
   b = m;
   b.separation.tau2_semichords = -0.1;
   CHECK(indicial::check_stall_parameters(b) == StallCheck::nonpositive_time_constant);
+  b = m;
+  b.separation.tau1_reattach_semichords = -0.5;  // 0 (T1 both ways) and > 0 are feasible
+  CHECK(indicial::check_stall_parameters(b) == StallCheck::nonpositive_time_constant);
+  b.separation.tau1_reattach_semichords = 5.0;
+  CHECK(indicial::check_stall_parameters(b) == StallCheck::valid);
+  b.separation.tau1_reattach_semichords = std::nan("");
+  CHECK(indicial::check_stall_parameters(b) == StallCheck::not_finite);
   b = m;
   b.vortex.travel_semichords = -1.0;
   CHECK(indicial::check_stall_parameters(b) == StallCheck::nonpositive_time_constant);

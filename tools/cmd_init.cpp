@@ -177,9 +177,14 @@ const std::vector<KeyDoc>& key_docs() {
                                               "(stall_f0_correction_powers, stall_f0_correction_knots_deg as for\n"
                                               "a(x); parameters f0c_i, f0cK j). Default none.",
        "stall_f0_correction_degree = 1"},
+      {"model", "stall_reattachment", "with stall: \"estimated\" gives the separation state its own time constant\n"
+                                      "T1r (l / V) while the flow reattaches (the downstroke below stall);\n"
+                                      "default \"as_separation\" (T1 both ways).",
+       "stall_reattachment = \"estimated\""},
       {"model", "stall_known", "with stall: parameters held at known values, not estimated (T1, T2, k0, k1,\n"
-                               "k2; with the vortex CN1, Tv, Tvl, cv, xv), e.g. a C_m fit taking T1 and T2\n"
-                               "from the C_L fit's model.coef. No start value for a held parameter.",
+                               "k2; with the vortex CN1, Tv, Tvl, cv, xv; with stall_reattachment T1r), e.g.\n"
+                               "a C_m fit taking T1 and T2 from the C_L fit's model.coef. No start value for\n"
+                               "a held parameter.",
        "stall_known = { T1 = 3.0, T2 = 1.5 }"},
   });
   return docs;

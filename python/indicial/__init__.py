@@ -157,13 +157,16 @@ class Experiment:
                            attached part (C_Na, alpha_0)
       stall_f0_correction_powers, stall_f0_correction_knots_rad
                            a fitted correction of f0(x): powers of x and (x - k)_+ knots, k in rad
-      stall_T1_start, stall_T2_start, stall_Tv_start, stall_Tvl_start
-                           start values in semichords (units of l / V; default 3, 1.5, 6, 7;
-                           T2 >= 0, the others > 0)
+      stall_reattachment   "as_separation" (default: T1 both ways) or "estimated": the separation
+                           state's own time constant T1r while the flow reattaches
+      stall_T1_start, stall_T2_start, stall_Tv_start, stall_Tvl_start, stall_T1r_start
+                           start values in semichords (units of l / V; default 3, 1.5, 6, 7, 3;
+                           T2 >= 0, the others > 0; stall_T1r_start needs stall_reattachment)
       stall_CN1_start      start value of the shedding threshold (C_N; default from the polar)
       stall_known          {name: value} of stall parameters held at known values, not estimated:
                            T1, T2 (l / V), k0, k1, k2, and with the vortex CN1 (C_N), Tv, Tvl
-                           (l / V), cv, xv; e.g. {"T1": 3.4, "T2": 1.1} from the C_L fit's model
+                           (l / V), cv, xv, with stall_reattachment T1r; e.g. {"T1": 3.4, "T2": 1.1}
+                           from the C_L fit's model
       Every stall_* keyword needs ``stall``. Bad values raise InputError naming the keyword, with
       the experiment file's messages.
     """
@@ -183,7 +186,8 @@ class Experiment:
                  stall_f0_correction_powers: Optional[Sequence[int]] = None, stall_f0_correction_knots_rad=None,
                  stall_T1_start: Optional[float] = None, stall_T2_start: Optional[float] = None,
                  stall_CN1_start: Optional[float] = None, stall_Tv_start: Optional[float] = None,
-                 stall_Tvl_start: Optional[float] = None, stall_known: Optional[Dict[str, float]] = None):
+                 stall_Tvl_start: Optional[float] = None, stall_known: Optional[Dict[str, float]] = None,
+                 stall_reattachment: Optional[str] = None, stall_T1r_start: Optional[float] = None):
         if axis not in _ANGLE:
             raise InputError(f"axis: expected one of 'pitch', 'roll', 'yaw', found '{axis}'")
         config = dict(coefficient=coefficient, reference_length_m=float(reference_length_m),
@@ -205,7 +209,8 @@ class Experiment:
                       else list(stall_f0_correction_powers),
                       stall_f0_correction_knots_rad=stall_f0_correction_knots_rad, stall_T1_start=stall_T1_start,
                       stall_T2_start=stall_T2_start, stall_CN1_start=stall_CN1_start, stall_Tv_start=stall_Tv_start,
-                      stall_Tvl_start=stall_Tvl_start,
+                      stall_Tvl_start=stall_Tvl_start, stall_reattachment=stall_reattachment,
+                      stall_T1r_start=stall_T1r_start,
                       stall_known=None if stall_known is None else dict(stall_known))
         for i, r in enumerate(runs):
             if not isinstance(r, Run):

@@ -240,12 +240,15 @@ void read_stall_keywords(const py::dict& c, Experiment& e) {
       {"stall_polar_alpha_rad", "stall_polar"}, {"stall_polar_lift", "stall_polar"},
       {"stall_polar_column", "stall_polar_column"}, {"stall_attached_max_deg", "stall_attached_max_deg"},
       {"stall_f0_correction_powers", "stall_f0_correction_powers"},
-      {"stall_f0_correction_knots_rad", "stall_f0_correction_knots_deg"}, {"stall_known", "stall_known"}};
+      {"stall_f0_correction_knots_rad", "stall_f0_correction_knots_deg"}, {"stall_known", "stall_known"},
+      {"stall_reattachment", "stall_reattachment"}};
   std::set<std::string> present;
   for (const auto& [keyword, key] : keys)
     if (given(c, keyword)) present.insert(key);
   if (given(c, "stall_polar_column")) s.polar_column = c["stall_polar_column"].cast<std::string>();
   if (given(c, "stall_attached_max_deg")) s.attached_max_deg = c["stall_attached_max_deg"].cast<double>();
+  if (given(c, "stall_reattachment"))
+    s.reattachment = choice<StallReattachment>("stall_reattachment", c["stall_reattachment"].cast<std::string>());
   for (const StallStart& st : stall_starts()) {  // the start values: the file's keys as keywords
     if (!given(c, st.key)) continue;
     present.insert(st.key);

@@ -204,7 +204,8 @@ def test_stall_start_keywords_are_the_one_table():
     (experiment_checks.hpp stall_starts()) the readers, the writer and `indicial init` use."""
     import inspect
     keys = indicial._indicial._stall_start_keys()
-    assert keys == ["stall_T1_start", "stall_T2_start", "stall_CN1_start", "stall_Tv_start", "stall_Tvl_start"]
+    assert keys == ["stall_T1_start", "stall_T2_start", "stall_CN1_start", "stall_Tv_start", "stall_Tvl_start",
+                    "stall_T1r_start"]
     signature = [k for k in inspect.signature(indicial.Experiment.__init__).parameters
                  if k.startswith("stall_") and k.endswith("_start")]
     assert sorted(signature) == sorted(keys)
@@ -214,6 +215,11 @@ def test_each_stall_start_keyword_reaches_the_experiment_file(stall_experiment_k
     for key in indicial._indicial._stall_start_keys():
         kw = dict(stall_experiment_kwargs, stall_known=None)
         kw[key] = 2.25
+        if key == "stall_T1r_start":  # T1r's start needs its parameter, as in the file
+            with pytest.raises(indicial.InputError, match='stall_reattachment = "estimated"'):
+                indicial.Experiment(**kw)
+            kw["stall_reattachment"] = "estimated"
+            assert 'stall_reattachment = "estimated"\n' in indicial.Experiment(**kw).toml_text()
         assert f"{key} = 2.25\n" in indicial.Experiment(**kw).toml_text()
 
 

@@ -218,6 +218,11 @@ void describe_estimates(Scored& s, Effect effect) {
       s.score.detail = fmt::format("T1 = {:.4g}, T2 = {:.4g} (l/V)", estimate_of(f, param_id(ParamKind::stall_tau1), nan),
                                    estimate_of(f, param_id(ParamKind::stall_tau2), nan));
       break;
+    case Effect::slow_reattachment:
+      s.score.detail = fmt::format("T1r = {:.4g}, T1 = {:.4g} (l/V)",
+                                   estimate_of(f, param_id(ParamKind::stall_tau1_reattach), nan),
+                                   estimate_of(f, param_id(ParamKind::stall_tau1), nan));
+      break;
     case Effect::vortex_shedding:
       s.score.detail = fmt::format("CN1 = {:.4g}, Tv = {:.4g}, Tvl = {:.4g} (l/V)",
                                    estimate_of(f, param_id(ParamKind::shedding_threshold), nan),

@@ -210,6 +210,25 @@ void gen_vortex_shedding(const CandidateContext& ctx, std::vector<CandidateSpec>
   stall_candidate(ctx, StallFamilies::separation_and_vortex, Effect::vortex_shedding, out);
 }
 
+// The separation state's own reattachment time constant T1r (model.hpp), on a model that has
+// the families with one time constant both ways: started where it IS that model (T1r = T1's
+// current estimate), so its first fit begins at the base's cost.
+void gen_slow_reattachment(const CandidateContext& ctx, std::vector<CandidateSpec>& out) {
+  const StallConfig& have = ctx.model.stall;
+  if (have.families == StallFamilies::none || have.reattachment == StallReattachment::estimated) return;
+  for (const auto& k : have.known)
+    if (k.first == "T1r") return;
+  CandidateSpec c;
+  c.effect = Effect::slow_reattachment;
+  c.config = ctx.model;
+  c.config.stall.reattachment = StallReattachment::estimated;
+  const double t1 = estimate_of(ctx.base, param_id(ParamKind::stall_tau1), have.tau1_start);
+  c.starts = {{{param_id(ParamKind::stall_tau1_reattach), t1}}};
+  c.term = "T1r";
+  c.detail = "reattachment time constant";
+  out.push_back(c);
+}
+
 // ---- parameter identity -------------------------------------------------------------------
 // Every structural and output parameter of a configuration, with the knot numbers of THAT
 // configuration (what its fit names them).
@@ -298,6 +317,16 @@ const std::vector<EffectEntry>& effect_registry() {
         "deep-stall oscillations at several reduced frequencies: the overshoot and the moment break "
         "move with the convection time Tvl, a separation lag's hysteresis has neither"},
        SplineFamily::none, gen_vortex_shedding},
+      {{Effect::slow_reattachment, "slow_reattachment",
+        "the flow reattaches more slowly than it separates",
+        "the separation state's own time constant T1r while f rises toward f0 (model.stall_reattachment "
+        "= \"estimated\"; coefficient-file sep_reattachment)",
+        "on the downstroke below the static stall angle the lift stays low (and the moment off its "
+        "static value) for longer than the upstroke's separation lag explains, the loop's lower branch "
+        "widening with the reduced frequency",
+        "oscillations through stall at several reduced frequencies and mean angles: the separation "
+        "(upstroke) and the reattachment (downstroke) lags are then told apart"},
+       SplineFamily::none, gen_slow_reattachment},
   };
   // Why: Effect values index this table (effect_entry); a missing or misplaced entry is a bug.
   static const bool checked = [] {

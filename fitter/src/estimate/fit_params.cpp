@@ -61,6 +61,7 @@ std::string parameter_name(const ParamId& id) {
     }
     case ParamKind::stall_tau1: return "T1";
     case ParamKind::stall_tau2: return "T2";
+    case ParamKind::stall_tau1_reattach: return "T1r";
     case ParamKind::f0_power: return "f0c_" + power;
     case ParamKind::f0_knot: return "f0cK" + knot;
     case ParamKind::stall_cp: return "k" + power;
@@ -99,7 +100,8 @@ bool scan_name(NameScanner& c, ParamId& r) {
   if (c.literal("con")) { r.kind = ParamKind::con; return true; }
   // The dynamic-stall names (before the numbered prefixes: "cv" is no gain c{k}).
   struct Whole { const char* text; ParamKind kind; };
-  static const Whole whole[] = {{"T1", ParamKind::stall_tau1},       {"T2", ParamKind::stall_tau2},
+  static const Whole whole[] = {{"T1r", ParamKind::stall_tau1_reattach},
+                                {"T1", ParamKind::stall_tau1},       {"T2", ParamKind::stall_tau2},
                                 {"CN1", ParamKind::shedding_threshold}, {"Tvl", ParamKind::vortex_travel},
                                 {"Tv", ParamKind::vortex_decay},     {"cv", ParamKind::vortex_lift},
                                 {"xv", ParamKind::vortex_cp}};
@@ -224,6 +226,7 @@ std::vector<ParamId> structural_terms(const UnsteadyStructure& s) {
   if (s.stall.families != StallFamilies::none) {
     add_stall(single(ParamKind::stall_tau1));
     add_stall(single(ParamKind::stall_tau2));
+    if (s.stall.reattachment == StallReattachment::estimated) add_stall(single(ParamKind::stall_tau1_reattach));
     add_spline_terms(t, s.stall.f0_correction, ParamKind::f0_power, ParamKind::f0_knot, 0);
     for (int k = 0; k < 3; ++k) {
       ParamId cp = single(ParamKind::stall_cp);

@@ -36,6 +36,7 @@ double interpolate(const std::vector<double>& x, const std::vector<double>& y, d
 StallStructure stall_structure(const StallConfig& c, const std::string& context_file) {
   StallStructure s;
   s.families = c.families;
+  s.reattachment = c.reattachment;
   s.f0_correction.powers = c.f0_correction.powers;
   s.f0_correction.knots_rad = c.f0_correction.knots_rad;
   s.f0_correction.knot_power = c.f0_correction.knot_power;

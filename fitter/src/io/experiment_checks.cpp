@@ -17,20 +17,21 @@ namespace {
 // (docs/formats.md's stall table).
 const char* const kStallKeys[] = {"stall_polar", "stall_polar_column", "stall_attached_max_deg",
                                   "stall_f0_correction_degree", "stall_f0_correction_powers",
-                                  "stall_f0_correction_knots_deg", "stall_known"};
+                                  "stall_f0_correction_knots_deg", "stall_known", "stall_reattachment"};
 
 // The stall parameters stall_known may name, with the feasible set model.hpp's
 // check_stall_parameters enforces (a parameter with a start value: the start's bound, the same
 // set). Their start keys are stall_starts()'s (stall_start_key).
 enum class Bound { any, positive, non_negative };
-enum class Family { separation, vortex };
+enum class Family { separation, reattachment, vortex };
 struct StallParameter { const char* name; Bound bound; Family family; };
 const StallParameter kStallParameters[] = {
     {"T1", Bound::positive, Family::separation},     {"T2", Bound::non_negative, Family::separation},
     {"k0", Bound::any, Family::separation},          {"k1", Bound::any, Family::separation},
     {"k2", Bound::any, Family::separation},          {"CN1", Bound::positive, Family::vortex},
     {"Tv", Bound::positive, Family::vortex},         {"Tvl", Bound::positive, Family::vortex},
-    {"cv", Bound::any, Family::vortex},              {"xv", Bound::any, Family::vortex}};
+    {"cv", Bound::any, Family::vortex},              {"xv", Bound::any, Family::vortex},
+    {"T1r", Bound::positive, Family::reattachment}};
 
 const StallParameter* stall_parameter(const std::string& name) {
   for (const StallParameter& p : kStallParameters)
@@ -46,7 +47,11 @@ void check_stall_known(const StallConfig& s, const std::set<std::string>& given,
     const StallParameter* k = stall_parameter(name);
     if (!k)
       site.raise(key, "'" + site.name("stall_known") + "' names '" + name + "', not a dynamic-stall parameter (T1, "
-                      "T2, k0, k1, k2; with the vortex also CN1, Tv, Tvl, cv, xv)");
+                      "T2, k0, k1, k2; with the vortex also CN1, Tv, Tvl, cv, xv; with stall_reattachment = "
+                      "\"estimated\" also T1r)");
+    if (k->family == Family::reattachment && s.reattachment != StallReattachment::estimated)
+      site.raise(key, "'" + where + "' is the reattachment time constant: it needs " +
+                      site.name("stall_reattachment") + " = \"estimated\"");
     if (k->family == Family::vortex && s.families != StallFamilies::separation_and_vortex)
       site.raise(key, "'" + where + "' is a vortex parameter: it needs " + site.name("stall") +
                       " = \"separation_and_vortex\"");
@@ -147,6 +152,9 @@ void check_stall_keys(const StallConfig& s, const std::set<std::string>& given, 
   check_bound("stall_attached_max_deg", s.attached_max_deg > 0.0 && std::isfinite(s.attached_max_deg),
               StartBound::positive);
   for (const StallStart& st : stall_starts()) check_bound(st.key, start_in_bound(st, s.*st.value), st.bound);
+  if (given.count("stall_T1r_start") && s.reattachment != StallReattachment::estimated)
+    site.raise("stall_T1r_start", "'" + site.name("stall_T1r_start") + "' is used only with " +
+                                      site.name("stall_reattachment") + " = \"estimated\"");
   check_stall_known(s, given, site);
 }
 
@@ -157,7 +165,8 @@ const std::vector<StallStart>& stall_starts() {
       {"stall_CN1_start", "CN1", &StallConfig::shedding_threshold_start, StartBound::positive, "C_N",
        "from the polar, where f0 falls below 0.7", 1.2},
       {"stall_Tv_start", "Tv", &StallConfig::decay_start, StartBound::positive, "l / V", nullptr, 6.0},
-      {"stall_Tvl_start", "Tvl", &StallConfig::travel_start, StartBound::positive, "l / V", nullptr, 7.0}};
+      {"stall_Tvl_start", "Tvl", &StallConfig::travel_start, StartBound::positive, "l / V", nullptr, 7.0},
+      {"stall_T1r_start", "T1r", &StallConfig::tau1_reattach_start, StartBound::positive, "l / V", nullptr, 3.0}};
   return starts;
 }
 

@@ -533,7 +533,7 @@ std::set<std::string> model_keys() {
                                 // the dynamic-stall families (issue 22)
                                 "stall", "stall_polar", "stall_polar_column", "stall_attached_max_deg",
                                 "stall_f0_correction_degree", "stall_f0_correction_powers",
-                                "stall_f0_correction_knots_deg", "stall_known"};
+                                "stall_f0_correction_knots_deg", "stall_known", "stall_reattachment"};
   for (const StallStart& st : stall_starts()) keys.insert(st.key);
   for (int k = 1; k <= FitCapacity::max_lags; ++k)
     for (const std::string& key : lag_b_keys(k)) keys.insert(key);
@@ -642,6 +642,8 @@ void read_stall_keys(LoadContext& c, const toml::node* model_node, Experiment& e
   StallConfig& s = e.model.stall;
   const toml::node* fam = mt.get("stall");
   if (fam) s.families = r.choice<StallFamilies>(*fam, "model.stall");
+  if (const toml::node* n = mt.get("stall_reattachment"))
+    s.reattachment = r.choice<StallReattachment>(*n, "model.stall_reattachment");
   std::set<std::string> given;
   for (auto&& [key, value] : mt)
     if (key.str().rfind("stall_", 0) == 0) given.insert(std::string(key.str()));
@@ -1036,14 +1038,19 @@ std::string write_experiment_toml(const Experiment& e, const std::vector<std::st
       out += "stall_polar = " + toml_string(st.polar_path) + "\n";
     out += "stall_polar_column = " + toml_string(st.polar_column) + "\n";
     out += "stall_attached_max_deg = " + format_double(st.attached_max_deg) + "\n";
+    if (st.reattachment != StallReattachment::as_separation)
+      out += std::string("stall_reattachment = \"") + name_of(st.reattachment) + "\"\n";
     if (!st.f0_correction.powers.empty()) out += power_terms("stall_f0_correction", st.f0_correction.powers);
     if (!st.f0_correction.knots_rad.empty())
       out += "stall_f0_correction_knots_deg = " + number_list(st.f0_correction.knots_rad, kRadToDeg) + "\n";
     // A held parameter (stall_known) has no start value: the reader refuses both together. A
     // value outside the start's feasible set is "not set" (CN1's 0: from the polar).
-    for (const StallStart& start : stall_starts())
-      if (start_in_bound(start, st.*start.value) && !stall_start_held(st, start.key))
+    for (const StallStart& start : stall_starts()) {
+      const bool unused = start.value == &StallConfig::tau1_reattach_start &&
+                          st.reattachment != StallReattachment::estimated;  // refused there
+      if (!unused && start_in_bound(start, st.*start.value) && !stall_start_held(st, start.key))
         out += std::string(start.key) + " = " + format_double(st.*start.value) + "\n";
+    }
     if (!st.known.empty()) {
       std::string list;
       for (const auto& [name, value] : st.known) list += (list.empty() ? "" : ", ") + name + " = " + format_double(value);

@@ -333,6 +333,7 @@ enum SeenBit : unsigned {
   seen_vortex_time = 1u << 20,
   seen_vortex_clock = 1u << 21,
   seen_vortex_output = 1u << 22,
+  seen_sep_reattach = 1u << 23,
   seen_lag_poly0 = 1u << 16,  // + j for lag j (up to 4 lags)
   seen_lag_gain0 = 1u << 24,  // + j
 };
@@ -609,6 +610,14 @@ inline KeyRead read_sep_time(CoefficientModel<double, Cap>& cm, Tokens& t, int*)
   return read_ruled(t, rules, {&p.tau1_semichords, &p.tau2_semichords}, seen_sep_time);
 }
 
+// `sep_reattachment T1r` (optional; semichord times l / V): the separation state's time
+// constant while the flow reattaches. Without the key T1r is 0: T1 both ways.
+template <class Cap>
+inline KeyRead read_sep_reattach(CoefficientModel<double, Cap>& cm, Tokens& t, int*) {
+  static constexpr ValueRule rules[1] = {{ValueRule::Kind::positive, "sep_reattachment: T1r must be > 0"}};
+  return read_ruled(t, rules, {&cm.stall.separation.tau1_reattach_semichords}, seen_sep_reattach);
+}
+
 // `sep_cp k0 k1 k2`: the centre-of-pressure shape of the output.
 template <class Cap>
 inline KeyRead read_sep_cp(CoefficientModel<double, Cap>& cm, Tokens& t, int*) {
@@ -676,6 +685,7 @@ inline const BlockKey<Cap>* find_block_key(const char* b, const char* e) {
       {"sep_f0_corr_poly", &read_sep_f0_corr<Cap, SplineItem::poly>, coef_file_version_stall},
       {"sep_f0_corr_knot", &read_sep_f0_corr<Cap, SplineItem::knot>, coef_file_version_stall},
       {"sep_time_constants", &read_sep_time<Cap>, coef_file_version_stall},
+      {"sep_reattachment", &read_sep_reattach<Cap>, coef_file_version_stall},
       {"sep_cp", &read_sep_cp<Cap>, coef_file_version_stall},
       {"vortex_shedding", &read_vortex<Cap, VortexItem::shedding>, coef_file_version_stall},
       {"vortex_time_constants", &read_vortex<Cap, VortexItem::time_constants>, coef_file_version_stall},
@@ -757,7 +767,7 @@ inline LoadStatus stall_families_of_block(unsigned seen, CoefficientModel<double
                                           std::size_t line, ParseDiagnostic* diag) {
   const unsigned sep_required = seen_sep_polar | seen_sep_time | seen_sep_cp;
   const unsigned vortex_all = seen_vortex_shedding | seen_vortex_time | seen_vortex_clock | seen_vortex_output;
-  const bool any_sep = (seen & (sep_required | seen_sep_corr_poly)) != 0 ||
+  const bool any_sep = (seen & (sep_required | seen_sep_corr_poly | seen_sep_reattach)) != 0 ||
                        cm->stall.separation.n_f0 > 0 || cm->stall.separation.f0_correction.n_knots > 0;
   const bool any_vortex = (seen & vortex_all) != 0;
   if (!any_sep && !any_vortex) return LoadStatus::ok;
@@ -1072,6 +1082,7 @@ inline void write_stall_families(Sink& s, const StallModel<double, Cap>& st) {
   for (int i = 0; i < sep.n_f0; ++i) write_values(s, "sep_f0_point", {sep.f0_x_rad[i], sep.f0_value[i]});
   write_spline(s, sep.f0_correction, "sep_f0_corr_poly", "sep_f0_corr_knot", 0);
   write_values(s, "sep_time_constants", {sep.tau1_semichords, sep.tau2_semichords});
+  if (sep.tau1_reattach_semichords > 0.0) write_values(s, "sep_reattachment", {sep.tau1_reattach_semichords});
   write_values(s, "sep_cp", {sep.cp_k0, sep.cp_k1, sep.cp_k2});
   if (st.families != StallFamilies::separation_and_vortex) return;
   const auto& v = st.vortex;

@@ -433,7 +433,7 @@ inline bool convert_stall(const StallModel<double, Cap>& a, StallModel<Scalar, C
   const auto& sa = a.separation;
   auto& sb = b.separation;
   const double values[] = {sa.normal_force_slope_per_rad, sa.zero_lift_angle_rad, sa.tau1_semichords,
-                           sa.tau2_semichords, sa.cp_k0, sa.cp_k1, sa.cp_k2,
+                           sa.tau2_semichords, sa.cp_k0, sa.cp_k1, sa.cp_k2, sa.tau1_reattach_semichords,
                            a.vortex.shedding_threshold, a.vortex.decay_semichords,
                            a.vortex.travel_semichords, a.vortex.lift_gain, a.vortex.cp_travel};
   bool ok = true;
@@ -448,6 +448,7 @@ inline bool convert_stall(const StallModel<double, Cap>& a, StallModel<Scalar, C
   ok = convert_spline(sa.f0_correction, &sb.f0_correction) && ok;
   sb.tau1_semichords = static_cast<Scalar>(sa.tau1_semichords);
   sb.tau2_semichords = static_cast<Scalar>(sa.tau2_semichords);
+  sb.tau1_reattach_semichords = static_cast<Scalar>(sa.tau1_reattach_semichords);
   sb.cp_k0 = static_cast<Scalar>(sa.cp_k0);
   sb.cp_k1 = static_cast<Scalar>(sa.cp_k1);
   sb.cp_k2 = static_cast<Scalar>(sa.cp_k2);

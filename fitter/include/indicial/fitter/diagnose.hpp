@@ -91,8 +91,8 @@ namespace indicial {
 // signature, the experiment that separates it, its candidate generator); the count, --help
 // list and report descriptions come from there.
 enum class Effect { b1_alpha, a_alpha, rotary_alpha, bias, time_delay, second_lag, static_error,
-                    separation_lag, vortex_shedding };
-inline constexpr int effect_count = 9;  // the registry checks it has exactly this many entries
+                    separation_lag, vortex_shedding, slow_reattachment };
+inline constexpr int effect_count = 10;  // the registry checks it has exactly this many entries
 
 struct EffectDescription {
   Effect effect = Effect::bias;

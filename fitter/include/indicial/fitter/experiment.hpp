@@ -100,6 +100,11 @@ enum class DelayEstimation { none, estimated };
 // for a run that does not).
 enum class LagStart { estimated, at_rest };
 
+// Whether the separation state has a time constant of its own while the flow reattaches (T1r,
+// model.hpp): as_separation (T1 both ways, the default) or estimated ([model]
+// stall_reattachment = "estimated"; diagnose's slow_reattachment).
+enum class StallReattachment { as_separation, estimated };
+
 // The dynamic-stall families of one coefficient (issue 22; model.hpp's "Dynamic stall"). [model]
 // keys stall, stall_polar, stall_polar_column, stall_attached_max_deg,
 // stall_f0_correction_{degree,powers,knots_deg}, stall_{T1,T2,CN1,Tv,Tvl}_start (docs/formats.md).
@@ -118,6 +123,8 @@ struct StallConfig {
   // Beddoes-Leishman NACA 0012 constants. A start is scaled by l / V because the parameters are.
   double tau1_start = 3.0;
   double tau2_start = 1.5;
+  double tau1_reattach_start = 3.0;       // T1r (with reattachment = estimated): T1's start
+  StallReattachment reattachment = StallReattachment::as_separation;
   double shedding_threshold_start = 0.0;  // 0: from the polar (stall_polar.cpp)
   double decay_start = 6.0;
   double travel_start = 7.0;

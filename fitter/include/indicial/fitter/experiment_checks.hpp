@@ -100,7 +100,7 @@ struct StallStart {
   double example;              // a typical value (`indicial init`'s commented-out line)
 };
 
-// The one table of the start-value keys, in docs/formats.md's order: T1, T2, CN1, Tv, Tvl.
+// The one table of the start-value keys, in docs/formats.md's order: T1, T2, CN1, Tv, Tvl, T1r.
 const std::vector<StallStart>& stall_starts();
 
 // Whether v is in the start value's feasible set. A default outside it is "not set" (CN1's 0:

@@ -66,6 +66,8 @@ inline constexpr std::array<NamedValue<LagStart>, 2> lag_start_names{
 inline constexpr std::array<NamedValue<StallFamilies>, 3> stall_families_names{
     {{"none", StallFamilies::none}, {"separation", StallFamilies::separation},
      {"separation_and_vortex", StallFamilies::separation_and_vortex}}};
+inline constexpr std::array<NamedValue<StallReattachment>, 2> stall_reattachment_names{
+    {{"as_separation", StallReattachment::as_separation}, {"estimated", StallReattachment::estimated}}};
 inline constexpr std::array<NamedValue<TimeGrid>, 2> time_grid_names{
     {{"uniform", TimeGrid::uniform}, {"nonuniform", TimeGrid::nonuniform}}};
 
@@ -80,6 +82,7 @@ inline constexpr const auto& names_of(DelayEstimation) { return delay_estimation
 inline constexpr const auto& names_of(LagStart) { return lag_start_names; }
 inline constexpr const auto& names_of(TimeGrid) { return time_grid_names; }
 inline constexpr const auto& names_of(StallFamilies) { return stall_families_names; }
+inline constexpr const auto& names_of(StallReattachment) { return stall_reattachment_names; }
 
 // The file's name of `value` (e.g. "stepwise").
 template <class E>

@@ -252,7 +252,8 @@ enum class ParamKind {
   stall_cp,                   // k0, k1, k2 of h(f): `power` is the index (k0, k1, k2)
   shedding_threshold,         // C_N1 (CN1)
   vortex_decay, vortex_travel,  // T_v, T_vl in l / V (Tv, Tvl)
-  vortex_lift, vortex_cp      // c_v, x_v (cv, xv)
+  vortex_lift, vortex_cp,     // c_v, x_v (cv, xv)
+  stall_tau1_reattach         // T1r in l / V: f's time constant while reattaching (T1r)
 };
 
 struct ParamId {
