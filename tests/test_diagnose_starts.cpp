@@ -96,3 +96,70 @@ TEST_CASE("diagnose starts: the usable fit of lowest error is kept, whichever st
     CHECK(best.fit.fit_error == 0.0500);
   }
 }
+
+TEST_CASE("diagnose starts: slow_reattachment on a model with the families, started at T1r = T1") {
+  ModelConfig model;
+  for (int i = -6; i <= 6; ++i) {
+    model.stall.polar_x_rad.push_back(0.05 * i);
+    model.stall.polar_lift.push_back(2.0 * M_PI * 0.05 * i / (1.0 + 4.0 * 0.0025 * i * i));
+  }
+  const Experiment e;
+  FitResult base;
+  ParameterEstimate t1;
+  t1.id = param_id(ParamKind::stall_tau1);
+  t1.value = 4.25;
+  base.parameters.push_back(t1);
+  const std::vector<double> grid = {0.1, 0.2};
+  // Without the families: not offered (nothing to reattach).
+  {
+    const std::vector<CandidateSpec> specs = all_candidates(CandidateContext{e, model, base, grid, 0.1});
+    CHECK(std::none_of(specs.begin(), specs.end(), [](const CandidateSpec& c) { return c.effect == Effect::slow_reattachment; }));
+  }
+  model.stall.families = StallFamilies::separation;
+  const std::vector<CandidateSpec> specs = all_candidates(CandidateContext{e, model, base, grid, 0.1});
+  const auto it = std::find_if(specs.begin(), specs.end(),
+                               [](const CandidateSpec& c) { return c.effect == Effect::slow_reattachment; });
+  REQUIRE(it != specs.end());
+  CHECK(it->config.stall.reattachment == StallReattachment::estimated);
+  const std::vector<StartValues> starts = candidate_starts(*it, {{t1.id, 4.25}}, 1);
+  REQUIRE(starts.size() == 1);
+  const ParamId t1r = param_id(ParamKind::stall_tau1_reattach);
+  CHECK(std::find(starts[0].begin(), starts[0].end(), std::make_pair(t1r, 4.25)) != starts[0].end());
+  // Already estimated, or held by stall_known: not offered again.
+  ModelConfig has = model;
+  has.stall.reattachment = StallReattachment::estimated;
+  const std::vector<CandidateSpec> has_specs = all_candidates(CandidateContext{e, has, base, grid, 0.1});
+  CHECK(std::none_of(has_specs.begin(), has_specs.end(),
+                     [](const CandidateSpec& c) { return c.effect == Effect::slow_reattachment; }));
+  ModelConfig held = model;
+  held.stall.known = {{"T1r", 9.0}};
+  const std::vector<CandidateSpec> held_specs = all_candidates(CandidateContext{e, held, base, grid, 0.1});
+  CHECK(std::none_of(held_specs.begin(), held_specs.end(),
+                     [](const CandidateSpec& c) { return c.effect == Effect::slow_reattachment; }));
+}
+
+// The measured case (docs/validation-real.md `means` C_m): from its configured starts the
+// vortex candidate ended at 0.0680, above its base's 0.0568, a local minimum of a model that
+// nests the base; it is then fitted again from the start grid.
+TEST_CASE("diagnose starts: a stall candidate not below its base is refitted from the start grid") {
+  const FitResult base = made_up_fit(0.0568);
+  CandidateFit above;
+  above.status = CandidateStatus::fitted;
+  above.fit = made_up_fit(0.0680);
+  CandidateFit below = above;
+  below.fit.fit_error = 0.0400;
+  CandidateFit failed;  // no usable start
+  const StallStartSearch configured = StallStartSearch::configured, grid = StallStartSearch::grid;
+  for (Effect effect : {Effect::separation_lag, Effect::vortex_shedding}) {
+    INFO(effect_name(effect));
+    CHECK(stall_grid_retry_needed(effect, above, base, configured));
+    CHECK(stall_grid_retry_needed(effect, failed, base, configured));
+    CHECK_FALSE(stall_grid_retry_needed(effect, below, base, configured));
+    CHECK_FALSE(stall_grid_retry_needed(effect, above, base, grid));  // the grid already ran
+  }
+  CandidateFit equal = above;
+  equal.fit.fit_error = base.fit_error;  // at the base: no better than it, retried
+  CHECK(stall_grid_retry_needed(Effect::vortex_shedding, equal, base, configured));
+  for (Effect effect : {Effect::b1_alpha, Effect::time_delay, Effect::slow_reattachment})
+    CHECK_FALSE(stall_grid_retry_needed(effect, above, base, configured));
+}

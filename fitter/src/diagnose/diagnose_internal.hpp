@@ -112,6 +112,11 @@ struct CandidateFit {
 };
 using StartFit = std::function<FitResult(const StartValues&)>;
 CandidateFit best_usable_fit(const std::vector<StartValues>& starts, const StartFit& fit);
+// Whether a stall family's candidate (separation_lag, vortex_shedding) fitted from its
+// configured starts (`search` == configured) is fitted again from the start grid: when its best
+// fit is not below the base's error, which a candidate that nests the base reaches only at a
+// local minimum (or when no start gave a usable fit). Diagnoser::evaluate; docs/diagnose.md.
+bool stall_grid_retry_needed(Effect effect, const CandidateFit& best, const FitResult& base, StallStartSearch search);
 // The value of parameter `id` in a fit, or `fallback`.
 double estimate_of(const FitResult& r, const ParamId& id, double fallback);
 

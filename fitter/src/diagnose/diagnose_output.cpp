@@ -56,6 +56,7 @@ nlohmann::json candidate_json(const CandidateScore& c) {
     j["p_value"] = c.p_value;
     j["log10_p_value"] = finite_or_null(c.log10_p);
     j["delta_bic"] = finite_or_null(c.delta_bic);
+    if (!c.message.empty()) j["message"] = c.message;  // e.g. a stall family refitted from the grid
   } else {
     j["message"] = c.message;
   }
