@@ -173,6 +173,27 @@ TEST_CASE("the generated dynamic-stall header runs bit for bit like the text fil
   CHECK(run("coef check \"" + std::string(INDICIAL_SOURCE_DIR) + "/examples/dynamic-stall-lift-moment.coef\"",
             &out) == 0);
   CHECK(out.find("dynamic stall: separation_and_vortex; f0 table of 27 rows") != std::string::npos);
+  // A reattachment time constant of its own (sep_reattachment) is emitted, and named by
+  // `coef check`; the example has none, so its header has no such line.
+  {
+    indicial::ModelSet<double, indicial::DefaultCapacity> set{};
+    indicial::ParseDiagnostic diag;
+    REQUIRE(indicial::parse_coef_file(text.data(), text.size(), &set, &diag) == indicial::LoadStatus::ok);
+    set.coefficients[1].stall.separation.tau1_reattach_semichords = 9.5;
+    static char buffer[65536];
+    std::size_t n = 0;
+    REQUIRE(indicial::write_coef_file(set, buffer, sizeof buffer, &n) == indicial::WriteStatus::ok);
+    const indicial::testing::TempDir scratch("codegen-reattachment");
+    const std::string coef = (scratch.path / "r.coef").string(), header = (scratch.path / "r.hpp").string();
+    indicial::write_file_atomically(coef, std::string(buffer, n), indicial::Overwrite::refuse);
+    CHECK(run("codegen \"" + coef + "\" --out \"" + header + "\"", &out) == 0);
+    std::ifstream h(header);
+    std::stringstream generated;
+    generated << h.rdbuf();
+    CHECK(generated.str().find(".separation.tau1_reattach_semichords = 9.5") != std::string::npos);
+    CHECK(run("coef check \"" + coef + "\"", &out) == 0);
+    CHECK(out.find("T1r 9.5 (reattaching)") != std::string::npos);
+  }
   // A changed family parameter is caught by the check (the step constants say families).
   auto changed = dynamic_stall_lift_moment;
   changed.stall = indicial::StallUse::none;

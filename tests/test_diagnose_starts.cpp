@@ -125,16 +125,21 @@ TEST_CASE("diagnose starts: slow_reattachment on a model with the families, star
   REQUIRE(starts.size() == 1);
   const ParamId t1r = param_id(ParamKind::stall_tau1_reattach);
   CHECK(std::find(starts[0].begin(), starts[0].end(), std::make_pair(t1r, 4.25)) != starts[0].end());
-  // Already estimated, or held by stall_known: not offered again.
+  // T1 held by stall_known (a C_m taking the C_L fit's T1): T1r starts at the held value.
+  ModelConfig held = model;
+  held.stall.known = {{"T1", 5.5}};
+  const std::vector<CandidateSpec> held_specs = all_candidates(CandidateContext{e, held, base, grid, 0.1});
+  const auto h = std::find_if(held_specs.begin(), held_specs.end(),
+                              [](const CandidateSpec& c) { return c.effect == Effect::slow_reattachment; });
+  REQUIRE(h != held_specs.end());
+  const std::vector<StartValues> held_starts = candidate_starts(*h, {}, 1);
+  REQUIRE(held_starts.size() == 1);
+  CHECK(std::find(held_starts[0].begin(), held_starts[0].end(), std::make_pair(t1r, 5.5)) != held_starts[0].end());
+  // Already estimated: not offered again.
   ModelConfig has = model;
   has.stall.reattachment = StallReattachment::estimated;
   const std::vector<CandidateSpec> has_specs = all_candidates(CandidateContext{e, has, base, grid, 0.1});
   CHECK(std::none_of(has_specs.begin(), has_specs.end(),
-                     [](const CandidateSpec& c) { return c.effect == Effect::slow_reattachment; }));
-  ModelConfig held = model;
-  held.stall.known = {{"T1r", 9.0}};
-  const std::vector<CandidateSpec> held_specs = all_candidates(CandidateContext{e, held, base, grid, 0.1});
-  CHECK(std::none_of(held_specs.begin(), held_specs.end(),
                      [](const CandidateSpec& c) { return c.effect == Effect::slow_reattachment; }));
 }
 

@@ -160,8 +160,9 @@ class Experiment:
       stall_reattachment   "as_separation" (default: T1 both ways) or "estimated": the separation
                            state's own time constant T1r while the flow reattaches
       stall_T1_start, stall_T2_start, stall_Tv_start, stall_Tvl_start, stall_T1r_start
-                           start values in semichords (units of l / V; default 3, 1.5, 6, 7, 3;
-                           T2 >= 0, the others > 0; stall_T1r_start needs stall_reattachment)
+                           start values in semichords (units of l / V; default 3, 1.5, 6, 7 and for
+                           T1r T1's start; T2 >= 0, the others > 0; stall_T1r_start needs
+                           stall_reattachment)
       stall_CN1_start      start value of the shedding threshold (C_N; default from the polar)
       stall_known          {name: value} of stall parameters held at known values, not estimated:
                            T1, T2 (l / V), k0, k1, k2, and with the vortex CN1 (C_N), Tv, Tvl

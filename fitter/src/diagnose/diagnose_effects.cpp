@@ -216,13 +216,14 @@ void gen_vortex_shedding(const CandidateContext& ctx, std::vector<CandidateSpec>
 void gen_slow_reattachment(const CandidateContext& ctx, std::vector<CandidateSpec>& out) {
   const StallConfig& have = ctx.model.stall;
   if (have.families == StallFamilies::none || have.reattachment == StallReattachment::estimated) return;
-  for (const auto& k : have.known)
-    if (k.first == "T1r") return;
   CandidateSpec c;
   c.effect = Effect::slow_reattachment;
   c.config = ctx.model;
   c.config.stall.reattachment = StallReattachment::estimated;
-  const double t1 = estimate_of(ctx.base, param_id(ParamKind::stall_tau1), have.tau1_start);
+  // T1 held by stall_known (e.g. a C_m taking the C_L fit's) is no estimate: its held value.
+  double t1 = estimate_of(ctx.base, param_id(ParamKind::stall_tau1), have.tau1_start);
+  for (const auto& k : have.known)
+    if (k.first == "T1") t1 = k.second;
   c.starts = {{{param_id(ParamKind::stall_tau1_reattach), t1}}};
   c.term = "T1r";
   c.detail = "reattachment time constant";

@@ -166,7 +166,8 @@ const std::vector<StallStart>& stall_starts() {
        "from the polar, where f0 falls below 0.7", 1.2},
       {"stall_Tv_start", "Tv", &StallConfig::decay_start, StartBound::positive, "l / V", nullptr, 6.0},
       {"stall_Tvl_start", "Tvl", &StallConfig::travel_start, StartBound::positive, "l / V", nullptr, 7.0},
-      {"stall_T1r_start", "T1r", &StallConfig::tau1_reattach_start, StartBound::positive, "l / V", nullptr, 3.0}};
+      {"stall_T1r_start", "T1r", &StallConfig::tau1_reattach_start, StartBound::positive, "l / V",
+       "T1's start (stall_T1_start); only with stall_reattachment = \"estimated\"", 8.0}};
   return starts;
 }
 

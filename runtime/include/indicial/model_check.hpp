@@ -142,7 +142,7 @@ inline const char* stall_check_reason(StallCheck c) {
   switch (c) {
     case StallCheck::valid: return "";
     case StallCheck::nonpositive_time_constant:
-      return "dynamic stall: every time constant, width and reset time must be > 0 (T2 >= 0)";
+      return "dynamic stall: every time constant, width and reset time must be > 0 (T2 >= 0; T1r >= 0, 0: T1 both ways)";
     case StallCheck::nonpositive_threshold: return "vortex_shedding: C_N1 must be > 0";
     case StallCheck::bad_separation_table:
       return "sep_f0_point: at least 2 rows, x_rad strictly increasing, f0 in [0, 1]";

@@ -1284,10 +1284,12 @@ inline void lag_derivatives(const CoefficientModel<Scalar, Cap>& m, const Scalar
 //   reattachment of the downstroke (Beddoes-Leishman lengthen T_f there too). The right-hand
 //   side (f0c - f) / T stays continuous where the two meet (both are 0 at f = f0c). T1r = 0:
 //   one time constant both ways (the default). Measured on the Glasgow fit cycles of
-//   tools/validate_stall.py (C_L, extended model, one start): T1r = 4 T1 held lowered the fit
-//   error 0.1066 -> 0.1051 and the held-out RMS against the Beddoes-Leishman peer 0.83x ->
-//   0.78x (light stall 1.06x -> 0.87x); for C_m it raised both, so T1r is a fitted parameter
-//   of its own (model.stall_reattachment = "estimated"), not a fixed ratio.
+//   tools/validate_stall.py (the extended model, the start grid): for C_L T1r fitted to 10.8
+//   against T1 = 2.7, the fit error 0.1066 -> 0.1051 and the held-out RMS against the
+//   Beddoes-Leishman peer 0.83x -> 0.78x (light stall 1.06x -> 0.87x; a first trial with
+//   T1r = 4 T1 held, one start, gave the same); for C_m the fit with T1r ended higher (0.0342
+//   against 0.0312) and held-out worse (0.79x against 0.74x). Hence a parameter of its own
+//   (model.stall_reattachment = "estimated", diagnose's slow_reattachment), not a fixed ratio.
 //   f0c(x) = clip_[0,1]( f0(x) + df0(x) )      f0: the static table, df0: a fitted spline
 //   N(x)   = C_Na (x - alpha_0)                the attached normal force (a line)
 //   K(f)   = ((1 + sqrt f) / 2)^2              Kirchhoff's flow factor

@@ -123,7 +123,7 @@ struct StallConfig {
   // Beddoes-Leishman NACA 0012 constants. A start is scaled by l / V because the parameters are.
   double tau1_start = 3.0;
   double tau2_start = 1.5;
-  double tau1_reattach_start = 3.0;       // T1r (with reattachment = estimated): T1's start
+  double tau1_reattach_start = 0.0;       // T1r (with reattachment = estimated); 0: T1's start
   StallReattachment reattachment = StallReattachment::as_separation;
   double shedding_threshold_start = 0.0;  // 0: from the polar (stall_polar.cpp)
   double decay_start = 6.0;
