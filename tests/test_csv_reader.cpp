@@ -91,6 +91,22 @@ bool any_has(const std::vector<std::string>& v, const std::string& s) {
   return false;
 }
 
+// A database cycle, two static tables (static_lift.csv with Cnormal, Ctangential and Cm;
+// static_cm.csv with Cm only) and a Cm experiment whose [static] table is static_lift.csv.
+std::string cm_experiment_with_lift_table() {
+  std::string with_lift = "alpha_deg;Cnormal;Ctangential;Cm\n", cm_only = "alpha_deg;Cm\n";
+  for (int k = 0; k <= 20; ++k) {
+    with_lift += std::to_string(k) + ";" + std::to_string(0.1 * k) + ";0,01;-0,01\n";
+    cm_only += std::to_string(k) + ";-0,01\n";
+  }
+  write("cycle.dat", database_text(database_cycle()));
+  write("static_lift.csv", with_lift);
+  write("static_cm.csv", cm_only);
+  std::string t = experiment("Cm", kMapped);
+  t.replace(t.find("polynomial = [0.1, 5.0]"), 23, "table = \"static_lift.csv\"");
+  return t;
+}
+
 }  // namespace
 
 TEST_CASE("a database cycle: % header, whitespace, mapped phase and angle, CL and CD derived from Cn and Ct") {
@@ -192,16 +208,7 @@ TEST_CASE("a static table of normal and chord force gives CL") {
 }
 
 TEST_CASE("a Cm experiment's static table that also has the lift gives diagnose its lift polar") {
-  std::string with_lift = "alpha_deg;Cnormal;Ctangential;Cm\n", cm_only = "alpha_deg;Cm\n";
-  for (int k = 0; k <= 20; ++k) {
-    with_lift += std::to_string(k) + ";" + std::to_string(0.1 * k) + ";0,01;-0,01\n";
-    cm_only += std::to_string(k) + ";-0,01\n";
-  }
-  write("cycle.dat", database_text(database_cycle()));
-  write("static_lift.csv", with_lift);
-  write("static_cm.csv", cm_only);
-  std::string t = experiment("Cm", kMapped);
-  t.replace(t.find("polynomial = [0.1, 5.0]"), 23, "table = \"static_lift.csv\"");
+  std::string t = cm_experiment_with_lift_table();
   const indicial::Experiment e = indicial::load_experiment(write("cm_lift.toml", t));
   REQUIRE(e.table_lift_polar.x_rad.size() == 21);
   const double a = 7 * kPi / 180;
@@ -216,16 +223,7 @@ TEST_CASE("a Cm experiment's stall families take their lift polar from its stati
   // The polar diagnose offers the families with (Experiment::table_lift_polar) is the one the
   // experiment file's model.stall takes without a model.stall_polar: an experiment diagnose
   // writes, and one a user writes by hand, mean the same.
-  std::string with_lift = "alpha_deg;Cnormal;Ctangential;Cm\n", cm_only = "alpha_deg;Cm\n";
-  for (int k = 0; k <= 20; ++k) {
-    with_lift += std::to_string(k) + ";" + std::to_string(0.1 * k) + ";0,01;-0,01\n";
-    cm_only += std::to_string(k) + ";-0,01\n";
-  }
-  write("cycle.dat", database_text(database_cycle()));
-  write("static_lift.csv", with_lift);
-  write("static_cm.csv", cm_only);
-  std::string t = experiment("Cm", kMapped);
-  t.replace(t.find("polynomial = [0.1, 5.0]"), 23, "table = \"static_lift.csv\"");
+  std::string t = cm_experiment_with_lift_table();
   t.replace(t.find("a_degree = 1\n"), 13, "a_degree = 1\nstall = \"separation\"\n");
   const indicial::Experiment e = indicial::load_experiment(write("cm_stall.toml", t));
   REQUIRE(e.model.stall.polar_lift.size() == 21);

@@ -159,6 +159,22 @@ TruthExperiment truth_experiment(const std::function<void(StallModel<double, Fit
 
   return te;
 }
+
+// Each named estimate of `fit` within 3 Cramer-Rao bounds of its true value.
+struct TruthValue {
+  const char* name;
+  double value;
+};
+void check_within_3_bounds(const FitResult& fit, const std::vector<TruthValue>& truth) {
+  for (const TruthValue& tr : truth) {
+    const ParameterEstimate* est = nullptr;
+    for (const auto& q : fit.parameters)
+      if (q.name == tr.name) est = &q;
+    REQUIRE(est != nullptr);
+    MESSAGE(std::string(tr.name) << " = " << est->value << " +- " << est->cr_bound << ", truth " << tr.value);
+    CHECK(std::abs(est->value - tr.value) < 3.0 * est->cr_bound);
+  }
+}
 }  // namespace
 
 TEST_CASE("fit stall families recovers a seeded odeint truth within 3 bounds") {
@@ -218,16 +234,9 @@ TEST_CASE("fit stall families recovers a reattachment time constant of its own")
   one_start.stall_start_search = StallStartSearch::configured;
   const FitResult fit = fit_experiment(e, one_start);
   CHECK(fit.output_error.termination == Termination::converged);
-  const struct { const char* name; double value; } truth[] = {
+  const std::vector<TruthValue> truth = {
       {"T1", p.tau1_semichords}, {"T1r", p.tau1_reattach_semichords}, {"T2", p.tau2_semichords}};
-  for (const auto& tr : truth) {
-    const ParameterEstimate* est = nullptr;
-    for (const auto& q : fit.parameters)
-      if (q.name == tr.name) est = &q;
-    REQUIRE(est != nullptr);
-    MESSAGE(std::string(tr.name) << " = " << est->value << " +- " << est->cr_bound << ", truth " << tr.value);
-    CHECK(std::abs(est->value - tr.value) < 3.0 * est->cr_bound);
-  }
+  check_within_3_bounds(fit, truth);
   CHECK(std::abs(fit.fit_error / kNoiseSigma - 1.0) < 0.1);
   CHECK(fit.model.coefficients[0].stall.separation.tau1_reattach_semichords > 0.0);
   // The coefficient file carries it (sep_reattachment) and the runtime steps it as the fitter.
@@ -289,17 +298,10 @@ TEST_CASE("fit stall families holds model.stall_known at its values") {
     CHECK(q.name != "T1");
     CHECK(q.name != "T2");
   }
-  const struct { const char* name; double value; } truth[] = {
+  const std::vector<TruthValue> truth = {
       {"k0", p.cp_k0}, {"k1", p.cp_k1}, {"k2", p.cp_k2}, {"Tv", te.t.cm.stall.vortex.decay_semichords},
       {"a0", te.t.cm.a.power_coef[0]}};
-  for (const auto& tr : truth) {
-    const ParameterEstimate* est = nullptr;
-    for (const auto& q : fit.parameters)
-      if (q.name == tr.name) est = &q;
-    REQUIRE(est != nullptr);
-    MESSAGE(std::string(tr.name) << " = " << est->value << " +- " << est->cr_bound << ", truth " << tr.value);
-    CHECK(std::abs(est->value - tr.value) < 3.0 * est->cr_bound);
-  }
+  check_within_3_bounds(fit, truth);
   CHECK(std::abs(fit.fit_error / kNoiseSigma - 1.0) < 0.1);
   // A start value for a held parameter says so (not "no such parameter").
   {
