@@ -151,10 +151,12 @@ void check_stall_keys(const StallConfig& s, const std::set<std::string>& given, 
   };
   check_bound("stall_attached_max_deg", s.attached_max_deg > 0.0 && std::isfinite(s.attached_max_deg),
               StartBound::positive);
-  for (const StallStart& st : stall_starts()) check_bound(st.key, start_in_bound(st, s.*st.value), st.bound);
-  if (given.count("stall_T1r_start") && s.reattachment != StallReattachment::estimated)
-    site.raise("stall_T1r_start", "'" + site.name("stall_T1r_start") + "' is used only with " +
-                                      site.name("stall_reattachment") + " = \"estimated\"");
+  for (const StallStart& st : stall_starts()) {
+    check_bound(st.key, start_in_bound(st, s.*st.value), st.bound);
+    if (given.count(st.key) && !stall_start_used(st, s))
+      site.raise(st.key, "'" + site.name(st.key) + "' is used only with " +
+                             site.name(stall_start_condition(st).key) + " = \"" + stall_start_condition(st).value + "\"");
+  }
   check_stall_known(s, given, site);
 }
 
@@ -167,8 +169,25 @@ const std::vector<StallStart>& stall_starts() {
       {"stall_Tv_start", "Tv", &StallConfig::decay_start, StartBound::positive, "l / V", nullptr, 6.0},
       {"stall_Tvl_start", "Tvl", &StallConfig::travel_start, StartBound::positive, "l / V", nullptr, 7.0},
       {"stall_T1r_start", "T1r", &StallConfig::tau1_reattach_start, StartBound::positive, "l / V",
-       "T1's start (stall_T1_start); only with stall_reattachment = \"estimated\"", 8.0}};
+       "T1's start (stall_T1_start); only with stall_reattachment = \"estimated\"", 8.0,
+       StartUse::with_reattachment_estimated}};
   return starts;
+}
+
+bool stall_start_used(const StallStart& start, const StallConfig& s) {
+  switch (start.use) {
+    case StartUse::with_families: return true;
+    case StartUse::with_reattachment_estimated: return s.reattachment == StallReattachment::estimated;
+  }
+  return true;
+}
+
+StartCondition stall_start_condition(const StallStart& start) {
+  switch (start.use) {
+    case StartUse::with_families: return {nullptr, nullptr};
+    case StartUse::with_reattachment_estimated: return {"stall_reattachment", "estimated"};
+  }
+  return {nullptr, nullptr};
 }
 
 bool start_in_bound(const StallStart& start, double v) {

@@ -1046,9 +1046,7 @@ std::string write_experiment_toml(const Experiment& e, const std::vector<std::st
     // A held parameter (stall_known) has no start value: the reader refuses both together. A
     // value outside the start's feasible set is "not set" (CN1's 0: from the polar).
     for (const StallStart& start : stall_starts()) {
-      const bool unused = start.value == &StallConfig::tau1_reattach_start &&
-                          st.reattachment != StallReattachment::estimated;  // refused there
-      if (!unused && start_in_bound(start, st.*start.value) && !stall_start_held(st, start.key))
+      if (stall_start_used(start, st) && start_in_bound(start, st.*start.value) && !stall_start_held(st, start.key))
         out += std::string(start.key) + " = " + format_double(st.*start.value) + "\n";
     }
     if (!st.known.empty()) {

@@ -87,6 +87,11 @@ void check_stall_keys(const StallConfig& s, const std::set<std::string>& given, 
 // Which values a stall start value may take (check_stall_keys).
 enum class StartBound { positive, non_negative };
 
+// When a stall start value is used: always (with the families), or only when its parameter is
+// estimated at all (T1r: stall_reattachment = "estimated"). Both the reader (refusal) and the
+// writer (left out) ask stall_start_used.
+enum class StartUse { with_families, with_reattachment_estimated };
+
 // A start value of a dynamic-stall parameter: its [model] key (the same keyword in Python's
 // Experiment; docs/formats.md's stall table), the stall_known name of the parameter it
 // starts, where StallConfig holds it, its feasible set, unit and default.
@@ -98,6 +103,7 @@ struct StallStart {
   const char* unit;            // "l / V" (semichord times) or "C_N"
   const char* default_text;    // nullptr: StallConfig's value; else the default in words
   double example;              // a typical value (`indicial init`'s commented-out line)
+  StartUse use = StartUse::with_families;
 };
 
 // The one table of the start-value keys, in docs/formats.md's order: T1, T2, CN1, Tv, Tvl, T1r.
@@ -106,6 +112,17 @@ const std::vector<StallStart>& stall_starts();
 // Whether v is in the start value's feasible set. A default outside it is "not set" (CN1's 0:
 // from the polar), which the experiment writer leaves out.
 bool start_in_bound(const StallStart& start, double v);
+
+// Whether the start value is used by the configuration s (StartUse; the families are assumed).
+bool stall_start_used(const StallStart& start, const StallConfig& s);
+
+// The [model] key and value a start value needs besides the families (StartUse):
+// {"stall_reattachment", "estimated"}; {nullptr, nullptr} for StartUse::with_families.
+struct StartCondition {
+  const char* key;
+  const char* value;
+};
+StartCondition stall_start_condition(const StallStart& start);
 
 // The [model] key of a stall parameter's start value ("T1" -> "stall_T1_start"); nullptr for a
 // parameter without one (k0, k1, k2, cv, xv) or a name that is no stall parameter.
