@@ -204,7 +204,9 @@ nlohmann::json fit_json(const FitResult& r, const Experiment& e, const FitOption
     for (const StallStartTrial& t : r.stall_start_search.trials) {
       nlohmann::json start = nlohmann::json::object();
       for (const auto& [name, value] : t.start) start[name] = value;
-      trials.push_back({{"start", start}, {"fit_error", finite_or_null(t.fit_error)}});
+      nlohmann::json trial = {{"start", start}, {"fit_error", finite_or_null(t.fit_error)}};
+      if (!t.origin.empty()) trial["origin"] = t.origin;
+      trials.push_back(std::move(trial));
     }
     j["stall_start_search"] = {{"chosen", r.stall_start_search.chosen}, {"trials", trials}};
   }

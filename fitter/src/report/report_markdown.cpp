@@ -213,6 +213,7 @@ std::string report_stall_start_search(const StallStartSearchResult& ss) {
   for (std::size_t k = 0; k < ss.trials.size(); ++k) {
     std::string start;
     for (const auto& [name, value] : ss.trials[k].start) start += fmt::format("{}{} = {}", start.empty() ? "" : ", ", name, num(value));
+    if (!ss.trials[k].origin.empty()) start += (start.empty() ? "" : "; ") + ss.trials[k].origin;
     m += fmt::format("| {} | {} | {} | {} |\n", k == 0 ? "configured" : std::to_string(k), start,
                      num(ss.trials[k].fit_error), static_cast<int>(k) == ss.chosen ? "**kept**" : "");
   }

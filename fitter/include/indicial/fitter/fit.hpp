@@ -424,9 +424,12 @@ enum class ModelFunction { a, b1, rotary };
 
 // The stall start grid's trials (StallStartSearch::grid): each start's varied values (by
 // parameter name, in l / V) and the fit error it ended at (NaN: it could not be propagated).
+// `origin` is empty for a grid point; with T1r estimated the last trial starts from the
+// symmetric model's best fit (the same grid without T1r) and says so there.
 struct StallStartTrial {
   std::vector<std::pair<std::string, double>> start;
   double fit_error = 0.0;
+  std::string origin;
 };
 struct StallStartSearchResult {
   std::vector<StallStartTrial> trials;  // trials[0]: the configured start
