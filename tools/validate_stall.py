@@ -34,7 +34,8 @@ What it does (every choice is stated in the report it prints):
     that `indicial fit` runs by default; no choice here was made on the held-out cycles); for C_L
     also a reattachment time constant of its own (stall_reattachment = "estimated", T1r: the fit
     cycles' error 0.1066 -> 0.1051 with T1r = 10.8 against T1 = 2.7; for C_m the fit with T1r
-    ended at 0.0342 against 0.0312 without, so C_m has none), and the
+    ended at 0.0342 against 0.0312 without; since the fit also starts from the symmetric fit
+    (commit f46d886) it ends at 0.03122 with T1r = T1: T1r buys C_m nothing, so C_m has none), and the
     diagnosed model: `indicial diagnose` started from the report's model on the fit cycles,
     deciding by cross-validation over folds of the fit cycles (--max-folds 10: the held-out
     campaign is never seen by any choice), a stall candidate's own start from the fit's grid of
