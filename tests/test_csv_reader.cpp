@@ -229,6 +229,11 @@ TEST_CASE("a Cm experiment's stall families take their lift polar from its stati
   REQUIRE(e.model.stall.polar_lift.size() == 21);
   CHECK(e.model.stall.polar_lift == e.table_lift_polar.lift);
   CHECK(e.model.stall.polar_x_rad == e.table_lift_polar.x_rad);
+  // ... and that polar is the lift of the table's rows (CL = Cn cos(alpha) + Ct sin(alpha)),
+  // computed here from the values the test wrote, not from the reader's own polar.
+  const double a7 = 7 * kPi / 180;
+  CHECK(e.model.stall.polar_x_rad[7] == doctest::Approx(a7).epsilon(1e-15));
+  CHECK(e.model.stall.polar_lift[7] == doctest::Approx(0.7 * std::cos(a7) + 0.01 * std::sin(a7)).epsilon(1e-15));
   CHECK(e.model.stall.polar_path.find("static_lift.csv") != std::string::npos);
   // The model.stall_polar_column names another column: not the table's lift.
   std::string other = t;
