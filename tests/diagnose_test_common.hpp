@@ -62,10 +62,7 @@ inline void check_effect_on_model_1(const std::string& effect) {
 // The final model's estimate of the (non-knot) parameter of `kind`, `lag`, `power` (NaN when
 // the model has none): b2_0 is {b_power, 1, 0}, c2 {gain, 1}, delay_s {delay}.
 inline double final_estimate(const DiagnoseResult& d, ParamKind kind, int lag = 0, int power = 0) {
-  ParamId id;
-  id.kind = kind;
-  id.lag = lag;
-  id.power = power;
+  const ParamId id = param_id(kind, lag, power);
   for (const ParameterEstimate& p : d.fits.back().parameters)
     if (p.id == id) return p.value;
   return std::nan("");

@@ -207,6 +207,24 @@ TEST_CASE("a static table of normal and chord force gives CL") {
   CHECK(e.static_curve.table_value[7] == doctest::Approx(0.7 * std::cos(a) + 0.01 * std::sin(a)).epsilon(1e-15));
 }
 
+TEST_CASE("a static table in another delimiter than the declared [csv] one is named as such") {
+  // [csv] delimiter applies to the runs and the static table alike: a comma table read as
+  // whitespace-separated is one column, and the error says which delimiter would split it.
+  std::string table = "alpha_deg,Cnormal,Ctangential\n";
+  for (int k = 0; k <= 20; ++k) table += std::to_string(k) + "," + std::to_string(0.1 * k) + ",0.01\n";
+  write("cycle.dat", database_text(database_cycle()));
+  write("static_comma.csv", table);
+  std::string t = experiment("CL", kMapped, "[csv]\ndelimiter = \"whitespace\"\ncomment = \"%\"\n");
+  t.replace(t.find("polynomial = [0.1, 5.0]"), 23, "table = \"static_comma.csv\"");
+  const std::string m = load_error("comma_table.toml", t);
+  CHECK_HAS(m, "static_comma.csv:1: missing column");
+  CHECK_HAS(m, "the header is one column when read with the whitespace delimiter but splits at comma");
+  // Detected (no [csv]): the same table reads.
+  std::string d = experiment("CL", kMapped);
+  d.replace(d.find("polynomial = [0.1, 5.0]"), 23, "table = \"static_comma.csv\"");
+  CHECK(indicial::load_experiment(write("comma_detect.toml", d)).static_curve.table_value.size() == 21);
+}
+
 TEST_CASE("a Cm experiment's static table that also has the lift gives diagnose its lift polar") {
   std::string t = cm_experiment_with_lift_table();
   const indicial::Experiment e = indicial::load_experiment(write("cm_lift.toml", t));

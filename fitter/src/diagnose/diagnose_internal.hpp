@@ -25,15 +25,6 @@ constexpr double kDegToRad = M_PI / 180.0;
 using StartValues = std::vector<std::pair<ParamId, double>>;
 using Estimates = std::map<ParamId, double>;
 
-// The id of a non-knot parameter (b2_0: {b_power, 1, 0}; c2: {gain, 1}; delay_s: {delay}).
-inline ParamId param_id(ParamKind kind, int lag = 0, int power = 0) {
-  ParamId id;
-  id.kind = kind;
-  id.lag = lag;
-  id.power = power;
-  return id;
-}
-
 // The splines an effect may extend by a knot or a power.
 enum class SplineFamily { b1, a, rotary, static_correction, none };
 

@@ -512,12 +512,6 @@ std::string start_failure_message(const ParameterLayout& L, const OutputErrorDat
          "error's estimates in fit.json)" + what_to_do;
 }
 
-ParamId param_id_delay() {
-  ParamId id;
-  id.kind = ParamKind::delay;
-  return id;
-}
-
 // Projects an infeasible start onto the feasible set: for every lag whose b_j(x) is not
 // positive everywhere on the envelope, its constant term b_j_0 is raised until the minimum is
 // a tenth of max |b_j| on the envelope (1 1/s if that is 0). Why the constant term: it moves
@@ -552,7 +546,7 @@ std::string project_start(const ParameterLayout& L, const OutputErrorData& d, do
                         said.empty() ? "" : "; ", j + 1, before, theta(k), j + 1, lowest);
   }
   // A negative delay (a --start-value) is not a delay: projected to 0.
-  const int kd = L.find(param_id_delay());
+  const int kd = L.find(param_id(ParamKind::delay));
   if (kd >= 0 && !(theta(kd) >= 0.0)) {
     said += fmt::format("{}start projected: delay_s raised from {:.6g} to 0 (a delay is >= 0)", said.empty() ? "" : "; ",
                         theta(kd));

@@ -201,12 +201,6 @@ SplineTerms spline_terms(const SplineConfig& c) {
   return s;
 }
 
-ParamId single(ParamKind kind, int lag = 0) {
-  ParamId t;
-  t.kind = kind;
-  t.lag = lag;
-  return t;
-}
 }  // namespace
 
 std::vector<ParamId> structural_terms(const UnsteadyStructure& s) {
@@ -214,22 +208,22 @@ std::vector<ParamId> structural_terms(const UnsteadyStructure& s) {
   add_spline_terms(t, s.a, ParamKind::a_power, ParamKind::a_knot, 0);
   for (int j = 0; j < s.lags(); ++j) {
     add_spline_terms(t, s.b[static_cast<std::size_t>(j)], ParamKind::b_power, ParamKind::b_knot, j);
-    if (j == 0 && s.con == Bias::present) t.push_back(single(ParamKind::con));
-    if (j > 0) t.push_back(single(ParamKind::gain, j));
+    if (j == 0 && s.con == Bias::present) t.push_back(param_id(ParamKind::con));
+    if (j > 0) t.push_back(param_id(ParamKind::gain, j));
   }
-  if (s.delay == DelayTerm::estimated) t.push_back(single(ParamKind::delay));
+  if (s.delay == DelayTerm::estimated) t.push_back(param_id(ParamKind::delay));
   // The dynamic-stall families: structural too (the output depends on their states).
   // Known ones (model.stall_known) are held: set by build_unsteady, not in the vector.
   auto add_stall = [&](const ParamId& id) {
     if (!s.stall.is_known(id)) t.push_back(id);
   };
   if (s.stall.families != StallFamilies::none) {
-    add_stall(single(ParamKind::stall_tau1));
-    add_stall(single(ParamKind::stall_tau2));
-    if (s.stall.reattachment == StallReattachment::estimated) add_stall(single(ParamKind::stall_tau1_reattach));
+    add_stall(param_id(ParamKind::stall_tau1));
+    add_stall(param_id(ParamKind::stall_tau2));
+    if (s.stall.reattachment == StallReattachment::estimated) add_stall(param_id(ParamKind::stall_tau1_reattach));
     add_spline_terms(t, s.stall.f0_correction, ParamKind::f0_power, ParamKind::f0_knot, 0);
     for (int k = 0; k < 3; ++k) {
-      ParamId cp = single(ParamKind::stall_cp);
+      ParamId cp = param_id(ParamKind::stall_cp);
       cp.power = k;
       add_stall(cp);
     }
@@ -237,7 +231,7 @@ std::vector<ParamId> structural_terms(const UnsteadyStructure& s) {
   if (s.stall.families == StallFamilies::separation_and_vortex) {
     for (ParamKind k : {ParamKind::shedding_threshold, ParamKind::vortex_decay,
                         ParamKind::vortex_travel, ParamKind::vortex_lift, ParamKind::vortex_cp})
-      add_stall(single(k));
+      add_stall(param_id(k));
   }
   return t;
 }

@@ -338,13 +338,6 @@ void two_stage_loop(const FitContext& c, Estimate& est, std::vector<TwoStageIter
   }
 }
 
-// A stall time constant's identity (one per coefficient: the kind alone).
-ParamId stall_id(ParamKind kind) {
-  ParamId id;
-  id.kind = kind;
-  return id;
-}
-
 // The lowest finite cost among fits (0 when none is finite).
 std::size_t lowest_cost(const std::vector<MLResult>& fits) {
   std::size_t best = 0;
@@ -380,7 +373,7 @@ StallStartTrial nested_symmetric_trial(const FitContext& c, const Estimate& est,
   for (int i = 0; i < Ls.size(); ++i) theta0_sym(i) = theta0(L.find(Ls.ids()[static_cast<std::size_t>(i)]));
   const std::vector<MLResult> sym_fits = fit_stall_grid(c, est, sym, stall_start_grid(Ls, theta0_sym), nullptr);
   const MLResult& best = sym_fits[lowest_cost(sym_fits)];
-  const int t1 = Ls.find(stall_id(ParamKind::stall_tau1));
+  const int t1 = Ls.find(param_id(ParamKind::stall_tau1));
   StallStartTrial trial;
   if (!std::isfinite(best.summary.cost) || t1 < 0 || best.theta.size() != Ls.size()) {
     fit->summary.cost = fit->summary.fit_error = std::numeric_limits<double>::quiet_NaN();
@@ -390,7 +383,7 @@ StallStartTrial nested_symmetric_trial(const FitContext& c, const Estimate& est,
   }
   Eigen::VectorXd start = theta0;
   for (int i = 0; i < Ls.size(); ++i) start(L.find(Ls.ids()[static_cast<std::size_t>(i)])) = best.theta(i);
-  start(L.find(stall_id(ParamKind::stall_tau1_reattach))) = best.theta(t1);
+  start(L.find(param_id(ParamKind::stall_tau1_reattach))) = best.theta(t1);
   *fit = c.fit(est.s, est.runs, est.rotary, start);
   trial.start = {{"T1r", best.theta(t1)}};
   trial.fit_error = fit->summary.fit_error;
@@ -410,7 +403,7 @@ void search_stall_starts(const FitContext& c, Estimate& est, const Eigen::Vector
   const std::vector<StallStartGridPoint> grid = stall_start_grid(L, theta0);
   std::vector<MLResult> fits = fit_stall_grid(c, est, est.s, grid, &est.ml);
   for (std::size_t k = 0; k < grid.size(); ++k) out.trials.push_back({grid[k].varied, fits[k].summary.fit_error, ""});
-  if (L.find(stall_id(ParamKind::stall_tau1_reattach)) >= 0) {
+  if (L.find(param_id(ParamKind::stall_tau1_reattach)) >= 0) {
     fits.emplace_back();
     out.trials.push_back(nested_symmetric_trial(c, est, L, theta0, &fits.back()));
   }

@@ -433,6 +433,15 @@ CsvTable read_csv_table(const std::string& path, const ColumnMap& columns, const
     const auto m = columns.find(w);
     if (m != columns.end()) msg += "; [columns] maps " + w + " to '" + m->second + "', not in this file";
   }
+  // A header read as one column that another delimiter would split: the [csv] delimiter (one
+  // for every run and the static table) does not fit this file.
+  if (t.original.size() == 1) {
+    const char d = detect_delimiter(t.original.front());
+    if (d != t.delimiter && split_fields(t.original.front(), d).size() > 1)
+      msg += "; the header is one column when read with the " + delimiter_name(t.delimiter) +
+             " delimiter but splits at " + delimiter_name(d) + ": [csv] delimiter applies to every run and the "
+             "static table, so write this file with the same delimiter (or [csv] delimiter = \"detect\")";
+  }
   if (!nearest.empty()) {
     msg += "; did you mean '" + nearest + "'? (rename it, or map it in the experiment: [columns] " +
            wanted.front() + " = \"" + nearest + "\")";

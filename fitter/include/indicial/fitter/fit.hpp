@@ -266,6 +266,16 @@ struct ParamId {
   int run = 0;            // initial_state: 0-based run of the experiment
 };
 
+// The id of a non-knot parameter (b2_0: {b_power, 1, 0}; c2: {gain, 1}; delay_s: {delay};
+// T1: {stall_tau1}). Knot terms also need knot_rad; run-indexed ones (initial_state) the run.
+inline ParamId param_id(ParamKind kind, int lag = 0, int power = 0) {
+  ParamId id;
+  id.kind = kind;
+  id.lag = lag;
+  id.power = power;
+  return id;
+}
+
 // Identity: a knot term is the same term wherever it is numbered (adding a knot renumbers the
 // names A1, A2, ... but not the terms). Comparable, ordered and hashable, so it can key maps.
 bool same_parameter(const ParamId& x, const ParamId& y);
