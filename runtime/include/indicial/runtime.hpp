@@ -943,8 +943,9 @@ INDICIAL_HOT_INLINE Scalar advance_coefficient(const CoefficientModel<Scalar, Ca
 // codegen) is folded into each copy (the Cortex-M4F step 912 -> 660 instructions, flash 128 B
 // less, tools/run-cortex-m.sh). The cost: a Predictor or a parsed model, not known at compile
 // time, carries the copies (flash +1.5 KB and +3.4 KB on the Cortex-M4F, whose steps are
-// still 6% and 3% fewer instructions). Why not for the families' and the delayed steps: more
-// copies in every Predictor's flash, for steps that cost 2-3x the plain one anyway.
+// still 6% and 3% fewer instructions). The families' step is unrolled too (issue 22 item 6:
+// state/stall2/double 2326 -> 2252 instructions, float 2294 -> 2269, bench_step's callgrind
+// count); why not the delayed step: more copies in every Predictor's flash, and no goal asks.
 enum class CoefficientLoop : int { rolled = 0, unrolled = 1 };
 
 // The model equations over one step for every coefficient, in place on s (whose lag states
@@ -1142,8 +1143,7 @@ inline StepStatus step_undelayed(const RuntimeModel<Scalar, Cap>& m, State<Scala
   Scalar value[Cap::max_coefficients];
   FamilyBackup<Families, Scalar, Cap> stall_before;
   stall_before.save(families);
-  const Scalar test = advance_coefficients<Families == StallUse::none ? CoefficientLoop::unrolled
-                                                                     : CoefficientLoop::rolled>(m, s, before, x1, table_x1,
+  const Scalar test = advance_coefficients<CoefficientLoop::unrolled>(m, s, before, x1, table_x1,
                                            Scalar(in.rate_radps), Scalar(dt_s), v,
                                            static_cast<const DelayedForcing<Scalar, Cap>*>(nullptr),
                                            Families != StallUse::none ? families->stall : nullptr, value);
