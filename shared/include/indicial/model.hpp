@@ -1451,6 +1451,29 @@ inline double kirchhoff_separation(double coefficient, double normal_force_slope
   return s * s;
 }
 
+// The static separation table f0(x), linear between rows, clamped at the ends; *row: the row
+// that brackets x (-1 if clamped). Tried first: `hint`, a row that brackets a nearby angle
+// (-1: none). Why: a step looks the table up at both ends of its lagged interval, which lie
+// x1 - x0 apart, in the same row as a rule (stall_table_lookups); two comparisons confirm it
+// instead of table_row's search. The bracketing row is unique (table_row), so the value is the
+// same bits however the row is found.
+template <class Scalar, class Cap>
+INDICIAL_HOT_INLINE Scalar separation_table_value_near(const SeparationParameters<Scalar, Cap>& p, const Scalar& x,
+                                                       int hint, int* row) {
+  const int n = p.n_f0;
+  *row = -1;
+  if (n < 1) return Scalar(1);
+  if (!(x > Scalar(p.f0_x_rad[0]))) return p.f0_value[0];
+  if (!(x < Scalar(p.f0_x_rad[n - 1]))) return p.f0_value[n - 1];
+  const int lo = hint >= 0 && !(x < Scalar(p.f0_x_rad[hint])) && x < Scalar(p.f0_x_rad[hint + 1])
+                     ? hint
+                     : detail::table_row(p.f0_x_rad, n, x);
+  *row = lo;
+  const int hi = lo + 1;
+  const Scalar w = (x - Scalar(p.f0_x_rad[lo])) / Scalar(p.f0_x_rad[hi] - p.f0_x_rad[lo]);
+  return (Scalar(1) - w) * p.f0_value[lo] + w * p.f0_value[hi];
+}
+
 // The static separation table f0(x), linear between rows, clamped at the ends.
 template <class Scalar, class Cap>
 inline Scalar separation_table_value(const SeparationParameters<Scalar, Cap>& p, const Scalar& x) {
@@ -1591,10 +1614,12 @@ inline void stall_lagged_angles(const SeparationParameters<Scalar, Cap>& p, cons
 }
 
 // The table's values at the lagged angles (stall_lagged_angles first).
+// (x_e1's row is searched from x_e0's: separation_table_value_near.)
 template <class Scalar, class Cap>
 inline void stall_table_lookups(const SeparationParameters<Scalar, Cap>& p, StallLookups<Scalar>* k) {
-  k->table_e0 = separation_table_value(p, k->lagged_x0_rad);
-  k->table_e1 = separation_table_value(p, k->lagged_x1_rad);
+  int row = -1;
+  k->table_e0 = separation_table_value_near(p, k->lagged_x0_rad, -1, &row);
+  k->table_e1 = separation_table_value_near(p, k->lagged_x1_rad, row, &row);
 }
 
 // exp(-h / T1) and phi1(h / T1) (T1 and the step only).
