@@ -1141,6 +1141,9 @@ inline StepStatus step_undelayed(const RuntimeModel<Scalar, Cap>& m, State<Scala
   StepBackup<Scalar, Cap> before;
   save(s, &before);
   Scalar value[Cap::max_coefficients];
+  // (Cleared with families: the lag loop writes value[c] and the families' loops read it, for
+  // the same c < n, which GCC's -Wmaybe-uninitialized does not follow from one loop to the next.)
+  if (Families != StallUse::none) std::memset(value, 0, sizeof value);
   FamilyBackup<Families, Scalar, Cap> stall_before;
   stall_before.save(families);
   const Scalar test = advance_coefficients<CoefficientLoop::unrolled>(m, s, before, x1, table_x1,
