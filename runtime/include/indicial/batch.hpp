@@ -591,14 +591,14 @@ inline void advance_lane_families(const RuntimeModel<Scalar, Cap>& m, const Fami
   for (int i = 0; i < batch_block; ++i) {
     if (!b->active[i]) continue;
     const StallStep<Scalar> g{b->x0_rad[i], b->x1_rad[i], dt_s, b->l_over_v_s[i]};
-    indicial::detail::StepLookups<Scalar, Cap> looked;  // this instance's step: its own lookups
+    Scalar value[Cap::max_coefficients];
     for (int c = 0; c < m.set.n_coefficients; ++c) {
-      Scalar value = b->value[c][i];
+      value[c] = b->value[c][i];
       f->stall[i][c] = s[i].stall[c];
-      const Scalar test = indicial::detail::advance_families(m, c, g, &looked, &f->stall[i][c], &value);
-      if (!(test == Scalar(0))) b->finite_test[i] = std::numeric_limits<Scalar>::quiet_NaN();
-      b->value[c][i] = value;
     }
+    const Scalar test = indicial::detail::advance_families(m, g, f->stall[i], value);
+    if (!(test == Scalar(0))) b->finite_test[i] = std::numeric_limits<Scalar>::quiet_NaN();
+    for (int c = 0; c < m.set.n_coefficients; ++c) b->value[c][i] = value[c];
   }
   // x - x: 0 for a finite value, NaN otherwise (as advance_lanes' test).
   for (int c = 0; c < m.set.n_coefficients; ++c) b->finite_test = b->finite_test + (b->value[c] - b->value[c]);

@@ -818,53 +818,104 @@ INDICIAL_HOT_INLINE Scalar finite_test(const Scalar& v) {
   return v - v;
 }
 
-// The families' lookups of one step, per coefficient (RuntimeModel::stall_sharing): those of
-// the coefficients stepped so far (one per step, or per instance of a batch: the lookups are
-// of the step's own angles and airspeed).
-template <class Scalar, class Cap>
-struct StepLookups {
-  StallLookups<Scalar> forcing[Cap::max_coefficients];  // model.hpp's, at the lagged angles
-  Scalar table_x1[Cap::max_coefficients];               // the f0 table's value at x1
-};
+#if defined(__GNUC__) || defined(__clang__)
+#define INDICIAL_UNROLL _Pragma("GCC unroll 16")
+#else
+#define INDICIAL_UNROLL
+#endif
 
-// Coefficient c's dynamic-stall families over the step (model.hpp's advance_stall, in place)
-// and their output (stall_output) added to the report's; the sum of their finite_test. The one
-// families step, of the single step (advance_coefficients) and the batch (batch.hpp's
-// advance_lane_families) alike. Coefficients are stepped in order, 0 first, each with the same
-// `looked`: the lookups c shares with an earlier coefficient (RuntimeModel::stall_sharing) are
-// taken from `looked`, its own are added to it. The same numbers as advance_stall and
+// f(c) for c = 0 .. n - 1, unrolled over the capacity (the copies after n skipped): each
+// copy's c is a constant, so per-coefficient arrays of the caller stay in registers.
+template <class Cap, class F>
+INDICIAL_HOT_INLINE void for_each_coefficient(int n, const F& f) {
+  INDICIAL_UNROLL
+  for (int c = 0; c < Cap::max_coefficients; ++c) {
+    if (c == n) break;
+    f(c);
+  }
+}
+
+// The families' lookups of one step (model.hpp's StallLookups), of each coefficient's own or
+// copied from the one it shares them with (RuntimeModel::stall_sharing): the lookups are of
+// the step's own angles and airspeed. Coefficients are looked up in order, 0 first.
+template <class Scalar, class Cap>
+INDICIAL_HOT_INLINE void look_up_families(const RuntimeModel<Scalar, Cap>& m, const StallStep<Scalar>& g,
+                                          const Scalar& h, StallLookups<Scalar>* k) {
+  for_each_coefficient<Cap>(m.set.n_coefficients, [&](int c) INDICIAL_HOT_LAMBDA {
+    const StallModel<Scalar, Cap>& st = m.set.coefficients[c].stall;
+    if (st.families == StallFamilies::none) return;
+    const StallSharing& sh = m.stall_sharing[c];
+    if (sh.forcing != StallSharing::no_sharing) {
+      k[c] = k[sh.forcing];
+    } else {
+      stall_lagged_angles(st.separation, g, h, &k[c]);
+      stall_table_lookups(st.separation, &k[c]);
+    }
+    if (sh.decay != StallSharing::no_sharing) {
+      k[c].decay = k[sh.decay].decay;
+      k[c].weight = k[sh.decay].weight;
+    } else {
+      stall_decay(st.separation, h, &k[c]);
+    }
+  });
+}
+
+// Every coefficient's dynamic-stall families over the step (model.hpp's advance_stall, in
+// place) and their outputs (stall_output) added to the report's values; the sum of their
+// finite_tests. The one families step, of the single step (advance_coefficients) and the batch
+// (batch.hpp's advance_lane_families) alike. The same numbers as advance_stall and
 // stall_output (model.hpp splits them for this: the same operations, or copies of the same
 // operations on equal parameters), hence the same bits as the fitter's loop.
+// Why stage by stage over the coefficients rather than one coefficient after the other: each
+// coefficient's vortex update is a chain of four exps (model.hpp's stages: gate, clock, feed
+// gate, decay), and a step waits for it; with the coefficients' stages side by side the
+// processor runs their chains at the same time (in a loop over coefficients one after the
+// other, the second chain started some thousand instructions after the first, beyond the
+// reach of out-of-order execution).
 template <class Scalar, class Cap>
-INDICIAL_HOT_INLINE Scalar advance_families(const RuntimeModel<Scalar, Cap>& m, int c,
-                                            const StallStep<Scalar>& g,
-                                            StepLookups<Scalar, Cap>* looked,
+INDICIAL_HOT_INLINE Scalar advance_families(const RuntimeModel<Scalar, Cap>& m, const StallStep<Scalar>& g,
                                             StallState<Scalar>* s, Scalar* value) {
-  const StallModel<Scalar, Cap>& st = m.set.coefficients[c].stall;
-  if (st.families == StallFamilies::none) return Scalar(0);
-  const StallSharing& sh = m.stall_sharing[c];
-  const SeparationParameters<Scalar, Cap>& p = st.separation;
+  const int n = m.set.n_coefficients;
+  const ModelSet<Scalar, Cap>& set = m.set;
   const Scalar h = stall_step_semichords(g);
-  StallLookups<Scalar>& k = looked->forcing[c];
-  if (sh.forcing != StallSharing::no_sharing) {
-    k = looked->forcing[sh.forcing];
-  } else {
-    stall_lagged_angles(p, g, h, &k);
-    stall_table_lookups(p, &k);
-  }
-  if (sh.decay != StallSharing::no_sharing) {
-    k.decay = looked->forcing[sh.decay].decay;
-    k.weight = looked->forcing[sh.decay].weight;
-  } else {
-    stall_decay(p, h, &k);
-  }
-  advance_stall_with(st, g, h, k, s);
-  looked->table_x1[c] = sh.table != StallSharing::no_sharing ? looked->table_x1[sh.table]
-                                                             : separation_table_value(p, g.x1_rad);
-  const StallOutput<Scalar> o = stall_output_parts_from_table(st, g.x1_rad, looked->table_x1[c], *s);
-  *value = *value + (o.separation + o.vortex);
-  return finite_test(s->separation_point) + finite_test(s->vortex_lift) +
-         finite_test(s->vortex_clock_semichords);
+  // (Initialized: a stage reads what an earlier stage, or an earlier coefficient, wrote under
+  // the same condition, which GCC's -Wmaybe-uninitialized does not follow across the loops.)
+  StallLookups<Scalar> k[Cap::max_coefficients] = {};
+  look_up_families(m, g, h, k);
+  StallProgress<Scalar> q[Cap::max_coefficients] = {};
+  const auto vortex = [&](int c) INDICIAL_HOT_LAMBDA {
+    return set.coefficients[c].stall.families == StallFamilies::separation_and_vortex;
+  };
+  for_each_coefficient<Cap>(n, [&](int c) INDICIAL_HOT_LAMBDA {
+    if (set.coefficients[c].stall.families == StallFamilies::none) return;
+    stall_separation_stage(set.coefficients[c].stall, h, k[c], &s[c], &q[c]);
+    if (vortex(c)) stall_shedding_stage(set.coefficients[c].stall, k[c], &q[c]);
+  });
+  for_each_coefficient<Cap>(n, [&](int c) INDICIAL_HOT_LAMBDA {
+    if (vortex(c)) stall_clock_stage(set.coefficients[c].stall, h, &s[c], &q[c]);
+  });
+  for_each_coefficient<Cap>(n, [&](int c) INDICIAL_HOT_LAMBDA {
+    if (vortex(c)) stall_feed_gate_stage(set.coefficients[c].stall, s[c], &q[c]);
+  });
+  for_each_coefficient<Cap>(n, [&](int c) INDICIAL_HOT_LAMBDA {
+    if (!vortex(c)) return;
+    stall_kirchhoff_stage(s[c], &q[c]);
+    stall_vortex_stage(set.coefficients[c].stall, g, h, &s[c], q[c]);
+  });
+  Scalar table_x1[Cap::max_coefficients] = {};
+  Scalar test = Scalar(0);
+  for_each_coefficient<Cap>(n, [&](int c) INDICIAL_HOT_LAMBDA {
+    const StallModel<Scalar, Cap>& st = set.coefficients[c].stall;
+    if (st.families == StallFamilies::none) return;
+    const StallSharing& sh = m.stall_sharing[c];
+    table_x1[c] = sh.table != StallSharing::no_sharing ? table_x1[sh.table] : separation_table_value(st.separation, g.x1_rad);
+    const Scalar kirchhoff = vortex(c) ? q[c].kirchhoff1 : kirchhoff_factor(s[c].separation_point);
+    const StallOutput<Scalar> o = stall_output_parts_from_factor(st, g.x1_rad, table_x1[c], kirchhoff, s[c]);
+    value[c] = value[c] + (o.separation + o.vortex);
+    test = test + (finite_test(s[c].separation_point) + finite_test(s[c].vortex_lift) +
+                   finite_test(s[c].vortex_clock_semichords));
+  });
+  return test;
 }
 
 // One coefficient's lags over the step (model.hpp's advance_lags_between, y in place, the new
@@ -892,14 +943,10 @@ INDICIAL_HOT_INLINE Scalar advance_coefficient(const CoefficientModel<Scalar, Ca
 // codegen) is folded into each copy (the Cortex-M4F step 912 -> 660 instructions, flash 128 B
 // less, tools/run-cortex-m.sh). The cost: a Predictor or a parsed model, not known at compile
 // time, carries the copies (flash +1.5 KB and +3.4 KB on the Cortex-M4F, whose steps are
-// still 6% and 3% fewer instructions). Why not for the families' and the delayed steps: more
-// copies in every Predictor's flash, for steps that cost 2-3x the plain one anyway.
+// still 6% and 3% fewer instructions). The families' step is unrolled too (issue 22 item 6:
+// state/stall2/double 2326 -> 2252 instructions, float 2294 -> 2269, bench_step's callgrind
+// count); why not the delayed step: more copies in every Predictor's flash, and no goal asks.
 enum class CoefficientLoop : int { rolled = 0, unrolled = 1 };
-#if defined(__GNUC__) || defined(__clang__)
-#define INDICIAL_UNROLL _Pragma("GCC unroll 16")
-#else
-#define INDICIAL_UNROLL
-#endif
 
 // The model equations over one step for every coefficient, in place on s (whose lag states
 // and step ends `before` holds) and on the family states `stall` (nullptr: the model has
@@ -913,7 +960,6 @@ INDICIAL_HOT_INLINE Scalar advance_coefficients(const RuntimeModel<Scalar, Cap>&
                                                 const DelayedForcing<Scalar, Cap>* forcing,
                                                 StallState<Scalar>* stall, Scalar* value) {
   const StepGeometry<Scalar> g{s.x_prev_rad, x1, s.x_prev_rad, x1, dt_s, v.time_scale};
-  StepLookups<Scalar, Cap> looked;  // the families' lookups of the coefficients stepped so far
   const auto coefficient = [&](int c) INDICIAL_HOT_LAMBDA -> Scalar {
     const CoefficientModel<Scalar, Cap>& cm = m.set.coefficients[c];
     Scalar test;
@@ -934,9 +980,6 @@ INDICIAL_HOT_INLINE Scalar advance_coefficients(const RuntimeModel<Scalar, Cap>&
       test = advance_coefficient(cm, g, x1, x1, before.end[c], table_x1, rate, v.l_over_v_s,
                                  &s.end[c], s.y[c], &value[c]);
     }
-    if (stall != nullptr)
-      test = test + advance_families(m, c, StallStep<Scalar>{g.x0_rad, x1, dt_s, v.l_over_v_s}, &looked,
-                                     &stall[c], &value[c]);
     return test;
   };
   Scalar test = Scalar(0);
@@ -950,6 +993,8 @@ INDICIAL_HOT_INLINE Scalar advance_coefficients(const RuntimeModel<Scalar, Cap>&
   } else {
     for (int c = 0; c < m.set.n_coefficients; ++c) test = test + coefficient(c);
   }
+  if (stall != nullptr)
+    test = test + advance_families(m, StallStep<Scalar>{g.x0_rad, x1, dt_s, v.l_over_v_s}, stall, value);
   return test;
 }
 
@@ -1096,10 +1141,12 @@ inline StepStatus step_undelayed(const RuntimeModel<Scalar, Cap>& m, State<Scala
   StepBackup<Scalar, Cap> before;
   save(s, &before);
   Scalar value[Cap::max_coefficients];
+  // (Cleared with families: the lag loop writes value[c] and the families' loops read it, for
+  // the same c < n, which GCC's -Wmaybe-uninitialized does not follow from one loop to the next.)
+  if (Families != StallUse::none) std::memset(value, 0, sizeof value);
   FamilyBackup<Families, Scalar, Cap> stall_before;
   stall_before.save(families);
-  const Scalar test = advance_coefficients<Families == StallUse::none ? CoefficientLoop::unrolled
-                                                                     : CoefficientLoop::rolled>(m, s, before, x1, table_x1,
+  const Scalar test = advance_coefficients<CoefficientLoop::unrolled>(m, s, before, x1, table_x1,
                                            Scalar(in.rate_radps), Scalar(dt_s), v,
                                            static_cast<const DelayedForcing<Scalar, Cap>*>(nullptr),
                                            Families != StallUse::none ? families->stall : nullptr, value);

@@ -1451,6 +1451,29 @@ inline double kirchhoff_separation(double coefficient, double normal_force_slope
   return s * s;
 }
 
+// The static separation table f0(x), linear between rows, clamped at the ends; *row: the row
+// that brackets x (-1 if clamped). Tried first: `hint`, a row that brackets a nearby angle
+// (-1: none). Why: a step looks the table up at both ends of its lagged interval, which lie
+// x1 - x0 apart, in the same row as a rule (stall_table_lookups); two comparisons confirm it
+// instead of table_row's search. The bracketing row is unique (table_row), so the value is the
+// same bits however the row is found.
+template <class Scalar, class Cap>
+INDICIAL_HOT_INLINE Scalar separation_table_value_near(const SeparationParameters<Scalar, Cap>& p, const Scalar& x,
+                                                       int hint, int* row) {
+  const int n = p.n_f0;
+  *row = -1;
+  if (n < 1) return Scalar(1);
+  if (!(x > Scalar(p.f0_x_rad[0]))) return p.f0_value[0];
+  if (!(x < Scalar(p.f0_x_rad[n - 1]))) return p.f0_value[n - 1];
+  const int lo = hint >= 0 && !(x < Scalar(p.f0_x_rad[hint])) && x < Scalar(p.f0_x_rad[hint + 1])
+                     ? hint
+                     : detail::table_row(p.f0_x_rad, n, x);
+  *row = lo;
+  const int hi = lo + 1;
+  const Scalar w = (x - Scalar(p.f0_x_rad[lo])) / Scalar(p.f0_x_rad[hi] - p.f0_x_rad[lo]);
+  return (Scalar(1) - w) * p.f0_value[lo] + w * p.f0_value[hi];
+}
+
 // The static separation table f0(x), linear between rows, clamped at the ends.
 template <class Scalar, class Cap>
 inline Scalar separation_table_value(const SeparationParameters<Scalar, Cap>& p, const Scalar& x) {
@@ -1486,12 +1509,20 @@ inline Scalar attached_normal_force(const SeparationParameters<Scalar, Cap>& p, 
   return p.normal_force_slope_per_rad * (x - p.zero_lift_angle_rad);
 }
 
+// K(f) h(f), the separation output per unit N, given K(f) (a step computes K(f1) once for
+// the vortex feed and this output).
+template <class Scalar, class Cap>
+INDICIAL_HOT_INLINE Scalar separation_shape_from_factor(const SeparationParameters<Scalar, Cap>& p, const Scalar& f,
+                                                        const Scalar& kirchhoff) {
+  const Scalar f2 = f * f;
+  const Scalar h = p.cp_k0 + p.cp_k1 * (Scalar(1) - f) + p.cp_k2 * Scalar(4) * f2 * (Scalar(1) - f2);
+  return kirchhoff * h;
+}
+
 // K(f) h(f), the separation output per unit N.
 template <class Scalar, class Cap>
 inline Scalar separation_shape(const SeparationParameters<Scalar, Cap>& p, const Scalar& f) {
-  const Scalar f2 = f * f;
-  const Scalar h = p.cp_k0 + p.cp_k1 * (Scalar(1) - f) + p.cp_k2 * Scalar(4) * f2 * (Scalar(1) - f2);
-  return kirchhoff_factor(f) * h;
+  return separation_shape_from_factor(p, f, kirchhoff_factor(f));
 }
 
 // g = S((|C_N'| - C_N1) / w) at the lagged angle x_e.
@@ -1517,11 +1548,18 @@ inline Scalar vortex_position(const VortexParameters<Scalar>& p, const Scalar& c
   return r * r * (Scalar(3) - Scalar(2) * r);
 }
 
+// C_v = N(x) (1 - K(f)), given K(f).
+template <class Scalar, class Cap>
+INDICIAL_HOT_INLINE Scalar vortex_feed_from_factor(const SeparationParameters<Scalar, Cap>& p, const Scalar& x,
+                                                   const Scalar& kirchhoff) {
+  return attached_normal_force(p, x) * (Scalar(1) - kirchhoff);
+}
+
 // C_v = N(x) (1 - K(f)).
 template <class Scalar, class Cap>
 inline Scalar vortex_feed(const SeparationParameters<Scalar, Cap>& p, const Scalar& x,
                           const Scalar& f) {
-  return attached_normal_force(p, x) * (Scalar(1) - kirchhoff_factor(f));
+  return vortex_feed_from_factor(p, x, kirchhoff_factor(f));
 }
 
 // The steady state at angle x (reset): f = f0c(x), no vortex, clock at 0.
@@ -1576,10 +1614,12 @@ inline void stall_lagged_angles(const SeparationParameters<Scalar, Cap>& p, cons
 }
 
 // The table's values at the lagged angles (stall_lagged_angles first).
+// (x_e1's row is searched from x_e0's: separation_table_value_near.)
 template <class Scalar, class Cap>
 inline void stall_table_lookups(const SeparationParameters<Scalar, Cap>& p, StallLookups<Scalar>* k) {
-  k->table_e0 = separation_table_value(p, k->lagged_x0_rad);
-  k->table_e1 = separation_table_value(p, k->lagged_x1_rad);
+  int row = -1;
+  k->table_e0 = separation_table_value_near(p, k->lagged_x0_rad, -1, &row);
+  k->table_e1 = separation_table_value_near(p, k->lagged_x1_rad, row, &row);
 }
 
 // exp(-h / T1) and phi1(h / T1) (T1 and the step only).
@@ -1591,12 +1631,27 @@ inline void stall_decay(const SeparationParameters<Scalar, Cap>& p, const Scalar
   k->weight = phi1(z, k->decay);
 }
 
-// Advances f, tau_v and v over one step, in place, with the step's lookups k (see the essay
-// and StallLookups). families == none: nothing.
+// The update of one step in stages (advance_stall_with runs them in order), so that a runtime
+// stepping several coefficients can interleave them: each stage's exp waits for the previous
+// stage's, and those waits are most of a step's time (the chain gate -> clock -> feed gate ->
+// vortex decay is four exps long per coefficient); two coefficients' chains issued side by
+// side overlap (runtime.hpp's advance_families). The same operations on the same values in
+// either order, hence the same bits. StallProgress carries what a later stage needs.
+template <class Scalar>
+struct StallProgress {
+  Scalar f0;         // the separation point before the step
+  Scalar kirchhoff0; // K(f0), K(f1): vortex_feed's (and stall_output's K(f1))
+  Scalar kirchhoff1;
+  Scalar gate;       // the shedding switch g at the step's midpoint
+  Scalar clock0;     // tau_v before the step
+  Scalar on_chord;   // the feed gate's s at the mid clock
+};
+
+// Stage 1: f over the step (T1, or T1r while reattaching); f1 into s.
 template <class Scalar, class Cap>
-INDICIAL_HOT_INLINE void advance_stall_with(const StallModel<Scalar, Cap>& m, const StallStep<Scalar>& g,
-                               const Scalar& h, const StallLookups<Scalar>& k, StallState<Scalar>* s) {
-  if (m.families == StallFamilies::none) return;
+INDICIAL_HOT_INLINE void stall_separation_stage(const StallModel<Scalar, Cap>& m, const Scalar& h,
+                                                const StallLookups<Scalar>& k, StallState<Scalar>* s,
+                                                StallProgress<Scalar>* q) {
   const SeparationParameters<Scalar, Cap>& p = m.separation;
   const Scalar u0 = static_separation_from_table(p, k.lagged_x0_rad, k.table_e0);
   const Scalar u1 = static_separation_from_table(p, k.lagged_x1_rad, k.table_e1);
@@ -1608,24 +1663,74 @@ INDICIAL_HOT_INLINE void advance_stall_with(const StallModel<Scalar, Cap>& m, co
     e = detail::step_exp(Scalar(-z));
     w = phi1(z, e);
   }
-  const Scalar f1 = e * f0 + (w - e) * u0 + (Scalar(1) - w) * u1;
-  s->separation_point = f1;
-  if (m.families != StallFamilies::separation_and_vortex) return;
-  const VortexParameters<Scalar>& v = m.vortex;
-  const Scalar gate = shedding_switch(m, Scalar((k.lagged_x0_rad + k.lagged_x1_rad) * Scalar(0.5)));
+  q->f0 = f0;
+  s->separation_point = e * f0 + (w - e) * u0 + (Scalar(1) - w) * u1;
+}
+
+// Stage 2 (vortex): the shedding switch g at the mean lagged angle.
+template <class Scalar, class Cap>
+INDICIAL_HOT_INLINE void stall_shedding_stage(const StallModel<Scalar, Cap>& m, const StallLookups<Scalar>& k,
+                                              StallProgress<Scalar>* q) {
+  q->gate = shedding_switch(m, Scalar((k.lagged_x0_rad + k.lagged_x1_rad) * Scalar(0.5)));
+}
+
+// Stage 3 (vortex): the clock tau_v over the step; tau1 into s.
+template <class Scalar, class Cap>
+INDICIAL_HOT_INLINE void stall_clock_stage(const StallModel<Scalar, Cap>& m, const Scalar& h,
+                                           StallState<Scalar>* s, StallProgress<Scalar>* q) {
+  const Scalar gate = q->gate;
   const Scalar clock0 = s->vortex_clock_semichords;
-  const Scalar zc = h * (Scalar(1) - gate) / Scalar(v.clock_reset_semichords);
+  const Scalar zc = h * (Scalar(1) - gate) / Scalar(m.vortex.clock_reset_semichords);
   // Why the branch: while the shedding switch is saturated (gate == 1) zc is 0 and e^-0 is 1
   // exactly; a plain floating-point type skips the exp (same bits), an autodiff type keeps it.
   const Scalar ec = std::is_floating_point<Scalar>::value && zc == Scalar(0) ? Scalar(1) : detail::step_exp(Scalar(-zc));
-  const Scalar clock1 = ec * clock0 + phi1(zc, ec) * h * gate;
-  s->vortex_clock_semichords = clock1;
-  const Scalar on_chord = vortex_on_chord(v, Scalar((clock0 + clock1) * Scalar(0.5)));
-  const Scalar feed_gate = gate * on_chord;
-  const Scalar zv = h * (Scalar(2) - on_chord) / v.decay_semichords;
+  q->clock0 = clock0;
+  s->vortex_clock_semichords = ec * clock0 + phi1(zc, ec) * h * gate;
+}
+
+// Stage 4 (vortex): the feed gate s at the mid clock.
+template <class Scalar, class Cap>
+INDICIAL_HOT_INLINE void stall_feed_gate_stage(const StallModel<Scalar, Cap>& m, const StallState<Scalar>& s,
+                                               StallProgress<Scalar>* q) {
+  q->on_chord = vortex_on_chord(m.vortex, Scalar((q->clock0 + s.vortex_clock_semichords) * Scalar(0.5)));
+}
+
+// Stage 5 (vortex): v over the step (the Kirchhoff factors K(f0), K(f1) into q first:
+// stall_kirchhoff_stage); v1 into s.
+template <class Scalar, class Cap>
+INDICIAL_HOT_INLINE void stall_vortex_stage(const StallModel<Scalar, Cap>& m, const StallStep<Scalar>& g,
+                                            const Scalar& h, StallState<Scalar>* s,
+                                            const StallProgress<Scalar>& q) {
+  const Scalar feed_gate = q.gate * q.on_chord;
+  const Scalar zv = h * (Scalar(2) - q.on_chord) / m.vortex.decay_semichords;
   const Scalar ev = detail::step_exp(Scalar(-zv));
-  const Scalar feed = vortex_feed(p, g.x1_rad, f1) - vortex_feed(p, g.x0_rad, f0);
+  const SeparationParameters<Scalar, Cap>& p = m.separation;
+  const Scalar feed = vortex_feed_from_factor(p, g.x1_rad, q.kirchhoff1) -
+                      vortex_feed_from_factor(p, g.x0_rad, q.kirchhoff0);
   s->vortex_lift = ev * s->vortex_lift + phi1(zv, ev) * feed_gate * feed;
+}
+
+// K(f0) and K(f1) into q (stall_separation_stage first): vortex_feed's factors.
+template <class Scalar>
+INDICIAL_HOT_INLINE void stall_kirchhoff_stage(const StallState<Scalar>& s, StallProgress<Scalar>* q) {
+  q->kirchhoff0 = kirchhoff_factor(q->f0);
+  q->kirchhoff1 = kirchhoff_factor(s.separation_point);
+}
+
+// Advances f, tau_v and v over one step, in place, with the step's lookups k (see the essay
+// and StallLookups): the stages above in order. families == none: nothing.
+template <class Scalar, class Cap>
+INDICIAL_HOT_INLINE void advance_stall_with(const StallModel<Scalar, Cap>& m, const StallStep<Scalar>& g,
+                               const Scalar& h, const StallLookups<Scalar>& k, StallState<Scalar>* s) {
+  if (m.families == StallFamilies::none) return;
+  StallProgress<Scalar> q;
+  stall_separation_stage(m, h, k, s, &q);
+  if (m.families != StallFamilies::separation_and_vortex) return;
+  stall_shedding_stage(m, k, &q);
+  stall_clock_stage(m, h, s, &q);
+  stall_feed_gate_stage(m, *s, &q);
+  stall_kirchhoff_stage(*s, &q);
+  stall_vortex_stage(m, g, h, s, q);
 }
 
 // Advances f, tau_v and v over one step, in place (see the essay). families == none: nothing.
@@ -1642,21 +1747,31 @@ inline void advance_stall(const StallModel<Scalar, Cap>& m, const StallStep<Scal
 }
 
 // The outputs at angle x with state s, apart (a delta on top of the report's model), given
-// the f0 table's value at x_rad (a runtime whose coefficients share the table: StallLookups).
+// the f0 table's value at x_rad (a runtime whose coefficients share the table: StallLookups)
+// and K(f) of the state's f (a step has it from its vortex update: StallProgress).
 template <class Scalar, class Cap>
-INDICIAL_HOT_INLINE StallOutput<Scalar> stall_output_parts_from_table(const StallModel<Scalar, Cap>& m, const Scalar& x_rad,
-                                                         const Scalar& table_value,
-                                                         const StallState<Scalar>& s) {
+INDICIAL_HOT_INLINE StallOutput<Scalar> stall_output_parts_from_factor(const StallModel<Scalar, Cap>& m, const Scalar& x_rad,
+                                                          const Scalar& table_value, const Scalar& kirchhoff,
+                                                          const StallState<Scalar>& s) {
   StallOutput<Scalar> o;
   if (m.families == StallFamilies::none) return o;
   const SeparationParameters<Scalar, Cap>& p = m.separation;
   const Scalar f_static = static_separation_from_table(p, x_rad, table_value);
   o.separation = attached_normal_force(p, x_rad) *
-                 (separation_shape(p, s.separation_point) - separation_shape(p, f_static));
+                 (separation_shape_from_factor(p, s.separation_point, kirchhoff) - separation_shape(p, f_static));
   if (m.families != StallFamilies::separation_and_vortex) return o;
   o.vortex = s.vortex_lift * (m.vortex.lift_gain -
                               m.vortex.cp_travel * vortex_position(m.vortex, s.vortex_clock_semichords));
   return o;
+}
+
+// The outputs at angle x with state s, apart, given the f0 table's value at x_rad.
+template <class Scalar, class Cap>
+INDICIAL_HOT_INLINE StallOutput<Scalar> stall_output_parts_from_table(const StallModel<Scalar, Cap>& m, const Scalar& x_rad,
+                                                         const Scalar& table_value,
+                                                         const StallState<Scalar>& s) {
+  if (m.families == StallFamilies::none) return StallOutput<Scalar>{};
+  return stall_output_parts_from_factor(m, x_rad, table_value, kirchhoff_factor(s.separation_point), s);
 }
 
 // The outputs at angle x with state s, apart.
