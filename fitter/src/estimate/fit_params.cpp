@@ -223,9 +223,7 @@ std::vector<ParamId> structural_terms(const UnsteadyStructure& s) {
     if (s.stall.reattachment == StallReattachment::estimated) add_stall(param_id(ParamKind::stall_tau1_reattach));
     add_spline_terms(t, s.stall.f0_correction, ParamKind::f0_power, ParamKind::f0_knot, 0);
     for (int k = 0; k < 3; ++k) {
-      ParamId cp = param_id(ParamKind::stall_cp);
-      cp.power = k;
-      add_stall(cp);
+      add_stall(param_id(ParamKind::stall_cp, 0, k));
     }
   }
   if (s.stall.families == StallFamilies::separation_and_vortex) {

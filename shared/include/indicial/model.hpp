@@ -1477,14 +1477,8 @@ INDICIAL_HOT_INLINE Scalar separation_table_value_near(const SeparationParameter
 // The static separation table f0(x), linear between rows, clamped at the ends.
 template <class Scalar, class Cap>
 inline Scalar separation_table_value(const SeparationParameters<Scalar, Cap>& p, const Scalar& x) {
-  const int n = p.n_f0;
-  if (n < 1) return Scalar(1);
-  if (!(x > Scalar(p.f0_x_rad[0]))) return p.f0_value[0];
-  if (!(x < Scalar(p.f0_x_rad[n - 1]))) return p.f0_value[n - 1];
-  const int lo = detail::table_row(p.f0_x_rad, n, x);
-  const int hi = lo + 1;
-  const Scalar w = (x - Scalar(p.f0_x_rad[lo])) / Scalar(p.f0_x_rad[hi] - p.f0_x_rad[lo]);
-  return (Scalar(1) - w) * p.f0_value[lo] + w * p.f0_value[hi];
+  int row;
+  return separation_table_value_near(p, x, -1, &row);
 }
 
 // f0c(x) = clip_[0,1](f0(x) + df0(x)), given the table's value f0(x) (a runtime whose
