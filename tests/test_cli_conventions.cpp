@@ -375,3 +375,25 @@ TEST_CASE("init --case NAME beside that case's runs fits exactly like simulate's
   CHECK(ja["parameters"] == jb["parameters"]);
   CHECK(ja["parameters"].size() >= 10);  // Model II: b1 with four knots
 }
+
+// `init --case dynamic-stall` (the case `simulate --list` names; a user's trial found it
+// refused): the campaign's C_L experiment, beside simulate's files, fits as experiment-CL.toml.
+// Its runs entry documents `files = [...]` and `samples`, the digitized cycles' keys.
+TEST_CASE("init --case dynamic-stall beside the campaign's files fits exactly like experiment-CL.toml") {
+  const fs::path d = scratch() / "init-dynamic-stall";
+  const CliRun sim = run_cli("simulate --case dynamic-stall --out '" + d.string() + "'");
+  REQUIRE_MESSAGE(sim.exit_code == 0, sim.err);
+  const CliRun init = run_cli("init --case dynamic-stall '" + (d / "mine.toml").string() + "'");
+  REQUIRE_MESSAGE(init.exit_code == 0, init.err);
+  const std::string t = slurp(d / "mine.toml");
+  CHECK(t.find("{files = [\"alpha.csv\", \"cl.csv\"]") != std::string::npos);
+  CHECK(t.find("# frequency_hz = 2.0, samples = 128}") != std::string::npos);
+  CHECK(t.find("coefficients = [") != std::string::npos);
+  const CliRun a = run_cli("fit '" + (d / "experiment-CL.toml").string() + "' --out '" + (d / "fit-a").string() + "' --no-plots");
+  const CliRun b = run_cli("fit '" + (d / "mine.toml").string() + "' --out '" + (d / "fit-b").string() + "' --no-plots");
+  REQUIRE_MESSAGE(a.exit_code == 0, a.err);
+  REQUIRE_MESSAGE(b.exit_code == 0, b.err);
+  const nlohmann::json ja = nlohmann::json::parse(slurp(d / "fit-a" / "fit.json"));
+  const nlohmann::json jb = nlohmann::json::parse(slurp(d / "fit-b" / "fit.json"));
+  CHECK(ja["parameters"] == jb["parameters"]);
+}

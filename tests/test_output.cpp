@@ -16,6 +16,7 @@ TEST_SUITE_BEGIN("unit");  // the ctest label (tests/CMakeLists.txt)
 namespace fs = std::filesystem;
 using indicial::InputError;
 using indicial::Overwrite;
+using indicial::OutputDir;
 using indicial::testing::TempDir;
 
 TEST_CASE("write_file_atomically: text written whole, an existing file refused unless replace") {
@@ -67,4 +68,39 @@ TEST_CASE("write_file_atomically with a producer: renamed into place only when i
   CHECK_THROWS_AS(indicial::write_file_atomically(f, Overwrite::refuse, [&](const fs::path&) { ran = true; }),
                   InputError);
   CHECK_FALSE(ran);
+}
+
+// --force replaces a directory's whole contents: never one holding an input of the command or
+// the working directory (a user's trial: `fit exp.toml --out data --force` deleted the run
+// files and the static table it had just fitted; `--out .` failed with "Device or resource
+// busy"). The probe refuses before anything is written.
+TEST_CASE("OutputDir with replace refuses a directory holding an input or the working directory") {
+  TempDir tmp;
+  const fs::path data = tmp.path / "data";
+  fs::create_directories(data);
+  const std::string input = (data / "run.csv").string();
+  indicial::write_text(input, "time_s,alpha_deg,Cm\n");
+  CHECK_THROWS_WITH_AS(OutputDir(data, Overwrite::replace, {input}),
+                       doctest::Contains("holds an input of this command"), InputError);
+  CHECK(fs::exists(input));
+  // Named relatively, through "..": the same directory.
+  CHECK_THROWS_AS(OutputDir(data / ".." / "data", Overwrite::replace, {input}), InputError);
+  // An input elsewhere: replaced as before.
+  const fs::path other = tmp.path / "other";
+  fs::create_directories(other);
+  indicial::write_text(other / "old.txt", "old\n");
+  {
+    OutputDir out(other, Overwrite::replace, {input});
+    out.write("new.txt", "new\n");
+    out.commit();
+  }
+  CHECK(fs::exists(other / "new.txt"));
+  CHECK(!fs::exists(other / "old.txt"));
+  // The working directory (or a directory holding it) is never replaced.
+  const fs::path cwd = fs::current_path();
+  fs::current_path(other);
+  CHECK_THROWS_WITH_AS(OutputDir(".", Overwrite::replace), doctest::Contains("the working directory"), InputError);
+  CHECK_THROWS_AS(OutputDir(tmp.path, Overwrite::replace), InputError);
+  fs::current_path(cwd);
+  CHECK(fs::exists(other / "new.txt"));
 }

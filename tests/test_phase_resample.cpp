@@ -15,6 +15,7 @@
 #include "indicial/fitter/experiment_toml.hpp"
 #include "indicial/fitter/io.hpp"
 #include "indicial/fitter/phase_resample.hpp"
+#include "indicial/fitter/provenance.hpp"
 #include "test_support.hpp"
 
 namespace fs = std::filesystem;
@@ -129,7 +130,10 @@ TEST_CASE("runs entry files = [...]: alpha, CL and Cm at their own phases make o
     CHECK(r.time_grid == indicial::TimeGrid::uniform);
     REQUIRE(r.size() == 128);
     CHECK(r.dt_s() == doctest::Approx(1.0 / 256).epsilon(1e-12));
-    CHECK(r.path == "alpha.csv + cl.txt + cm.csv");
+    // The files as resolved from the experiment's folder (found from any working directory).
+    const std::string d = dir().string() + "/";
+    CHECK(r.path == d + "alpha.csv + " + d + "cl.txt + " + d + "cm.csv");
+    CHECK(r.source_files == std::vector<std::string>{d + "alpha.csv", d + "cl.txt", d + "cm.csv"});
     double worst_alpha = 0, worst_c = 0;
     for (std::size_t k = 0; k < r.size(); ++k) {
       const double ph = 2 * kPi * static_cast<double>(k) / 128;
@@ -144,7 +148,9 @@ TEST_CASE("runs entry files = [...]: alpha, CL and Cm at their own phases make o
   CHECK(noted);
   // Written back as files = [...] and read again to the same run.
   const std::string back = indicial::write_experiment_toml(es[0], {});
-  CHECK(back.find("{files = [\"alpha.csv\", \"cl.txt\", \"cm.csv\"], frequency_hz = 2, samples = 128}") != std::string::npos);
+  const std::string d = dir().string() + "/";
+  CHECK(back.find("{files = [\"" + d + "alpha.csv\", \"" + d + "cl.txt\", \"" + d + "cm.csv\"], frequency_hz = 2, samples = 128}") !=
+        std::string::npos);
   const indicial::Experiment again = indicial::load_experiment(write("files_back.toml", back));
   CHECK(again.runs[0].coefficient == es[0].runs[0].coefficient);
   // Wrong entries name the problem.
@@ -171,4 +177,84 @@ TEST_CASE("runs entry files = [...]: alpha, CL and Cm at their own phases make o
             .find("give 'runs.file' or 'runs.files', not both") != std::string::npos);
   CHECK(error_of("samples.toml", with_runs("[{file = \"alpha.csv\", samples = 64, frequency_hz = 2.0}]"))
             .find("'runs.samples' is used only with 'runs.files'") != std::string::npos);
+}
+
+// Digitized-series mistakes a user's trial hit (2026-11-27), each read through an experiment:
+// radians under a phase_deg heading cover 1.7 % of the cycle (refused, the unit named); a
+// series with a stretch left out is interpolated across it (warned, the gap's rows named); the
+// motion angle in radians under alpha_deg is warned as for a run of one file.
+TEST_CASE("files = [...]: a phase gap over half the cycle is refused, over 60 deg warned, radians named") {
+  std::string alpha = "phase_deg,alpha_deg\n", alpha_rad = "phase_deg,alpha_deg\n", phase_rad = "phase_deg,CL\n",
+              gap = "phase_deg,CL\n", full = "phase_deg,CL\n";
+  for (double ph : digitized_phases(40, 4)) {
+    const std::string p = indicial::format_double(ph * 180 / kPi);
+    alpha += p + "," + indicial::format_double(10 + 8 * std::sin(ph)) + "\n";
+    alpha_rad += p + "," + indicial::format_double((10 + 8 * std::sin(ph)) * kPi / 180) + "\n";
+    phase_rad += indicial::format_double(ph) + "," + indicial::format_double(history(ph)) + "\n";  // rad as deg
+    full += p + "," + indicial::format_double(history(ph)) + "\n";
+    if (ph < 100 * kPi / 180 || ph > 190 * kPi / 180)  // 90 deg left out
+      gap += p + "," + indicial::format_double(history(ph)) + "\n";
+  }
+  write("g_alpha.csv", alpha);
+  write("g_alpha_rad.csv", alpha_rad);
+  write("g_phase_rad.csv", phase_rad);
+  write("g_gap.csv", gap);
+  write("g_cl.csv", full);
+  auto experiment = [](const std::string& files) {
+    return "axis = \"pitch\"\ncoefficient = \"CL\"\nreference_length_m = 0.275\nairspeed_mps = 40\n"
+           "runs = [{files = [" + files + "], frequency_hz = 2.0}]\n[static]\npolynomial = [0.1, 5.0]\n";
+  };
+  try {
+    indicial::load_experiment(write("g1.toml", experiment("\"g_alpha.csv\", \"g_phase_rad.csv\"")));
+    FAIL("radians under phase_deg were accepted");
+  } catch (const indicial::InputError& err) {
+    const std::string m = err.what();
+    CAPTURE(m);
+    CHECK(m.find("g_phase_rad.csv:2: column 'phase_deg': the phases leave a gap of") != std::string::npos);
+    CHECK(m.find("more than half the cycle") != std::string::npos);
+    CHECK(m.find("look like radians in a degree column") != std::string::npos);
+  }
+  const indicial::Experiment g = indicial::load_experiment(write("g2.toml", experiment("\"g_alpha.csv\", \"g_gap.csv\"")));
+  bool gap_warned = false;
+  for (const std::string& w : g.warnings) gap_warned = gap_warned || (w.find("g_gap.csv:") != std::string::npos &&
+                                                                      w.find("interpolated across it") != std::string::npos);
+  CHECK(gap_warned);
+  const indicial::Experiment r = indicial::load_experiment(write("g3.toml", experiment("\"g_alpha_rad.csv\", \"g_gap.csv\"")));
+  bool radians_warned = false;
+  for (const std::string& w : r.warnings) radians_warned = radians_warned || w.find("looks like radians") != std::string::npos;
+  CHECK(radians_warned);
+  // The complete series warn of nothing.
+  const indicial::Experiment ok = indicial::load_experiment(write("g4.toml", experiment("\"g_alpha.csv\", \"g_cl.csv\"")));
+  for (const std::string& w : ok.warnings) {
+    CAPTURE(w);
+    CHECK(w.find("gap") == std::string::npos);
+    CHECK(w.find("radians") == std::string::npos);
+  }
+}
+
+// A run of several files is found from any working directory (its files resolved from the
+// experiment's folder, as a one-file run's) and each file is digested for the provenance: the
+// run's path is a label, not a file (a user's trial: every fit of such a run failed at its
+// SHA-256 after fitting).
+TEST_CASE("files = [...]: each file resolved from the experiment's folder and digested for the provenance") {
+  std::string a = "phase_deg,alpha_deg\n", l = "phase_deg,CL\n";
+  for (double ph : digitized_phases(40, 5)) {
+    a += indicial::format_double(ph * 180 / kPi) + "," + indicial::format_double(10 + 8 * std::sin(ph)) + "\n";
+    l += indicial::format_double(ph * 180 / kPi) + "," + indicial::format_double(history(ph)) + "\n";
+  }
+  fs::create_directories(dir() / "sub");
+  write("sub/p_alpha.csv", a);
+  write("sub/p_cl.csv", l);
+  const std::string toml = write("sub/p.toml", "axis = \"pitch\"\ncoefficient = \"CL\"\nreference_length_m = 0.275\n"
+                                               "airspeed_mps = 40\nruns = [{files = [\"p_alpha.csv\", \"p_cl.csv\"], "
+                                               "frequency_hz = 2.0}]\n[static]\npolynomial = [0.1, 5.0]\n");
+  const indicial::Experiment e = indicial::load_experiment(toml);
+  const indicial::Provenance p = indicial::experiment_provenance(e, "test", "commit");
+  REQUIRE(p.inputs.size() == 3);  // the experiment and the run's two files
+  CHECK(p.inputs[1].path == (dir() / "sub" / "p_alpha.csv").string());
+  CHECK(p.inputs[2].path == (dir() / "sub" / "p_cl.csv").string());
+  CHECK(p.inputs[1].sha256 == indicial::sha256_hex(a));
+  CHECK(p.inputs[2].sha256 == indicial::sha256_hex(l));
+  CHECK(indicial::experiment_input_paths(e) ==
+        std::vector<std::string>{toml, p.inputs[1].path, p.inputs[2].path});
 }

@@ -310,3 +310,73 @@ TEST_CASE("predict: --time-grid nonuniform predicts a log with dropped samples, 
   CHECK(run(exe + " predict " + coef + " " + with_q.string() + " --time-grid sometimes --out " +
             (tmp.path / "x.csv").string()) != 0);
 }
+
+// Several DATA files are one cycle whose quantities are at their own phases, resampled as the
+// fit resamples a runs entry `files = [...]` (a user's trial: a held-out digitized cycle could
+// not be predicted without resampling it by hand). Here the angle and rate at the cycle's 128
+// phases and C_L at every other one: on the same phase grid the prediction is the one-file
+// prediction (the periodic interpolation returns its nodes exactly); the measured C_L is
+// interpolated between its 64 phases.
+TEST_CASE("predict: several DATA files are one cycle at their own phases, as the fit's files = [...]") {
+  TempDir tmp;
+  const std::string exe = INDICIAL_EXE;
+  const fs::path sim = tmp.path / "sim";
+  REQUIRE(run(exe + " simulate --case dynamic-stall --out " + sim.string()) == 0);
+  REQUIRE(run(exe + " fit " + (sim / "experiment-CL.toml").string() + " --out " + (tmp.path / "fit").string() +
+              " --no-plots") == 0);
+  const std::string coef = (tmp.path / "fit" / "model.coef").string();
+  const fs::path cycle = sim / "a8_k0.080_v30.csv";  // phase_rad,alpha_deg,q_degps,CL,Cm,...
+  std::ifstream in(cycle);
+  std::ofstream angle(tmp.path / "angle.csv"), lift(tmp.path / "lift.csv");
+  angle << "phase_rad,alpha_deg,q_degps\n";
+  lift << "phase_rad,CL\n";
+  int row = 0;
+  for (std::string line; std::getline(in, line);) {
+    if (line.empty() || line[0] == '#' || line[0] == 'p') continue;
+    std::stringstream ss(line);
+    std::vector<std::string> c;
+    for (std::string cell; std::getline(ss, cell, ',');) c.push_back(cell);
+    // The exact phase 2 pi i / 128: the file's is rounded to 0.01 rad, which its reader snaps to
+    // this grid, and a series at its own phases takes as given.
+    const std::string phase = indicial::format_double(2 * kPi * row / 128.0);
+    angle << phase << "," << c[1] << "," << c[2] << "\n";
+    if (row++ % 2 == 0) lift << phase << "," << c[3] << "\n";
+  }
+  angle.close();
+  lift.close();
+  const std::string k = " --reduced-frequency 0.08 --airspeed-mps 30";
+  const fs::path one = tmp.path / "one.csv", two = tmp.path / "two.csv";
+  REQUIRE(run(exe + " predict " + coef + " " + cycle.string() + k + " --out " + one.string()) == 0);
+  REQUIRE(run(exe + " predict " + coef + " " + (tmp.path / "angle.csv").string() + " " +
+              (tmp.path / "lift.csv").string() + k + " --samples 128 --out " + two.string()) == 0);
+  auto columns = [](const fs::path& p) {
+    std::ifstream f(p);
+    std::vector<std::vector<double>> rows;
+    for (std::string line; std::getline(f, line);) {
+      if (line.empty() || line[0] == '#' || line[0] == 't') continue;
+      std::stringstream ss(line);
+      std::vector<double> r;
+      for (std::string cell; std::getline(ss, cell, ',');) r.push_back(std::stod(cell));
+      rows.push_back(r);
+    }
+    return rows;
+  };
+  const auto a = columns(one), b = columns(two);  // time_s, alpha_deg, CL_pred, CL_quasi_steady, CL
+  REQUIRE(a.size() == 128);
+  REQUIRE(b.size() == 128);
+  double worst_pred = 0, worst_measured = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    worst_pred = std::max(worst_pred, std::abs(a[i][2] - b[i][2]));
+    worst_measured = std::max(worst_measured, std::abs(a[i][4] - b[i][4]));
+    if (i % 2 == 0) CHECK(b[i][4] == doctest::Approx(a[i][4]).epsilon(1e-12));  // C_L's own phases
+  }
+  MESSAGE("largest difference: prediction " << worst_pred << ", measured C_L " << worst_measured);
+  CHECK(worst_pred < 1e-9);
+  CHECK(worst_measured < 0.02);
+  // Without a frequency, or --samples with one file: refused, nothing written.
+  const fs::path no = tmp.path / "no.csv";
+  CHECK(run(exe + " predict " + coef + " " + (tmp.path / "angle.csv").string() + " " + (tmp.path / "lift.csv").string() +
+            " --out " + no.string()) != 0);
+  CHECK(run(exe + " predict " + coef + " " + cycle.string() + k + " --samples 64 --out " + no.string()) != 0);
+  CHECK_FALSE(fs::exists(no));
+}

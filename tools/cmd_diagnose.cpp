@@ -53,7 +53,7 @@ void run_diagnose(const DiagnoseCliOptions& o) {
   ro.warnings = e.warnings;
   tools::print_warnings(ro.warnings);
   const Overwrite overwrite = o.force ? Overwrite::replace : Overwrite::refuse;
-  { OutputDir probe(o.out, overwrite); }  // refuse a non-empty DIR before the long part
+  { OutputDir probe(o.out, overwrite, experiment_input_paths(e)); }  // refuse before the long part
   DiagnoseResult d;
   clock.stage("diagnosing (fits of every candidate effect, round by round)",
               [&] { d = diagnose_experiment(e, o.diag); });
@@ -93,8 +93,12 @@ void run_diagnose(const DiagnoseCliOptions& o) {
                   s.step, effect_name(s.effect), s.detail.c_str(), s.statistic, s.log10_p, std::log10(s.threshold),
                   s.fit_error_before, s.fit_error_after, s.indistinguishable.empty() ? "" : twin_note);
   }
-  std::printf("diagnose: verdict %s; final fit error %.6g (%d fits, %.2f s)\n", d.verdict.c_str(),
-              d.final_fit_error, d.fits_run, d.elapsed_s);
+  // The verdict is the first (principal) effect; every effect added is said beside it.
+  std::string added;
+  for (const std::string& x : d.effects_added) added += (added.empty() ? "" : ", ") + x;
+  std::printf("diagnose: verdict %s%s; final fit error %.6g (%d fits, %.2f s)\n", d.verdict.c_str(),
+              d.effects_added.size() > 1 ? (" (effects added: " + added + ")").c_str() : "", d.final_fit_error,
+              d.fits_run, d.elapsed_s);
   std::printf("diagnose: wrote %s/diagnosis.json, model.coef, report.md (%s)\n", o.out.c_str(),
               w.plot_message.c_str());
   std::fflush(stdout);

@@ -192,7 +192,7 @@ void run_fit_one(const FitCliOptions& o, const indicial::FitOptions& fo, const i
   using namespace indicial;
   // Refuse a non-empty DIR before the (possibly long) fit, not after it.
   const Overwrite overwrite = o.force ? Overwrite::replace : Overwrite::refuse;
-  { OutputDir probe(o.out, overwrite); }
+  { OutputDir probe(o.out, overwrite, experiment_input_paths(e)); }
   FitResult r;
   clock.stage("fitting (equation error, stepwise, output error)", [&] { r = fit_experiment(e, fo); });
   const std::vector<std::string> after_fit = checked_fit(r, e, o.out + "/model.coef");
@@ -218,7 +218,12 @@ void run_fit_several(const FitCliOptions& o, const indicial::FitOptions& fo,
                      const indicial::tools::StageClock& clock) {
   using namespace indicial;
   const Overwrite overwrite = o.force ? Overwrite::replace : Overwrite::refuse;
-  { OutputDir probe(o.out, overwrite); }
+  std::vector<std::string> inputs;
+  for (const Experiment& e : es) {
+    const std::vector<std::string> more = experiment_input_paths(e);
+    inputs.insert(inputs.end(), more.begin(), more.end());
+  }
+  { OutputDir probe(o.out, overwrite, inputs); }
   std::vector<FitResult> results;
   std::vector<std::vector<std::string>> after(es.size());
   for (std::size_t i = 0; i < es.size(); ++i) {

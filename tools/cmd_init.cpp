@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "command.hpp"
+#include "indicial/fitter/dynamic_stall.hpp"
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/experiment_checks.hpp"
 #include "indicial/fitter/io.hpp"
@@ -63,7 +64,10 @@ const std::vector<KeyDoc>& key_docs() {
       {"", "axis", "pitch | roll | yaw (required). The motion: pitch oscillation (model angle x = alpha),\n"
                    "roll (x = beta = asin(sin phi sin alpha0)) or yaw (x = beta = asin(-sin psi cos alpha0)).",
        "axis = \"pitch\""},
-      {"", "coefficient", "the run CSV column to model (required): CL, Cm, CD, CY, Cl or Cn (dimensionless).",
+      {"", "coefficient", "the run CSV column to model (required): CL, Cm, CD, CY, Cl or Cn (dimensionless).\n"
+                          "Or coefficients = [\"CL\", \"Cm\"] (at most 3, never both keys): every listed column fitted\n"
+                          "from the same runs into one model.coef; [static], [rotary], [model] then shared or per\n"
+                          "coefficient ([static.CL], [static.Cm], ...; docs/formats.md).",
        "coefficient = \"Cm\""},
       {"", "reference_length_m", "l in m, > 0 (required): the length of the rotary term (l/V) C_aq(x) rate:\n"
                                  "mean chord / 2 in pitch, span / 2 in roll and yaw.",
@@ -80,7 +84,11 @@ const std::vector<KeyDoc>& key_docs() {
                    "frequency_hz or reduced_frequency (a phase-column run's cycle), airspeed_mps (default the\n"
                    "experiment's), time_grid = \"uniform\" (default) or \"nonuniform\", cycles_averaged = N\n"
                    "(an average of N >= 2 cycles whose file has the spread column <coefficient>_std, the\n"
-                   "single cycles' standard deviation: the noise from replication is spread / sqrt(N)).",
+                   "single cycles' standard deviation: the noise from replication is spread / sqrt(N)).\n"
+                   "A cycle whose quantities are at their own phases (digitized histories: a file per quantity,\n"
+                   "each with its own phase_deg|phase_rad column, any spacing): {files = [\"alpha.csv\", \"cl.csv\"],\n"
+                   "frequency_hz = 2.0, samples = 128}, resampled onto `samples` uniform phases (default: the\n"
+                   "most rows of the files used) by a periodic modified Akima cubic.",
        "runs = [\"run1.csv\", \"run2.csv\"]"},
       {"static", "polynomial", "the static curve C_a(x) = c0 + c1 x + c2 x^2 + ...: coefficients of x^0, x^1, ...\n"
                                "with x = alpha (pitch) or beta (roll, yaw) in RAD. Give polynomial or table (one is required).",
@@ -272,9 +280,41 @@ struct InitOptions {
   bool force = false;
 };
 
+// The values of a template: a built-in case's (simulate.hpp), or the dynamic-stall campaign's
+// C_L experiment as `indicial simulate --case dynamic-stall` writes it (experiment-CL.toml:
+// its fit cycles, phase-averaged, each at its frequency and airspeed; the static table).
+struct TemplateCase {
+  std::string name;
+  std::string description;
+  indicial::Experiment experiment;
+};
+
+TemplateCase template_case(const std::string& name) {
+  using namespace indicial;
+  if (name != "dynamic-stall") {
+    const SimulationCase& c = find_simulation_case(name);
+    return {c.name, c.description, c.experiment};
+  }
+  const dynamic_stall::Campaign& c = dynamic_stall::default_campaign();
+  TemplateCase t{name, "phase-averaged pitching cycles through dynamic stall, CL; experiment-Cm.toml is the same for Cm",
+                 dynamic_stall::campaign_experiment_config(c, "CL")};
+  t.experiment.static_curve.table_path = "static.csv";
+  for (const dynamic_stall::PitchCycle& p : c.cycles) {
+    if (p.role != dynamic_stall::CycleRole::fit) continue;
+    Run r;
+    r.path = p.file;
+    r.time_source = TimeSource::phase_column;
+    r.periodic = true;
+    r.frequency_hz = c.frequency_hz(p);
+    r.airspeed_mps = p.airspeed_mps;
+    t.experiment.runs.push_back(r);
+  }
+  return t;
+}
+
 void run_init(const InitOptions& o) {
   using namespace indicial;
-  const SimulationCase& c = find_simulation_case(o.case_name);
+  const TemplateCase c = template_case(o.case_name);
   const std::vector<std::string> header = {
       "indicial experiment file (TOML), written by `" + tools::invocation() + "`.",
       "Every key is listed with its unit, default and meaning; keys not set are commented out.",

@@ -1,8 +1,12 @@
 // `indicial predict`: run a model on the motion of a run CSV with the embedded runtime.
 //
-//   indicial predict MODEL.coef DATA.csv --out FILE.csv [--plot FILE.png [--gnuplot EXE]] [--metrics FILE.json]
-//                    [--airspeed-mps V] [--time-grid uniform|nonuniform] [--periodic]
-//                    [--frequency-hz F | --reduced-frequency K] [--experiment E.toml] [--force]
+//   indicial predict MODEL.coef DATA.csv [DATA2.csv ...] --out FILE.csv [--plot FILE.png [--gnuplot EXE]]
+//                    [--metrics FILE.json] [--airspeed-mps V] [--time-grid uniform|nonuniform] [--periodic]
+//                    [--frequency-hz F | --reduced-frequency K] [--samples N] [--experiment E.toml] [--force]
+//
+// Several DATA files are one cycle whose quantities are at their own phases (digitized
+// histories: an experiment's runs entry `files = [...]`, phase_resample.hpp), resampled onto
+// --samples uniform phases (default: the most rows of any file) as the fit resamples its runs.
 //
 // Writes time_s, the angle column as given, <c>_pred, <c>_quasi_steady and the measured <c>
 // where DATA.csv has it; where measured, prints the metrics (RMS, max, Theil's inequality
@@ -13,6 +17,7 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "command.hpp"
 #include "indicial/fitter/error.hpp"
@@ -20,6 +25,7 @@
 #include "indicial/fitter/experiment_toml.hpp"
 #include "indicial/fitter/io.hpp"
 #include "indicial/fitter/output.hpp"
+#include "indicial/fitter/phase_resample.hpp"
 #include "indicial/fitter/predict.hpp"
 #include "indicial/fitter/prediction_output.hpp"
 #include "indicial/fitter/runtime_limits.hpp"
@@ -28,7 +34,9 @@ namespace {
 
 struct PredictOptions {
   std::string model_path;
-  std::string data_path;
+  std::vector<std::string> data_paths;  // one run file, or one cycle's files at their own phases
+  std::string data_label;               // data_paths joined by " + " (messages, comments)
+  int samples = 0;                      // several DATA files: the uniform phases (0: most rows)
   std::string out;
   std::string plot;
   std::string metrics;
@@ -49,14 +57,42 @@ std::string default_metrics_path(const std::string& out) {
   return p.string() + ".metrics.json";
 }
 
+// Several DATA files: one cycle whose quantities are at their own phases, resampled onto one
+// uniform phase grid per coefficient (the measured column is optional for each), as the fit
+// reads a runs entry `files = [...]`.
+std::vector<indicial::Run> read_cycle_of_files(const PredictOptions& o, const indicial::ModelSet<double, indicial::FitCapacity>& model,
+                                               const indicial::RunCsvOptions& read) {
+  using namespace indicial;
+  if (!(read.frequency_hz > 0.0))
+    throw InputError(o.data_label, 0, "several DATA files are one cycle at their own phases: give --frequency-hz or "
+                                      "--reduced-frequency");
+  if (o.grid_given)
+    throw InputError("--time-grid", 0, "does not apply to several DATA files (the cycle is resampled onto --samples "
+                                       "uniform phases)");
+  if (o.samples != 0 && (o.samples < min_run_samples || o.samples > 100000))
+    throw InputError("--samples", 0, "must be " + std::to_string(min_run_samples) + "..100000");
+  std::vector<Run> runs;
+  for (int c = 0; c < model.n_coefficients; ++c) {
+    std::vector<PhaseSeries> series;
+    for (const std::string& path : o.data_paths)
+      series.push_back(read_phase_series(path, model.axis, model.coefficients[c].name, read));
+    runs.push_back(resample_phase_series(series, model.coefficients[c].name, CoefficientPresence::optional,
+                                         read.frequency_hz, o.samples, o.data_label));
+  }
+  return runs;
+}
+
 void run_predict(const PredictOptions& o) {
   using namespace indicial;
   const Overwrite overwrite = o.force ? Overwrite::replace : Overwrite::refuse;
   if (o.out.empty()) throw InputError("--out", 0, "an output CSV path is required");
-  for (const std::string& f : {o.model_path, o.data_path})
-    if (std::filesystem::is_directory(f))
-      throw InputError(f + " is a directory, expected a " +
-                                 std::string(f == o.model_path ? "coefficient file (.coef)" : "CSV file"));
+  if (std::filesystem::is_directory(o.model_path))
+    throw InputError(o.model_path + " is a directory, expected a coefficient file (.coef)");
+  for (const std::string& f : o.data_paths)
+    if (std::filesystem::is_directory(f)) throw InputError(f + " is a directory, expected a CSV file");
+  if (o.data_paths.size() == 1 && o.samples != 0)
+    throw InputError("--samples", 0, "is for several DATA files (one cycle at their own phases); one run file is "
+                                     "predicted at its own samples");
   const auto model = std::make_unique<ModelSet<double, FitCapacity>>(read_model_file(o.model_path));
   if (o.airspeed_mps < 0.0) throw InputError("--airspeed-mps", 0, "must be > 0");
   const double airspeed = o.airspeed_mps > 0.0 ? o.airspeed_mps : model->airspeed_mps;
@@ -73,9 +109,13 @@ void run_predict(const PredictOptions& o) {
                           ? frequency_hz_from_reduced(o.reduced_frequency, airspeed, model->reference_length_m)
                           : o.frequency_hz;
   std::vector<Run> runs;
-  for (int c = 0; c < model->n_coefficients; ++c)
-    runs.push_back(read_run_csv(o.data_path, model->axis, model->coefficients[c].name,
-                                CoefficientPresence::optional, read));
+  if (o.data_paths.size() > 1) {
+    runs = read_cycle_of_files(o, *model, read);
+  } else {
+    for (int c = 0; c < model->n_coefficients; ++c)
+      runs.push_back(read_run_csv(o.data_paths.front(), model->axis, model->coefficients[c].name,
+                                  CoefficientPresence::optional, read));
+  }
   const Run& run = runs.front();
   tools::print_notes(run.notes);
   tools::print_warnings(run.warnings);
@@ -104,7 +144,7 @@ void run_predict(const PredictOptions& o) {
       if (!f.empty() && std::filesystem::exists(f))
         throw InputError(f, 0, "exists; use --force to replace it");
   }
-  std::vector<std::string> comments = {"indicial predict " + o.model_path + " " + o.data_path,
+  std::vector<std::string> comments = {"indicial predict " + o.model_path + " " + o.data_label,
                                        periodic ? "predicted with the runtime (indicial::Predictor): the "
                                                     "cycle's periodic steady state"
                                                   : "predicted with the runtime (indicial::Predictor), reset "
@@ -113,7 +153,7 @@ void run_predict(const PredictOptions& o) {
   const std::vector<std::string> warnings = prediction_warnings(p);
   for (const auto& w : warnings) comments.push_back("warning: " + w);
   if (!o.plot.empty()) {
-    write_prediction_plot(p, o.plot, "indicial predict: " + std::filesystem::path(o.data_path).filename().string(),
+    write_prediction_plot(p, o.plot, "indicial predict: " + std::filesystem::path(o.data_paths.front()).filename().string(),
                           overwrite, o.gnuplot);
   }
   if (!metrics_path.empty()) write_file_atomically(metrics_path, prediction_metrics_json(p), overwrite);
@@ -138,7 +178,11 @@ const indicial::tools::RegisterCommand register_predict([](CLI::App& app) {
       "  TIC = sqrt(mean e^2) / (sqrt(mean m^2) + sqrt(mean p^2))   (0 perfect, 1 worst)\n"
       "for the model and for the quasi-steady model.");
   sub->add_option("MODEL", opt->model_path, "coefficient file (.coef)")->required();
-  sub->add_option("DATA", opt->data_path, "run CSV: time_s, the angle column, optional rate and coefficients")
+  sub->add_option("DATA", opt->data_paths,
+                  "run CSV: time_s (or a phase column), the angle column, optional rate and coefficients; or "
+                  "several files, one cycle whose quantities are at their own phases (each file its own phase "
+                  "column: a digitized history, an experiment's files = [...]), with --frequency-hz or "
+                  "--reduced-frequency")
       ->required();
   sub->add_option("--out", opt->out, "output CSV")->required();
   sub->add_option("--plot", opt->plot, "overlay plot PNG (gnuplot): against time and against angle");
@@ -162,12 +206,17 @@ const indicial::tools::RegisterCommand register_predict([](CLI::App& app) {
                   "is implied)");
   sub->add_option("--reduced-frequency", opt->reduced_frequency,
                   "or its reduced frequency k = 2 pi f l / V (l: the model's reference length, V: the airspeed)");
+  sub->add_option("--samples", opt->samples,
+                  "several DATA files: the uniform phases they are resampled onto (default: the most rows of any "
+                  "file)");
   sub->add_option("--experiment", opt->experiment,
                   "read DATA as the experiment file E.toml reads its runs: its [columns] map (file column -> "
                   "ours, e.g. Cnormal = \"Cn\") and its [csv] dialect");
   sub->add_flag("--force", opt->force, "replace existing outputs");
   sub->callback([opt, sub]() {
     opt->grid_given = sub->get_option("--time-grid")->count() > 0;
+    opt->data_label.clear();
+    for (const std::string& f : opt->data_paths) opt->data_label += (opt->data_label.empty() ? "" : " + ") + f;
     run_predict(*opt);
   });
 });

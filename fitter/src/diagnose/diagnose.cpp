@@ -802,7 +802,14 @@ DiagnoseResult diagnose_experiment(const Experiment& e_in, const DiagnoseOptions
     e.data_x_min_rad = b.x_min_rad;
     e.data_x_max_rad = b.x_max_rad;
   }
-  FitResult first = dg.fit(e, e.model, {});
+  // The configured model is fitted as `indicial fit` fits it: with stall families, from the
+  // fit's start grid whatever o.fit.stall_start_search says for the candidates (that choice is
+  // for speed over many candidate fits; this is one fit). Why: from the configured start alone a
+  // digitized C_m with the separation family ended at s(v) 0.0536 where `indicial fit` reached
+  // 0.0391, and diagnose wrote the worse model with verdict none (a user's trial, 2026-11-27).
+  const StallStartSearch base_search =
+      e.model.stall.families != StallFamilies::none ? StallStartSearch::grid : o.fit.stall_start_search;
+  FitResult first = dg.fit_with(e, e.model, {}, base_search);
   const bool frozen = e.model.structure == StructureMode::stepwise || e.rotary.estimate;
   d.experiment = working_experiment(e, first);
   if (frozen) {

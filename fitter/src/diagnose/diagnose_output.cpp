@@ -542,9 +542,14 @@ std::string diagnosed_experiment_toml(const DiagnoseResult& d) {
   next.model = d.configs.back();
   // Absolute paths: the file is read from DIR, not from where the original experiment was.
   std::error_code ec;
-  for (Run& r : next.runs) r.path = fs::absolute(r.path, ec).string();
+  for (Run& r : next.runs) {
+    r.path = fs::absolute(r.path, ec).string();
+    for (std::string& f : r.source_files) f = fs::absolute(f, ec).string();
+  }
   if (next.static_curve.kind == StaticKind::table)
     next.static_curve.table_path = fs::absolute(next.static_curve.table_path, ec).string();
+  if (!next.model.stall.polar_path.empty())
+    next.model.stall.polar_path = fs::absolute(next.model.stall.polar_path, ec).string();
   // Why the start value: a delay is a non-convex parameter (diagnose fits it from two starts);
   // the refit starts from the diagnosed estimate instead of 0.
   if (next.model.delay == DelayEstimation::estimated) {

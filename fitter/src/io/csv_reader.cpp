@@ -12,6 +12,8 @@
 #include <string>
 #include <utility>
 
+#include <fmt/format.h>
+
 #include "indicial/fitter/derivative.hpp"
 #include "indicial/fitter/did_you_mean.hpp"
 #include "indicial/fitter/error.hpp"
@@ -872,19 +874,51 @@ void check_time_grid(const std::string& path, const CsvTable& t, const RunColumn
 // Why these limits: a motion whose largest |angle| is under 2.5 "deg" while it moves is almost
 // certainly radians (2.5 rad = 143 deg, 2.5 deg is a tiny motion for a tunnel run); an angle
 // beyond 2 pi "rad" is almost certainly degrees.
-void warn_angle_unit(const std::string& path, const std::string& column, double factor, Run& run) {
-  const auto [lo, hi] = std::minmax_element(run.motion_angle_rad.begin(), run.motion_angle_rad.end());
+void warn_angle_unit(const std::string& path, const std::string& column, double factor,
+                     const std::vector<double>& angle_rad, std::vector<std::string>* warnings) {
+  const auto [lo, hi] = std::minmax_element(angle_rad.begin(), angle_rad.end());
   const double largest = std::max(std::abs(*lo), std::abs(*hi)) / factor;  // in the column's unit
   if (*hi == *lo) return;  // no motion: load_experiment decides
   if (factor != 1.0 && largest < 2.5) {
-    run.warnings.push_back(path + ": '" + column + "' never exceeds " + format_double(largest) +
-                           " in magnitude: it looks like radians in a degree column (name it " +
-                           column.substr(0, column.find('_')) + "_rad if so)");
+    warnings->push_back(path + ": '" + column + "' never exceeds " + format_double(largest) +
+                        " in magnitude: it looks like radians in a degree column (name it " +
+                        column.substr(0, column.find('_')) + "_rad if so)");
   } else if (factor == 1.0 && largest > 2.0 * kPi) {
-    run.warnings.push_back(path + ": '" + column + "' reaches " + format_double(largest) +
-                           ", beyond 2 pi: it looks like degrees in a radian column (name it " +
-                           column.substr(0, column.find('_')) + "_deg if so)");
+    warnings->push_back(path + ": '" + column + "' reaches " + format_double(largest) +
+                        ", beyond 2 pi: it looks like degrees in a radian column (name it " +
+                        column.substr(0, column.find('_')) + "_deg if so)");
   }
+}
+
+// One cycle's phases (strictly increasing in [0, 2 pi), checked before): the largest gap
+// between neighbours, the wrap from the last phase back to the first included. Refused beyond
+// half a cycle: no periodic interpolation or closing step bridges that, and it is how radians
+// in a degree column (phases 0 ... 6.28 "deg", 1.7 % of the cycle) show. Warned beyond 60 deg:
+// a digitized series with a stretch left out (the interpolation bridges it with a cubic, and a
+// stall break inside it is lost). Why 60: 30 digitized points per cycle, twice as dense where
+// the curve turns, leave gaps of at most ~25 deg; a whole-cycle grid of 11 samples 33 deg.
+void check_phase_gaps(const std::string& path, const CsvTable& t, int phase_col, double factor,
+                      const std::vector<double>& phase_rad, std::vector<std::string>* warnings) {
+  const auto c = static_cast<std::size_t>(phase_col);
+  const std::size_t n = phase_rad.size();
+  std::size_t after = 0;  // the row after the largest gap (0: the wrap, last -> first)
+  double gap = phase_rad.front() + 2.0 * kPi - phase_rad.back();
+  for (std::size_t i = 1; i < n; ++i)
+    if (phase_rad[i] - phase_rad[i - 1] > gap) gap = phase_rad[i] - phase_rad[i - 1], after = i;
+  const std::size_t before = after == 0 ? n - 1 : after - 1;
+  const std::string where = "the phases leave a gap of " + fmt::format("{:.1f}", gap * 180.0 / kPi) + " deg between " +
+                            t.rows[before][c] + " and " + t.rows[after][c] + (after == 0 ? " (the wrap)" : "");
+  if (gap > kPi) {
+    const bool radians = factor != 1.0 && phase_rad.back() / factor <= 2.0 * kPi;
+    throw InputError(path, t.row_line[after], "column '" + t.header[c] + "': " + where +
+                                                  ", more than half the cycle: a cycle's phases must cover it" +
+                                                  (radians ? " (its values never exceed 2 pi: they look like radians "
+                                                             "in a degree column; name it phase_rad if so)"
+                                                           : ""));
+  }
+  if (gap > kPi / 3.0)
+    warnings->push_back(path + ":" + std::to_string(t.row_line[after]) + ": column '" + t.header[c] + "': " + where +
+                        ": the cycle is interpolated across it (a feature inside the gap is lost)");
 }
 
 // The coefficient's spread column (`Cm_std`: the standard deviation of the single cycles of an
@@ -927,6 +961,11 @@ Run read_run_csv(const std::string& path, Axis axis, const std::string& coeffici
                          std::to_string(min_run_samples));
   }
   check_time_order(path, t, rc, run);
+  if (rc.phase >= 0) {
+    std::vector<double> phase_rad(n);
+    for (std::size_t i = 0; i < n; ++i) phase_rad[i] = run.time_s[i] * 2.0 * kPi * run.frequency_hz;
+    check_phase_gaps(path, t, rc.phase, rc.phase_factor, phase_rad, &run.warnings);
+  }
   check_time_grid(path, t, rc, options.grid, tol, run);
   if (rc.rate >= 0) {
     run.rate_radps = numeric_column(path, t, rc.rate, rc.rate_factor);
@@ -938,7 +977,8 @@ Run read_run_csv(const std::string& path, Axis axis, const std::string& coeffici
     run.rate_radps = smooth_derivative(run.motion_angle_rad, run.time_s[1] - run.time_s[0],
                                        default_sg_half_window, default_sg_degree);
   }
-  warn_angle_unit(path, t.header[static_cast<std::size_t>(rc.angle)], rc.angle_factor, run);
+  warn_angle_unit(path, t.header[static_cast<std::size_t>(rc.angle)], rc.angle_factor, run.motion_angle_rad,
+                  &run.warnings);
   const int spread = read_spread_column(path, t, coefficient, run);
   std::vector<std::string> notes =
       table_notes(path, t, {rc.time, rc.phase, rc.angle, rc.rate, rc.coefficient, rc.normal, rc.chord, spread});
@@ -985,9 +1025,11 @@ PhaseSeries read_phase_series(const std::string& path, Axis axis, const std::str
       throw InputError(path, t.row_line[i], t.header[pc] + " is not strictly increasing (" + t.rows[i][pc] +
                                                 " after " + t.rows[i - 1][pc] + ")");
   }
+  check_phase_gaps(path, t, rc.phase, rc.phase_factor, s.phase_rad, &s.warnings);
   if (rc.angle >= 0) {
     s.motion_angle_rad = numeric_column(path, t, rc.angle, rc.angle_factor);
     s.motion_column = t.header[static_cast<std::size_t>(rc.angle)];
+    warn_angle_unit(path, s.motion_column, rc.angle_factor, s.motion_angle_rad, &s.warnings);
   }
   if (rc.rate >= 0) s.rate_radps = numeric_column(path, t, rc.rate, rc.rate_factor);
   if (rc.coefficient >= 0) s.coefficient = numeric_column(path, t, rc.coefficient, 1.0);

@@ -621,12 +621,19 @@ Run read_run_of_files(const LoadContext& c, const RunEntry& entry, const Experim
   if (!entry.frequency_given)
     throw InputError(c.r.file(), entry.line, "run '" + entry.file + "' (files at their own phases) needs the cycle's "
                                              "frequency: give frequency_hz or reduced_frequency in its entry");
+  // The files as resolved from the experiment's folder (as a one-file run's path is): the run is
+  // then found from any working directory (provenance digests, a diagnosed experiment.toml).
+  std::vector<std::string> resolved;
+  std::string label;
+  for (const std::string& name : entry.files) {
+    resolved.push_back(c.resolve(name));
+    label += (label.empty() ? "" : " + ") + resolved.back();
+  }
   std::vector<PhaseSeries> series;
-  for (const std::string& name : entry.files)
-    series.push_back(read_phase_series(c.resolve(name), e.axis, e.coefficient, entry.csv));
+  for (const std::string& path : resolved) series.push_back(read_phase_series(path, e.axis, e.coefficient, entry.csv));
   Run run = resample_phase_series(series, e.coefficient, CoefficientPresence::required, entry.csv.frequency_hz,
-                                  entry.samples, entry.file);
-  run.source_files = entry.files;
+                                  entry.samples, label);
+  run.source_files = resolved;
   run.resampled_points = entry.samples;
   return run;
 }

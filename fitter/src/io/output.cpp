@@ -44,9 +44,36 @@ bool is_nonempty_dir(const fs::path& p) {
   return fs::directory_iterator(p, ec) != fs::directory_iterator();
 }
 
+// `inner` is `dir` or inside it (both made absolute and normal; symbolic links resolved where
+// they exist).
+bool is_within(const fs::path& inner, const fs::path& dir) {
+  std::error_code ec;
+  const fs::path a = fs::weakly_canonical(fs::absolute(inner, ec), ec);
+  const fs::path d = fs::weakly_canonical(fs::absolute(dir, ec), ec);
+  auto ai = a.begin();
+  for (auto di = d.begin(); di != d.end(); ++di, ++ai) {
+    if (di->empty()) continue;  // a trailing separator
+    if (ai == a.end() || *ai != *di) return false;
+  }
+  return true;
+}
+
+// --force replaces a directory's whole contents: never one that holds the command's own input
+// or the working directory (`--out .`), whose loss the user did not ask for.
+void refuse_replacing_inputs(const fs::path& final_dir, const std::vector<std::string>& inputs) {
+  for (const std::string& in : inputs)
+    if (!in.empty() && is_within(in, final_dir))
+      throw InputError(final_dir.string(), 0, "--force would replace this directory's contents, and it holds an "
+                                              "input of this command (" + in + "): choose another --out");
+  std::error_code ec;
+  if (is_within(fs::current_path(ec), final_dir))
+    throw InputError(final_dir.string(), 0, "--force would replace this directory's contents, and it is (or holds) "
+                                            "the working directory: choose another --out");
+}
+
 }  // namespace
 
-OutputDir::OutputDir(const fs::path& final_dir, Overwrite overwrite)
+OutputDir::OutputDir(const fs::path& final_dir, Overwrite overwrite, const std::vector<std::string>& inputs)
     : final_(final_dir), overwrite_(overwrite) {
   std::error_code ec;
   if (fs::exists(final_, ec) && !fs::is_directory(final_, ec)) {
@@ -56,6 +83,7 @@ OutputDir::OutputDir(const fs::path& final_dir, Overwrite overwrite)
     throw InputError(final_.string(), 0,
                      "output directory is not empty (use --force to replace its contents)");
   }
+  if (is_nonempty_dir(final_)) refuse_replacing_inputs(final_, inputs);
   fs::path parent = final_.has_parent_path() ? final_.parent_path() : fs::path(".");
   if (parent.empty()) parent = ".";
   fs::create_directories(parent, ec);

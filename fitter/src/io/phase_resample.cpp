@@ -69,8 +69,11 @@ Run resample_phase_series(const std::vector<PhaseSeries>& files, const std::stri
   if (coef < 0 && presence == CoefficientPresence::required)
     throw InputError(label, 0, "no file of the run has the '" + coefficient + "' column");
   const int rate = holder(files, &PhaseSeries::rate_radps, false, "the rate", label);
+  // The default grid: the most rows of the files the run uses (not of a file with only another
+  // coefficient's column, which a run of this coefficient ignores).
   std::size_t n = 0;
-  for (const PhaseSeries& f : files) n = std::max(n, f.phase_rad.size());
+  for (const int used : {angle, coef, rate})
+    if (used >= 0) n = std::max(n, files[static_cast<std::size_t>(used)].phase_rad.size());
   if (samples > 0) n = static_cast<std::size_t>(samples);
   n = std::max<std::size_t>(n, static_cast<std::size_t>(min_run_samples));
   Run run;
@@ -102,7 +105,10 @@ Run resample_phase_series(const std::vector<PhaseSeries>& files, const std::stri
     run.rate_radps = smooth_derivative(run.motion_angle_rad, run.time_s[1] - run.time_s[0], default_sg_half_window,
                                        default_sg_degree);
   }
-  for (const PhaseSeries& f : files) run.notes.insert(run.notes.end(), f.notes.begin(), f.notes.end());
+  for (const PhaseSeries& f : files) {
+    run.notes.insert(run.notes.end(), f.notes.begin(), f.notes.end());
+    run.warnings.insert(run.warnings.end(), f.warnings.begin(), f.warnings.end());
+  }
   run.notes.push_back(label + ": " + counts + " phases, interpolated (periodic modified Akima) onto " +
                       std::to_string(n) + " uniform phases");
   return run;

@@ -54,11 +54,28 @@ void add_input(Provenance& p, const std::string& role, const std::string& path) 
   p.inputs.push_back({role, path, sha256_file(path)});
 }
 
+std::vector<std::string> experiment_input_paths(const Experiment& e) {
+  std::vector<std::string> paths = {e.path};
+  // A run of several files (files = [...]) has a label as its path: each file instead.
+  for (const Run& r : e.runs) {
+    if (r.source_files.empty()) paths.push_back(r.path);
+    paths.insert(paths.end(), r.source_files.begin(), r.source_files.end());
+  }
+  if (e.static_curve.kind == StaticKind::table && !e.static_curve.table_path.empty())
+    paths.push_back(e.static_curve.table_path);
+  if (!e.model.stall.polar_path.empty()) paths.push_back(e.model.stall.polar_path);
+  return paths;
+}
+
 Provenance experiment_provenance(const Experiment& e, const std::string& command_line,
                                  const std::string& commit) {
   Provenance p = make_provenance(command_line, commit);
   add_input(p, "experiment", e.path);
-  for (const Run& r : e.runs) add_input(p, "run", r.path);
+  // A run of several files (files = [...]) has a label as its path: digest each file.
+  for (const Run& r : e.runs) {
+    if (r.source_files.empty()) add_input(p, "run", r.path);
+    for (const std::string& f : r.source_files) add_input(p, "run", f);
+  }
   if (e.static_curve.kind == StaticKind::table && !e.static_curve.table_path.empty())
     add_input(p, "static_table", e.static_curve.table_path);
   return p;

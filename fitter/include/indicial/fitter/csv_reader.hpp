@@ -126,6 +126,7 @@ struct PhaseSeries {
   std::vector<double> rate_radps;
   std::vector<double> coefficient;
   std::vector<std::string> notes;
+  std::vector<std::string> warnings;  // plausible mistakes (a gap in the phases, radians in a degree column)
 };
 PhaseSeries read_phase_series(const std::string& path, Axis axis, const std::string& coefficient,
                               const RunCsvOptions& options);

@@ -52,8 +52,9 @@ struct Run {
   TimeGrid time_grid = TimeGrid::uniform;
   TimeSource time_source = TimeSource::time_column;
   // A run of several files whose columns are at their own phases (runs entry `files = [...]`,
-  // phase_resample.hpp): the files as named in the experiment, and the grid's size; path is
-  // then their names joined by " + ". Empty for a run of one file.
+  // phase_resample.hpp): the files as resolved from the experiment's folder, and the grid's
+  // size; path is then those paths joined by " + " (a label, not a file). Empty for a run of
+  // one file.
   std::vector<std::string> source_files;
   int resampled_points = 0;
   std::vector<std::string> notes;         // one-line notes of the reader (ignored columns, ...)

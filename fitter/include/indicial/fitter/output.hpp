@@ -25,6 +25,7 @@
 #include <filesystem>
 #include <functional>
 #include <string>
+#include <vector>
 
 namespace indicial {
 
@@ -32,7 +33,11 @@ enum class Overwrite { refuse, replace };
 
 class OutputDir {
  public:
-  OutputDir(const std::filesystem::path& final_dir, Overwrite overwrite);
+  // inputs: the files the command read (experiment, runs, tables). With Overwrite::replace a
+  // non-empty final_dir that holds one of them, or the working directory, is refused: --force
+  // replaces the directory's whole contents, and an input inside it would be lost.
+  OutputDir(const std::filesystem::path& final_dir, Overwrite overwrite,
+            const std::vector<std::string>& inputs = {});
   ~OutputDir();
   OutputDir(const OutputDir&) = delete;
   OutputDir& operator=(const OutputDir&) = delete;

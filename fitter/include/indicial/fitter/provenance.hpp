@@ -75,6 +75,9 @@ struct Provenance {
 Provenance make_provenance(const std::string& command_line, const std::string& commit);
 // Appends an input with its digest (reads the file).
 void add_input(Provenance& p, const std::string& role, const std::string& path);
+// Every file an experiment was read from: the experiment, each run's file(s), the static table
+// and the stall polar (if any). For provenance, and for outputs that must not replace them.
+std::vector<std::string> experiment_input_paths(const Experiment& e);
 // make_provenance plus the experiment file, every run CSV and the static table (if any).
 Provenance experiment_provenance(const Experiment& e, const std::string& command_line,
                                  const std::string& commit);
