@@ -169,8 +169,9 @@ TEST_CASE("runs entry files = [...]: alpha, CL and Cm at their own phases make o
   };
   CHECK(error_of("nofreq.toml", with_runs("[{files = [\"alpha.csv\", \"cl.txt\", \"cm.csv\"]}]"))
             .find("needs the cycle's frequency") != std::string::npos);
-  CHECK(error_of("noalpha.toml", with_runs("[{files = [\"cl.txt\", \"cm.csv\"], frequency_hz = 2.0}]"))
-            .find("no file of the run has the motion angle column") != std::string::npos);
+  const std::string noalpha = error_of("noalpha.toml", with_runs("[{files = [\"cl.txt\", \"cm.csv\"], frequency_hz = 2.0}]"));
+  CHECK(noalpha.find("no file of the run has the motion angle column") != std::string::npos);
+  CHECK(noalpha.find("noalpha.toml:5: runs entry ") != std::string::npos);  // where the entry is
   CHECK(error_of("twice.toml", with_runs("[{files = [\"alpha.csv\", \"cl.txt\", \"cl.txt\", \"cm.csv\"], frequency_hz = 2.0}]"))
             .find("'CL' is in both") != std::string::npos);
   CHECK(error_of("both.toml", with_runs("[{file = \"alpha.csv\", files = [\"cl.txt\"], frequency_hz = 2.0}]"))
@@ -213,6 +214,17 @@ TEST_CASE("files = [...]: a phase gap over half the cycle is refused, over 60 de
     CHECK(m.find("g_phase_rad.csv:2: column 'phase_deg': the phases leave a gap of") != std::string::npos);
     CHECK(m.find("more than half the cycle") != std::string::npos);
     CHECK(m.find("look like radians in a degree column") != std::string::npos);
+  }
+  // Degrees under a phase_rad heading: refused at the first phase past 2 pi, the unit named.
+  std::string deg_as_rad = "phase_rad,CL\n";
+  for (double ph : digitized_phases(40, 6))
+    deg_as_rad += indicial::format_double(ph * 180 / kPi) + "," + indicial::format_double(history(ph)) + "\n";
+  write("g_deg_as_rad.csv", deg_as_rad);
+  try {
+    indicial::load_experiment(write("g0.toml", experiment("\"g_alpha.csv\", \"g_deg_as_rad.csv\"")));
+    FAIL("degrees under phase_rad were accepted");
+  } catch (const indicial::InputError& err) {
+    CHECK(std::string(err.what()).find("looks like degrees in a radian column") != std::string::npos);
   }
   const indicial::Experiment g = indicial::load_experiment(write("g2.toml", experiment("\"g_alpha.csv\", \"g_gap.csv\"")));
   bool gap_warned = false;

@@ -452,14 +452,16 @@ std::vector<std::string> diagnose_warnings(const DiagnoseResult& d) {
   std::string problem;
   source_run_file_format(d.experiment, &problem);
   if (!problem.empty()) w.push_back(problem);
-  if (d.rule == DecisionRule::lr_residual) w.push_back("decided without prediction or replication: " + d.rule_reason);
+  // Named by the experiment, as fit's warnings are (a Python experiment built in memory has no path).
+  const std::string at = d.experiment.path.empty() ? "" : d.experiment.path + ": ";
+  if (d.rule == DecisionRule::lr_residual) w.push_back(at + "decided without prediction or replication: " + d.rule_reason);
   if (d.stopped == DiagnoseStop::max_steps)
-    w.push_back(fmt::format("stopped at --max-steps {} with {} still significant; the model is not complete",
-                            d.steps.size(), d.still_significant));
+    w.push_back(at + fmt::format("stopped at --max-steps {} with {} still significant; the model is not complete",
+                                 d.steps.size(), d.still_significant));
   if (!d.ill_conditioned.empty()) {
     std::string l;
     for (const auto& n : d.ill_conditioned) l += (l.empty() ? "" : ", ") + n;
-    w.push_back("ill-conditioned final estimates (Cramer-Rao bound larger than the value): " + l);
+    w.push_back(at + "ill-conditioned final estimates (Cramer-Rao bound larger than the value): " + l);
   }
   return w;
 }

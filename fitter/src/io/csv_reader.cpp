@@ -793,6 +793,13 @@ std::vector<double> read_time(const std::string& path, CsvTable& t, const RunCol
   return tol;
 }
 
+// A radian phase column's value in [2 pi, 360): degrees, most likely.
+std::string degrees_hint(double phase_factor, double phase) {
+  return phase_factor == 1.0 && phase >= 2.0 * kPi && phase < 360.0
+             ? " (it looks like degrees in a radian column: name it phase_deg if so)"
+             : "";
+}
+
 // A phase in [0, 2 pi) (or [0, 360)); strictly increasing time.
 void check_time_order(const std::string& path, const CsvTable& t, const RunColumns& rc, const Run& run) {
   const bool phase = rc.phase >= 0;
@@ -802,7 +809,8 @@ void check_time_order(const std::string& path, const CsvTable& t, const RunColum
     const double phase_rad = run.time_s[i] * 2.0 * kPi * run.frequency_hz;
     if (phase && !(phase_rad >= 0.0 && phase_rad < 2.0 * kPi * (1.0 - 1e-15))) {
       throw InputError(path, t.row_line[i], "column '" + name + "': phase " + t.rows[i][c] + " is outside [0, " +
-                                                (rc.phase_factor == 1.0 ? "2 pi" : "360") + ")");
+                                                (rc.phase_factor == 1.0 ? "2 pi" : "360") + ")" +
+                                                degrees_hint(rc.phase_factor, phase_rad));
     }
     if (i > 0 && !(run.time_s[i] > run.time_s[i - 1])) {
       throw InputError(path, t.row_line[i],
@@ -1020,7 +1028,8 @@ PhaseSeries read_phase_series(const std::string& path, Axis axis, const std::str
   for (std::size_t i = 0; i < s.phase_rad.size(); ++i) {
     if (!(s.phase_rad[i] >= 0.0 && s.phase_rad[i] < 2.0 * kPi * (1.0 - 1e-15)))
       throw InputError(path, t.row_line[i], "column '" + t.header[pc] + "': phase " + t.rows[i][pc] +
-                                                " is outside [0, " + (rc.phase_factor == 1.0 ? "2 pi" : "360") + ")");
+                                                " is outside [0, " + (rc.phase_factor == 1.0 ? "2 pi" : "360") + ")" +
+                                                degrees_hint(rc.phase_factor, s.phase_rad[i]));
     if (i > 0 && !(s.phase_rad[i] > s.phase_rad[i - 1]))
       throw InputError(path, t.row_line[i], t.header[pc] + " is not strictly increasing (" + t.rows[i][pc] +
                                                 " after " + t.rows[i - 1][pc] + ")");

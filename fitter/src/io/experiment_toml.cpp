@@ -631,8 +631,17 @@ Run read_run_of_files(const LoadContext& c, const RunEntry& entry, const Experim
   }
   std::vector<PhaseSeries> series;
   for (const std::string& path : resolved) series.push_back(read_phase_series(path, e.axis, e.coefficient, entry.csv));
-  Run run = resample_phase_series(series, e.coefficient, CoefficientPresence::required, entry.csv.frequency_hz,
-                                  entry.samples, label);
+  Run run;
+  try {
+    run = resample_phase_series(series, e.coefficient, CoefficientPresence::required, entry.csv.frequency_hz,
+                                entry.samples, label);
+  } catch (const InputError& err) {
+    // The run's own errors (no angle, a coefficient in two files) name its label, not a file:
+    // say where its entry is.
+    const std::string m = err.what();
+    if (m.rfind(label + ": ", 0) != 0) throw;
+    throw InputError(c.r.file(), entry.line, "runs entry " + m);
+  }
   run.source_files = resolved;
   run.resampled_points = entry.samples;
   return run;
