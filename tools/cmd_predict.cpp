@@ -12,6 +12,7 @@
 // where DATA.csv has it; where measured, prints the metrics (RMS, max, Theil's inequality
 // coefficient, for the model and for the quasi-steady model) and writes them to the CSV's
 // comment lines and to FILE.metrics.json (or --metrics). See fitter/.../predict.hpp.
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <map>
@@ -71,14 +72,19 @@ std::vector<indicial::Run> read_cycle_of_files(const PredictOptions& o, const in
                                        "uniform phases)");
   if (o.samples != 0 && (o.samples < min_run_samples || o.samples > 100000))
     throw InputError("--samples", 0, "must be " + std::to_string(min_run_samples) + "..100000");
-  std::vector<Run> runs;
+  std::vector<std::vector<PhaseSeries>> series(static_cast<std::size_t>(model.n_coefficients));
+  int samples = o.samples;  // one grid for every coefficient: by default the most rows of any file
   for (int c = 0; c < model.n_coefficients; ++c) {
-    std::vector<PhaseSeries> series;
-    for (const std::string& path : o.data_paths)
-      series.push_back(read_phase_series(path, model.axis, model.coefficients[c].name, read));
-    runs.push_back(resample_phase_series(series, model.coefficients[c].name, CoefficientPresence::optional,
-                                         read.frequency_hz, o.samples, o.data_label));
+    for (const std::string& path : o.data_paths) {
+      series[static_cast<std::size_t>(c)].push_back(read_phase_series(path, model.axis, model.coefficients[c].name, read));
+      if (o.samples == 0)
+        samples = std::max(samples, static_cast<int>(series[static_cast<std::size_t>(c)].back().phase_rad.size()));
+    }
   }
+  std::vector<Run> runs;
+  for (int c = 0; c < model.n_coefficients; ++c)
+    runs.push_back(resample_phase_series(series[static_cast<std::size_t>(c)], model.coefficients[c].name,
+                                         CoefficientPresence::optional, read.frequency_hz, samples, o.data_label));
   return runs;
 }
 

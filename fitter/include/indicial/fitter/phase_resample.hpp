@@ -9,7 +9,7 @@
 // experiment names them in one runs entry, `{files = ["alpha.csv", "cl.csv", "cm.csv"],
 // frequency_hz = 2.0}`, and resample_phase_series() makes one periodic Run of them: every
 // quantity interpolated onto one uniform phase grid of `samples` points (default: the largest
-// number of rows of any file), phase_k = 2 pi k / samples, t_k = phase_k / (2 pi f).
+// number of rows of the files the run uses), phase_k = 2 pi k / samples, t_k = phase_k / (2 pi f).
 //
 // How, and the error it makes
 // ---------------------------
@@ -48,9 +48,10 @@ std::vector<double> periodic_interpolate(const std::vector<double>& phase_rad, c
                                          const std::vector<double>& at_rad);
 
 // One periodic run from the files' series (see above). `label` names the run in messages and
-// notes (the runs entry); `samples` 0 means the largest number of rows of any file. Throws
-// InputError when no file has the motion angle, or (CoefficientPresence::required) none has
-// the coefficient, or two have it.
+// notes (the runs entry); `samples` 0 means the largest number of rows of the files used (the
+// angle's, the coefficient's, the rate's; at least min_run_samples). Throws InputError when
+// no file has the motion angle, or (CoefficientPresence::required) none has the coefficient,
+// or two have it. The files' warnings (phase gaps, radians) become the run's.
 Run resample_phase_series(const std::vector<PhaseSeries>& files, const std::string& coefficient,
                           CoefficientPresence presence, double frequency_hz, int samples, const std::string& label);
 
