@@ -300,3 +300,23 @@ TEST_CASE("a phase column not uniform to its digits: nonuniform with a note, ref
     CHECK_HAS(msg, advice);
   }
 }
+
+// Tunnel exports put the units in a row under the column names ("s,deg,-"): skipped with a
+// note (a user's trial: it was refused as "non-numeric value 'deg'"). Only a row of no numbers
+// straight under the header; a non-numeric cell among data rows is still an error.
+TEST_CASE("a units row under the header is skipped with a note") {
+  std::string text = "time_s,alpha_deg,Cm\ns,deg,-\n";
+  for (int i = 0; i < 20; ++i)
+    text += indicial::format_double(0.01 * i) + "," + indicial::format_double(5 + i) + "," +
+            indicial::format_double(-0.01 * i) + "\n";
+  const std::string path = write("units.csv", text);
+  const indicial::Run r = indicial::read_run_csv(path, indicial::Axis::pitch, "Cm", indicial::CoefficientPresence::required);
+  REQUIRE(r.size() == 20);
+  CHECK(r.motion_angle_rad[3] == doctest::Approx(8 * kPi / 180).epsilon(1e-15));
+  CHECK(any_has(r.notes, "units.csv:2: read as a units row (s, deg, -) and skipped"));
+  std::string bad = text;
+  bad.insert(bad.find("0.05,"), "s,deg,-\n");  // the same row among the data
+  CHECK_THROWS_WITH_AS(indicial::read_run_csv(write("units_bad.csv", bad), indicial::Axis::pitch, "Cm",
+                                              indicial::CoefficientPresence::required),
+                       doctest::Contains("non-numeric"), indicial::InputError);
+}

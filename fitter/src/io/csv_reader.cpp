@@ -237,6 +237,8 @@ struct CsvTable {
   std::vector<long> row_line;
   bool decimal_comma = false;         // a cell was read with ',' as its decimal separator
   bool header_from_comment = false;   // the header is the comment line before the data
+  std::vector<std::string> units;     // a units row under the header (skipped), as in the file
+  long units_line = 0;
   // A .mat run (mat_file.hpp): its variables are the columns, "lines" are sample numbers.
   std::vector<MatUnusable> unusable;  // variables that cannot be columns, and why
   std::vector<std::string> mat_notes;
@@ -275,6 +277,19 @@ bool all_numeric(const std::vector<std::string>& fields, char delimiter) {
     if (!parse_number(decimal_point(f, delimiter, comma), v, problem)) return false;
   }
   return true;
+}
+
+// No field is a number (a units row under the header: "s,deg,-"), and one is not blank.
+bool no_number(const std::vector<std::string>& fields, char delimiter) {
+  bool text = false;
+  for (const auto& f : fields) {
+    double v = 0.0;
+    std::string problem;
+    bool comma = false;
+    if (parse_number(decimal_point(f, delimiter, comma), v, problem)) return false;
+    text = text || !trim(f, kWhitespace).empty();
+  }
+  return text;
 }
 
 // The header line's text and where it came from, until the first data row fixes the delimiter.
@@ -353,6 +368,14 @@ CsvTable read_csv_lines(const std::string& path, const CsvDialect& dialect) {
     }
     if (t.header.empty()) settle_header(path, header, raw, dialect, t);
     std::vector<std::string> fields = split_fields(trim(raw, t.delimiter), t.delimiter);
+    // Why: tunnel exports put the units in a row under the names ("s,deg,-"); the units are in
+    // our column names already (alpha_deg), so the row is skipped with a note (table_notes).
+    if (t.rows.empty() && t.units_line == 0 && !header.from_comment && fields.size() == t.header.size() &&
+        no_number(fields, t.delimiter)) {
+      t.units = fields;
+      t.units_line = line_no;
+      continue;
+    }
     if (fields.size() != t.header.size()) {
       throw InputError(path, line_no, "expected " + std::to_string(t.header.size()) + " " +
                                           delimiter_name(t.delimiter) +
@@ -508,6 +531,12 @@ std::vector<std::string> table_notes(const std::string& path, const CsvTable& t,
                     "line (the first row below it is numbers)");
   }
   for (const std::string& n : t.mat_notes) notes.push_back(path + ": " + n);
+  if (t.units_line > 0) {
+    std::string units;
+    for (const std::string& u : t.units) units += (units.empty() ? "" : ", ") + u;
+    notes.push_back(path + ":" + std::to_string(t.units_line) + ": read as a units row (" + units +
+                    ") and skipped: the units are those of the column names (alpha_deg, q_degps, ...)");
+  }
   if (t.delimiter != ',' || t.decimal_comma) {
     notes.push_back(path + ": read as " + delimiter_name(t.delimiter) + "-separated" +
                     (t.decimal_comma ? ", with ',' as the decimal separator" : ""));
