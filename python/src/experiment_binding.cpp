@@ -374,6 +374,13 @@ std::vector<std::pair<std::string, std::string>> experiment_files(const Experime
   for (std::size_t i = 0; i < copy.runs.size(); ++i) {
     Run& run = copy.runs[i];
     run.path = "run" + std::to_string(i + 1) + ".csv";
+    // The CSV written has a time column: a phase cycle or a run of files at their own phases
+    // (resampled) is written as that time column of one periodic cycle, `periodic = true`,
+    // without the phase-only keys (frequency_hz, files) that the reader refuses beside a time
+    // column (a phase-averaged experiment's files did not read back).
+    run.source_files.clear();
+    run.resampled_points = 0;
+    run.time_source = TimeSource::time_column;
     std::vector<CsvColumn> cols{{"time_s", run.time_s}, {std::string(angle_base(e.axis)) + "_rad", run.motion_angle_rad}};
     if (run.rate_from_file) cols.push_back({std::string(rate_base(e.axis)) + "_radps", run.rate_radps});
     cols.push_back({e.coefficient, run.coefficient});
