@@ -148,7 +148,9 @@ struct DiagnoseOptions {
   // diagnosis should take seconds), and with it the choices predicted the held-out cycles no better
   // (sweep C_L: the grid's better in-sample separation fit displaced the vortex, held-out
   // median 0.55 -> 0.71 of quasi-steady). `--stall-start-search grid` (fit.stall_start_search)
-  // turns it on, e.g. with many runs (docs/validation-stall.md).
+  // turns it on, e.g. with many runs (docs/validation-stall.md). The configured model, when it
+  // has the families, is fitted from the grid regardless (diagnose_experiment: one fit, as
+  // `indicial fit` fits it).
   static FitOptions fit_defaults() {
     FitOptions f;
     f.stall_start_search = StallStartSearch::configured;
