@@ -1,6 +1,7 @@
 // The fitter's refusals and its reported (not thrown) failures.
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -81,6 +82,29 @@ TEST_CASE("a start with a negative decay rate is projected onto positive decay, 
   CHECK(r.output_error.message.find("start projected: b1_0 raised from -60") != std::string::npos);
   const ParameterEstimate* b1 = testing::find_estimate(r, "b1_0");
   REQUIRE(b1 != nullptr);  // (a loop with an if ran no check when b1_0 was missing)
+  CHECK(std::abs(b1->value - 2.5) < 5.0 * b1->cr_bound);  // Model I's b1 = 2.5
+}
+
+// A start whose b1 is ~0 everywhere (the equation error's b1_0 = -0.0038 on digitized C_m
+// cycles) is projected to at least ten decays over the longest run, not to a tenth of its own
+// |b1| (0.00038 1/s: a lag that never decays, on which the LM took no step and the fit stopped
+// at its start values, "converged").
+TEST_CASE("a start with a decay rate of about zero is projected to ten decays over the longest run") {
+  const Experiment e = model1();
+  double longest_s = 0.0;
+  for (const Run& r : e.runs) longest_s = std::max(longest_s, r.time_s.back() - r.time_s.front());
+  FitOptions o;
+  o.start_values = {{"b1_0", -1e-4}};
+  const FitResult r = fit_experiment(e, o);
+  INFO(r.output_error.message);
+  const std::string said = "start projected: b1_0 raised from -0.0001 to ";
+  const std::size_t at = r.output_error.message.find(said);
+  REQUIRE(at != std::string::npos);
+  const double projected = std::stod(r.output_error.message.substr(at + said.size()));
+  CHECK(projected == doctest::Approx(10.0 / longest_s).epsilon(1e-5));  // (printed to 6 digits)
+  CHECK(r.output_error.termination == Termination::converged);
+  const ParameterEstimate* b1 = testing::find_estimate(r, "b1_0");
+  REQUIRE(b1 != nullptr);
   CHECK(std::abs(b1->value - 2.5) < 5.0 * b1->cr_bound);  // Model I's b1 = 2.5
 }
 

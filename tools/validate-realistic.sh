@@ -99,7 +99,8 @@ points (4097 evenly spaced angles, the envelope ends, and either side of every k
 model the fit accepts is one `validate_for_runtime` accepts; for the default b(x) (knot power
 1, degree <= 1: piecewise linear) the minimum is at an end or a knot, which are checked, so it
 is exact over the continuum too. Where the equation-error start is infeasible, the start is
-projected: b_j_0 is raised until min b_j(x) is a tenth of max |b_j(x)| on the envelope, and
+projected: b_j_0 is raised until min b_j(x) is a tenth of max |b_j(x)| on the envelope (at
+least ten decays over the longest run), and
 the fit's message says so ("start projected: b1_0 raised from ... to ..."). Why a
 bounded/projected step and not a reparameterisation (b = exp(.)): b_j(x) is a spline with
 plus-function knots whose coefficients are the contract's parameters (b1_0, B1, ...) and

@@ -512,10 +512,29 @@ std::string start_failure_message(const ParameterLayout& L, const OutputErrorDat
          "error's estimates in fit.json)" + what_to_do;
 }
 
+// The smallest decay rate (1/s at V_ref) a projected start gets: ten decays over the longest
+// run, in its own time (b acts at V / V_ref on a run at V; a periodic cycle counts its closing
+// step). Why: a tenth of max |b_j| is no decay at all when the equation error's b_j is ~0
+// everywhere -- on digitized C_m cycles (a user's trial, 2026-11-27) b1_0 = -0.0038 was
+// projected to 0.00038 1/s, a time constant of 2600 s against cycles of 0.4-0.9 s; the LM, on
+// the feasible set's boundary, took no step and stopped at the start ("converged", every
+// stall parameter at its start value). From b1_0 = 5 the same fit reached s(v) 0.0316
+// against 0.0526.
+double decay_floor(const OutputErrorData& d) {
+  double longest = 0.0;
+  for (const PreparedRun& r : d.runs) {
+    if (r.t.size() < 2) continue;
+    const double span = r.t.back() - r.t.front() + (r.periodic ? r.wrap_step_s() : 0.0);
+    longest = std::max(longest, span * r.time_scale);
+  }
+  return longest > 0.0 ? 10.0 / longest : 0.0;
+}
+
 // Projects an infeasible start onto the feasible set: for every lag whose b_j(x) is not
 // positive everywhere on the envelope, its constant term b_j_0 is raised until the minimum is
-// a tenth of max |b_j| on the envelope (1 1/s if that is 0). Why the constant term: it moves
-// b_j(x) uniformly, the smallest change that restores b_j > 0 without reshaping the spline.
+// a tenth of max |b_j| on the envelope (1 1/s if that is 0), and at least decay_floor. Why the
+// constant term: it moves b_j(x) uniformly, the smallest change that restores b_j > 0 without
+// reshaping the spline.
 // A negative delay_s (a --start-value) is projected to 0, the runtime's limit.
 // Returns what was done (empty when nothing), or why a lag could not be projected (no
 // constant term in the structure).
@@ -538,7 +557,7 @@ std::string project_start(const ParameterLayout& L, const OutputErrorData& d, do
     }
     double largest = 0.0;
     for (int i = 0; i <= 64; ++i) largest = std::max(largest, std::fabs(spline_value(m.lags[j].b, lo + (hi - lo) * i / 64.0)));
-    const double floor = largest > 0.0 ? 0.1 * largest : 1.0;
+    const double floor = std::max(largest > 0.0 ? 0.1 * largest : 1.0, decay_floor(d));
     const double before = theta(k);
     theta(k) += floor - lowest;
     said += fmt::format("{}start projected: b{}_0 raised from {:.6g} to {:.6g} (the equation-error start had "
