@@ -15,6 +15,7 @@
 
 #include "indicial/fitter/diagnose.hpp"
 #include "indicial/fitter/dynamic_stall.hpp"
+#include "indicial/fitter/io.hpp"
 #include "indicial/fitter/report.hpp"
 
 TEST_SUITE_BEGIN("statistical");  // the ctest label (tests/CMakeLists.txt)
@@ -55,6 +56,17 @@ TEST_CASE("diagnose names a dynamic-stall family on Goman-Khrabrov cycles, and i
   CHECK(rc.load_status == LoadStatus::ok);
   CHECK(rc.steps_not_ok == 0);
   CHECK(rc.max_abs_difference < 1e-9);
+  // The written experiment starts the families at the diagnosed estimates, so that refitting it
+  // reaches this model, not another minimum of the multimodal fit (as the delay's start).
+  const std::string toml = diagnosed_experiment_toml(d);
+  int starts = 0;
+  for (const ParameterEstimate& p : final_fit.parameters) {
+    if (p.name != "T1" && p.name != "T2") continue;
+    ++starts;
+    CAPTURE(p.name);
+    CHECK(toml.find("stall_" + p.name + "_start = " + format_double(p.value) + "\n") != std::string::npos);
+  }
+  CHECK(starts >= 1);
 }
 
 // The stall candidates' retry (diagnose.cpp, retry_stall_from_grid) end to end: from a

@@ -31,6 +31,11 @@ using indicial::testing::TempDir;
 
 int run(const std::string& cmd) { return std::system((cmd + " > /dev/null 2>&1").c_str()); }
 
+std::string slurp_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
 }  // namespace
 
 TEST_CASE("predict: metrics on hand-checked values") {
@@ -205,6 +210,12 @@ TEST_CASE("predict: CLI writes the CSV and metrics and plot and refuses overwrit
     CHECK(entry.path().filename().string().find(".tmp-") == std::string::npos);
   CHECK(run(exe + " predict " + coef + " " + sim_dir + "/nope.csv --out " + out + "x") != 0);
   CHECK(run(exe + " predict " + data + " " + data + " --out " + out + "y") != 0);  // not a model
+  // --force replaces outputs, never an input: --out onto the DATA file or the model is refused.
+  const std::string data_before = slurp_file(data), coef_before = slurp_file(coef);
+  CHECK(run(exe + " predict " + coef + " " + data + " --out " + data + " --force") != 0);
+  CHECK(run(exe + " predict " + coef + " " + data + " --out " + out + " --metrics " + coef + " --force") != 0);
+  CHECK(slurp_file(data) == data_before);
+  CHECK(slurp_file(coef) == coef_before);
 
   // No measured column: prediction only, no metrics file.
   const std::string motion = (tmp.path / "motion.csv").string();

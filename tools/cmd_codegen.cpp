@@ -343,6 +343,7 @@ void run_codegen(const CodegenOptions& o) {
   } else {
     header = generate(*model, ident, o.name_space, source, crc, capacity);
   }
+  refuse_output_onto_input(o.out, {o.model_path});
   write_file_atomically(o.out, header, o.force ? Overwrite::replace : Overwrite::refuse);
   std::printf("codegen: wrote %s (%s::%s: %s, %d coefficient%s, %s)\n", o.out.c_str(),
               o.name_space.c_str(), ident.c_str(), axis_name(model->set.axis),

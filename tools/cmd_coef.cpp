@@ -108,6 +108,7 @@ void run_merge(const MergeCliOptions& o) {
   for (std::size_t i = 0; i < models.size(); ++i) parts.push_back({o.inputs[i], &models[i]});
   const ModelMerge merged = merge_model_sets(parts);
   for (const std::string& w : merged.warnings) std::fprintf(stderr, "indicial: warning: %s\n", w.c_str());
+  refuse_output_onto_input(o.out, o.inputs);
   write_file_atomically(o.out, coef_file_text(merged.model, o.out), o.force ? Overwrite::replace : Overwrite::refuse);
   std::printf("%s: %d coefficients (", o.out.c_str(), merged.model.n_coefficients);
   for (int c = 0; c < merged.model.n_coefficients; ++c)

@@ -258,6 +258,7 @@ void run_fmu(const FmuOptions& o) {
                  {"binaries/linux64/" + identifier + ".so", indicial::tools::fmu_slave_library,
                   indicial::tools::fmu_slave_library_bytes, true},
                  {std::string("resources/") + indicial::fmu::kModelResource, text.data(), text.size(), false}});
+  indicial::refuse_output_onto_input(out, {o.model_path});
   indicial::write_file_atomically(out, package, overwrite);
   std::printf("fmu: %s (FMI 2.0 co-simulation, linux64, modelIdentifier %s, %d output(s) + step_status) -> %s\n",
               model_name.c_str(), identifier.c_str(), model->set.n_coefficients, o.out.c_str());

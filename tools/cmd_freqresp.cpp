@@ -130,6 +130,7 @@ void run_freqresp(const FreqrespOptions& o) {
         "indicial freqresp " + o.model_path + " (mean angle " + format_double(mean_deg) + " deg, V " +
             format_double(airspeed) + " m/s)",
         "H = dC/d(motion angle) per rad; in_phase = Re H; out_of_phase = Im H / k; k = omega l / V"};
+    refuse_output_onto_input(o.out, {o.model_path});
     write_file_atomically(o.out, frequency_response_csv(r, comments), overwrite);
     std::printf("freqresp: table -> %s\n", o.out.c_str());
   }

@@ -150,6 +150,11 @@ void run_predict(const PredictOptions& o) {
       if (!f.empty() && std::filesystem::exists(f))
         throw InputError(f, 0, "exists; use --force to replace it");
   }
+  // --force replaces outputs, never an input (the model, a DATA file, the experiment).
+  std::vector<std::string> inputs = o.data_paths;
+  inputs.push_back(o.model_path);
+  inputs.push_back(o.experiment);
+  for (const std::string& f : {o.out, metrics_path, o.plot}) refuse_output_onto_input(f, inputs);
   std::vector<std::string> comments = {"indicial predict " + o.model_path + " " + o.data_label,
                                        periodic ? "predicted with the runtime (indicial::Predictor): the "
                                                     "cycle's periodic steady state"

@@ -88,6 +88,8 @@ void run_simulate(const SimulateOptions& o) {
                        format_double(sigma[i]) + " (SNR " + o.snr + ", seed " + std::to_string(o.seed) +
                        ", noise " + noise_spec_text(noise) + ", sigma = the noise's marginal std)");
   }
+  // (A csv: motion names its file after the prefix.)
+  refuse_output_onto_input(o.out, {o.model_path, o.motion.rfind("csv:", 0) == 0 ? o.motion.substr(4) : std::string()});
   write_file_atomically(o.out, simulated_run_csv(*loaded, runs.front(), comments), overwrite);
   std::printf("simulate: wrote %zu samples to %s\n", runs.front().time_s.size(), o.out.c_str());
 }

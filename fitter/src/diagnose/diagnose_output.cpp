@@ -8,6 +8,7 @@
 #include "diagnose/diagnose_internal.hpp"
 #include "estimate/fit_internal.hpp"
 #include "indicial/fitter/error.hpp"
+#include "indicial/fitter/experiment_checks.hpp"
 #include "indicial/fitter/io.hpp"
 
 namespace indicial {
@@ -557,6 +558,16 @@ std::string diagnosed_experiment_toml(const DiagnoseResult& d) {
   if (next.model.delay == DelayEstimation::estimated) {
     for (const ParameterEstimate& p : d.fits.back().parameters)
       if (p.id.kind == ParamKind::delay && std::isfinite(p.value)) next.model.delay_start_s = std::clamp(p.value, 0.0, 1.0);
+  }
+  // The same for the stall families' time constants and threshold (multimodal: `indicial fit`
+  // runs its start grid around these): refitted from the configured starts, the fit reached
+  // another minimum than the diagnosed model (a user's trial: C_m s(v) 0.0526 with T1 = 6
+  // against the diagnosed 0.0578 with T1 = 3), so the file did not reproduce what diagnose said.
+  if (next.model.stall.families != StallFamilies::none) {
+    for (const StallStart& st : stall_starts())
+      for (const ParameterEstimate& p : d.fits.back().parameters)
+        if (p.name == st.parameter && std::isfinite(p.value) && start_in_bound(st, p.value))
+          next.model.stall.*st.value = p.value;
   }
   std::string added;
   for (const std::string& x : d.effects_added) added += (added.empty() ? "" : ", ") + x;

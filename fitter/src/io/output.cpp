@@ -137,6 +137,15 @@ void OutputDir::commit() {
 
 void write_text(const fs::path& path, const std::string& text) { write_text_as(path, text, path, ""); }
 
+void refuse_output_onto_input(const fs::path& output, const std::vector<std::string>& inputs) {
+  std::error_code ec;
+  if (output.empty() || !fs::exists(output, ec)) return;
+  for (const std::string& in : inputs)
+    if (!in.empty() && fs::equivalent(output, in, ec))
+      throw InputError(output.string(), 0, "is an input of this command (" + in + "): --force replaces outputs, "
+                                           "never what was read; choose another output name");
+}
+
 void write_file_atomically(const fs::path& path, Overwrite overwrite,
                            const std::function<void(const fs::path& tmp)>& produce) {
   std::error_code ec;

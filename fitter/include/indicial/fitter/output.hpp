@@ -59,6 +59,11 @@ class OutputDir {
   bool committed_ = false;
 };
 
+// Throws InputError when `output` exists and is one of `inputs` (the same file, by any name):
+// --force replaces outputs, never what the command read (`predict ... --out data.csv --force`
+// replaced the measured cycle it predicted). Paths that do not exist are skipped.
+void refuse_output_onto_input(const std::filesystem::path& output, const std::vector<std::string>& inputs);
+
 // Writes text to path (throws InputError naming the path on any failure, e.g. a full disk).
 // Non-atomic: for outputs use OutputDir::write or write_file_atomically.
 void write_text(const std::filesystem::path& path, const std::string& text);
