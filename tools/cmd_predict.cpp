@@ -173,7 +173,10 @@ void run_predict(const PredictOptions& o) {
   std::printf("predict: %zu samples, %zu coefficient(s) -> %s\n", p.time_s.size(),
               p.coefficients.size(), o.out.c_str());
   for (const auto& l : lines) std::printf("predict: %s\n", l.c_str());
-  tools::print_warnings(warnings);
+  // On stderr named by the data, as every other warning is (the CSV's comment lines need no name).
+  std::vector<std::string> named;
+  for (const std::string& w : warnings) named.push_back(o.data_label + ": " + w);
+  tools::print_warnings(named);
   if (!metrics_path.empty()) std::printf("predict: metrics -> %s\n", metrics_path.c_str());
   if (!o.plot.empty()) std::printf("predict: plot -> %s\n", o.plot.c_str());
 }

@@ -917,11 +917,11 @@ void warn_angle_unit(const std::string& path, const std::string& column, double 
   const double largest = std::max(std::abs(*lo), std::abs(*hi)) / factor;  // in the column's unit
   if (*hi == *lo) return;  // no motion: load_experiment decides
   if (factor != 1.0 && largest < 2.5) {
-    warnings->push_back(path + ": '" + column + "' never exceeds " + format_double(largest) +
+    warnings->push_back(path + ": '" + column + "' never exceeds " + fmt::format("{:.6g}", largest) +
                         " in magnitude: it looks like radians in a degree column (name it " +
                         column.substr(0, column.find('_')) + "_rad if so)");
   } else if (factor == 1.0 && largest > 2.0 * kPi) {
-    warnings->push_back(path + ": '" + column + "' reaches " + format_double(largest) +
+    warnings->push_back(path + ": '" + column + "' reaches " + fmt::format("{:.6g}", largest) +
                         ", beyond 2 pi: it looks like degrees in a radian column (name it " +
                         column.substr(0, column.find('_')) + "_deg if so)");
   }
