@@ -226,6 +226,25 @@ TEST_CASE("files = [...]: a phase gap over half the cycle is refused, over 60 de
   } catch (const indicial::InputError& err) {
     CHECK(std::string(err.what()).find("looks like degrees in a radian column") != std::string::npos);
   }
+  // A repeated end point (360 deg) and a cycle in [-180, 180): refused with what to do.
+  std::string end360 = "phase_deg,CL\n", signed_phase = "phase_deg,CL\n";
+  for (double ph : digitized_phases(40, 7)) {
+    end360 += indicial::format_double(ph * 180 / kPi) + "," + indicial::format_double(history(ph)) + "\n";
+    signed_phase += indicial::format_double(ph * 180 / kPi - 180) + "," + indicial::format_double(history(ph)) + "\n";
+  }
+  end360 += "360," + indicial::format_double(history(0)) + "\n";
+  write("g_end360.csv", end360);
+  write("g_signed.csv", signed_phase);
+  for (const auto& [file, hint] : {std::pair<std::string, std::string>{"g_end360.csv", "drop that row"},
+                                   {"g_signed.csv", "add a full cycle to the negative phases"}}) {
+    CAPTURE(file);
+    try {
+      indicial::load_experiment(write("g5.toml", experiment("\"g_alpha.csv\", \"" + file + "\"")));
+      FAIL("accepted");
+    } catch (const indicial::InputError& err) {
+      CHECK(std::string(err.what()).find(hint) != std::string::npos);
+    }
+  }
   const indicial::Experiment g = indicial::load_experiment(write("g2.toml", experiment("\"g_alpha.csv\", \"g_gap.csv\"")));
   bool gap_warned = false;
   for (const std::string& w : g.warnings) gap_warned = gap_warned || (w.find("g_gap.csv:") != std::string::npos &&

@@ -822,11 +822,16 @@ std::vector<double> read_time(const std::string& path, CsvTable& t, const RunCol
   return tol;
 }
 
-// A radian phase column's value in [2 pi, 360): degrees, most likely.
+// What a phase outside [0, 2 pi) most likely is (phase in rad, the column's factor to rad): the
+// cycle's end point repeating its start (360 deg, 2 pi), a cycle in [-pi, pi), or degrees in a
+// radian column; "" otherwise.
 std::string degrees_hint(double phase_factor, double phase) {
-  return phase_factor == 1.0 && phase >= 2.0 * kPi && phase < 360.0
-             ? " (it looks like degrees in a radian column: name it phase_deg if so)"
-             : "";
+  if (std::abs(phase - 2.0 * kPi) <= 1e-9 * 2.0 * kPi)
+    return " (the cycle's end point repeats its start: drop that row)";
+  if (phase < 0.0 && phase >= -kPi) return " (a cycle in [-pi, pi) or [-180, 180): add a full cycle to the negative phases)";
+  if (phase_factor == 1.0 && phase >= 2.0 * kPi && phase < 360.0)
+    return " (it looks like degrees in a radian column: name it phase_deg if so)";
+  return "";
 }
 
 // A phase in [0, 2 pi) (or [0, 360)); strictly increasing time.
