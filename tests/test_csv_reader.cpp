@@ -314,6 +314,14 @@ TEST_CASE("a units row under the header is skipped with a note") {
   REQUIRE(r.size() == 20);
   CHECK(r.motion_angle_rad[3] == doctest::Approx(8 * kPi / 180).epsilon(1e-15));
   CHECK(any_has(r.notes, "units.csv:2: read as a units row (s, deg, -) and skipped"));
+  CHECK(r.warnings.empty());
+  // A units row that contradicts a name is warned: the name is what is read.
+  std::string contradicting = text;
+  contradicting.replace(contradicting.find("s,deg,-"), 7, "s,rad,-");
+  const indicial::Run c = indicial::read_run_csv(write("units_rad.csv", contradicting), indicial::Axis::pitch, "Cm",
+                                                 indicial::CoefficientPresence::required);
+  CHECK(c.motion_angle_rad[3] == r.motion_angle_rad[3]);
+  CHECK(any_has(c.warnings, "units_rad.csv:2: the units row gives 'rad' for column 'alpha_deg'"));
   std::string bad = text;
   bad.insert(bad.find("0.05,"), "s,deg,-\n");  // the same row among the data
   CHECK_THROWS_WITH_AS(indicial::read_run_csv(write("units_bad.csv", bad), indicial::Axis::pitch, "Cm",

@@ -963,6 +963,35 @@ void check_phase_gaps(const std::string& path, const CsvTable& t, int phase_col,
                         ": the cycle is interpolated across it (a feature inside the gap is lost)");
 }
 
+// A units row (read_csv_lines) whose unit for one of our columns is not the column name's
+// ("alpha_deg" over "rad"): one of the two is wrong, and the name is what is read. Only units
+// recognised here are compared (deg, rad, s, deg/s, rad/s and their usual spellings); anything
+// else in the row ("-", "[1]", "N") says nothing.
+void warn_units_row(const std::string& path, const CsvTable& t, std::vector<std::string>* warnings) {
+  if (t.units_line == 0) return;
+  auto spelled = [](std::string u) {
+    std::string k;
+    for (char ch : u)
+      if (!std::isspace(static_cast<unsigned char>(ch)) && ch != '[' && ch != ']' && ch != '(' && ch != ')')
+        k += static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+    static const std::vector<std::pair<const char*, const char*>> names = {
+        {"deg", "deg"}, {"degree", "deg"}, {"degrees", "deg"}, {"rad", "rad"}, {"radian", "rad"},
+        {"radians", "rad"}, {"s", "s"}, {"sec", "s"}, {"deg/s", "degps"}, {"degps", "degps"},
+        {"rad/s", "radps"}, {"radps", "radps"}};
+    for (const auto& [name, suffix] : names)
+      if (k == name) return std::string(suffix);
+    return std::string();
+  };
+  for (std::size_t c = 0; c < t.header.size() && c < t.units.size(); ++c) {
+    const std::size_t us = t.header[c].find('_');
+    const std::string unit = spelled(t.units[c]);
+    if (us == std::string::npos || unit.empty() || t.header[c].substr(us + 1) == unit) continue;
+    warnings->push_back(path + ":" + std::to_string(t.units_line) + ": the units row gives '" + t.units[c] +
+                        "' for column '" + t.original[c] + "', whose name reads it in " + t.header[c].substr(us + 1) +
+                        ": the name is what is read (rename the column if the row is right)");
+  }
+}
+
 // The coefficient's spread column (`Cm_std`: the standard deviation of the single cycles of an
 // ensemble average at each sample; docs/formats.md "Phase-averaged cycles with a spread column"),
 // when the file has one; -1 otherwise. Every value finite (numeric_column) and >= 0.
@@ -1021,6 +1050,7 @@ Run read_run_csv(const std::string& path, Axis axis, const std::string& coeffici
   }
   warn_angle_unit(path, t.header[static_cast<std::size_t>(rc.angle)], rc.angle_factor, run.motion_angle_rad,
                   &run.warnings);
+  warn_units_row(path, t, &run.warnings);
   const int spread = read_spread_column(path, t, coefficient, run);
   std::vector<std::string> notes =
       table_notes(path, t, {rc.time, rc.phase, rc.angle, rc.rate, rc.coefficient, rc.normal, rc.chord, spread});
@@ -1069,6 +1099,7 @@ PhaseSeries read_phase_series(const std::string& path, Axis axis, const std::str
                                                 " after " + t.rows[i - 1][pc] + ")");
   }
   check_phase_gaps(path, t, rc.phase, rc.phase_factor, s.phase_rad, &s.warnings);
+  warn_units_row(path, t, &s.warnings);
   if (rc.angle >= 0) {
     s.motion_angle_rad = numeric_column(path, t, rc.angle, rc.angle_factor);
     s.motion_column = t.header[static_cast<std::size_t>(rc.angle)];
