@@ -86,10 +86,12 @@ TEST_CASE("a start with a negative decay rate is projected onto positive decay, 
 }
 
 // A start whose b1 is ~0 everywhere (the equation error's b1_0 = -0.0038 on digitized C_m
-// cycles) is projected to at least ten decays over the longest run, not to a tenth of its own
-// |b1| (0.00038 1/s: a lag that never decays, on which the LM took no step and the fit stopped
-// at its start values, "converged").
-TEST_CASE("a start with a decay rate of about zero is projected to ten decays over the longest run") {
+// cycles) is projected twice: to a tenth of its own |b1| (0.00038 1/s there, a lag that never
+// decays, on which the LM took no step and the fit stopped at its start, "converged") and to
+// ten decays over the longest run; both are fitted and the lower cost kept (fit_output_error.cpp,
+// DecayFloor). Here: the kept fit is the better of the fits from those two starts given as
+// (feasible) start values, and it recovers Model I's b1.
+TEST_CASE("a start with a decay rate of about zero is fitted from both projections, the lower cost kept") {
   const Experiment e = model1();
   double longest_s = 0.0;
   for (const Run& r : e.runs) longest_s = std::max(longest_s, r.time_s.back() - r.time_s.front());
@@ -97,11 +99,14 @@ TEST_CASE("a start with a decay rate of about zero is projected to ten decays ov
   o.start_values = {{"b1_0", -1e-4}};
   const FitResult r = fit_experiment(e, o);
   INFO(r.output_error.message);
-  const std::string said = "start projected: b1_0 raised from -0.0001 to ";
-  const std::size_t at = r.output_error.message.find(said);
-  REQUIRE(at != std::string::npos);
-  const double projected = std::stod(r.output_error.message.substr(at + said.size()));
-  CHECK(projected == doctest::Approx(10.0 / longest_s).epsilon(1e-5));  // (printed to 6 digits)
+  CHECK(r.output_error.message.find("start projected: b1_0 raised from -0.0001 to ") != std::string::npos);
+  CHECK(r.output_error.message.find("the other projected start") != std::string::npos);
+  FitOptions relative, ten_decays;
+  relative.start_values = {{"b1_0", -1e-4 + (0.1e-4 + 1e-4)}};
+  ten_decays.start_values = {{"b1_0", -1e-4 + (10.0 / longest_s + 1e-4)}};
+  const double a = fit_experiment(e, relative).fit_error, b = fit_experiment(e, ten_decays).fit_error;
+  MESSAGE("s(v) from a tenth of |b1|: " << a << ", from ten decays: " << b << ", kept: " << r.fit_error);
+  CHECK(r.fit_error == doctest::Approx(std::min(a, b)).epsilon(1e-9));
   CHECK(r.output_error.termination == Termination::converged);
   const ParameterEstimate* b1 = testing::find_estimate(r, "b1_0");
   REQUIRE(b1 != nullptr);
