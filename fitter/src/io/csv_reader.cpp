@@ -6,13 +6,12 @@
 #include <cctype>
 #include <charconv>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <set>
 #include <string>
 #include <utility>
-
-#include <fmt/format.h>
 
 #include "indicial/fitter/derivative.hpp"
 #include "indicial/fitter/did_you_mean.hpp"
@@ -913,6 +912,13 @@ void check_time_grid(const std::string& path, const CsvTable& t, const RunColumn
                        "time_grid = \"nonuniform\" in the run's entry if the log is not uniform)");
 }
 
+// v printed with a printf format (the fuzz targets link this file without fmt).
+std::string printed(double v, const char* format) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, format, v);
+  return buf;
+}
+
 // Why these limits: a motion whose largest |angle| is under 2.5 "deg" while it moves is almost
 // certainly radians (2.5 rad = 143 deg, 2.5 deg is a tiny motion for a tunnel run); an angle
 // beyond 2 pi "rad" is almost certainly degrees.
@@ -922,11 +928,11 @@ void warn_angle_unit(const std::string& path, const std::string& column, double 
   const double largest = std::max(std::abs(*lo), std::abs(*hi)) / factor;  // in the column's unit
   if (*hi == *lo) return;  // no motion: load_experiment decides
   if (factor != 1.0 && largest < 2.5) {
-    warnings->push_back(path + ": '" + column + "' never exceeds " + fmt::format("{:.6g}", largest) +
+    warnings->push_back(path + ": '" + column + "' never exceeds " + printed(largest, "%.6g") +
                         " in magnitude: it looks like radians in a degree column (name it " +
                         column.substr(0, column.find('_')) + "_rad if so)");
   } else if (factor == 1.0 && largest > 2.0 * kPi) {
-    warnings->push_back(path + ": '" + column + "' reaches " + fmt::format("{:.6g}", largest) +
+    warnings->push_back(path + ": '" + column + "' reaches " + printed(largest, "%.6g") +
                         ", beyond 2 pi: it looks like degrees in a radian column (name it " +
                         column.substr(0, column.find('_')) + "_deg if so)");
   }
@@ -948,7 +954,7 @@ void check_phase_gaps(const std::string& path, const CsvTable& t, int phase_col,
   for (std::size_t i = 1; i < n; ++i)
     if (phase_rad[i] - phase_rad[i - 1] > gap) gap = phase_rad[i] - phase_rad[i - 1], after = i;
   const std::size_t before = after == 0 ? n - 1 : after - 1;
-  const std::string where = "the phases leave a gap of " + fmt::format("{:.1f}", gap * 180.0 / kPi) + " deg between " +
+  const std::string where = "the phases leave a gap of " + printed(gap * 180.0 / kPi, "%.1f") + " deg between " +
                             t.rows[before][c] + " and " + t.rows[after][c] + (after == 0 ? " (the wrap)" : "");
   if (gap > kPi) {
     const bool radians = factor != 1.0 && phase_rad.back() / factor <= 2.0 * kPi;
