@@ -633,6 +633,7 @@ MLResult fit_output_error(const UnsteadyStructure& s, const OutputErrorData& d,
   res.names = L.names();
   res.theta = theta0;
   std::string projected = project_start(L, d, lo, hi, DecayFloor::relative, res.theta);
+  const Eigen::VectorXd first_start = res.theta;  // (Solve moves res.theta to the estimate)
   const numerics::LevenbergMarquardt::Options lm_options = solver_options(o);
   numerics::LevenbergMarquardt solver(problem);
   numerics::LevenbergMarquardt::Summary lm = solver.Solve(lm_options, res.theta);
@@ -640,7 +641,7 @@ MLResult fit_output_error(const UnsteadyStructure& s, const OutputErrorData& d,
   Eigen::VectorXd other = theta0;
   const std::string other_projected = projected.empty() ? std::string()
                                                         : project_start(L, d, lo, hi, DecayFloor::ten_run_decays, other);
-  if (!other_projected.empty() && other != res.theta) {
+  if (!other_projected.empty() && other != first_start) {
     numerics::LevenbergMarquardt other_solver(problem);
     const numerics::LevenbergMarquardt::Summary other_lm = other_solver.Solve(lm_options, other);
     if (std::isfinite(other_lm.cost) && !(lm.cost <= other_lm.cost)) {
