@@ -1,13 +1,16 @@
 // The warnings about a finished fit (fitter/src/report/fit_warnings.cpp): here the lag that
 // does not decay over the runs, which a fit reaches when the data show no lag of the model's
-// structure (the Glasgow NACA 0012 C_m cycles: b1 = 8e-5 1/s against runs of 0.43 s).
+// structure (the Glasgow NACA 0012 C_m cycles: b1 = 8e-5 1/s against runs of 0.43 s), an
+// estimate on the feasible set's boundary, and ill-conditioned estimates with replicated runs.
 #include <doctest/doctest.h>
 
+#include <cmath>
 #include <string>
 #include <vector>
 
 #include "indicial/fitter/fit.hpp"
 #include "indicial/fitter/experiment.hpp"
+#include "indicial/fitter/replication.hpp"
 #include "indicial/fitter/report.hpp"
 
 TEST_SUITE_BEGIN("unit");  // the ctest label (tests/CMakeLists.txt)
@@ -63,4 +66,51 @@ TEST_CASE("fit warnings: a lag that does not decay over the runs is named, with 
   FitResult no_runs = lag_fit(8e-5, 0.0, 0.43);
   no_runs.runs.clear();
   CHECK(undamped_warnings(fit_warnings(no_runs, e)) == 0);
+}
+
+TEST_CASE("fit warnings: an estimate on the feasible set's boundary is named with its infeasible trials") {
+  Experiment e;
+  e.path = "exp.toml";
+  FitResult r = lag_fit(13.0, 0.0, 0.43);
+  auto boundary_warnings = [](const std::vector<std::string>& w) {
+    int n = 0;
+    for (const std::string& s : w) n += s.find("sits on the boundary of the admissible models") != std::string::npos;
+    return n;
+  };
+  CHECK(boundary_warnings(fit_warnings(r, e)) == 0);  // interior by default
+  r.output_error.boundary = FeasibilityBoundary::active;
+  r.output_error.infeasible_trials = 23;
+  const std::vector<std::string> w = fit_warnings(r, e);
+  REQUIRE(boundary_warnings(w) == 1);
+  for (const std::string& s : w)
+    if (s.find("admissible models") != std::string::npos)
+      CHECK(s.find("exp.toml: the output-error estimate sits on the boundary of the admissible models (23 trial steps") == 0);
+}
+
+TEST_CASE("fit warnings: ill-conditioned estimates are named when the runs are replicated too") {
+  // Two identical runs at one condition: replicate_runs noise (sigma 0, so no noise-ratio
+  // warning). fit returned before the ill-conditioned list whenever the data had replication.
+  Experiment e;
+  e.path = "exp.toml";
+  Run run;
+  for (int i = 0; i < 200; ++i) {
+    run.time_s.push_back(i * 1e-3);
+    run.motion_angle_rad.push_back(0.1 * std::sin(0.05 * i));
+    run.coefficient.push_back(0.5 * run.motion_angle_rad.back() + 1e-3 * ((i * 7919) % 13 - 6));
+  }
+  run.airspeed_mps = 30.0;
+  e.runs = {run, run};
+  e.runs[1].coefficient[5] += 1e-3;  // replicates that differ: a finite spread
+  REQUIRE(replication_noise(e).source == NoiseSource::replicate_runs);
+  FitResult r = lag_fit(13.0, 0.0, 0.43);
+  ParameterEstimate p;
+  p.name = "A3";
+  p.value = -2309.0;
+  p.cr_bound = 10292.0;
+  r.parameters.push_back(p);
+  const std::vector<std::string> w = fit_warnings(r, e);
+  int named = 0;
+  for (const std::string& s : w) named += s.find("ill-conditioned estimates") != std::string::npos &&
+                                          s.find("A3 = -2309 +- 1.029e+04") != std::string::npos;
+  CHECK(named == 1);
 }

@@ -121,8 +121,12 @@ nlohmann::json with_provenance_and_warnings(nlohmann::json j, const ReportOption
 //    means a missing effect or wrong input (units, columns), not noise.
 //  * a lag that does not decay over the runs (b_j(x) times the longest run under 0.05
 //    everywhere in the envelope): it only integrates a(x) x', a static correction, not a lag;
+//  * an output-error estimate on the feasible set's boundary (OutputErrorSummary::boundary
+//    active: the steps tried from it went to inadmissible models; the solver may still report
+//    "converged", stopped by a step it could not take);
 //  * estimates whose Cramer-Rao bound exceeds their value (bound_exceeds_value, fit.hpp: the
-//    rule diagnose's "ill-conditioned" list uses), with value +- bound.
+//    rule diagnose's "ill-conditioned" list uses), with value +- bound; for every fit,
+//    replicated or not.
 inline constexpr double kFitErrorNoiseRatio = 3.0;
 std::vector<std::string> fit_warnings(const FitResult& r, const Experiment& e);
 
