@@ -261,7 +261,7 @@ TEST_CASE("rotary.estimate = true: fit.json has the two_stage log and report.md 
   CHECK(fs::exists(d / "fit" / "plots" / "caq_band.png"));
 }
 
-TEST_CASE("a non-empty output directory is refused without --force and replaced with it") {
+TEST_CASE("a non-empty output directory is refused without --force, and replaced with it only when indicial wrote every file") {
   const fs::path d = scratch() / "busy";
   fs::create_directories(d);
   { std::ofstream(d / "keep.txt") << "precious\n"; }
@@ -278,9 +278,21 @@ TEST_CASE("a non-empty output directory is refused without --force and replaced 
   for (const auto& ent : fs::directory_iterator(scratch()))
     CHECK(ent.path().filename().string().find(".busy.staging") == std::string::npos);
 
+  // --force never deletes a file indicial did not write: keep.txt is named, nothing touched.
+  const Run foreign = run_cli(base + " --force");
+  CHECK(foreign.exit_code == 1);
+  CHECK(count_lines(foreign.err) == 1);
+  CHECK(foreign.err.find("files indicial did not write") != std::string::npos);
+  CHECK(foreign.err.find("keep.txt") != std::string::npos);
+  CHECK(slurp(d / "keep.txt") == "precious\n");
+
+  // A directory of indicial's outputs is replaced with --force.
+  fs::remove(d / "keep.txt");
+  const Run first = run_cli(base);
+  CHECK_MESSAGE(first.exit_code == 0, first.err);
+  CHECK(fs::exists(d / ".indicial-outputs"));
   const Run forced = run_cli(base + " --force");
   CHECK_MESSAGE(forced.exit_code == 0, forced.err);
-  CHECK_FALSE(fs::exists(d / "keep.txt"));
   CHECK(fs::exists(d / "fit.json"));
   CHECK(fs::exists(d / "model.coef"));
   CHECK(fs::exists(d / "report.md"));

@@ -4,6 +4,8 @@
 #include <doctest/doctest.h>
 
 #include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -18,6 +20,16 @@ using indicial::InputError;
 using indicial::Overwrite;
 using indicial::OutputDir;
 using indicial::testing::TempDir;
+using indicial::kOutputManifest;
+
+namespace {
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+}  // namespace
 
 TEST_CASE("write_file_atomically: text written whole, an existing file refused unless replace") {
   TempDir d;
@@ -85,10 +97,13 @@ TEST_CASE("OutputDir with replace refuses a directory holding an input or the wo
   CHECK(fs::exists(input));
   // Named relatively, through "..": the same directory.
   CHECK_THROWS_AS(OutputDir(data / ".." / "data", Overwrite::replace, {input}), InputError);
-  // An input elsewhere: replaced as before.
+  // An input elsewhere: a previous output directory is replaced as before.
   const fs::path other = tmp.path / "other";
-  fs::create_directories(other);
-  indicial::write_text(other / "old.txt", "old\n");
+  {
+    OutputDir out(other, Overwrite::refuse, {input});
+    out.write("old.txt", "old\n");
+    out.commit();
+  }
   {
     OutputDir out(other, Overwrite::replace, {input});
     out.write("new.txt", "new\n");
@@ -103,4 +118,45 @@ TEST_CASE("OutputDir with replace refuses a directory holding an input or the wo
   CHECK_THROWS_AS(OutputDir(tmp.path, Overwrite::replace), InputError);
   fs::current_path(cwd);
   CHECK(fs::exists(other / "new.txt"));
+}
+
+TEST_CASE("OutputDir with replace refuses a directory holding files it did not write, naming them") {
+  TempDir tmp;
+  const fs::path dir = tmp.path / "out";
+  {
+    OutputDir out(dir, Overwrite::refuse);
+    out.write("fit.json", "{}\n");
+    out.write("plots/a.dat", "1 2\n");
+    out.commit();
+  }
+  // The manifest lists what commit() wrote.
+  const std::string manifest = slurp(dir / kOutputManifest);
+  CHECK(manifest.find("\nfit.json\n") != std::string::npos);
+  CHECK(manifest.find("\nplots/a.dat\n") != std::string::npos);
+  // A file added afterwards (a user's notes) blocks --force; nothing is touched.
+  indicial::write_text(dir / "notes.txt", "mine\n");
+  CHECK_THROWS_WITH_AS(OutputDir(dir, Overwrite::replace),
+                       doctest::Contains("files indicial did not write there (not in its .indicial-outputs): notes.txt"),
+                       InputError);
+  CHECK(slurp(dir / "notes.txt") == "mine\n");
+  CHECK(fs::exists(dir / "fit.json"));
+  // Without notes.txt the directory is indicial's again and is replaced.
+  fs::remove(dir / "notes.txt");
+  {
+    OutputDir out(dir, Overwrite::replace);
+    out.write("model.coef", "x\n");
+    out.commit();
+  }
+  CHECK(fs::exists(dir / "model.coef"));
+  CHECK_FALSE(fs::exists(dir / "fit.json"));
+  // A directory indicial never wrote (no manifest) is refused whatever it holds; more than five
+  // files are counted, not all listed.
+  const fs::path data = tmp.path / "data";
+  fs::create_directories(data);
+  for (int i = 0; i < 7; ++i) indicial::write_text(data / ("run" + std::to_string(i) + ".csv"), "t\n");
+  CHECK_THROWS_WITH_AS(OutputDir(data, Overwrite::replace),
+                       doctest::Contains("(it has no .indicial-outputs): run0.csv, run1.csv, run2.csv, run3.csv, "
+                                         "run4.csv and 2 more; move them, or choose another --out"),
+                       InputError);
+  CHECK(fs::exists(data / "run6.csv"));
 }

@@ -4,7 +4,9 @@
 
 #include <cerrno>
 #include <cstring>
+#include <algorithm>
 #include <fstream>
+#include <set>
 #include <sstream>
 
 #include "indicial/fitter/error.hpp"
@@ -71,6 +73,54 @@ void refuse_replacing_inputs(const fs::path& final_dir, const std::vector<std::s
                                             "the working directory: choose another --out");
 }
 
+// Every regular file under dir, relative, in generic form ("plots/a.dat"), sorted; the manifest
+// itself left out.
+std::vector<std::string> files_under(const fs::path& dir) {
+  std::vector<std::string> files;
+  std::error_code ec;
+  for (fs::recursive_directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    std::error_code ec2;
+    if (it->is_directory(ec2)) continue;
+    const std::string rel = fs::relative(it->path(), dir, ec2).generic_string();
+    if (rel != kOutputManifest) files.push_back(rel);
+  }
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
+// The files a previous commit() listed in dir's manifest (empty set when there is none).
+std::set<std::string> manifest_files(const fs::path& dir, bool* present) {
+  std::set<std::string> listed;
+  std::ifstream in(dir / kOutputManifest);
+  *present = static_cast<bool>(in);
+  for (std::string line; std::getline(in, line);)
+    if (!line.empty() && line[0] != '#') listed.insert(line);
+  return listed;
+}
+
+// --force replaces what indicial wrote, never a file it did not: a directory whose files are
+// not all in its manifest (a user's notes added after a fit, a folder of data named by mistake)
+// is refused, naming them. Why not keep those files and replace the rest: the directory is
+// swapped whole (outputs appear whole or not at all), and leaving stale outputs of another
+// run beside new ones would mislead.
+void refuse_replacing_foreign_files(const fs::path& final_dir) {
+  bool present = false;
+  const std::set<std::string> listed = manifest_files(final_dir, &present);
+  std::vector<std::string> foreign;
+  for (const std::string& f : files_under(final_dir))
+    if (!listed.count(f)) foreign.push_back(f);
+  if (foreign.empty()) return;
+  std::string names;
+  const std::size_t shown = std::min<std::size_t>(foreign.size(), 5);
+  for (std::size_t i = 0; i < shown; ++i) names += (i ? ", " : "") + foreign[i];
+  if (foreign.size() > shown) names += " and " + std::to_string(foreign.size() - shown) + " more";
+  throw InputError(final_dir.string(), 0,
+                   std::string("--force replaces only a directory of indicial's outputs, and this one holds ") +
+                       (present ? "files indicial did not write there (not in its " + std::string(kOutputManifest) + "): "
+                                : "files indicial did not write (it has no " + std::string(kOutputManifest) + "): ") +
+                       names + "; move them, or choose another --out");
+}
+
 }  // namespace
 
 OutputDir::OutputDir(const fs::path& final_dir, Overwrite overwrite, const std::vector<std::string>& inputs)
@@ -83,7 +133,10 @@ OutputDir::OutputDir(const fs::path& final_dir, Overwrite overwrite, const std::
     throw InputError(final_.string(), 0,
                      "output directory is not empty (use --force to replace its contents)");
   }
-  if (is_nonempty_dir(final_)) refuse_replacing_inputs(final_, inputs);
+  if (is_nonempty_dir(final_)) {
+    refuse_replacing_inputs(final_, inputs);
+    refuse_replacing_foreign_files(final_);
+  }
   fs::path parent = final_.has_parent_path() ? final_.parent_path() : fs::path(".");
   if (parent.empty()) parent = ".";
   fs::create_directories(parent, ec);
@@ -113,6 +166,11 @@ void OutputDir::write(const std::string& relative_name, const std::string& text)
 
 void OutputDir::commit() {
   std::error_code ec;
+  // The manifest: what --force may later replace (refuse_replacing_foreign_files).
+  std::string manifest = "# written by indicial: the files of this directory it wrote. --force replaces the\n"
+                         "# directory only while every file in it is listed here.\n";
+  for (const std::string& f : files_under(staging_)) manifest += f + "\n";
+  write(kOutputManifest, manifest);
   fs::path old;
   if (fs::exists(final_, ec)) {
     if (is_nonempty_dir(final_) && overwrite_ == Overwrite::refuse) {

@@ -20,6 +20,10 @@
 //    old one deleted; a failure before the second rename puts the old one back.
 // 3. Error messages name the output the user asked for (DIR/fit.json, out.csv), never the
 //    staging or temporary name, which is gone by the time the message is read.
+// 4. commit() writes a manifest, DIR/.indicial-outputs, listing every file it put there. With
+//    Overwrite::replace a non-empty DIR is replaced only when each of its files is listed in
+//    it: a file indicial did not write there (a user's notes added later, a data folder given
+//    as --out by mistake) is refused by name, and nothing is touched.
 #pragma once
 
 #include <filesystem>
@@ -31,11 +35,15 @@ namespace indicial {
 
 enum class Overwrite { refuse, replace };
 
+// The manifest OutputDir::commit writes into every output directory (Warning 4).
+inline constexpr const char* kOutputManifest = ".indicial-outputs";
+
 class OutputDir {
  public:
   // inputs: the files the command read (experiment, runs, tables). With Overwrite::replace a
-  // non-empty final_dir that holds one of them, or the working directory, is refused: --force
-  // replaces the directory's whole contents, and an input inside it would be lost.
+  // non-empty final_dir that holds one of them, or the working directory, or any file not in
+  // its manifest (Warning 4) is refused: --force replaces the directory's whole contents, and
+  // such a file inside it would be lost.
   OutputDir(const std::filesystem::path& final_dir, Overwrite overwrite,
             const std::vector<std::string>& inputs = {});
   ~OutputDir();
