@@ -53,7 +53,7 @@ std::size_t snapshot_member_bytes() {
   using S = typename Pred::Snapshot;
   using Scalar = decltype(S{}.x_prev_rad);
   const std::size_t state_scalars = Cap::max_coefficients * Cap::max_lags +
-                                    Cap::max_coefficients * (1 + Cap::max_lags) + 4;
+                                    Cap::max_coefficients * (1 + Cap::max_lags) + 5;  // x, x itself, V, V/V_ref, l/V
   const std::size_t doubles = 2 + Cap::max_coefficients + Cap::max_delay_samples;
   const std::size_t family_scalars = Cap::max_coefficients * (sizeof(indicial::StallState<Scalar>) / sizeof(Scalar));
   return state_scalars * sizeof(Scalar) + sizeof(int) + sizeof(S{}.reserved) +

@@ -82,8 +82,9 @@ LoadStatus parse(const std::string& text, indicial::ParseDiagnostic* diag) {
 
 }  // namespace
 
-TEST_CASE("family states cost only the models that have them: 160 / 240 bytes, float 88 / 128") {
-  static_assert(sizeof(indicial::State<double, Cap>) == 160, "a State without families is unchanged");
+TEST_CASE("family states cost only the models that have them: 168 / 248 bytes, float 88 / 128") {
+  // 168: 160 until the State kept the unclamped angle for indicial_evaluate (runtime.hpp).
+  static_assert(sizeof(indicial::State<double, Cap>) == 168, "a State without families is unchanged");
   static_assert(sizeof(indicial::State<float, Cap>) == 88, "float: unchanged (issue 25)");
   static_assert(sizeof(Families) <= 256, "issue 22: C_L + C_m with every family in <= 256 bytes");
   static_assert(sizeof(indicial::FamilyState<float, Cap>) <= 128, "float with families <= 128 bytes");

@@ -46,6 +46,8 @@ bool stepped(StepStatus s) { return s == StepStatus::ok || s == StepStatus::angl
 struct BatchCore {
   virtual ~BatchCore() = default;
   virtual StepStatus reset(std::size_t i, double angle_rad, double airspeed_mps) = 0;
+  // Instance i's outputs at its last sample, at rest (rate 0), without stepping it.
+  virtual StepStatus evaluate(std::size_t i, double airspeed_mps, double* out) const = 0;
   virtual StepStatus step(const double* angle, const double* rate, const double* airspeed, double dt_s, double* out,
                           StepStatus* status) = 0;
   std::size_t n = 0;
@@ -58,6 +60,9 @@ struct BatchCoreOf final : BatchCore {
   std::vector<StateT> states;
   StepStatus reset(std::size_t i, double angle_rad, double airspeed_mps) override {
     return indicial::reset(*model, states[i], angle_rad, airspeed_mps);
+  }
+  StepStatus evaluate(std::size_t i, double airspeed_mps, double* out) const override {
+    return indicial::evaluate(*model, states[i], 0.0, airspeed_mps, out);
   }
   StepStatus step(const double* angle, const double* rate, const double* airspeed, double dt_s, double* out,
                   StepStatus* status) override {
@@ -127,7 +132,14 @@ class BatchStepper {
     Busy busy(busy_);
     const Inputs a = inputs(angle_slot, angle, "angle_rad");
     const Inputs v = airspeed_inputs(airspeed);
-    for (std::size_t i = 0; i < core().n; ++i) status_[i] = core_->reset(i, a.at(i), v.at(i));
+    // An instance reset writes its outputs at rest (they read 0 until the first step); a
+    // refused one keeps its state and outputs.
+    double* o = outputs_.mutable_data();
+    const auto row = static_cast<std::size_t>(core().n_out);
+    for (std::size_t i = 0; i < core().n; ++i) {
+      status_[i] = core_->reset(i, a.at(i), v.at(i));
+      if (stepped(status_[i])) core_->evaluate(i, v.at(i), o + i * row);
+    }
     raise_first_refusal(errors, "reset");
   }
 

@@ -148,3 +148,16 @@ def test_threads_step_their_own_steppers_without_the_gil(model):
     for t in threads:
         t.join()
     assert np.array_equal(results[0], results[1]) and np.array_equal(results[1], results[2])
+
+
+def test_outputs_after_reset_are_the_reset_states_outputs(model):
+    # They read 0 until the first step; now each row is the state's output at rest (the C API's
+    # indicial_evaluate), i.e. a step to the same angle at rest.
+    n = 4
+    angles = np.array([0.1, 0.3, 0.6, 0.9])
+    batch = indicial.BatchStepper(model, n)
+    batch.reset(alpha_rad=angles)
+    at_reset = np.array(batch.outputs)
+    assert np.all(at_reset != 0.0)
+    stepped = batch.step(alpha_rad=angles, q_radps=np.zeros(n), dt_s=0.002)
+    assert np.allclose(at_reset, stepped, rtol=1e-12, atol=1e-14)

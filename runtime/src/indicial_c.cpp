@@ -159,27 +159,10 @@ int indicial_evaluate(const void* model, const void* state, double rate_radps,
   if (m == nullptr) return status;
   if (state == nullptr) return INDICIAL_ERROR_NULL_ARGUMENT;
   if (!aligned(state)) return INDICIAL_ERROR_MISALIGNED;
-  // Every state type begins with the plain State (FamilyState and DelayedState derive from
-  // it); a model with dynamic-stall families has a FamilyState (or a DelayedState, derived
-  // from it), whose family outputs join the coefficients as in a step.
-  const PlainState& s = *static_cast<const PlainState*>(state);
-  const FamState* families =
-      m->stall != indicial::StallUse::none ? static_cast<const FamState*>(state) : nullptr;
-  const indicial::MotionInput in{0.0, rate_radps, airspeed_mps};
-  const indicial::StepStatus checked = indicial::detail::check_step_input(s.phase, in, 1.0, out);
-  if (checked != indicial::StepStatus::ok) return c_status(checked);
-  const auto v = indicial::detail::airspeed_terms(*m, s, airspeed_mps);
-  double value[Cap::max_coefficients] = {};
-  for (int c = 0; c < m->set.n_coefficients; ++c) {
-    value[c] = indicial::coefficient_output(m->set.coefficients[c], s.x_prev_rad, rate_radps,
-                                            v.l_over_v_s, s.y[c]);
-    if (families != nullptr && m->set.coefficients[c].stall.families != indicial::StallFamilies::none)
-      value[c] = value[c] + indicial::stall_output(m->set.coefficients[c].stall, s.x_prev_rad,
-                                                   families->stall[c]);
-    if (!std::isfinite(value[c])) return INDICIAL_ERROR_NON_FINITE_RESULT;
-  }
-  for (int c = 0; c < m->set.n_coefficients; ++c) out[c] = value[c];
-  return INDICIAL_OK;
+  // A model with dynamic-stall families has a FamilyState (or a DelayedState, derived from it).
+  if (m->stall != indicial::StallUse::none)
+    return c_status(indicial::evaluate(*m, *static_cast<const FamState*>(state), rate_radps, airspeed_mps, out));
+  return c_status(indicial::evaluate(*m, *static_cast<const PlainState*>(state), rate_radps, airspeed_mps, out));
 }
 
 int indicial_step_batch(const void* model, void* states, size_t n, const double* angle_rad,

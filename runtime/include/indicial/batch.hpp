@@ -560,6 +560,7 @@ INDICIAL_LANE_INLINE void scatter_lane(const RuntimeModel<Scalar, Cap>& m, const
     out[c] = b.value[c][i];
   }
   s->x_prev_rad = b.x1_rad[i];
+  s->model_x_prev_rad = b.x1_model_rad[i];
   s->airspeed_mps = b.airspeed_mps[i];
   s->time_scale = b.time_scale[i];
   s->l_over_v_s = b.l_over_v_s[i];

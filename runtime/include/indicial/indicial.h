@@ -33,7 +33,7 @@
  *    states and threads once loaded (it is read-only after the load).
  * 2. indicial_state_bytes depends on the model: a model with a delay needs the delay history
  *    (about 4.4 KB); one with dynamic-stall families (a version-2 coefficient file with sep_*
- *    / vortex_* keys) their states (240 bytes); otherwise 160 bytes. Size states after loading
+ *    / vortex_* keys) their states (248 bytes); otherwise 168 bytes. Size states after loading
  *    the model.
  * 3. A state must be written by indicial_reset before its first step (a zeroed state answers
  *    INDICIAL_ERROR_NOT_RESET; uninitialised memory is undefined), and belongs to the model it
@@ -108,8 +108,9 @@ int indicial_reset(const void* model, void* state, double angle_rad, double airs
 int indicial_step(const void* model, void* state, double angle_rad, double rate_radps,
                   double airspeed_mps, double dt_s, double* out);
 
-/* The outputs at the state's current sample without stepping: its (clamped) angle and lag
- * states, with this rate and airspeed -- e.g. the outputs at the first sample, just after
+/* The outputs at the state's current sample without stepping: its angle and lag states, with
+ * this rate and airspeed, on the step's angles (a static table at the angle itself, every other
+ * term at the envelope's edge when the angle left it) -- e.g. the outputs at the first sample, just after
  * indicial_reset (what `indicial predict` writes there). Changes nothing; out receives
  * indicial_model_outputs(model) values only if every one is finite. */
 int indicial_evaluate(const void* model, const void* state, double rate_radps,

@@ -14,7 +14,7 @@
 //     per-model constants). Constexpr-constructible -- `indicial codegen` emits one that lives
 //     in read-only memory (flash) and is used in place -- and shared by any number of states.
 //   * State<Scalar, Cap>: per instance, only what changes (lag states, the previous sample's
-//     cached spline ends, the last airspeed's terms): 160 bytes for double and
+//     cached spline ends, the last airspeed's terms): 168 bytes for double and
 //     DefaultCapacity (up to 3 coefficients, 2 lags). FamilyState adds the dynamic-stall
 //     family states (below), DelayedState the history ring that a model with a delay needs
 //     (about 4 KB with DefaultCapacity).
@@ -92,9 +92,9 @@
 // (CoefficientModel::stall; the equations, units and feasible set are model.hpp's essay
 // "Dynamic stall: equations"). The runtime steps them and adds nothing of its own:
 //   * the state: model.hpp's StallState per coefficient (separation point, vortex lift,
-//     vortex clock) in a FamilyState, a State plus those (240 bytes for double, 128 for float
+//     vortex clock) in a FamilyState, a State plus those (248 bytes for double, 128 for float
 //     with DefaultCapacity). Why a state type of its own rather than room in every State or a
-//     Capacity parameter: a model without families pays nothing (its State stays 160 / 88
+//     Capacity parameter: a model without families pays nothing (its State stays 168 / 88
 //     bytes) under the same Capacity that codegen and the C API use, as the delay ring lives
 //     only in DelayedState -- which derives from FamilyState, so the Predictor's Snapshot
 //     carries the family states too (Snapshot::stall[c]).
@@ -619,12 +619,19 @@ constexpr int pad_ints(int scalar_count, int int_count) {
 template <class Scalar, class Cap>
 struct State {
   static constexpr int scalar_count = Cap::max_coefficients * Cap::max_lags +
-                                      Cap::max_coefficients * (1 + Cap::max_lags) + 4;
+                                      Cap::max_coefficients * (1 + Cap::max_lags) + 5;
   Scalar y[Cap::max_coefficients][Cap::max_lags] = {};  // lag states
   // The spline quantities at the previous sample, per coefficient (model.hpp's StepEnd): a
   // pure function of x_prev_rad and the model, kept so that a step evaluates only its new end.
   StepEnd<Scalar, Cap> end[Cap::max_coefficients] = {};
   Scalar x_prev_rad = Scalar(0);  // the (clamped) model angle of the previous sample
+  // The model angle of the previous sample itself, not clamped: a static table's angle
+  // (warning 3), for indicial_evaluate. Why in the state: the C API's evaluate had only the
+  // clamped angle, so its output at a reset outside the envelope held a static table at the
+  // envelope's edge where a step and predict evaluate it at the angle (a user's trial,
+  // 2026-11-27: 0.6708 against 0.9259). Costs the double State 8 bytes (160 -> 168); the float
+  // State stays 88 (its padding int goes).
+  Scalar model_x_prev_rad = Scalar(0);
   // The airspeed terms of the last step (recomputed only when the airspeed changes).
   Scalar airspeed_mps = Scalar(0);  // 0: none cached (steps accept only airspeeds > 0)
   Scalar time_scale = Scalar(0);    // V / V_ref
@@ -644,9 +651,9 @@ enum class HistoryOrigin : int {
 // A State plus the dynamic-stall family states of every coefficient (model.hpp's StallState:
 // separation point, vortex lift, vortex clock), for a model whose coefficients carry families
 // (RuntimeModel::stall). Why a type of its own rather than room in every State: a model
-// without families pays nothing (State<double, DefaultCapacity> stays 160 bytes, the float
+// without families pays nothing (State<double, DefaultCapacity> stays 168 bytes, the float
 // one 88), with the same Capacity (codegen and the C API keep DefaultCapacity), as the delay
-// ring lives only in DelayedState. 240 bytes for double and DefaultCapacity, 128 for float.
+// ring lives only in DelayedState. 248 bytes for double and DefaultCapacity, 128 for float.
 template <class Scalar, class Cap>
 struct FamilyState : State<Scalar, Cap> {
   StallState<Scalar> stall[Cap::max_coefficients] = {};
@@ -1001,11 +1008,13 @@ INDICIAL_HOT_INLINE Scalar advance_coefficients(const RuntimeModel<Scalar, Cap>&
 // The rest of a step whose numbers are all finite: the angle, the airspeed terms, the outputs.
 template <class Scalar, class Cap>
 INDICIAL_HOT_INLINE void commit(const RuntimeModel<Scalar, Cap>& m, const Scalar* value, Scalar x1,
-                                const AirspeedTerms<Scalar>& v, State<Scalar, Cap>* s, Scalar* out) {
+                                Scalar model_x1, const AirspeedTerms<Scalar>& v, State<Scalar, Cap>* s,
+                                Scalar* out) {
   // (Over the capacity, not n_coefficients: GCC makes the shorter loop a memcpy call.)
   for (int c = 0; c < Cap::max_coefficients; ++c)
     if (c < m.set.n_coefficients) out[c] = value[c];
   s->x_prev_rad = x1;
+  s->model_x_prev_rad = model_x1;
   s->airspeed_mps = v.airspeed_mps;
   s->time_scale = v.time_scale;
   s->l_over_v_s = v.l_over_v_s;
@@ -1053,6 +1062,7 @@ inline StepStatus reset(const RuntimeModel<Scalar, Cap>& m, State<Scalar, Cap>& 
     evaluate_step_end(cm, clamp.x_rad, clamp.x_rad, &n.end[c]);
   }
   n.x_prev_rad = clamp.x_rad;
+  n.model_x_prev_rad = clamp.model_x_rad;
   const detail::AirspeedTerms<Scalar> v = detail::airspeed_terms(m, n, airspeed_mps);
   n.airspeed_mps = v.airspeed_mps;
   n.time_scale = v.time_scale;
@@ -1155,7 +1165,7 @@ inline StepStatus step_undelayed(const RuntimeModel<Scalar, Cap>& m, State<Scala
     stall_before.restore(families);
     return StepStatus::non_finite_result;
   }
-  commit(m, value, clamp.x_rad, v, &s, out);
+  commit(m, value, clamp.x_rad, clamp.model_x_rad, v, &s, out);
   return clamp.status;
 }
 
@@ -1174,6 +1184,47 @@ INDICIAL_FLATTEN inline StepStatus step_state(const RuntimeModel<Scalar, Cap>& m
   return step_undelayed<StallUse::none>(m, s, static_cast<FamilyState<Scalar, Cap>*>(nullptr), in, dt_s, out);
 }
 }  // namespace detail
+
+namespace detail {
+// The outputs of a state at its last sample, without stepping it (evaluate, below); stall:
+// the family states, or nullptr for a plain State.
+template <class Scalar, class Cap>
+inline StepStatus evaluate_state(const RuntimeModel<Scalar, Cap>& m, const State<Scalar, Cap>& s,
+                                 const StallState<Scalar>* stall, double rate_radps, double airspeed_mps,
+                                 Scalar* out) {
+  const StepStatus checked = check_step_input(s.phase, MotionInput{0.0, rate_radps, airspeed_mps}, 1.0, out);
+  if (checked != StepStatus::ok) return checked;
+  if (stall == nullptr && m.stall != StallUse::none) return StepStatus::families_need_state;
+  const AirspeedTerms<Scalar> v = airspeed_terms(m, s, airspeed_mps);
+  Scalar value[Cap::max_coefficients] = {};
+  for (int c = 0; c < m.set.n_coefficients; ++c) {
+    const CoefficientModel<Scalar, Cap>& cm = m.set.coefficients[c];
+    value[c] = coefficient_output(cm, s.x_prev_rad, s.model_x_prev_rad, Scalar(rate_radps), v.l_over_v_s, s.y[c]);
+    if (stall != nullptr && cm.stall.families != StallFamilies::none)
+      value[c] = value[c] + stall_output(cm.stall, s.x_prev_rad, stall[c]);
+    if (!std::isfinite(value[c])) return StepStatus::non_finite_result;
+  }
+  for (int c = 0; c < m.set.n_coefficients; ++c) out[c] = value[c];
+  return StepStatus::ok;
+}
+}  // namespace detail
+
+// The coefficients of a state at its last sample (after reset: the reset's steady state),
+// at this rate and airspeed, without stepping it: what a step to that sample wrote, and what
+// `indicial predict` writes at its first sample. The same angles as the step (warning 3: a
+// static table at the angle itself, the rest at the envelope's edge). Changes nothing; on a
+// refusal out is untouched. A model with dynamic-stall families needs its FamilyState (or
+// DelayedState): a plain State returns families_need_state.
+template <class Scalar, class Cap>
+inline StepStatus evaluate(const RuntimeModel<Scalar, Cap>& m, const State<Scalar, Cap>& s, double rate_radps,
+                           double airspeed_mps, Scalar* out) {
+  return detail::evaluate_state(m, s, static_cast<const StallState<Scalar>*>(nullptr), rate_radps, airspeed_mps, out);
+}
+template <class Scalar, class Cap>
+inline StepStatus evaluate(const RuntimeModel<Scalar, Cap>& m, const FamilyState<Scalar, Cap>& s, double rate_radps,
+                           double airspeed_mps, Scalar* out) {
+  return detail::evaluate_state(m, s, m.stall != StallUse::none ? s.stall : nullptr, rate_radps, airspeed_mps, out);
+}
 
 // Advances the lag states from the previous sample to this one (dt_s later) and writes the
 // m.set.n_coefficients coefficients at this sample to out[0..]. Anything but ok or
@@ -1265,7 +1316,7 @@ inline StepStatus step(const RuntimeModel<Scalar, Cap>& m, DelayedState<Scalar, 
     std::memcpy(s.stall, stall_before, sizeof stall_before);
     return StepStatus::non_finite_result;
   }
-  detail::commit(m, value, clamp.x_rad, v, &s, out);
+  detail::commit(m, value, clamp.x_rad, clamp.model_x_rad, v, &s, out);
   detail::commit_history(t1_s, clamp.x_rad, ring_full, &s);
   s.delay_airspeed_mps = in.airspeed_mps;
   for (int c = 0; c < Cap::max_coefficients; ++c) s.delay_at_airspeed_s[c] = d_s[c];
