@@ -506,7 +506,10 @@ def fit(experiment: Experiment, *, f_to_enter: float = 4.0, f_to_remove: float =
 class Diagnosis:
     """What ``diagnose`` returns: ``steps`` (dicts: effect, detail, statistic, p_value,
     fit_error_before, fit_error_after, ...), ``verdict``, ``effects_added``,
-    ``initial_fit_error``, ``final_fit_error``, ``noise`` (sigma, lag1_correlation),
+    ``initial_fit_error``, ``final_fit_error``, ``noise`` (source: the replication or
+    "residual_differences"; sigma and lag1_correlation: the noise, from replication where the
+    data have it, else the residual's AR(1) level; residual_sigma, white_equivalent: the
+    residual's levels),
     ``fits`` (FitResult per step, fits[0] the configured model), ``fit`` and ``model`` (the
     final ones), ``warnings``, ``diagnosis_json()``, ``experiment_toml()``."""
 

@@ -119,7 +119,21 @@ void bind_diagnose(py::module_& m) {
       .def_property_readonly("effects_added", [](const DiagnoseHolder& h) { return h.result->effects_added; })
       .def_property_readonly("initial_fit_error", [](const DiagnoseHolder& h) { return h.result->initial_fit_error; })
       .def_property_readonly("final_fit_error", [](const DiagnoseHolder& h) { return h.result->final_fit_error; })
-      .def_property_readonly("noise", [](const DiagnoseHolder& h) { return noise_dict(h.result->noise); })
+      .def_property_readonly("noise", [](const DiagnoseHolder& h) {
+        // "sigma" is the CLI's noise_estimate: the replicates' where the data have replication
+        // (it was the residual's AR(1) level always: 0.1245 against the CLI's 0.0147);
+        // "residual_sigma" and the rest are the residual's levels.
+        py::dict d = noise_dict(h.result->noise);
+        const ReplicationNoise& rep = h.result->replication;
+        d["residual_sigma"] = h.result->noise.sigma;
+        d["source"] = rep.source != NoiseSource::none ? noise_source_name(rep.source) : "residual_differences";
+        d["detail"] = rep.detail;
+        if (rep.source != NoiseSource::none) {
+          d["sigma"] = rep.sigma;
+          d["lag1_correlation"] = rep.lag1_correlation;
+        }
+        return d;
+      })
       .def_property_readonly("final_noise", [](const DiagnoseHolder& h) { return noise_dict(h.result->final_noise); })
       .def_property_readonly("ill_conditioned", [](const DiagnoseHolder& h) { return h.result->ill_conditioned; })
       .def_property_readonly("fits_run", [](const DiagnoseHolder& h) { return h.result->fits_run; })

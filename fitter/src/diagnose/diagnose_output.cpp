@@ -304,24 +304,32 @@ std::string report_markdown(const DiagnoseResult& d, const Experiment& e, const 
             : "**Noise**: " + d.replication.detail +
                   ". The levels below are the residual's short-lag structure, which is noise only where the "
                   "model is right; they are not used as the noise.\n\n";
-  md += fmt::format("| | value |\n|---|---|\n| initial fit error s(v) | {} |\n| noise level (initial "
-                    "residuals; AR(1) phi, white-equivalent) | {} ({:.2f}, {}) |\n| final fit error | {} |\n"
-                    "| noise level (final residuals; AR(1) phi, white-equivalent) | {} ({:.2f}, {}) |\n"
-                    "| final fit error / noise level | {:.3f} |\n"
+  // Why the ratio's denominator: the replicates' sigma where there is replication (the noise);
+  // otherwise the final residual's white-equivalent level, said to be that. The AR(1) marginal
+  // level divides by (1 - phi) and at phi ~ 0.98 (a smooth model error) exceeds the fit error
+  // itself: a trial read 0.348 from it, as if the model were complete, with the replicates at 0.0147.
+  const bool replicated = d.replication.source != NoiseSource::none;
+  const double noise = replicated ? d.replication.sigma : d.final_noise.white_equivalent;
+  md += fmt::format("| | value |\n|---|---|\n| initial fit error s(v) | {} |\n| final fit error | {} |\n"
+                    "| final fit error / {} | {:.3g} |\n"
+                    "| residual's short-lag level, initial (AR(1) marginal; phi; white-equivalent) | {} ({:.2f}; {}) |\n"
+                    "| residual's short-lag level, final (AR(1) marginal; phi; white-equivalent) | {} ({:.2f}; {}) |\n"
                     "| stopped | {} |\n| fits run | {} |\n| elapsed | {:.2f} s |\n\n",
-                    num(d.initial_fit_error), num(d.noise.sigma), d.noise.lag1_correlation,
-                    num(d.noise.white_equivalent), num(d.final_fit_error), num(d.final_noise.sigma),
-                    d.final_noise.lag1_correlation, num(d.final_noise.white_equivalent),
-                    d.final_fit_error / d.final_noise.sigma, diagnose_stop_name(d.stopped), d.fits_run,
-                    d.elapsed_s);
-  md += "The noise level is the marginal standard deviation of AR(1) noise fitted to the residual's "
-        "first and second differences, which a smooth model error hardly passes: phi = 1 + 2 r1 of "
-        "the first difference, sigma^2 = mean (second difference)^2 / (2 (1 - phi) (3 - phi)). The "
+                    num(d.initial_fit_error), num(d.final_fit_error),
+                    replicated ? "noise from replication" : "final residual's white-equivalent level (not a noise "
+                                                            "measurement)",
+                    d.final_fit_error / noise, num(d.noise.sigma), d.noise.lag1_correlation,
+                    num(d.noise.white_equivalent), num(d.final_noise.sigma), d.final_noise.lag1_correlation,
+                    num(d.final_noise.white_equivalent), diagnose_stop_name(d.stopped), d.fits_run, d.elapsed_s);
+  md += "The residual's short-lag level is the marginal standard deviation of AR(1) noise fitted to the "
+        "residual's first and second differences, which a smooth model error hardly passes: phi = 1 + 2 r1 "
+        "of the first difference, sigma^2 = mean (second difference)^2 / (2 (1 - phi) (3 - phi)). The "
         "white-equivalent level sqrt(mean (second difference)^2 / 6) is the white noise of the same "
-        "short-lag power (equal for white noise; 0.38 of the level for AR(1) phi = 0.8). The level's "
-        "sampling error grows with phi (about 12 % at phi = 0.8 on 2100 samples); at phi = 0.98 (the "
-        "clamp) the noise is too smooth to be told from model error. When the fit error is well above "
-        "the level, the model is missing something.\n\n";
+        "short-lag power (equal for white noise; 0.38 of the level for AR(1) phi = 0.8). At phi = 0.98 (the "
+        "clamp) the residual is too smooth to be told from model error and the marginal level means "
+        "nothing. These levels come from the model's own residual: noise only where the model is right, so "
+        "they are reported, not used as the noise" +
+        std::string(replicated ? " (the noise is the replicates' spread, above)" : "") + ".\n\n";
   md += steps_markdown(d);
   md += fmt::format("Test: LR = N ln(s0^2/s1^2) divided by kappa = (1 + r1) / (1 - r1), r1 the lag-1 "
                     "autocorrelation of the extended fit's residuals (colored residuals inflate LR by about "
@@ -507,9 +515,17 @@ nlohmann::json diagnosis_json(const DiagnoseResult& d, const Experiment& e, cons
                     "extended fit's residuals (lr_residual) or of the replicates (lr_replication_noise); "
                     "Bonferroni alpha/M per round; delta BIC (N_eff = N / kappa) < 0; each effect grown "
                     "stepwise, effects compared by BIC";
+  // Which method gave noise_estimate; the residual levels below (noise_lag1_correlation,
+  // noise_white_equivalent, noise_estimate_per_run, final_noise_*) are always the residual's.
   j["noise_estimate_method"] =
-      "AR(1) noise from the residual's differences: phi = 1 + 2 r1(d1), noise_estimate = marginal sigma = "
-      "sqrt(mean d2^2 / (2 (1 - phi) (3 - phi))); white-equivalent sqrt(mean d2^2 / 6)";
+      replicated ? std::string("the replicates' spread (") + noise_source_name(d.replication.source) + ": " +
+                       d.replication.detail + "); the noise_* and final_noise_* levels besides are the residual's "
+                       "AR(1) short-lag structure, reported, not used as the noise"
+                 : std::string("the residual's AR(1) short-lag level (no replication; not a noise measurement): phi = "
+                               "1 + 2 r1(d1), noise_estimate = marginal sigma = sqrt(mean d2^2 / (2 (1 - phi) "
+                               "(3 - phi))); white-equivalent sqrt(mean d2^2 / 6)");
+  j["final_fit_error_over_noise"] =
+      finite_or_null(d.final_fit_error / (replicated ? d.replication.sigma : d.final_noise.white_equivalent));
   j["noise_lag1_correlation"] = d.noise.lag1_correlation;
   j["noise_white_equivalent"] = finite_or_null(d.noise.white_equivalent);
   nlohmann::json rn = nlohmann::json::array();
