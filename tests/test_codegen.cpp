@@ -227,6 +227,8 @@ TEST_CASE("codegen refuses damaged files with file:line: reason, and existing ou
   CHECK(run("codegen \"" + good + "\" --out \"" + hpp + "\" --name other", &out) == 1);  // exists
   CHECK(run("codegen \"" + good + "\" --out \"" + hpp + "\" --name other --force", &out) == 0);
   CHECK(indicial::read_text(hpp).find(" other =") != std::string::npos);
+  // The usage comment includes the header by the name it was written under, not `other.hpp`.
+  CHECK(indicial::read_text(hpp).find("//   #include \"m1.hpp\"") != std::string::npos);
   CHECK(run("codegen \"" + good + "\" --out \"" + hpp + "\" --name 9lives --force", &out) == 1);
   CHECK(run("codegen \"" + good + "\" --out \"" + hpp + "\" --name x --namespace my_models --force", &out) == 0);
   CHECK(indicial::read_text(hpp).find("namespace my_models {") != std::string::npos);

@@ -714,7 +714,7 @@ TEST_CASE("fmu: the command refuses bad models and names, and never overwrites w
   REQUIRE(r.exit_code == 0);
   r = run_indicial("fmu '" + kModel + "' --out '" + out.string() + "'", dir());
   CHECK(r.exit_code == 1);
-  CHECK(r.err.find("exists; use --force") != std::string::npos);
+  CHECK(r.err.find("output file exists (use --force to replace it)") != std::string::npos);
   CHECK(run_indicial("fmu '" + kModel + "' --out '" + out.string() + "' --force", dir()).exit_code == 0);
   const fs::path bad = dir() / "bad.coef";
   std::ofstream(bad) << "indicial-coef 1\naxis pitch\nreference_length_m -1\n";

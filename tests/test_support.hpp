@@ -57,11 +57,14 @@ inline std::size_t directory_entries(const std::filesystem::path& dir) {
 
 }  // namespace indicial::testing
 
-// Checks that message m contains s, showing m when it does not.
+// Checks that message m contains s, showing m when it does not. m is evaluated ONCE: INFO is
+// lazy, and an m that fails the test itself (error_of's FAIL when nothing was thrown) was
+// evaluated again while doctest reported that failure, and the test hung (test_io, 2026-11-27).
 #ifndef CHECK_HAS
-#define CHECK_HAS(m, s)                      \
-  do {                                       \
-    INFO("message: " << (m));                \
-    CHECK((m).find(s) != std::string::npos); \
+#define CHECK_HAS(m, s)                                          \
+  do {                                                           \
+    const std::string check_has_message_ = (m);                  \
+    INFO("message: " << check_has_message_);                     \
+    CHECK(check_has_message_.find(s) != std::string::npos);      \
   } while (0)
 #endif

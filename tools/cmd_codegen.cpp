@@ -256,7 +256,7 @@ std::string tight_capacity(const Set& m) {
 template <class Scalar>
 std::string generate(const indicial::RuntimeModel<Scalar, Cap>& r, const std::string& ident,
                      const std::string& ns, const std::string& source_name, std::uint32_t crc,
-                     const std::string& capacity) {
+                     const std::string& capacity, const std::string& include_name) {
   const indicial::ModelSet<Scalar, Cap>& m = r.set;
   char crc_hex[16];
   std::snprintf(crc_hex, sizeof crc_hex, "%08x", static_cast<unsigned>(crc));
@@ -275,7 +275,7 @@ std::string generate(const indicial::RuntimeModel<Scalar, Cap>& r, const std::st
        "). Do not edit:\n"
        "// regenerate from the coefficient file instead.\n"
        "//\n"
-       "//   #include \"" + ident + ".hpp\"   // includes indicial/runtime.hpp, no parser\n"
+       "//   #include \"" + include_name + "\"   // includes indicial/runtime.hpp, no parser\n"
        "//   const auto& model = " + ns + "::" + ident + ";   // in read-only memory, never copied\n"
        "//   indicial::check_runtime_model(model);            // once, at start: LoadStatus::ok\n"
        "//   indicial::" + state_type + "<" + scalar + ", " + ns + "::" + cap + "> state;  // per instance\n"
@@ -330,6 +330,9 @@ void run_codegen(const CodegenOptions& o) {
   const std::size_t at = text.rfind("checksum ");
   const std::uint32_t crc = crc32(text.data(), at == std::string::npos ? 0 : at);
   const std::string source = std::filesystem::path(o.model_path).filename().string();
+  // The usage comment includes the header by the name it is written under (it said
+  // `<identifier>.hpp` whatever --out named).
+  const std::string include_name = std::filesystem::path(o.out).filename().string();
   const std::string capacity =
       o.capacity == "tight" ? tight_capacity(model->set) : std::string("indicial::DefaultCapacity");
   std::string header;
@@ -339,9 +342,9 @@ void run_codegen(const CodegenOptions& o) {
     const LoadStatus sf = make_runtime_model(model->set, model_f.get(), &diag);
     if (sf != LoadStatus::ok)
       throw InputError(o.model_path, 0, std::string(diag.reason) + " in float (" + to_string(sf) + ")");
-    header = generate(*model_f, ident, o.name_space, source, crc, capacity);
+    header = generate(*model_f, ident, o.name_space, source, crc, capacity, include_name);
   } else {
-    header = generate(*model, ident, o.name_space, source, crc, capacity);
+    header = generate(*model, ident, o.name_space, source, crc, capacity, include_name);
   }
   refuse_output_onto_input(o.out, {o.model_path});
   write_file_atomically(o.out, header, o.force ? Overwrite::replace : Overwrite::refuse);

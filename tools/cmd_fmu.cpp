@@ -247,7 +247,7 @@ void run_fmu(const FmuOptions& o) {
   if (!(std::isfinite(o.step_s) && o.step_s > 0.0 && o.step_s <= 1.0))
     throw InputError("--step-s", 0, "the default step must be in (0, 1] s");
   if (overwrite == indicial::Overwrite::refuse && std::filesystem::exists(out))
-    throw InputError(o.out, 0, "exists; use --force to replace it");
+    throw InputError(o.out, 0, "output file exists (use --force to replace it)");
 
   char guid[indicial::fmu::kGuidChars];
   indicial::fmu::model_guid(text.data(), text.size(), guid);
