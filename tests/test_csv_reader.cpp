@@ -328,3 +328,118 @@ TEST_CASE("a units row under the header is skipped with a note") {
                                               indicial::CoefficientPresence::required),
                        doctest::Contains("non-numeric"), indicial::InputError);
 }
+
+TEST_CASE("a time step longer than the runtime's largest is refused, a mapped column's unit contradiction warned") {
+  // A facility's `t [ms]` column mapped to time_s: 2 ms samples read as 2 s steps, which the
+  // runtime refuses (max_step_dt_s = 1 s): a fit of them could be neither replayed nor predicted.
+  std::string text = "t [ms]\tAoA [deg]\tCm\n";
+  for (int i = 0; i < 40; ++i)
+    text += indicial::format_double(2.0 * i) + "\t" + indicial::format_double(5 + 0.1 * i) + "\t" +
+            indicial::format_double(-0.001 * i) + "\n";
+  write("ms.txt", text);
+  const std::string columns = "[columns]\ntime_s = \"t [ms]\"\nalpha_deg = \"AoA [deg]\"\n";
+  const std::string exp = "axis = \"pitch\"\ncoefficient = \"Cm\"\nreference_length_m = 0.15\nairspeed_mps = 30\n"
+                          "runs = [\"ms.txt\"]\n[static]\npolynomial = [0.0, -0.1]\n\n[model]\na_degree = 1\n\n" + columns;
+  const std::string err = load_error("ms.toml", exp);
+  CHECK(err.find("ms.txt:3: column 't [ms]' (read as time_s, seconds): a time step of 2 s (2 after 0) is longer "
+                 "than the runtime's largest step (1 s): is the column in seconds?") != std::string::npos);
+  // The same file in seconds (0.002 s steps) loads; a name that says ms is still warned.
+  std::string seconds = "t [ms]\tAoA [deg]\tCm\n";
+  for (int i = 0; i < 40; ++i)
+    seconds += indicial::format_double(0.002 * i) + "\t" + indicial::format_double(5 + 0.1 * i) + "\t" +
+               indicial::format_double(-0.001 * i) + "\n";
+  write("ms.txt", seconds);
+  const indicial::Experiment e = indicial::load_experiment(write("ms.toml", exp));
+  CHECK(any_has(e.warnings, "column 't [ms]' is read as time_s (in s), but its name says ms"));
+  // A name in the column's own unit: nothing said about units.
+  write("s.txt", "t [s]\tAoA [deg]\tCm\n" + seconds.substr(seconds.find('\n') + 1));
+  std::string in_seconds = exp;
+  in_seconds.replace(in_seconds.find("ms.txt"), 6, "s.txt");
+  in_seconds.replace(in_seconds.find("t [ms]"), 6, "t [s]");
+  const indicial::Experiment ok = indicial::load_experiment(write("s.toml", in_seconds));
+  CHECK_FALSE(any_has(ok.warnings, "but its name says"));
+}
+
+TEST_CASE("periodic = true on a record of several cycles is refused, one whole cycle accepted") {
+  // 1.1 Hz, 200 samples per period: one period, then 5.3 periods.
+  auto record = [](double periods) {
+    std::string text = "time_s,alpha_deg,Cm\n";
+    const int n = static_cast<int>(periods * 200 + 0.5);
+    for (int i = 0; i < n; ++i) {
+      const double t = i / (200 * 1.1);
+      const double a = 10 + 8 * std::sin(2 * kPi * 1.1 * t);
+      text += indicial::format_double(t) + "," + indicial::format_double(a) + "," + indicial::format_double(-0.002 * a) + "\n";
+    }
+    return text;
+  };
+  const std::string exp = "axis = \"pitch\"\ncoefficient = \"Cm\"\nreference_length_m = 0.15\nairspeed_mps = 30\n"
+                          "runs = [{file = \"rec.csv\", periodic = true, frequency_hz = 1.1}]\n"
+                          "[static]\npolynomial = [0.0, -0.1]\n\n[model]\na_degree = 1\n";
+  write("rec.csv", record(1.0));
+  const indicial::Experiment one = indicial::load_experiment(write("rec.toml", exp));
+  CHECK(one.runs[0].periodic);
+  CHECK(one.runs[0].frequency_hz == 1.1);  // a time column's frequency is kept (replicate_cycles)
+  write("rec.csv", record(5.3));
+  const std::string err = load_error("rec.toml", exp);
+  CHECK(err.find("rec.toml:5: run 'rec.csv' is declared periodic (one cycle, wrapping from its last sample back to "
+                 "its first), but the angle jumps from") != std::string::npos);
+  CHECK(err.find("at 1.1 Hz it holds 5.3 cycles: not one whole cycle") != std::string::npos);
+  // Without `periodic`, the record of several cycles is an ordinary run.
+  std::string plain = exp;
+  plain.replace(plain.find("periodic = true, "), 17, "");
+  CHECK_FALSE(indicial::load_experiment(write("rec.toml", plain)).runs[0].periodic);
+}
+
+TEST_CASE("a chord force positive aft is mapped with a minus, and uppercase CN / CC draw the right advice") {
+  // The same cycle as a facility writes it: `CN`, and the chord force `CC` positive aft (-Ct).
+  Cycle c = database_cycle();
+  const Cycle original = c;
+  for (double& ct : c.ct) ct = -ct;
+  write("cycle.dat", database_text(c, "% Time() Angle(deg) CN CC Cm"));
+  // Unmapped: the advice names the file's columns and the minus, not `CL = "CN"`.
+  const std::string err = load_error("aft.toml", experiment("CL", "[columns]\nphase_rad = \"Time()\"\nalpha_deg = \"Angle(deg)\"\n"));
+  CHECK(err.find("this file's 'CN' and 'CC' look like the normal- and chord-force coefficients: map them: "
+                 "[columns] Cnormal = \"CN\" and Ctangential = \"CC\"") != std::string::npos);
+  CHECK(err.find("Ctangential = \"-CC\"") != std::string::npos);
+  CHECK(err.find("CL = \"CN\"") == std::string::npos);
+  // Mapped with the minus: the same CL as from the database's own convention.
+  const indicial::Experiment e = indicial::load_experiment(write(
+      "aft.toml", experiment("CL", "[columns]\nphase_rad = \"Time()\"\nalpha_deg = \"Angle(deg)\"\nCnormal = \"CN\"\n"
+                                   "Ctangential = \"-CC\"\n")));
+  for (int k = 0; k < 128; k += 9) {
+    const double a = original.alpha_deg[k] * kPi / 180;
+    CHECK(e.runs[0].coefficient[k] == doctest::Approx(original.cn[k] * std::cos(a) + original.ct[k] * std::sin(a)).epsilon(1e-14));
+  }
+  CHECK(any_has(e.notes, "column 'CC' read with its sign flipped as Ctangential ([columns] Ctangential = \"-CC\")"));
+  // A bad cell names the file's column, then ours.
+  std::string text = database_text(c, "% Time() Angle(deg) CN CC Cm");
+  text.replace(text.find('\n', text.find('\n') + 1) + 1, 4, "x.xx");
+  write("cycle.dat", text);
+  const std::string cell = load_error("aft.toml", experiment("CL", "[columns]\nphase_rad = \"Time()\"\nalpha_deg = \"Angle(deg)\"\n"
+                                                                  "Cnormal = \"CN\"\nCtangential = \"-CC\"\n"));
+  CHECK(cell.find("column 'Time()' (read as phase_rad)") != std::string::npos);
+}
+
+TEST_CASE("a phase column printed at exact half units is uniform at every frequency") {
+  // Bin centres (k + 1/2) 360 / 128 deg printed with 4 decimals: 1.40625 -> "1.4062", 4.21875 ->
+  // "4.2188": each value sits exactly half a unit from the truth. Read as uniform at some
+  // frequencies and not at others, since the grid was anchored at the first (rounded) value.
+  std::string text = "phase_deg,alpha_deg,Cm\n";
+  for (int k = 0; k < 128; ++k) {
+    char row[96];
+    const double phase = (k + 0.5) * 360.0 / 128;
+    std::snprintf(row, sizeof row, "%.4f,%.6f,%.6f\n", phase, 10 + 8 * std::sin(phase * kPi / 180),
+                  -0.01 * std::sin(phase * kPi / 180));
+    text += row;
+  }
+  const std::string path = write("half_units.csv", text);
+  for (double f : {1.341146, 2.422975, 3.0, 3.721043, 1.0}) {
+    CAPTURE(f);
+    indicial::RunCsvOptions o;
+    o.frequency_hz = f;
+    o.frequency_source = indicial::FrequencySource::command_line;
+    const indicial::Run r = indicial::read_run_csv(path, indicial::Axis::pitch, "Cm", indicial::CoefficientPresence::required, o);
+    CHECK(r.time_grid == indicial::TimeGrid::uniform);
+    CHECK(r.time_s[1] - r.time_s[0] == doctest::Approx(1.0 / (128 * f)).epsilon(1e-12));
+  }
+}

@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "command.hpp"
+#include "indicial/fitter/experiment_checks.hpp"
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/experiment.hpp"
 #include "indicial/fitter/experiment_toml.hpp"
@@ -127,6 +128,10 @@ void run_predict(const PredictOptions& o) {
   tools::print_warnings(run.warnings);
   // A phase column is one ensemble-averaged cycle: periodic whether or not --periodic is given.
   const bool periodic = o.periodic || run.time_source == TimeSource::phase_column;
+  if (o.periodic && run.time_source == TimeSource::time_column) {
+    const std::string problem = periodic_closure_problem(run);
+    if (!problem.empty()) throw InputError(o.data_paths.front(), 0, "--periodic: the file is " + problem);
+  }
   const std::string angle_column = run.angle_column;  // echoed in the unit the file used
 
   require_runtime_accepts(*model, o.model_path, ModelFile::read);  // a refused model names the file
@@ -148,7 +153,7 @@ void run_predict(const PredictOptions& o) {
   if (overwrite == Overwrite::refuse) {
     for (const std::string& f : {o.out, metrics_path, o.plot})
       if (!f.empty() && std::filesystem::exists(f))
-        throw InputError(f, 0, "exists; use --force to replace it");
+        throw InputError(f, 0, "output file exists (use --force to replace it)");
   }
   // --force replaces outputs, never an input (the model, a DATA file, the experiment).
   std::vector<std::string> inputs = o.data_paths;

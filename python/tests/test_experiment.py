@@ -311,13 +311,13 @@ def test_written_phase_cycles_read_back_and_fit_alike(tmp_path, cli):
     """Phase-averaged cycles (simulate --case dynamic-stall: phase columns, frequencies in the
     runs entries) written by write_files are time-column CSVs of periodic cycles, and the command
     line fits them as it fits the originals (they were refused: 'has a time column: frequency_hz
-    ... only for a phase column')."""
+    ... only for a phase column'; a time column's frequency, the motion's, is now kept)."""
     sim = tmp_path / "sim"
     cli("simulate", "--case", "dynamic-stall", "--out", sim)
     e = indicial.Experiment.from_toml(str(sim / "experiment-CL.toml"))
     e.write_files(str(tmp_path / "w"))
     text = (tmp_path / "w" / "experiment.toml").read_text()
-    assert "periodic = true" in text and "frequency_hz" not in text
+    assert "periodic = true" in text and "frequency_hz" in text
     for d, toml in (("a", sim / "experiment-CL.toml"), ("b", tmp_path / "w" / "experiment.toml")):
         cli("fit", toml, "--out", tmp_path / d, "--no-plots", "--quiet")
     a = json.loads((tmp_path / "a" / "fit.json").read_text())

@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <limits>
 #include <set>
 #include <string>
 #include <utility>
@@ -18,6 +19,7 @@
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/experiment_checks.hpp"
 #include "indicial/fitter/io.hpp"
+#include "indicial/runtime.hpp"  // max_step_dt_s
 #include "io/mat_file.hpp"
 
 namespace indicial {
@@ -230,6 +232,7 @@ double median_of(std::vector<double> v) {
 struct CsvTable {
   std::vector<std::string> header;    // after [columns] renaming
   std::vector<std::string> original;  // as in the file
+  std::vector<char> negated;          // read with the sign flipped ([columns] ours = "-theirs")
   long header_line = 0;
   char delimiter = ',';
   std::vector<std::vector<std::string>> rows;
@@ -423,9 +426,15 @@ void refuse_unusable(const std::string& path, const CsvTable& t, const std::stri
 CsvTable read_csv_table(const std::string& path, const ColumnMap& columns, const CsvDialect& dialect) {
   CsvTable t = is_mat_file(path) ? read_mat_table(path) : read_csv_lines(path, dialect);
   t.original = t.header;
+  t.negated.assign(t.header.size(), 0);
   for (const auto& [ours, theirs] : columns) {
-    for (auto& name : t.header)
-      if (name == theirs) name = ours;
+    // "-X" maps the file's X with its sign flipped (a chord force positive aft, a moment of the
+    // other sign convention), unless the file has a column literally named "-X".
+    const bool flip = theirs.size() > 1 && theirs[0] == '-' &&
+                      std::find(t.header.begin(), t.header.end(), theirs) == t.header.end();
+    const std::string file_name = flip ? theirs.substr(1) : theirs;
+    for (std::size_t c = 0; c < t.header.size(); ++c)
+      if (t.header[c] == file_name) t.header[c] = ours, t.negated[c] = flip;
   }
   std::set<std::string> seen;
   for (const auto& name : t.header) {
@@ -505,9 +514,12 @@ std::vector<double> numeric_column(const std::string& path, CsvTable& t, int col
     double v = 0.0;
     std::string problem;
     if (!parse_number(decimal_point(t.rows[r][c], t.delimiter, t.decimal_comma), v, problem)) {
-      throw InputError(path, t.row_line[r], "column '" + t.header[c] + "': " + problem);
+      // The file's name first (what the user sees in the file), ours when mapped.
+      throw InputError(path, t.row_line[r], "column '" + t.original[c] + "'" +
+                                                (t.original[c] != t.header[c] ? " (read as " + t.header[c] + ")" : "") +
+                                                ": " + problem);
     }
-    out[r] = v * factor;
+    out[r] = c < t.negated.size() && t.negated[c] ? -(v * factor) : v * factor;
   }
   return out;
 }
@@ -525,6 +537,10 @@ std::vector<std::string> table_notes(const std::string& path, const CsvTable& t,
   }
   for (const MatUnusable& u : t.unusable) ignored += (ignored.empty() ? "'" : ", '") + u.name + "'";
   if (!ignored.empty()) notes.push_back(path + ": ignored column(s) " + ignored + " (not a column indicial reads)");
+  for (std::size_t c = 0; c < t.negated.size(); ++c)
+    if (t.negated[c] && std::find(used.begin(), used.end(), static_cast<int>(c)) != used.end())
+      notes.push_back(path + ": column '" + t.original[c] + "' read with its sign flipped as " + t.header[c] +
+                      " ([columns] " + t.header[c] + " = \"-" + t.original[c] + "\")");
   if (t.header_from_comment) {
     notes.push_back(path + ":" + std::to_string(t.header_line) + ": the column names are read from this comment "
                     "line (the first row below it is numbers)");
@@ -617,7 +633,7 @@ bool on_grid(const std::vector<double>& values, const std::vector<double>& tol, 
 }
 
 // A uniform grid a + b k within every sample's tolerance, trying in turn: `preferred` (a phase
-// cycle's own grid: its first value and one cycle over its samples), the least-squares line
+// cycle's own grid: one cycle over its samples, offset to fit every value), the least-squares line
 // (closest to the truth when the rounding errors average out), and the line that minimises the
 // largest deviation relative to the tolerances. Why the last: the least-squares line can leave
 // a rounded end sample just outside its half unit although a grid within all of them exists;
@@ -626,10 +642,32 @@ bool on_grid(const std::vector<double>& values, const std::vector<double>& tol, 
 bool fit_uniform_grid(const std::vector<double>& values, const std::vector<double>& tol,
                       const double* preferred_step, double& a, double& b) {
   const std::size_t n = values.size();
-  if (preferred_step && on_grid(values, tol, values.front(), *preferred_step)) {
-    a = values.front();
+  // The offset a that every value admits with slope `slope`: [lo, hi] (feasible when lo <= hi).
+  auto spread = [&](double slope, double& mid) {
+    double lo = -HUGE_VAL, hi = HUGE_VAL;  // a must lie in [lo, hi]
+    for (std::size_t k = 0; k < n; ++k) {
+      lo = std::max(lo, values[k] - tol[k] - slope * static_cast<double>(k));
+      hi = std::min(hi, values[k] + tol[k] - slope * static_cast<double>(k));
+    }
+    mid = 0.5 * (lo + hi);
+    return lo - hi;  // <= 0: feasible
+  };
+  if (preferred_step) {
     b = *preferred_step;
-    return true;
+    // From the first value (a phase cycle starting at 0), else offset to fit every value. Why
+    // the second: a first value printed half a unit off (1.40625 deg as 1.4062) put every value
+    // that rounded the other way a whole unit from the first grid, and the same file read as
+    // uniform or not with the frequency (a user's trial).
+    if (on_grid(values, tol, values.front(), b)) {
+      a = values.front();
+      return true;
+    }
+    double mid = values.front();
+    if (spread(*preferred_step, mid) <= 0.0 && on_grid(values, tol, mid, *preferred_step)) {
+      a = mid;
+      b = *preferred_step;
+      return true;
+    }
   }
   // Weighted by 1 / tol^2: a value printed to more digits says more about the grid.
   double floor_tol = HUGE_VAL;
@@ -644,15 +682,6 @@ bool fit_uniform_grid(const std::vector<double>& values, const std::vector<doubl
   b = (sw * skv - sk * sv) / (sw * skk - sk * sk);
   a = (sv - b * sk) / sw;
   if (on_grid(values, tol, a, b)) return true;
-  auto spread = [&](double slope, double& mid) {
-    double lo = -HUGE_VAL, hi = HUGE_VAL;  // a must lie in [lo, hi]
-    for (std::size_t k = 0; k < n; ++k) {
-      lo = std::max(lo, values[k] - tol[k] - slope * static_cast<double>(k));
-      hi = std::min(hi, values[k] + tol[k] - slope * static_cast<double>(k));
-    }
-    mid = 0.5 * (lo + hi);
-    return lo - hi;  // <= 0: feasible
-  };
   const double step = (values.back() - values.front()) / static_cast<double>(n - 1);
   double x0 = step * 0.99, x1 = step * 1.01, mid = 0.0;
   const double g = 0.5 * (std::sqrt(5.0) - 1.0);
@@ -708,9 +737,22 @@ bool locate_body_axes(const std::string& path, const CsvTable& t, Axis axis, con
   normal = find_plain_column(t, kNormalForce);
   chord = find_plain_column(t, kChordForce);
   if (normal < 0 && chord < 0) {
-    if (find_plain_column(t, "Cn") >= 0 && find_plain_column(t, "Ct") >= 0)
-      throw InputError(path, t.header_line, "missing column '" + coefficient + "'; this file's 'Cn' and 'Ct' look like "
-                                            "the normal- and chord-force coefficients: " + body_axes_advice());
+    // The usual spellings of a normal / chord-force pair (a trial's `CN` and `CC` drew the
+    // advice `[columns] CL = "CN"`, the normal force read as lift).
+    int n = -1, ch = -1;
+    for (const char* name : {"Cn", "CN", "C_N", "C_n"})
+      if (n < 0) n = find_plain_column(t, name);
+    for (const char* name : {"Ct", "CT", "Cc", "CC", "C_T", "C_C", "C_t", "C_c"})
+      if (ch < 0) ch = find_plain_column(t, name);
+    if (n >= 0 && ch >= 0) {
+      const std::string nn = t.original[static_cast<std::size_t>(n)], cn = t.original[static_cast<std::size_t>(ch)];
+      throw InputError(path, t.header_line,
+                       "missing column '" + coefficient + "'; this file's '" + nn + "' and '" + cn + "' look like "
+                       "the normal- and chord-force coefficients: map them: [columns] " + kNormalForce + " = \"" + nn +
+                       "\" and " + kChordForce + " = \"" + cn + "\" (the chord force positive toward the leading edge; "
+                       "a chord force positive aft is mapped with a minus: " + kChordForce + " = \"-" + cn + "\"), and "
+                       "CL and CD are derived as CL = Cn cos(alpha) + Ct sin(alpha), CD = Cn sin(alpha) - Ct cos(alpha)");
+    }
     return false;
   }
   if (normal < 0 || chord < 0)
@@ -817,7 +859,12 @@ std::vector<double> read_time(const std::string& path, CsvTable& t, const RunCol
   for (std::size_t i = 0; i < cells.size(); ++i) cells[i] = t.rows[i][c];
   const std::vector<double> raw = numeric_column(path, t, col, 1.0);
   std::vector<double> tol = print_tolerances(cells, raw);
-  for (double& v : tol) v *= std::abs(factor);
+  // Plus the rounding of the conversion to seconds (a few ulps of the time): a value printed
+  // at an exact half unit (1.40625 deg as 1.4062) sits exactly on its tolerance, and whether the
+  // scaled comparison held depended on the frequency (a trial: uniform at 3.72 Hz, not at
+  // 1.34 Hz, for one file).
+  for (std::size_t i = 0; i < tol.size(); ++i)
+    tol[i] = tol[i] * std::abs(factor) + 8.0 * std::numeric_limits<double>::epsilon() * std::abs(run.time_s[i]);
   return tol;
 }
 
@@ -831,6 +878,13 @@ std::string degrees_hint(double phase_factor, double phase) {
   if (phase_factor == 1.0 && phase >= 2.0 * kPi && phase < 360.0)
     return " (it looks like degrees in a radian column: name it phase_deg if so)";
   return "";
+}
+
+// v printed with a printf format (the fuzz targets link this file without fmt).
+std::string printed(double v, const char* format) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, format, v);
+  return buf;
 }
 
 // A phase in [0, 2 pi) (or [0, 360)); strictly increasing time.
@@ -848,8 +902,20 @@ void check_time_order(const std::string& path, const CsvTable& t, const RunColum
     if (i > 0 && !(run.time_s[i] > run.time_s[i - 1])) {
       throw InputError(path, t.row_line[i],
                        std::string(run.time_s[i] == run.time_s[i - 1] ? "duplicate time: " : "") + name +
-                           " is not strictly increasing (" + t.rows[i][c] + " after " + t.rows[i - 1][c] + ")");
+                           " is not strictly increasing (" + t.rows[i][c] + " after " + t.rows[i - 1][c] + ")" +
+                           (run.time_s[i] == run.time_s[i - 1] && t.original[c] != name
+                                ? " (read from the file's column '" + t.original[c] + "')"
+                                : ""));
     }
+    // Why refused here: the runtime steps at most max_step_dt_s, so a model fitted to such a
+    // run could be neither replayed by fit nor predicted (a user's trial: a `t [ms]` column
+    // mapped to time_s fitted, exit 0, and predict refused every step).
+    if (!phase && i > 0 && run.time_s[i] - run.time_s[i - 1] > max_step_dt_s)
+      throw InputError(path, t.row_line[i],
+                       "column '" + t.original[c] + "' (read as " + name + ", seconds): a time step of " +
+                           printed(run.time_s[i] - run.time_s[i - 1], "%.6g") + " s (" + t.rows[i][c] + " after " +
+                           t.rows[i - 1][c] + ") is longer than the runtime's largest step (" +
+                           printed(max_step_dt_s, "%g") + " s): is the column in seconds?");
   }
 }
 
@@ -910,13 +976,6 @@ void check_time_grid(const std::string& path, const CsvTable& t, const RunColumn
                        ", the run's step is " + format_double(dt) +
                        " s (allowed deviation 1e-6 relative or the printed digits; declare "
                        "time_grid = \"nonuniform\" in the run's entry if the log is not uniform)");
-}
-
-// v printed with a printf format (the fuzz targets link this file without fmt).
-std::string printed(double v, const char* format) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, format, v);
-  return buf;
 }
 
 // Why these limits: a motion whose largest |angle| is under 2.5 "deg" while it moves is almost
@@ -998,6 +1057,41 @@ void warn_units_row(const std::string& path, const CsvTable& t, std::vector<std:
   }
 }
 
+// A file column whose own name gives a unit (`t [ms]`, `AoA (rad)`, `alpha_deg`) read, through
+// the experiment's [columns] map, as one of our columns in another unit (time_s, alpha_deg):
+// the name is what is read, so the values are taken in our column's unit. Only units
+// recognised here are compared (ms, s, deg, rad, deg/s, rad/s); a trial's `t [ms]` mapped to
+// time_s fitted without a word and every step was 1000 times too long.
+void warn_mapped_units(const std::string& path, const CsvTable& t, std::vector<std::string>* warnings) {
+  auto unit_of = [](const std::string& original) {
+    std::string u;
+    const std::size_t open = original.find_first_of("[(");
+    const std::size_t close = original.find_first_of("])", open == std::string::npos ? 0 : open);
+    if (open != std::string::npos && close != std::string::npos) u = original.substr(open + 1, close - open - 1);
+    else if (original.rfind('_') != std::string::npos) u = original.substr(original.rfind('_') + 1);
+    std::string k;
+    for (char ch : u)
+      if (!std::isspace(static_cast<unsigned char>(ch))) k += static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+    static const std::vector<std::pair<const char*, const char*>> names = {
+        {"ms", "ms"}, {"msec", "ms"}, {"s", "s"}, {"sec", "s"}, {"deg", "deg"}, {"degree", "deg"},
+        {"degrees", "deg"}, {"rad", "rad"}, {"radian", "rad"}, {"radians", "rad"}, {"deg/s", "degps"},
+        {"degps", "degps"}, {"rad/s", "radps"}, {"radps", "radps"}};
+    for (const auto& [name, unit] : names)
+      if (k == name) return std::string(unit);
+    return std::string();
+  };
+  for (std::size_t c = 0; c < t.header.size() && c < t.original.size(); ++c) {
+    if (t.original[c] == t.header[c]) continue;  // not mapped
+    const std::size_t us = t.header[c].rfind('_');
+    const std::string unit = unit_of(t.original[c]);
+    if (us == std::string::npos || unit.empty() || t.header[c].substr(us + 1) == unit) continue;
+    warnings->push_back(path + ":" + std::to_string(t.header_line) + ": column '" + t.original[c] + "' is read as " +
+                        t.header[c] + " (in " + t.header[c].substr(us + 1) + "), but its name says " + unit +
+                        ": the values are taken in " + t.header[c].substr(us + 1) + " (map it to the column "
+                        "of its own unit, or convert the file)");
+  }
+}
+
 // The coefficient's spread column (`Cm_std`: the standard deviation of the single cycles of an
 // ensemble average at each sample; docs/formats.md "Phase-averaged cycles with a spread column"),
 // when the file has one; -1 otherwise. Every value finite (numeric_column) and >= 0.
@@ -1057,6 +1151,7 @@ Run read_run_csv(const std::string& path, Axis axis, const std::string& coeffici
   warn_angle_unit(path, t.header[static_cast<std::size_t>(rc.angle)], rc.angle_factor, run.motion_angle_rad,
                   &run.warnings);
   warn_units_row(path, t, &run.warnings);
+  warn_mapped_units(path, t, &run.warnings);
   const int spread = read_spread_column(path, t, coefficient, run);
   std::vector<std::string> notes =
       table_notes(path, t, {rc.time, rc.phase, rc.angle, rc.rate, rc.coefficient, rc.normal, rc.chord, spread});

@@ -1,4 +1,5 @@
 // The configuration checks both front ends call. See indicial/fitter/experiment_checks.hpp.
+#include <algorithm>
 #include "indicial/fitter/experiment_checks.hpp"
 
 #include <cmath>
@@ -70,6 +71,29 @@ std::string deg_text(double rad) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%.6g", rad * (180.0 / 3.14159265358979323846));
   return buf;
+}
+
+std::string periodic_closure_problem(const Run& run) {
+  const std::vector<double>& a = run.motion_angle_rad;
+  const std::size_t n = a.size();
+  if (n < 3 || run.time_s.size() != n) return "";
+  double largest = 0.0;
+  for (std::size_t i = 1; i < n; ++i) largest = std::max(largest, std::abs(a[i] - a[i - 1]));
+  const double wrap = std::abs(a.front() - a.back());
+  if (!(wrap > 2.0 * largest + 1e-12)) return "";
+  std::string cycles;
+  if (run.frequency_hz > 0.0) {
+    const double span_s = run.time_s.back() - run.time_s.front() + (run.time_s[1] - run.time_s[0]);
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "; at %.6g Hz it holds %.3g cycles", run.frequency_hz, span_s * run.frequency_hz);
+    cycles = buf;
+  }
+  char ratio[32];
+  std::snprintf(ratio, sizeof ratio, "%.3g", largest > 0.0 ? wrap / largest : 0.0);
+  return "declared periodic (one cycle, wrapping from its last sample back to its first), but the angle jumps "
+         "from " + deg_text(a.back()) + " to " + deg_text(a.front()) + " deg at the wrap, " + ratio +
+         " times the largest step inside the run" + cycles +
+         ": not one whole cycle (cut it to one period, or drop 'periodic' for a record of several cycles)";
 }
 
 void KeySite::raise(const std::string& key, const std::string& problem) const {

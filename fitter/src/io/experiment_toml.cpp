@@ -732,10 +732,15 @@ void read_runs(const LoadContext& c, const std::vector<RunEntry>& entries, Exper
         throw InputError(c.r.file(), entry.line, "run '" + entry.file + "' has a phase column, so it is one periodic "
                                                  "cycle: remove 'periodic = false'");
     } else {
-      if (entry.frequency_given)
-        throw InputError(c.r.file(), entry.line, "run '" + entry.file + "' has a time column: 'frequency_hz' and "
-                                                 "'reduced_frequency' are only for a phase column");
+      // A time column's frequency is the motion's: a record of several cycles then gives the
+      // noise from their spread (replication.hpp, replicate_cycles), which was unreachable while
+      // the key was refused here.
+      if (entry.frequency_given) run.frequency_hz = entry.csv.frequency_hz;
       run.periodic = entry.periodic.value_or(false);
+      if (run.periodic) {
+        const std::string problem = periodic_closure_problem(run);
+        if (!problem.empty()) throw InputError(c.r.file(), entry.line, "run '" + entry.file + "' is " + problem);
+      }
     }
     attach_spread(c, entry, e.coefficient, run);
     e.notes.insert(e.notes.end(), run.notes.begin(), run.notes.end());
@@ -938,10 +943,9 @@ std::string run_entry(const Run& run, double experiment_airspeed_mps) {
       out += ", airspeed_mps = " + format_double(run.airspeed_mps);
     return out + "}";
   }
-  if (run.time_source == TimeSource::phase_column && run.frequency_hz > 0.0)
-    keys += ", frequency_hz = " + format_double(run.frequency_hz);
-  else if (run.periodic)
-    keys += ", periodic = true";
+  // (A time column's frequency is the motion's, kept for the noise from its cycles.)
+  if (run.frequency_hz > 0.0) keys += ", frequency_hz = " + format_double(run.frequency_hz);
+  if (run.time_source != TimeSource::phase_column && run.periodic) keys += ", periodic = true";
   if (run.airspeed_mps > 0.0 && run.airspeed_mps != experiment_airspeed_mps)
     keys += ", airspeed_mps = " + format_double(run.airspeed_mps);
   if (run.time_grid == TimeGrid::nonuniform) keys += std::string(", time_grid = \"") + name_of(run.time_grid) + "\"";

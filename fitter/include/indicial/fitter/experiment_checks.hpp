@@ -57,6 +57,13 @@ struct TableSite {
 // Degrees for messages: 6 significant digits (59.99999999999999 reads as 60).
 std::string deg_text(double rad);
 
+// Why a run declared periodic (`periodic = true`, `predict --periodic`) with a time column is
+// not one cycle: empty when it closes. The fit and predict wrap from its last sample back to
+// its first; a record of several cycles, or of a fraction more, jumps there (a user's trial:
+// 5.3 cycles, 19.5 -> 6.06 deg in one 2 ms step, predicted without a word). Refused when the
+// angle's jump at the wrap exceeds twice the largest step inside the run.
+std::string periodic_closure_problem(const Run& run);
+
 // A static table or lift polar of x_rad (rad) and value: equal lengths, 2..max_table_points
 // rows, x strictly increasing.
 void check_static_table(const std::vector<double>& x_rad, const std::vector<double>& value, const TableSite& site);
