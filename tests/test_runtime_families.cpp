@@ -113,8 +113,9 @@ Set stall_model_sharing(Shared shared) {
 
 // Steps the runtime over the deep-stall cycle beside the direct loop -- what the fitter
 // evaluates (advance_lags, advance_stall, the outputs) -- and compares every output and family
-// state byte for byte.
-void check_step_equals_direct_loop(const Set& set, const Model& m) {
+// state byte for byte. moment_f >= 0: coefficient 1's separation point set to it after the
+// reset, in both (no longer the bits of coefficient 0's).
+void check_step_equals_direct_loop(const Set& set, const Model& m, double moment_f = -1.0) {
   const int n = set.n_coefficients;
   Families s;
   REQUIRE(indicial::reset(m, s, alpha_at(0), kAirspeed) == StepStatus::ok);
@@ -124,6 +125,10 @@ void check_step_equals_direct_loop(const Set& set, const Model& m) {
     indicial::steady_state(set.coefficients[c], alpha_at(0), y[c]);
     indicial::stall_steady_state(set.coefficients[c].stall, alpha_at(0), &st[c]);
     CHECK(same_bytes(st[c], s.stall[c]));
+  }
+  if (moment_f >= 0.0) {
+    s.stall[1].separation_point = moment_f;
+    st[1].separation_point = moment_f;
   }
   const indicial::AirspeedScaling<double> v = indicial::airspeed_scaling(30.0, 0.15, kAirspeed);
   double max_vortex = 0.0;
@@ -162,6 +167,7 @@ void check_step_equals_direct_loop(Shared shared) {
   CHECK(sh.table == (shared == Shared::decay_only ? indicial::StallSharing::no_sharing : 0));
   CHECK(sh.forcing == (shared == Shared::everything || shared == Shared::table_and_forcing ? 0 : indicial::StallSharing::no_sharing));
   CHECK(sh.decay == (shared == Shared::table_and_forcing ? indicial::StallSharing::no_sharing : 0));
+  CHECK(sh.separation == (shared == Shared::everything ? 0 : indicial::StallSharing::no_sharing));
   check_step_equals_direct_loop(set, m);
 }
 
@@ -189,6 +195,38 @@ TEST_CASE("step with families equals a direct loop over model.hpp's updates, bit
     check_step_equals_direct_loop(shared);
 }
 
+// C_m repeats C_L's separation update (the same table, T2, T1, T1r and f0 correction) only while
+// their separation points are the same bits: from another one it computes its own, and a T1r or
+// an f0 correction of its own is not shared at all (issue 22 item 6; runtime.hpp's
+// advance_families). A step that copied C_L's update regardless gives other bits.
+TEST_CASE("a coefficient repeating another's separation update: only from the same separation point") {
+  const Set shared = stall_model_sharing(Shared::everything);
+  const Model m = runtime_of(shared);
+  REQUIRE(m.stall_sharing[1].separation == 0);
+  check_step_equals_direct_loop(shared, m, 0.6);
+  check_step_equals_direct_loop(shared, m, 0.0);
+  Set reattach = shared;
+  reattach.coefficients[1].stall.separation.tau1_reattach_semichords = 8.0;
+  const Model mr = runtime_of(reattach);
+  CHECK(mr.stall_sharing[1].forcing == 0);
+  CHECK(mr.stall_sharing[1].decay == 0);
+  CHECK(mr.stall_sharing[1].separation == indicial::StallSharing::no_sharing);
+  check_step_equals_direct_loop(reattach, mr);
+  Set corrected = shared;
+  auto& correction = corrected.coefficients[1].stall.separation.f0_correction;
+  correction.n_powers = 2;
+  correction.power_coef[0] = 0.02;
+  correction.power_coef[1] = -0.05;
+  const Model mc = runtime_of(corrected);
+  CHECK(mc.stall_sharing[1].separation == indicial::StallSharing::no_sharing);
+  check_step_equals_direct_loop(corrected, mc);
+  // Both with the same T1r and correction: shared again.
+  Set both = corrected;
+  both.coefficients[0].stall.separation.f0_correction = correction;
+  CHECK(runtime_of(both).stall_sharing[1].separation == 0);
+  check_step_equals_direct_loop(both, runtime_of(both));
+}
+
 TEST_CASE("three coefficients sharing the forcing with one and the decay with another: a direct loop's bits") {
   static_assert(Cap::max_coefficients >= 3, "the case needs three coefficients");
   const Set set = stall_model_three_sharing();
@@ -199,6 +237,7 @@ TEST_CASE("three coefficients sharing the forcing with one and the decay with an
   CHECK(m.stall_sharing[2].table == 0);
   CHECK(m.stall_sharing[2].forcing == 0);
   CHECK(m.stall_sharing[2].decay == 1);
+  CHECK(m.stall_sharing[2].separation == indicial::StallSharing::no_sharing);  // forcing and decay apart
   check_step_equals_direct_loop(set, m);
   // The batch steps the families with the same lookups per instance: its family states are the
   // single steps' byte for byte (the outputs to rounding, as in the step_batch case below: the lags are stepped by lanes).

@@ -148,6 +148,8 @@ void emit_step_constants(std::string& o, const indicial::RuntimeModel<Scalar, Ca
     if (sh.table != indicial::StallSharing::no_sharing) o += at + "table = " + std::to_string(sh.table) + ";\n";
     if (sh.forcing != indicial::StallSharing::no_sharing) o += at + "forcing = " + std::to_string(sh.forcing) + ";\n";
     if (sh.decay != indicial::StallSharing::no_sharing) o += at + "decay = " + std::to_string(sh.decay) + ";\n";
+    if (sh.separation != indicial::StallSharing::no_sharing)
+      o += at + "separation = " + std::to_string(sh.separation) + ";\n";
   }
 }
 

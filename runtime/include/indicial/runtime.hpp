@@ -112,7 +112,10 @@
 //     the f0 table (the output's lookup at x1, and the lagged ones with the same T2); a C_m
 //     whose T1 and T2 are held at the C_L fit's values (model.stall_known, as Beddoes-
 //     Leishman's moment takes its separation dynamics from the lift, tools/validate_stall.py)
-//     shares every lookup: three of six table lookups and one of two exp(-h / T1) per step.
+//     shares every lookup: three of six table lookups and one of two exp(-h / T1) per step,
+//     and, with the same T1r and f0 correction, the separation update itself while the two
+//     separation points are the same bits (StallSharing::separation: f1, K(f0), K(f1), f0c(x1)
+//     and its K computed once).
 //   * validation: validate_model_set applies model.hpp's check_stall_parameters (the feasible
 //     set: positive time constants, f0 in [0, 1], ...); validate_for_runtime also checks the
 //     family outputs finite over the envelope.
@@ -233,11 +236,18 @@ enum class StallUse : int { none = 0, families = 1 };
 // f0 table (table: the table's value at the step's angle), the same table and T2 (forcing: the
 // same lagged angles and table values), the same T1 (decay: exp(-h / T1) and phi1), or
 // no_sharing (compute its own). Same means bit for bit; derive_stall_sharing derives it.
+// separation: the first earlier coefficient with the same families whose separation update
+// and static separation are the same (the forcing and decay above, T1r and the f0 correction):
+// from the same separation point it reaches the same new one, and at the step's angle the same
+// f0c(x) (issue 22 item 6: the C_L and C_m of one polar, as Beddoes-Leishman's moment takes its
+// separation from the lift). A step repeats that update only when the two separation points
+// are the same bits before it (advance_families), so the numbers are the unshared ones.
 struct StallSharing {
   static constexpr int no_sharing = -1;
   int table = no_sharing;
   int forcing = no_sharing;
   int decay = no_sharing;
+  int separation = no_sharing;
 };
 
 // Largest accepted step. The update is stable for any dt, but a step over 1 s at a real-time
@@ -360,6 +370,18 @@ inline bool same_f0_table(const SeparationParameters<Scalar, Cap>& a, const Sepa
     if (!same_bits(a.f0_x_rad[i], b.f0_x_rad[i]) || !same_bits(a.f0_value[i], b.f0_value[i])) return false;
   return true;
 }
+
+template <class Scalar, int P, int K>
+inline bool same_spline(const Spline<Scalar, P, K>& a, const Spline<Scalar, P, K>& b) {
+  if (a.n_powers != b.n_powers || a.n_knots != b.n_knots) return false;
+  for (int i = 0; i < a.n_powers; ++i)
+    if (!same_bits(a.power_coef[i], b.power_coef[i])) return false;
+  for (int j = 0; j < a.n_knots; ++j)
+    if (!same_bits(a.knot_rad[j], b.knot_rad[j]) || a.knot_power[j] != b.knot_power[j] ||
+        !same_bits(a.knot_coef[j], b.knot_coef[j]))
+      return false;
+  return true;
+}
 }  // namespace detail
 
 // RuntimeModel::stall_sharing of a set: for each coefficient with families, the first earlier
@@ -377,6 +399,10 @@ inline void derive_stall_sharing(const ModelSet<Scalar, Cap>& s, StallSharing* s
       if (table) sharing[c].table = e;
       if (table && detail::same_bits(a.separation.tau2_semichords, b.separation.tau2_semichords)) sharing[c].forcing = e;
       if (detail::same_bits(a.separation.tau1_semichords, b.separation.tau1_semichords)) sharing[c].decay = e;
+      if (sharing[c].forcing == e && sharing[c].decay == e && a.families == b.families &&
+          detail::same_bits(a.separation.tau1_reattach_semichords, b.separation.tau1_reattach_semichords) &&
+          detail::same_spline(a.separation.f0_correction, b.separation.f0_correction))
+        sharing[c].separation = e;
     }
   }
 }
@@ -596,7 +622,7 @@ inline LoadStatus check_runtime_model(const RuntimeModel<Scalar, Cap>& m,
   derive_stall_sharing(m.set, sharing);
   for (int c = 0; c < Cap::max_coefficients; ++c)
     if (!(sharing[c].table == m.stall_sharing[c].table && sharing[c].forcing == m.stall_sharing[c].forcing &&
-          sharing[c].decay == m.stall_sharing[c].decay))
+          sharing[c].decay == m.stall_sharing[c].decay && sharing[c].separation == m.stall_sharing[c].separation))
       return detail::refuse(diag, 0, "stall_sharing differs from derive_stall_sharing",
                             LoadStatus::invalid_value);
   return LoadStatus::ok;
@@ -842,6 +868,19 @@ INDICIAL_HOT_INLINE void for_each_coefficient(int n, const F& f) {
   }
 }
 
+// a[e] for an earlier coefficient e (0 <= e < c) named at run time (RuntimeModel::stall_sharing),
+// as selections between constant indices: after for_each_coefficient's unrolling c is a
+// constant, and a scratch array read so can stay in registers (indexed by e, it lives in
+// memory). Issue 22 item 6, with the first stage's clearing below: state/stall2/double 2194 ->
+// 2174 instructions, float 2213 -> 2205 (bench_step's callgrind count).
+template <class T>
+INDICIAL_HOT_INLINE T earlier_entry(const T* a, int c, int e) {
+  T r = a[0];
+  for (int i = 1; i < c; ++i)
+    if (e == i) r = a[i];
+  return r;
+}
+
 // The families' lookups of one step (model.hpp's StallLookups), of each coefficient's own or
 // copied from the one it shares them with (RuntimeModel::stall_sharing): the lookups are of
 // the step's own angles and airspeed. Coefficients are looked up in order, 0 first.
@@ -853,14 +892,15 @@ INDICIAL_HOT_INLINE void look_up_families(const RuntimeModel<Scalar, Cap>& m, co
     if (st.families == StallFamilies::none) return;
     const StallSharing& sh = m.stall_sharing[c];
     if (sh.forcing != StallSharing::no_sharing) {
-      k[c] = k[sh.forcing];
+      k[c] = earlier_entry(k, c, sh.forcing);
     } else {
       stall_lagged_angles(st.separation, g, h, &k[c]);
       stall_table_lookups(st.separation, &k[c]);
     }
     if (sh.decay != StallSharing::no_sharing) {
-      k[c].decay = k[sh.decay].decay;
-      k[c].weight = k[sh.decay].weight;
+      const StallLookups<Scalar> from = earlier_entry(k, c, sh.decay);
+      k[c].decay = from.decay;
+      k[c].weight = from.weight;
     } else {
       stall_decay(st.separation, h, &k[c]);
     }
@@ -879,25 +919,44 @@ INDICIAL_HOT_INLINE void look_up_families(const RuntimeModel<Scalar, Cap>& m, co
 // processor runs their chains at the same time (in a loop over coefficients one after the
 // other, the second chain started some thousand instructions after the first, beyond the
 // reach of out-of-order execution).
+// Coefficients that share the separation update (RuntimeModel::stall_sharing's separation: C_L
+// and C_m of one polar) compute it once when their separation points are the same bits before
+// the step, as they are from a reset on: f1, K(f0), K(f1), and f0c(x1) with its K (issue 22
+// item 6: state/stall2/double 2174 -> 2114 instructions, float 2205 -> 2153, bench_step's
+// callgrind count). Otherwise each computes its own: the numbers are the same either way.
 template <class Scalar, class Cap>
 INDICIAL_HOT_INLINE Scalar advance_families(const RuntimeModel<Scalar, Cap>& m, const StallStep<Scalar>& g,
                                             StallState<Scalar>* s, Scalar* value) {
   const int n = m.set.n_coefficients;
   const ModelSet<Scalar, Cap>& set = m.set;
   const Scalar h = stall_step_semichords(g);
-  // (Initialized: a stage reads what an earlier stage, or an earlier coefficient, wrote under
-  // the same condition, which GCC's -Wmaybe-uninitialized does not follow across the loops.)
+  // (k, same_f and the arrays below cleared: a later loop reads what an earlier loop, or an
+  // earlier coefficient, wrote under the same condition, which GCC's -Wmaybe-uninitialized does
+  // not follow. q is cleared coefficient by coefficient in the first stage's loop, over the
+  // whole capacity, instead: the same for the warning, and no block clear of 144 bytes.)
   StallLookups<Scalar> k[Cap::max_coefficients] = {};
   look_up_families(m, g, h, k);
-  StallProgress<Scalar> q[Cap::max_coefficients] = {};
+  StallProgress<Scalar> q[Cap::max_coefficients];
+  // same_f[c]: c repeats the separation update of e = stall_sharing[c].separation, whose
+  // separation point was the same bits as c's before the step (then f1, K(f0) and K(f1) are).
+  bool same_f[Cap::max_coefficients] = {};
   const auto vortex = [&](int c) INDICIAL_HOT_LAMBDA {
     return set.coefficients[c].stall.families == StallFamilies::separation_and_vortex;
   };
-  for_each_coefficient<Cap>(n, [&](int c) INDICIAL_HOT_LAMBDA {
-    if (set.coefficients[c].stall.families == StallFamilies::none) return;
-    stall_separation_stage(set.coefficients[c].stall, h, k[c], &s[c], &q[c]);
+  INDICIAL_UNROLL
+  for (int c = 0; c < Cap::max_coefficients; ++c) {
+    q[c] = StallProgress<Scalar>{};
+    if (c >= n || set.coefficients[c].stall.families == StallFamilies::none) continue;
+    const int e = m.stall_sharing[c].separation;
+    same_f[c] = e != StallSharing::no_sharing && same_bits(s[c].separation_point, earlier_entry(q, c, e).f0);
+    if (same_f[c]) {
+      q[c].f0 = earlier_entry(q, c, e).f0;
+      s[c].separation_point = earlier_entry(s, c, e).separation_point;
+    } else {
+      stall_separation_stage(set.coefficients[c].stall, h, k[c], &s[c], &q[c]);
+    }
     if (vortex(c)) stall_shedding_stage(set.coefficients[c].stall, k[c], &q[c]);
-  });
+  }
   for_each_coefficient<Cap>(n, [&](int c) INDICIAL_HOT_LAMBDA {
     if (vortex(c)) stall_clock_stage(set.coefficients[c].stall, h, &s[c], &q[c]);
   });
@@ -906,18 +965,36 @@ INDICIAL_HOT_INLINE Scalar advance_families(const RuntimeModel<Scalar, Cap>& m, 
   });
   for_each_coefficient<Cap>(n, [&](int c) INDICIAL_HOT_LAMBDA {
     if (!vortex(c)) return;
-    stall_kirchhoff_stage(s[c], &q[c]);
+    if (same_f[c]) {
+      const int e = m.stall_sharing[c].separation;
+      q[c].kirchhoff0 = earlier_entry(q, c, e).kirchhoff0;
+      q[c].kirchhoff1 = earlier_entry(q, c, e).kirchhoff1;
+    } else {
+      stall_kirchhoff_stage(s[c], &q[c]);
+    }
     stall_vortex_stage(set.coefficients[c].stall, g, h, &s[c], q[c]);
   });
   Scalar table_x1[Cap::max_coefficients] = {};
+  Scalar f_static[Cap::max_coefficients] = {};
+  Scalar kirchhoff_static[Cap::max_coefficients] = {};
   Scalar test = Scalar(0);
   for_each_coefficient<Cap>(n, [&](int c) INDICIAL_HOT_LAMBDA {
     const StallModel<Scalar, Cap>& st = set.coefficients[c].stall;
     if (st.families == StallFamilies::none) return;
     const StallSharing& sh = m.stall_sharing[c];
-    table_x1[c] = sh.table != StallSharing::no_sharing ? table_x1[sh.table] : separation_table_value(st.separation, g.x1_rad);
-    const Scalar kirchhoff = vortex(c) ? q[c].kirchhoff1 : kirchhoff_factor(s[c].separation_point);
-    const StallOutput<Scalar> o = stall_output_parts_from_factor(st, g.x1_rad, table_x1[c], kirchhoff, s[c]);
+    table_x1[c] = sh.table != StallSharing::no_sharing ? earlier_entry(table_x1, c, sh.table)
+                                                       : separation_table_value(st.separation, g.x1_rad);
+    if (sh.separation != StallSharing::no_sharing) {  // the same f0c(x1), hence its K
+      f_static[c] = earlier_entry(f_static, c, sh.separation);
+      kirchhoff_static[c] = earlier_entry(kirchhoff_static, c, sh.separation);
+    } else {
+      f_static[c] = static_separation_from_table(st.separation, g.x1_rad, table_x1[c]);
+      kirchhoff_static[c] = kirchhoff_factor(f_static[c]);
+    }
+    if (!vortex(c))
+      q[c].kirchhoff1 = same_f[c] ? earlier_entry(q, c, sh.separation).kirchhoff1 : kirchhoff_factor(s[c].separation_point);
+    const StallOutput<Scalar> o = stall_output_parts_from_static(st, g.x1_rad, f_static[c], kirchhoff_static[c],
+                                                                 q[c].kirchhoff1, s[c]);
     value[c] = value[c] + (o.separation + o.vortex);
     test = test + (finite_test(s[c].separation_point) + finite_test(s[c].vortex_lift) +
                    finite_test(s[c].vortex_clock_semichords));
@@ -1176,12 +1253,23 @@ inline StepStatus step_undelayed(const RuntimeModel<Scalar, Cap>& m, State<Scala
 // about 6 ns of 64 on x86-64 and 42 instructions (bench_step state/model2/double, interleaved
 // with floor/, medians of 6 runs: 1.38x -> 1.23x its floor, 63.5 -> 57.7 ns; 914 -> 872
 // instructions). The C library's indicial_step got the same code from GCC's heuristics
-// already. Why not the families' and the delayed steps: their bodies are 2-3x larger, and no
-// goal asks.
+// already. Why not the delayed step: its body is 2-3x larger, and no goal asks (the families'
+// step is flattened too: step_families below).
 template <class Scalar, class Cap>
 INDICIAL_FLATTEN inline StepStatus step_state(const RuntimeModel<Scalar, Cap>& m, State<Scalar, Cap>& s,
                                               const MotionInput& in, double dt_s, Scalar* out) {
   return step_undelayed<StallUse::none>(m, s, static_cast<FamilyState<Scalar, Cap>*>(nullptr), in, dt_s, out);
+}
+// The step of a FamilyState with families, flattened as step_state: the spline sums, the
+// static table and the lag update inlined, as in the State's step (issue 22 item 6, whose goal
+// compares the two: state/stall2/double 2247 -> 2194 instructions, float 2242 -> 2213,
+// bench_step's callgrind count; with the families' loop cut off the step was 950
+// instructions against step_state's 874, now 889). Tried in an earlier code and dropped then
+// (2326 -> 2343): the families' exps are calls either way; what it inlines now is the model's.
+template <class Scalar, class Cap>
+INDICIAL_FLATTEN inline StepStatus step_families(const RuntimeModel<Scalar, Cap>& m, FamilyState<Scalar, Cap>& s,
+                                                 const MotionInput& in, double dt_s, Scalar* out) {
+  return step_undelayed<StallUse::families>(m, s, &s, in, dt_s, out);
 }
 }  // namespace detail
 
@@ -1244,7 +1332,7 @@ template <class Scalar, class Cap>
 inline StepStatus step(const RuntimeModel<Scalar, Cap>& m, FamilyState<Scalar, Cap>& s,
                        const MotionInput& in, double dt_s, Scalar* out) {
   if (m.stall == StallUse::none) return step(m, static_cast<State<Scalar, Cap>&>(s), in, dt_s, out);
-  return detail::step_undelayed<StallUse::families>(m, s, &s, in, dt_s, out);
+  return detail::step_families(m, s, in, dt_s, out);
 }
 
 namespace detail {

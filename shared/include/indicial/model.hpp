@@ -1741,22 +1741,36 @@ inline void advance_stall(const StallModel<Scalar, Cap>& m, const StallStep<Scal
 }
 
 // The outputs at angle x with state s, apart (a delta on top of the report's model), given
-// the f0 table's value at x_rad (a runtime whose coefficients share the table: StallLookups)
-// and K(f) of the state's f (a step has it from its vortex update: StallProgress).
+// the static separation f0c(x) at x_rad, its Kirchhoff factor K(f0c(x)) (a runtime whose
+// coefficients share the separation update computes them once: runtime.hpp's
+// advance_families) and K(f) of the state's f (a step has it from its vortex update:
+// StallProgress).
 template <class Scalar, class Cap>
-INDICIAL_HOT_INLINE StallOutput<Scalar> stall_output_parts_from_factor(const StallModel<Scalar, Cap>& m, const Scalar& x_rad,
-                                                          const Scalar& table_value, const Scalar& kirchhoff,
-                                                          const StallState<Scalar>& s) {
+INDICIAL_HOT_INLINE StallOutput<Scalar> stall_output_parts_from_static(const StallModel<Scalar, Cap>& m, const Scalar& x_rad,
+                                                                       const Scalar& f_static,
+                                                                       const Scalar& kirchhoff_static,
+                                                                       const Scalar& kirchhoff,
+                                                                       const StallState<Scalar>& s) {
   StallOutput<Scalar> o;
   if (m.families == StallFamilies::none) return o;
   const SeparationParameters<Scalar, Cap>& p = m.separation;
-  const Scalar f_static = static_separation_from_table(p, x_rad, table_value);
-  o.separation = attached_normal_force(p, x_rad) *
-                 (separation_shape_from_factor(p, s.separation_point, kirchhoff) - separation_shape(p, f_static));
+  o.separation = attached_normal_force(p, x_rad) * (separation_shape_from_factor(p, s.separation_point, kirchhoff) -
+                                                    separation_shape_from_factor(p, f_static, kirchhoff_static));
   if (m.families != StallFamilies::separation_and_vortex) return o;
   o.vortex = s.vortex_lift * (m.vortex.lift_gain -
                               m.vortex.cp_travel * vortex_position(m.vortex, s.vortex_clock_semichords));
   return o;
+}
+
+// The same given the f0 table's value at x_rad (a runtime whose coefficients share the table:
+// StallLookups) instead of f0c(x) and its K.
+template <class Scalar, class Cap>
+INDICIAL_HOT_INLINE StallOutput<Scalar> stall_output_parts_from_factor(const StallModel<Scalar, Cap>& m, const Scalar& x_rad,
+                                                          const Scalar& table_value, const Scalar& kirchhoff,
+                                                          const StallState<Scalar>& s) {
+  if (m.families == StallFamilies::none) return StallOutput<Scalar>{};
+  const Scalar f_static = static_separation_from_table(m.separation, x_rad, table_value);
+  return stall_output_parts_from_static(m, x_rad, f_static, kirchhoff_factor(f_static), kirchhoff, s);
 }
 
 // The outputs at angle x with state s, apart, given the f0 table's value at x_rad.
