@@ -155,6 +155,38 @@ TEST_CASE("report.md and the plots exist and are referenced") {
   CHECK(slurp(fitted_dir() / "plots/a_band.png").substr(1, 3) == "PNG");
 }
 
+TEST_CASE("what the readers did with the files travels with the result: fit.json input_notes, report.md") {
+  // A run with a column indicial does not read (a rig temperature): the reader's note that it
+  // was ignored is in fit.json and report.md, not only on stderr.
+  const fs::path d = scratch() / "noted-data";
+  fs::remove_all(d);
+  fs::copy(data_dir(), d, fs::copy_options::recursive);
+  {
+    std::istringstream in(slurp(d / "run_f0.25.csv"));
+    std::ostringstream out;
+    for (std::string line; std::getline(in, line);)
+      out << line << (line.empty() || line[0] == '#' ? "" : line.rfind("time_s", 0) == 0 ? ",rig_temp_C" : ",20.5")
+          << "\n";
+    std::ofstream(d / "run_f0.25.csv") << out.str();
+  }
+  const fs::path o = scratch() / "noted-fit";
+  fs::remove_all(o);
+  const Run r = run_cli("fit '" + (d / "experiment.toml").string() + "' --out '" + o.string() + "' --no-plots");
+  REQUIRE_MESSAGE(r.exit_code == 0, r.err);
+  CHECK(r.err.find("rig_temp_C") != std::string::npos);  // still said on stderr
+  const nlohmann::json j = nlohmann::json::parse(slurp(o / "fit.json"));
+  REQUIRE(j["input_notes"].is_array());
+  bool noted = false;
+  for (const auto& n : j["input_notes"]) noted = noted || n.get<std::string>().find("rig_temp_C") != std::string::npos;
+  CHECK(noted);
+  const std::string md = slurp(o / "report.md");
+  CHECK(md.find("## Input as read") != std::string::npos);
+  CHECK(md.find("rig_temp_C") != std::string::npos);
+  // A fit whose reader had nothing to say has an empty list and no section.
+  CHECK(nlohmann::json::parse(slurp(fitted_dir() / "fit.json"))["input_notes"].empty());
+  CHECK(slurp(fitted_dir() / "report.md").find("## Input as read") == std::string::npos);
+}
+
 TEST_CASE("without gnuplot everything else is still written and the report says so") {
   const fs::path d = scratch() / "fit-no-gnuplot";
   const Run r = run_cli("fit '" + (data_dir() / "experiment.toml").string() + "' --out '" + d.string() +

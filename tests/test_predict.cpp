@@ -12,6 +12,7 @@
 #include <vector>
 #include <unistd.h>
 
+#include "indicial/fitter/error.hpp"
 #include "indicial/fitter/io.hpp"
 #include "indicial/fitter/predict.hpp"
 #include "indicial/fitter/prediction_output.hpp"
@@ -93,6 +94,51 @@ TEST_CASE("predict: the runtime's prediction follows the reference integration o
                           indicial::spline_value(m.rotary, sim.x_rad[i]) * sim.rate_radps[i];
     CHECK(cp.quasi_steady[i] == doctest::Approx(qs).epsilon(1e-12));
   }
+}
+
+TEST_CASE("predict: score_from_s scores the samples from that time on, predicts them all") {
+  // A start-up transient (here a measured column off by 1 over its first 40 samples, as a log
+  // that starts before the tunnel settled) dominates the RMS over every sample and is left out
+  // from the first time scored on. The scored tail's metrics are score_prediction's on it.
+  const auto& c = indicial::find_simulation_case("tailless-model-2");
+  indicial::MotionSpec s;
+  s.kind = indicial::MotionKind::sine;
+  s.mean_rad = 30.0 * kDeg;
+  s.amplitude_rad = 10.0 * kDeg;
+  s.freq_hz = 0.7;
+  s.cycles = 2;
+  s.dt_s = 0.01;
+  const indicial::SimulatedRun sim = indicial::simulate_reference(c.truth, s);
+  indicial::Prediction p = indicial::predict_motion(c.truth, sim.time_s, sim.motion_angle_rad, sim.rate_radps,
+                                                    c.truth.airspeed_mps);
+  std::vector<double> measured = sim.coefficient_true[0];
+  for (std::size_t i = 0; i < 40; ++i) measured[i] += 1.0;
+  p.coefficients[0].measured = measured;
+  indicial::score_coefficients(p);
+  CHECK(p.scored_samples == sim.time_s.size());
+  CHECK(p.first_scored == 0);
+  CHECK(p.coefficients[0].model_metrics.rms_error > 0.1);
+  indicial::score_coefficients(p, sim.time_s[40] - 0.001);  // between samples 39 and 40
+  CHECK(p.first_scored == 40);
+  CHECK(p.scored_samples == sim.time_s.size() - 40);
+  CHECK(p.coefficients[0].predicted.size() == sim.time_s.size());  // every sample still predicted
+  CHECK(p.coefficients[0].model_metrics.rms_error < 1e-4);
+  const std::vector<double> tail_m(measured.begin() + 40, measured.end());
+  const std::vector<double> tail_q(p.coefficients[0].quasi_steady.begin() + 40, p.coefficients[0].quasi_steady.end());
+  CHECK(p.coefficients[0].quasi_steady_metrics.rms_error ==
+        doctest::Approx(indicial::score_prediction(tail_m, tail_q).rms_error).epsilon(1e-15));
+  // Past the last sample but one, or NaN: refused, naming the option and the data's range.
+  const auto score_error = [&p](double from_s) {
+    try {
+      indicial::score_coefficients(p, from_s);
+    } catch (const indicial::InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("(nothing thrown)");
+  };
+  CHECK_HAS(score_error(sim.time_s.back()), "--score-from-s");
+  CHECK_HAS(score_error(sim.time_s.back()), "leaves 1 sample(s)");
+  CHECK_HAS(score_error(std::nan("")), "--score-from-s");
 }
 
 TEST_CASE("predict: angles outside the envelope are clamped and counted") {

@@ -49,6 +49,7 @@ void run_diagnose(const DiagnoseCliOptions& o) {
   Experiment e;
   clock.stage("reading the experiment and its runs", [&] { e = load_experiment(o.experiment, o.coefficient); });
   ReportOptions ro;
+  ro.notes = e.notes;
   tools::print_notes(e.notes);
   ro.warnings = e.warnings;
   tools::print_warnings(ro.warnings);
@@ -82,17 +83,7 @@ void run_diagnose(const DiagnoseCliOptions& o) {
     std::printf("diagnose: no replication, the noise level is unknown (the residual's short-lag level %.6g, "
                 "AR(1) phi %.2f, is noise only where the model is right)\n",
                 d.noise.white_equivalent, d.noise.lag1_correlation);
-  const char* twin_note = " (indistinguishable on these data from another effect: see report.md)";
-  for (const DiagnoseStep& s : d.steps) {
-    if (s.rule == DecisionRule::leave_one_run_out)
-      std::printf("diagnose: step %d: %s (%s): held-out mean ln(MSE ratio) %.3f +- %.3f, fit error %.6g -> %.6g%s\n",
-                  s.step, effect_name(s.effect), s.detail.c_str(), s.held_out_log_ratio, s.held_out_standard_error,
-                  s.fit_error_before, s.fit_error_after, s.indistinguishable.empty() ? "" : twin_note);
-    else
-      std::printf("diagnose: step %d: %s (%s): LR/kappa %.1f, log10 p %.1f < %.2f, fit error %.6g -> %.6g%s\n",
-                  s.step, effect_name(s.effect), s.detail.c_str(), s.statistic, s.log10_p, std::log10(s.threshold),
-                  s.fit_error_before, s.fit_error_after, s.indistinguishable.empty() ? "" : twin_note);
-  }
+  for (const DiagnoseStep& s : d.steps) std::printf("diagnose: %s\n", diagnose_step_line(s).c_str());
   // The verdict is the first (principal) effect; every effect added is said beside it.
   std::string added;
   for (const std::string& x : d.effects_added) added += (added.empty() ? "" : ", ") + x;

@@ -171,6 +171,7 @@ indicial::ReportOptions report_options(const FitCliOptions& o, const indicial::E
   ro.command_line = indicial::tools::invocation();
   ro.provenance = indicial::tools::provenance_of(e);
   ro.warnings = warnings;
+  ro.notes = e.notes;
   return ro;
 }
 

@@ -2,7 +2,8 @@
 //
 //   indicial predict MODEL.coef DATA.csv [DATA2.csv ...] --out FILE.csv [--plot FILE.png [--gnuplot EXE]]
 //                    [--metrics FILE.json] [--airspeed-mps V] [--time-grid uniform|nonuniform] [--periodic]
-//                    [--frequency-hz F | --reduced-frequency K] [--samples N] [--experiment E.toml] [--force]
+//                    [--frequency-hz F | --reduced-frequency K] [--samples N] [--experiment E.toml]
+//                    [--score-from-s T] [--force]
 //
 // Several DATA files are one cycle whose quantities are at their own phases (digitized
 // histories: an experiment's runs entry `files = [...]`, phase_resample.hpp), resampled onto
@@ -15,6 +16,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <map>
 #include <memory>
 #include <string>
@@ -42,6 +44,7 @@ struct PredictOptions {
   std::string out;
   std::string plot;
   std::string metrics;
+  double score_from_s = -std::numeric_limits<double>::infinity();  // --score-from-s
   std::string gnuplot = "gnuplot";
   double airspeed_mps = 0.0;  // 0: the model's reference airspeed
   indicial::TimeGrid grid = indicial::TimeGrid::uniform;
@@ -144,7 +147,7 @@ void run_predict(const PredictOptions& o) {
     p.coefficients[c].measured = runs[c].coefficient;
     any_measured = any_measured || !runs[c].coefficient.empty();
   }
-  score_coefficients(p);
+  score_coefficients(p, o.score_from_s);
   const std::vector<std::string> lines = prediction_metrics_lines(p);
 
   // Refuse before writing anything, so that outputs appear all or none (barring disk errors).
@@ -231,6 +234,9 @@ const indicial::tools::RegisterCommand register_predict([](CLI::App& app) {
   sub->add_option("--experiment", opt->experiment,
                   "read DATA as the experiment file E.toml reads its runs: its [columns] map (file column -> "
                   "ours, e.g. Cnormal = \"Cn\") and its [csv] dialect");
+  sub->add_option("--score-from-s", opt->score_from_s,
+                  "score (RMS, max, TIC) only the samples at time >= T s; every sample is still predicted and "
+                  "written (a raw multi-cycle log: leave out the start-up transient of the initial state)");
   sub->add_flag("--force", opt->force, "replace existing outputs");
   sub->callback([opt, sub]() {
     opt->grid_given = sub->get_option("--time-grid")->count() > 0;

@@ -576,7 +576,8 @@ def diagnose(experiment: Experiment, *, alpha: float = 0.01, max_steps: int = 6,
 
 class Prediction:
     """What ``predict`` returns: ``time_s``, ``x_rad`` (model angle before clamping),
-    ``clamped_samples``, and per coefficient name: ``predicted[name]`` (full model),
+    ``clamped_samples``, ``scored_samples`` (the samples the metrics cover: from
+    ``score_from_s`` on), and per coefficient name: ``predicted[name]`` (full model),
     ``quasi_steady[name]`` (static + rotary), ``metrics[name]`` (model and quasi-steady RMS,
     max error and Theil's inequality coefficient, when measured was given)."""
 
@@ -586,6 +587,7 @@ class Prediction:
         self.x_rad = d["x_rad"]
         self.rate_radps = d["rate_radps"]
         self.clamped_samples = d["clamped_samples"]
+        self.scored_samples = d["scored_samples"]
         c = d["coefficients"]
         self.predicted = {k: v["predicted"] for k, v in c.items()}
         self.quasi_steady = {k: v["quasi_steady"] for k, v in c.items()}
@@ -598,15 +600,17 @@ class Prediction:
 
 def predict(model: Model, *, time_s, airspeed_mps: Optional[float] = None, periodic: bool = False,
             measured: Optional[Dict[str, Sequence[float]]] = None, time_grid: str = "uniform",
-            **motion) -> Prediction:
+            score_from_s: float = -math.inf, **motion) -> Prediction:
     """Runs the runtime over a sampled motion (``indicial predict``): from the steady state at
     the first sample, or, with periodic=True, the periodic steady state of one cycle
     (``--periodic``). The motion by the model's axis' names (alpha_rad and optional q_radps in
     pitch, ...); without a rate, the Savitzky-Golay derivative of the angle. ``measured``:
-    {name: array} to score. The GIL is released while stepping."""
+    {name: array} to score; ``score_from_s``: score only the samples at time_s >= it
+    (``--score-from-s``: a raw log's start-up transient left out; every sample is still
+    predicted). The GIL is released while stepping."""
     angle, rate = _motion(model.axis, motion)
     return Prediction(_indicial._predict(model._m, time_s, angle, rate, airspeed_mps, bool(periodic), measured,
-                                         time_grid))
+                                         time_grid, float(score_from_s)))
 
 
 @dataclass

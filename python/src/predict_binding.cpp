@@ -40,6 +40,7 @@ py::dict prediction_dict(const Prediction& p) {
   d["rate_radps"] = to_numpy(p.rate_radps);
   d["x_rad"] = to_numpy(p.x_rad);
   d["clamped_samples"] = p.clamped_samples;
+  d["scored_samples"] = p.scored_samples;
   py::dict coefficients;
   for (const CoefficientPrediction& c : p.coefficients) {
     py::dict cd;
@@ -57,7 +58,8 @@ py::dict prediction_dict(const Prediction& p) {
 }
 
 py::dict predict(const ModelPtr& model, const py::handle& time_s, const py::handle& angle, const py::handle& rate,
-                 const py::object& airspeed_mps, bool periodic, const py::object& measured, const std::string& grid) {
+                 const py::object& airspeed_mps, bool periodic, const py::object& measured, const std::string& grid,
+                 double score_from_s) {
   if (!model) throw ClosedError("predict: no model");
   const std::vector<double> t = to_std(as_vector(time_s, "time_s"));
   const std::vector<double> a = to_std(as_vector(angle, "motion angle"));
@@ -105,7 +107,7 @@ py::dict predict(const ModelPtr& model, const py::handle& time_s, const py::hand
     p = periodic ? predict_periodic(*model->set, t, a, r, v, model->origin)
                  : predict_motion(*model->set, t, a, r, v, model->origin);
     for (std::size_t c = 0; c < p.coefficients.size(); ++c) p.coefficients[c].measured = meas[c];
-    score_coefficients(p);
+    score_coefficients(p, score_from_s);
   }
   return prediction_dict(p);
 }
@@ -115,7 +117,7 @@ py::dict predict(const ModelPtr& model, const py::handle& time_s, const py::hand
 void bind_predict(py::module_& m) {
   m.def("_predict", &predict, py::arg("model"), py::arg("time_s"), py::arg("motion_angle_rad"),
         py::arg("rate_radps"), py::arg("airspeed_mps"), py::arg("periodic"), py::arg("measured"),
-        py::arg("time_grid") = "uniform");
+        py::arg("time_grid") = "uniform", py::arg("score_from_s") = -std::numeric_limits<double>::infinity());
 }
 
 }  // namespace indicial::python

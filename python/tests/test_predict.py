@@ -43,3 +43,27 @@ def test_predict_derives_the_rate_and_checks_inputs(cli_fit):
         indicial.predict(model, time_s=t, alpha_rad=a, measured={"CL": a})
     with pytest.raises(indicial.InputError, match="^airspeed_mps: must be > 0"):
         indicial.predict(model, time_s=t, alpha_rad=a, airspeed_mps=-3)
+
+
+def test_score_from_s_equals_cli(case_dir, cli_fit, cli, tmp_path):
+    """--score-from-s / score_from_s: the metrics cover the samples from that time on; the CLI's
+    metrics file and Python agree; every sample is still predicted."""
+    import json
+    run_file = sorted(case_dir.glob("run_*.csv"))[-1]
+    out = tmp_path / "pred.csv"
+    cli("predict", cli_fit / "model.coef", run_file, "--out", out, "--score-from-s", "0.5")
+    cli_metrics = json.load(open(tmp_path / "pred.metrics.json"))
+    e = indicial.Experiment.from_toml(str(case_dir / "experiment.toml"))
+    run = next(r for r in e.runs if r["name"].endswith(run_file.name))
+    model = indicial.Model.load(str(cli_fit / "model.coef"))
+    p = indicial.predict(model, time_s=run["time_s"], alpha_rad=run["motion_angle_rad"], q_radps=run["rate_radps"],
+                         measured={"Cm": run["coefficient"]}, score_from_s=0.5)
+    expected_count = int(np.sum(run["time_s"] >= 0.5))
+    assert p.scored_samples == expected_count == cli_metrics["scored_samples"]
+    assert cli_metrics["score_from_s"] == 0.5
+    assert p.metrics["Cm"]["model"]["n_samples"] == expected_count
+    assert p.predicted["Cm"].shape == run["time_s"].shape
+    got, want = p.metrics["Cm"]["model"]["rms_error"], cli_metrics["coefficients"][0]["model"]["rms_error"]
+    assert abs(got - want) <= 1e-12 * want
+    with pytest.raises(indicial.InputError, match="^--score-from-s: .* leaves 0 sample"):
+        indicial.predict(model, time_s=run["time_s"], alpha_rad=run["motion_angle_rad"], score_from_s=1e9)

@@ -296,6 +296,7 @@ std::string report_markdown(const DiagnoseResult& d, const Experiment& e, const 
                     ro.experiment_display.empty() ? e.path : ro.experiment_display, e.coefficient,
                     axis_name(e.axis), e.runs.size(), total_samples(e));
   md += verdict_markdown(d);
+  md += input_as_read_markdown(ro);
   md += fmt::format("**Decision rule: `{}`** ({}).\n\n", decision_rule_name(d.rule), d.rule_reason);
   md += d.replication.source != NoiseSource::none
             ? fmt::format("**Noise from replication** (`{}`): {} -- sigma {}, lag-1 correlation {:.2f}.\n\n",
@@ -455,6 +456,22 @@ nlohmann::json round_json(const DiagnoseRound& r) {
 }
 
 }  // namespace
+
+std::string diagnose_step_line(const DiagnoseStep& s) {
+  std::string line = fmt::format("step {}: {} ({}): ", s.step, effect_name(s.effect), s.detail);
+  if (s.rule == DecisionRule::leave_one_run_out)
+    line += fmt::format("held-out mean ln(MSE ratio) {:.3f} +- {:.3f}", s.held_out_log_ratio,
+                        s.held_out_standard_error);
+  else
+    line += fmt::format("LR/kappa {:.1f}, log10 p {:.1f} < {:.2f}", s.statistic, s.log10_p, std::log10(s.threshold));
+  line += fmt::format(", fit error {:.6g} -> {:.6g}", s.fit_error_before, s.fit_error_after);
+  if (!s.indistinguishable.empty()) {
+    std::string names;
+    for (Effect e : s.indistinguishable) names += (names.empty() ? "" : ", ") + std::string(effect_name(e));
+    line += " (indistinguishable on these data from " + names + ": see report.md)";
+  }
+  return line;
+}
 
 std::vector<std::string> diagnose_warnings(const DiagnoseResult& d) {
   std::vector<std::string> w;

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <fmt/format.h>
 #include <memory>
 #include <stdexcept>
 
@@ -205,14 +206,29 @@ Prediction predict_periodic(const ModelSet<double, FitCapacity>& model, const st
   return p;
 }
 
-void score_coefficients(Prediction& p) {
+void score_coefficients(Prediction& p, double score_from_s) {
+  const std::vector<double>& t = p.time_s;
+  const std::size_t first =
+      static_cast<std::size_t>(std::lower_bound(t.begin(), t.end(), score_from_s) - t.begin());
+  if (std::isnan(score_from_s) || (!t.empty() && t.size() - first < 2))
+    throw InputError("--score-from-s", 0,
+                     fmt::format("{} leaves {} sample(s) to score; the data run from {} to {} s", score_from_s,
+                                 t.size() - std::min(first, t.size()), t.empty() ? 0.0 : t.front(),
+                                 t.empty() ? 0.0 : t.back()));
+  p.score_from_s = score_from_s;
+  p.first_scored = first;
+  p.scored_samples = t.size() - first;
+  const auto tail = [first](const std::vector<double>& v) {
+    return std::vector<double>(v.begin() + static_cast<std::ptrdiff_t>(std::min(first, v.size())), v.end());
+  };
   for (auto& c : p.coefficients) {
     if (c.measured.empty()) {
       c.scored = CoefficientPrediction::Scored::no_measurement;
       continue;
     }
-    c.model_metrics = score_prediction(c.measured, c.predicted);
-    c.quasi_steady_metrics = score_prediction(c.measured, c.quasi_steady);
+    const std::vector<double> measured = tail(c.measured);
+    c.model_metrics = score_prediction(measured, tail(c.predicted));
+    c.quasi_steady_metrics = score_prediction(measured, tail(c.quasi_steady));
     c.scored = CoefficientPrediction::Scored::scored;
   }
 }

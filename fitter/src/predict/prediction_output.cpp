@@ -2,6 +2,7 @@
 // indicial/fitter/prediction_output.hpp.
 #include "indicial/fitter/prediction_output.hpp"
 
+#include <cmath>
 #include <cstdio>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -91,6 +92,9 @@ std::string prediction_metrics_json(const Prediction& p) {
   nlohmann::json j;
   j["clamped_samples"] = p.clamped_samples;
   j["n_samples"] = p.time_s.size();
+  // --score-from-s: the first time scored (null: every sample) and how many samples were.
+  j["score_from_s"] = std::isfinite(p.score_from_s) ? nlohmann::json(p.score_from_s) : nlohmann::json(nullptr);
+  j["scored_samples"] = p.scored_samples;
   auto metrics = [](const ErrorMetrics& m) {
     return nlohmann::json{{"rms_error", m.rms_error},
                           {"max_error", m.max_error},
@@ -114,6 +118,9 @@ std::string prediction_metrics_json(const Prediction& p) {
 
 std::vector<std::string> prediction_metrics_lines(const Prediction& p) {
   std::vector<std::string> lines;
+  if (p.first_scored > 0)
+    lines.push_back("scored from t = " + fmt_num(p.time_s[p.first_scored]) + " s (--score-from-s): " +
+                    std::to_string(p.scored_samples) + " of " + std::to_string(p.time_s.size()) + " samples");
   for (const auto& c : p.coefficients) {
     if (c.scored != CoefficientPrediction::Scored::scored) {
       lines.push_back(c.name + ": no measured column; prediction only");

@@ -44,6 +44,7 @@ nlohmann::json finite_or_null(double v) {
 nlohmann::json with_provenance_and_warnings(nlohmann::json j, const ReportOptions& ro) {
   if (!ro.provenance.version.empty()) j["provenance"] = provenance_json(ro.provenance);
   j["warnings"] = ro.warnings;
+  j["input_notes"] = ro.notes;
   return j;
 }
 

@@ -25,6 +25,22 @@ std::string estimates_text_table(const std::vector<ParameterEstimate>& parameter
 }
 
 
+std::string input_as_read_markdown(const ReportOptions& ro) {
+  if (ro.notes.empty() && ro.warnings.empty()) return "";
+  std::string m = "## Input as read\n\n";
+  if (!ro.notes.empty()) {
+    m += "What the readers did with the files:\n\n";
+    for (const std::string& n : ro.notes) m += "* " + n + "\n";
+    m += "\n";
+  }
+  if (!ro.warnings.empty()) {
+    m += "Warnings:\n\n";
+    for (const std::string& w : ro.warnings) m += "* " + w + "\n";
+    m += "\n";
+  }
+  return m;
+}
+
 namespace report_detail {
 namespace {
 
@@ -252,7 +268,7 @@ std::string report_two_stage(const FitResult& r, const Experiment& e) {
 
 std::string report_markdown(const FitResult& r, const Experiment& e, const FitOptions& o,
                             const RuntimeCheck& rc, const PlotSet& ps, const ReportOptions& ro) {
-  return report_header(r, e, o, ro) + report_result(r, e) + report_runtime_check(rc) + report_plots(r, e, ps) +
+  return report_header(r, e, o, ro) + input_as_read_markdown(ro) + report_result(r, e) + report_runtime_check(rc) + report_plots(r, e, ps) +
          report_equation_error(r, o) + report_stall_start_search(r.stall_start_search) +
          report_output_error_log(r.output_error) + report_two_stage(r, e) +
          "## Files\n\n"

@@ -330,6 +330,12 @@ DiagnoseResult diagnose_experiment(const Experiment& e, const DiagnoseOptions& o
 nlohmann::json diagnosis_json(const DiagnoseResult& d, const Experiment& e,
                               const DiagnoseOptions& o, const RuntimeCheck* runtime);
 
+// One step as `indicial diagnose` prints it on stdout: the effect, its detail, what decided
+// it (held-out mean ln(MSE ratio) +- its standard error, or LR / kappa against the
+// threshold), the fit error before and after, and every effect the data cannot tell from it,
+// by name.
+std::string diagnose_step_line(const DiagnoseStep& s);
+
 // One-line warnings about the result (diagnosis.json "warnings", stderr): stopped at max_steps
 // with an effect still significant; ill-conditioned final estimates.
 std::vector<std::string> diagnose_warnings(const DiagnoseResult& d);

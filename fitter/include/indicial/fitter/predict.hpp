@@ -45,6 +45,7 @@
 #pragma once
 
 #include <cstddef>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -84,6 +85,11 @@ struct Prediction {
   std::vector<double> x_rad;             // model angle (alpha or beta), before clamping
   std::size_t clamped_samples = 0;       // samples whose model angle left the envelope
   std::vector<CoefficientPrediction> coefficients;  // in model-file order
+  // The samples score_coefficients scored: time_s >= score_from_s (-inf: every sample), their
+  // count, the first scored index. Every sample is predicted and written either way.
+  double score_from_s = -std::numeric_limits<double>::infinity();
+  std::size_t scored_samples = 0;
+  std::size_t first_scored = 0;
 };
 
 // Runs the runtime Predictor (FitCapacity, so any model the fitter writes fits) over the
@@ -113,8 +119,14 @@ Prediction predict_periodic(const ModelSet<double, FitCapacity>& model,
                             const std::vector<double>& rate_radps, double airspeed_mps,
                             const std::string& model_label = "model");
 
-// Scores every coefficient whose measured vector is filled (model and quasi-steady).
-void score_coefficients(Prediction& p);
+// Scores every coefficient whose measured vector is filled (model and quasi-steady), over the
+// samples at time_s >= score_from_s (`predict --score-from-s`: a raw multi-cycle log is
+// predicted from a state at rest or at the first sample's steady state, and its start-up
+// transient is the initial state's error, not the model's; the default scores every sample).
+// Throws InputError("--score-from-s", 0, ...) naming the data's time range when fewer than
+// two samples are left or score_from_s is NaN.
+void score_coefficients(Prediction& p,
+                        double score_from_s = -std::numeric_limits<double>::infinity());
 
 // Reads a coefficient file (parse_coef_file, FitCapacity); throws InputError(path, line, ...).
 ModelSet<double, FitCapacity> read_model_file(const std::string& path);

@@ -106,10 +106,20 @@ struct ReportOptions {
   Provenance provenance;            // fit.json / diagnosis.json "provenance" and the model.coef
                                     // header comments (none when provenance.version is empty)
   std::vector<std::string> warnings;  // one-line warnings: fit.json / diagnosis.json "warnings"
+  // What the readers did with the files, one line each (Experiment::notes: the delimiter and
+  // header found, ignored columns, a column read negated, CL and CD derived from Cn and Ct,
+  // times snapped to a uniform grid, coefficients resampled to common phases): fit.json /
+  // diagnosis.json "input_notes" and report.md's "Input as read" list, so that what was done to
+  // the data travels with the result (they were on stderr only).
+  std::vector<std::string> notes;
 };
 
-// j with "provenance" (when ro.provenance has a version) and "warnings" (always, maybe empty)
-// set from ro: the fields every JSON output of a fit or diagnose carries.
+// report.md's "## Input as read" section: ro.notes and ro.warnings as lists (empty when both
+// are empty). Shared by the fit and diagnose reports.
+std::string input_as_read_markdown(const ReportOptions& ro);
+
+// j with "provenance" (when ro.provenance has a version), "warnings" and "input_notes" (always,
+// maybe empty) set from ro: the fields every JSON output of a fit or diagnose carries.
 nlohmann::json with_provenance_and_warnings(nlohmann::json j, const ReportOptions& ro);
 
 // Warnings about a finished fit, one line each (empty when there is nothing to say):
