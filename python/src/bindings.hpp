@@ -98,6 +98,10 @@ std::shared_ptr<FitHolder> wrap_fit(std::shared_ptr<const FitResult> result, con
                                     ModelCheck check = ModelCheck::required);
 
 // The array as contiguous doubles (warning 1); `name` names it in the TypeError.
+// time_s strictly increasing, and under TimeGrid::uniform uniform within 1e-6 relative of its
+// mean step (the command line's rule); InputError(label, 0, ...) naming the first bad index.
+void check_time_grid(const std::vector<double>& time_s, TimeGrid grid, const std::string& label);
+
 DoubleArray as_doubles(const py::handle& value, const char* name);
 // A 1-D array of doubles; throws indicial.InputError(name: ...) for another shape.
 DoubleArray as_vector(const py::handle& value, const char* name);

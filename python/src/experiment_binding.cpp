@@ -22,6 +22,25 @@
 #include "indicial/fitter/output.hpp"
 
 namespace indicial::python {
+
+void check_time_grid(const std::vector<double>& time_s, TimeGrid grid, const std::string& label) {
+  for (std::size_t i = 1; i < time_s.size(); ++i) {
+    if (!(time_s[i] > time_s[i - 1]))
+      throw InputError(label, 0, "time_s is not strictly increasing (time_s[" + std::to_string(i) + "] = " +
+                                     format_double(time_s[i]) + " after " + format_double(time_s[i - 1]) + ")");
+  }
+  if (grid == TimeGrid::nonuniform || time_s.size() < 2) return;
+  const double dt = (time_s.back() - time_s.front()) / static_cast<double>(time_s.size() - 1);
+  for (std::size_t i = 1; i < time_s.size(); ++i) {
+    const double step = time_s[i] - time_s[i - 1];
+    if (std::abs(step - dt) > 1e-6 * dt)
+      throw InputError(label, 0, "non-uniform time step: " + format_double(step) + " s at time_s[" + std::to_string(i) +
+                                     "], mean step " + format_double(dt) +
+                                     " s (allowed deviation 1e-6 relative; pass time_grid='nonuniform' if the log is "
+                                     "not uniform)");
+  }
+}
+
 namespace {
 
 const char* angle_base(Axis axis) { return axis == Axis::pitch ? "alpha" : axis == Axis::roll ? "phi" : "psi"; }
@@ -44,23 +63,7 @@ std::string first_non_finite(const std::vector<double>& v, const std::string& co
   return {};
 }
 
-void check_time(const Run& run, const std::string& label) {
-  for (std::size_t i = 1; i < run.time_s.size(); ++i) {
-    if (!(run.time_s[i] > run.time_s[i - 1]))
-      throw InputError(label, 0, "time_s is not strictly increasing (time_s[" + std::to_string(i) + "] = " +
-                                     format_double(run.time_s[i]) + " after " + format_double(run.time_s[i - 1]) + ")");
-  }
-  if (run.time_grid == TimeGrid::nonuniform) return;
-  const double dt = (run.time_s.back() - run.time_s.front()) / static_cast<double>(run.time_s.size() - 1);
-  for (std::size_t i = 1; i < run.time_s.size(); ++i) {
-    const double step = run.time_s[i] - run.time_s[i - 1];
-    if (std::abs(step - dt) > 1e-6 * dt)
-      throw InputError(label, 0, "non-uniform time step: " + format_double(step) + " s at time_s[" + std::to_string(i) +
-                                     "], mean step " + format_double(dt) +
-                                     " s (allowed deviation 1e-6 relative; pass time_grid='nonuniform' if the log is "
-                                     "not uniform)");
-  }
-}
+void check_time(const Run& run, const std::string& label) { check_time_grid(run.time_s, run.time_grid, label); }
 
 // One run from its arrays (see the file comment). `label` names it in messages.
 Run make_run(const py::dict& d, const std::string& label) {

@@ -27,6 +27,7 @@
 //    (the C++ benchmarks' configuration), a larger one with FitCapacity. A model with a
 //    delay is stepped with DelayedStates (step_batch's one-instance-at-a-time overload), one
 //    with dynamic-stall families with FamilyStates.
+#include <algorithm>
 #include <atomic>
 #include <memory>
 
@@ -122,6 +123,7 @@ class BatchStepper {
     else
       core_ = make_core_for<FitCapacity>(*model, n, delayed, families);
     status_.assign(n, StepStatus::not_reset);
+    airspeed_.assign(n, model->set->airspeed_mps);
     outputs_ = py::array_t<double>({static_cast<py::ssize_t>(n), static_cast<py::ssize_t>(core_->n_out)});
     std::fill(outputs_.mutable_data(), outputs_.mutable_data() + outputs_.size(), 0.0);
   }
@@ -138,7 +140,10 @@ class BatchStepper {
     const auto row = static_cast<std::size_t>(core().n_out);
     for (std::size_t i = 0; i < core().n; ++i) {
       status_[i] = core_->reset(i, a.at(i), v.at(i));
-      if (stepped(status_[i])) core_->evaluate(i, v.at(i), o + i * row);
+      if (stepped(status_[i])) {
+        core_->evaluate(i, v.at(i), o + i * row);
+        airspeed_[i] = v.at(i);
+      }
     }
     raise_first_refusal(errors, "reset");
   }
@@ -156,6 +161,7 @@ class BatchStepper {
       py::gil_scoped_release release;
       first = core_->step(a.data, r.data, v.data, dt_s, o, status_.data());
     }
+    keep_airspeeds(v);
     if (!stepped(first)) raise_first_refusal(errors, "step");  // step_batch returns the first refusal
     else if (errors != "raise" && errors != "keep") throw InputError("errors", 0, "expected 'raise' or 'keep'");
     return target;
@@ -166,6 +172,7 @@ class BatchStepper {
   py::array_t<double> run(const py::handle& angle, const py::handle& rate, double dt_s, const py::handle& airspeed,
                           const py::object& out, const std::string& errors) {
     Busy busy(busy_);
+    if (errors != "raise" && errors != "keep") throw InputError("errors", 0, "expected 'raise' or 'keep'");
     const DoubleArray a = as_doubles(angle, "angle_rad"), r = as_doubles(rate, "rate_radps");
     const std::size_t n = core().n;
     if (a.ndim() != 2 || r.ndim() != 2 || a.shape(1) != static_cast<py::ssize_t>(n) ||
@@ -182,7 +189,11 @@ class BatchStepper {
     double* o = target.mutable_data();
     const double* ap = a.data();
     const double* rp = r.data();
-    std::size_t refused_at = t_count;
+    // Each instance's first refusal in the run (its time step and status): what `status` holds
+    // for it afterwards, and what the StepError names. A refusal at any time step counts, not
+    // only at the last (the statuses of the last step alone hid a NaN at an earlier row).
+    std::vector<std::size_t> refused_at(n, t_count);
+    std::vector<StepStatus> refusal(n, StepStatus::ok);
     {
       py::gil_scoped_release release;
       const std::size_t row = n * static_cast<std::size_t>(core_->n_out);
@@ -190,16 +201,26 @@ class BatchStepper {
       for (std::size_t k = 0; k < t_count; ++k) {
         const StepStatus s = core_->step(ap + k * n, rp + k * n, v.data, dt_s, o + k * row, status_.data());
         if (stepped(s)) continue;
-        if (refused_at == t_count) refused_at = k;
         // A refused instance keeps its outputs: its row repeats the previous step's.
         const double* before = k > 0 ? o + (k - 1) * row : outputs_.data();
-        for (std::size_t i = 0; i < n; ++i)
-          if (!stepped(status_[i])) std::copy(before + i * n_out, before + (i + 1) * n_out, o + k * row + i * n_out);
+        for (std::size_t i = 0; i < n; ++i) {
+          if (stepped(status_[i])) continue;
+          std::copy(before + i * n_out, before + (i + 1) * n_out, o + k * row + i * n_out);
+          if (refused_at[i] == t_count) {
+            refused_at[i] = k;
+            refusal[i] = status_[i];
+          }
+        }
       }
       std::copy(o + (t_count - 1) * row, o + t_count * row, outputs_.mutable_data());
     }
-    if (refused_at < t_count && errors == "raise")
-      raise_first_refusal(errors, "run (time step " + std::to_string(refused_at) + " first refused)");
+    for (std::size_t i = 0; i < n; ++i)
+      if (refused_at[i] < t_count) status_[i] = refusal[i];
+    keep_airspeeds(v);
+    const std::size_t first = static_cast<std::size_t>(
+        std::min_element(refused_at.begin(), refused_at.end()) - refused_at.begin());
+    if (refused_at[first] < t_count)
+      raise_first_refusal(errors, "run (time step " + std::to_string(refused_at[first]) + " first refused)");
     return target;
   }
 
@@ -263,9 +284,20 @@ class BatchStepper {
     in.data = in.keep.data();
     return in;
   }
+  // Not given: each instance's airspeed of its last reset or accepted step (the model's
+  // reference airspeed before any), never silently the reference airspeed after a reset at
+  // another one (a trial's reset at 20 m/s stepped at 17.7 m/s, 0.03 off in C_L).
   Inputs airspeed_inputs(const py::handle& airspeed) {
-    return airspeed.is_none() ? constant(airspeed_slot, model_->set->airspeed_mps)
-                              : inputs(airspeed_slot, airspeed, "airspeed_mps");
+    if (!airspeed.is_none()) return inputs(airspeed_slot, airspeed, "airspeed_mps");
+    Inputs in;
+    in.data = airspeed_.data();
+    return in;
+  }
+  // After a step or run: the airspeed each accepted instance stepped at becomes its default.
+  void keep_airspeeds(const Inputs& v) {
+    if (v.data == airspeed_.data()) return;
+    for (std::size_t i = 0; i < airspeed_.size(); ++i)
+      if (stepped(status_[i])) airspeed_[i] = v.at(i);
   }
   static std::string shape_text(const py::array& a) {
     std::string s = "(";
@@ -311,6 +343,7 @@ class BatchStepper {
   ModelPtr model_;
   std::unique_ptr<BatchCore> core_;
   std::vector<StepStatus> status_;
+  std::vector<double> airspeed_;  // per instance: the default airspeed (airspeed_inputs)
   py::array_t<double> outputs_;
   struct Fill {
     std::vector<double> values;
@@ -327,6 +360,7 @@ class SinglePredictor {
   explicit SinglePredictor(const ModelPtr& model) : model_(model) {
     if (!model) throw ClosedError("Predictor: no model");
     p_ = std::make_unique<Predictor<double, FitCapacity>>();
+    airspeed_mps_ = model->set->airspeed_mps;
     ParseDiagnostic diag;
     const LoadStatus s = p_->load(*model->set, &diag);
     if (s != LoadStatus::ok)
@@ -336,13 +370,17 @@ class SinglePredictor {
   std::string reset(double angle_rad, const py::object& airspeed) {
     Busy busy(busy_);
     const double v = airspeed.is_none() ? model_->set->airspeed_mps : airspeed.cast<double>();
-    return checked(pred().reset(angle_rad, v), "reset");
+    const std::string status = checked(pred().reset(angle_rad, v), "reset");
+    airspeed_mps_ = v;
+    return status;
   }
   py::dict step(double angle_rad, double rate_radps, double dt_s, const py::object& airspeed) {
     Busy busy(busy_);
-    const double v = airspeed.is_none() ? model_->set->airspeed_mps : airspeed.cast<double>();
+    // Not given: the airspeed of the last reset or accepted step (see BatchStepper).
+    const double v = airspeed.is_none() ? airspeed_mps_ : airspeed.cast<double>();
     Predictor<double, FitCapacity>::Outputs out;
     last_ = checked(pred().step(MotionInput{angle_rad, rate_radps, v}, dt_s, &out), "step");
+    airspeed_mps_ = v;
     py::dict d;
     for (int c = 0; c < out.count; ++c) d[py::str(out.name[c])] = out.value[c];
     return d;
@@ -367,6 +405,7 @@ class SinglePredictor {
   ModelPtr model_;
   std::unique_ptr<Predictor<double, FitCapacity>> p_;
   std::string last_ = "not_reset";
+  double airspeed_mps_ = 0.0;  // the default airspeed of step (the last reset's or accepted step's)
   std::atomic<bool> busy_{false};
 };
 

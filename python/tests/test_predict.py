@@ -67,3 +67,18 @@ def test_score_from_s_equals_cli(case_dir, cli_fit, cli, tmp_path):
     assert abs(got - want) <= 1e-12 * want
     with pytest.raises(indicial.InputError, match="^--score-from-s: .* leaves 0 sample"):
         indicial.predict(model, time_s=run["time_s"], alpha_rad=run["motion_angle_rad"], score_from_s=1e9)
+
+
+def test_a_jittered_time_grid_is_refused_unless_declared(cli_fit):
+    """As the command line: time_grid="uniform" (the default) is checked, not assumed (a
+    jittered log's derived rate was off by 64 % of its amplitude, without a word)."""
+    model = indicial.Model.load(str(cli_fit / "model.coef"))
+    t = np.arange(200) * 0.01
+    t[10] += 0.004
+    a = 0.5 - 0.3 * np.cos(2 * np.pi * t)
+    with pytest.raises(indicial.InputError, match=r"^time_s: non-uniform time step: .* at time_s\[10\]"):
+        indicial.predict(model, time_s=t, alpha_rad=a)
+    p = indicial.predict(model, time_s=t, alpha_rad=a, time_grid="nonuniform")
+    assert np.all(np.isfinite(p.predicted["Cm"]))
+    with pytest.raises(indicial.InputError, match="^time_grid: expected 'uniform' or 'nonuniform'"):
+        indicial.predict(model, time_s=t, alpha_rad=a, time_grid="jittered")

@@ -161,3 +161,48 @@ def test_outputs_after_reset_are_the_reset_states_outputs(model):
     assert np.all(at_reset != 0.0)
     stepped = batch.step(alpha_rad=angles, q_radps=np.zeros(n), dt_s=0.002)
     assert np.allclose(at_reset, stepped, rtol=1e-12, atol=1e-14)
+
+
+@pytest.mark.parametrize("row", [0, 1, 2, 3])
+def test_run_raises_on_a_refusal_at_any_time_step(model, row):
+    """A NaN at any row of run's input raises StepError naming that time step, and status
+    keeps the instance's refusal (only a refusal at the last row raised before)."""
+    s = indicial.BatchStepper(model, 3)
+    s.reset(alpha_rad=0.3)
+    a = np.full((4, 3), 0.3)
+    a[row, 1] = np.nan
+    with pytest.raises(indicial.StepError, match=rf"^run \(time step {row} first refused\): .*instance 1 "):
+        s.run(alpha_rad=a, q_radps=np.zeros((4, 3)), dt_s=1e-3)
+    assert list(s.status) == [0, 5, 0]  # 5: non_finite_input, kept although later rows stepped
+    # errors="keep" returns the history; the refused lane repeats its previous row there.
+    s2 = indicial.BatchStepper(model, 3)
+    s2.reset(alpha_rad=0.3)
+    before = s2.outputs.copy()
+    out = s2.run(alpha_rad=a, q_radps=np.zeros((4, 3)), dt_s=1e-3, errors="keep")
+    assert list(s2.status) == [0, 5, 0]
+    assert np.array_equal(out[row, 1], out[row - 1, 1] if row > 0 else before[1])
+
+
+def test_step_keeps_the_airspeed_of_reset(model):
+    """An airspeed not given to step is the last reset's (or accepted step's), never silently
+    the model's reference airspeed."""
+    v = model.airspeed_mps * 1.3
+    alpha, q = motion(60, 2, 0.002)
+    given, sticky = indicial.Predictor(model), indicial.Predictor(model)
+    given.reset(alpha_rad=alpha[0, 0], airspeed_mps=v)
+    sticky.reset(alpha_rad=alpha[0, 0], airspeed_mps=v)
+    reference = indicial.Predictor(model)
+    reference.reset(alpha_rad=alpha[0, 0])
+    differs = False
+    for k in range(60):
+        a = given.step(alpha_rad=alpha[k, 0], q_radps=q[k, 0], dt_s=0.002, airspeed_mps=v)["Cm"]
+        b = sticky.step(alpha_rad=alpha[k, 0], q_radps=q[k, 0], dt_s=0.002)["Cm"]
+        r = reference.step(alpha_rad=alpha[k, 0], q_radps=q[k, 0], dt_s=0.002)["Cm"]
+        assert a == b
+        differs = differs or abs(a - r) > 1e-6
+    assert differs  # the airspeed matters on this motion
+    bg, bs = indicial.BatchStepper(model, 2), indicial.BatchStepper(model, 2)
+    bg.reset(alpha_rad=alpha[0], airspeed_mps=v)
+    bs.reset(alpha_rad=alpha[0], airspeed_mps=v)
+    assert np.array_equal(bg.run(alpha_rad=alpha, q_radps=q, dt_s=0.002, airspeed_mps=v),
+                          bs.run(alpha_rad=alpha, q_radps=q, dt_s=0.002))
