@@ -137,18 +137,23 @@ ModelSet<Scalar, Cap> make_model_set(ModelKind kind) {
 // One period of alpha = 35 + 35 sin(2 pi f t) deg sampled at rate_hz, and its rate q.
 template <class Scalar>
 class Motion {
+  static constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
+
  public:
-  explicit Motion(double rate_hz, double frequency_hz = 1.0) {
+  explicit Motion(double rate_hz, double frequency_hz = 1.0)
+      : Motion(rate_hz, 35.0 * kDegToRad, 35.0 * kDegToRad, frequency_hz) {}
+  // mean + amplitude sin(2 pi f t), one cycle sampled at rate_hz (hil --model: a user's model
+  // moved over its own envelope).
+  Motion(double rate_hz, double mean_rad, double amplitude_rad, double frequency_hz) {
     const double pi = 3.14159265358979323846;
     const std::size_t n = static_cast<std::size_t>(std::lround(rate_hz / frequency_hz));
-    const double amp_rad = 35.0 * pi / 180.0;
     const double w = 2.0 * pi * frequency_hz;
     angle_.resize(n);
     rate_.resize(n);
     for (std::size_t i = 0; i < n; ++i) {
       const double t = static_cast<double>(i) / rate_hz;
-      angle_[i] = Scalar(amp_rad + amp_rad * std::sin(w * t));
-      rate_[i] = Scalar(amp_rad * w * std::cos(w * t));
+      angle_[i] = Scalar(mean_rad + amplitude_rad * std::sin(w * t));
+      rate_[i] = Scalar(amplitude_rad * w * std::cos(w * t));
     }
   }
   std::size_t size() const { return angle_.size(); }

@@ -12,7 +12,9 @@
 //   * optionally (--load) a load generator pinned to another core: a thread that streams over
 //     a 64 MB buffer and does floating-point work, at normal priority;
 //   * per frame it records the wake-up lateness (wake time - frame start) and the compute time
-//     of one Predictor<double>::step of Model II, C_L + C_m (bench_models.hpp);
+//     of one Predictor<double>::step of Model II, C_L + C_m (bench_models.hpp), or of the
+//     model of --model FILE.coef (a 1 Hz sine over the middle 90 % of its envelope for a pitch
+//     model, +-0.2 rad for roll and yaw; at its reference airspeed);
 //   * a frame overruns when the step finishes after the frame's deadline (the next frame's
 //     start); frames skipped because of it count as overruns too.
 // It prints a Markdown table: min, p50, p99, p99.9, max for both, and the overrun count.
@@ -20,7 +22,7 @@
 // Usage
 // -----
 //   hil [--rate-hz 1000,10000] [--seconds 10] [--load] [--cpu 1] [--load-cpu 0]
-//       [--wait sleep|spin]
+//       [--wait sleep|spin] [--model FILE.coef]
 // --wait spin replaces the sleep by a busy-wait on the clock: a diagnostic that separates the
 // operating system's (here: the hypervisor's) wake-up latency from the step's own cost.
 //
@@ -51,6 +53,7 @@
 #include <vector>
 
 #include "bench_models.hpp"
+#include "indicial/coef_file.hpp"
 #include "indicial/runtime.hpp"
 
 namespace ib = indicial::bench;
@@ -92,12 +95,13 @@ struct Options {
   int cpu = 1;
   int load_cpu = 0;
   WaitMode wait = WaitMode::sleep;
+  std::string model_path;  // --model: a coefficient file instead of the built-in Model II
 };
 
 [[noreturn]] void usage(const char* why) {
   std::fprintf(stderr,
                "hil: %s\nusage: hil [--rate-hz R1,R2,...] [--seconds S] [--load] [--cpu N] "
-               "[--load-cpu M] [--wait sleep|spin]\n",
+               "[--load-cpu M] [--wait sleep|spin] [--model FILE.coef]\n",
                why);
   std::exit(2);
 }
@@ -133,6 +137,8 @@ Options parse(int argc, char** argv) {
       if (v == "sleep") o.wait = WaitMode::sleep;
       else if (v == "spin") o.wait = WaitMode::spin;
       else usage("--wait wants sleep or spin");
+    } else if (a == "--model") {
+      o.model_path = value();
     } else if (a == "--load") {
       o.load = true;
     } else if (a == "--cpu") {
@@ -187,15 +193,46 @@ struct RunResult {
   std::size_t bad_status;
 };
 
-RunResult run_loop(double rate_hz, double seconds, WaitMode wait) {
-  indicial::Predictor<double> predictor;
-  if (predictor.load(ib::make_model_set<double>(ib::ModelKind::model_ii)) !=
-      indicial::LoadStatus::ok) {
-    std::fprintf(stderr, "hil: the benchmark model was refused by Predictor::load\n");
+// The model a loop steps: the built-in Model II, or --model's file (its text, read up front).
+struct LoopModel {
+  std::string text;  // empty: Model II
+  std::string label = "Model II, C_L + C_m";
+};
+
+LoopModel read_loop_model(const std::string& path) {
+  LoopModel m;
+  if (path.empty()) return m;
+  FILE* f = std::fopen(path.c_str(), "rb");
+  if (f == nullptr) {
+    std::fprintf(stderr, "hil: %s: cannot open file (does it exist?)\n", path.c_str());
     std::exit(1);
   }
-  const ib::Motion<double> motion(rate_hz);
-  predictor.reset(motion.angle_rad(0), ib::kAirspeedMps);
+  char buffer[4096];
+  for (std::size_t n; (n = std::fread(buffer, 1, sizeof buffer, f)) > 0;) m.text.append(buffer, n);
+  std::fclose(f);
+  m.label = path;
+  return m;
+}
+
+RunResult run_loop(double rate_hz, double seconds, WaitMode wait, const LoopModel& lm) {
+  indicial::Predictor<double> predictor;
+  indicial::ParseDiagnostic diag;
+  const indicial::LoadStatus st = lm.text.empty()
+                                      ? predictor.load(ib::make_model_set<double>(ib::ModelKind::model_ii))
+                                      : predictor.load(lm.text.data(), lm.text.size(), &diag);
+  if (st != indicial::LoadStatus::ok) {
+    std::fprintf(stderr, "hil: %s:%zu: %s (%s)\n", lm.label.c_str(), static_cast<std::size_t>(diag.line),
+                 diag.reason, indicial::to_string(st));
+    std::exit(1);
+  }
+  const indicial::ModelSet<double, indicial::DefaultCapacity>& set = predictor.model();
+  const double airspeed_mps = lm.text.empty() ? ib::kAirspeedMps : set.airspeed_mps;
+  const bool pitch = set.axis == indicial::Axis::pitch;
+  const ib::Motion<double> motion =
+      lm.text.empty() ? ib::Motion<double>(rate_hz)
+                      : ib::Motion<double>(rate_hz, pitch ? 0.5 * (set.x_min_rad + set.x_max_rad) : 0.0,
+                                           pitch ? 0.45 * (set.x_max_rad - set.x_min_rad) : 0.2, 1.0);
+  predictor.reset(motion.angle_rad(0), airspeed_mps);
   indicial::Predictor<double>::Outputs out;
   const double dt_s = 1.0 / rate_hz;
   const Ns period = static_cast<Ns>(std::llround(1e9 / rate_hz));
@@ -216,11 +253,11 @@ RunResult run_loop(double rate_hz, double seconds, WaitMode wait) {
       }
     }
     const Ns wake = now_ns();
-    const indicial::MotionInput in{motion.angle_rad(m), motion.rate_radps(m), ib::kAirspeedMps};
+    const indicial::MotionInput in{motion.angle_rad(m), motion.rate_radps(m), airspeed_mps};
     const indicial::StepStatus s = predictor.step(in, dt_s, &out);
     const Ns done = now_ns();
-    bad += (s != indicial::StepStatus::ok);
-    sink += out.value[0] + out.value[1];
+    bad += (s != indicial::StepStatus::ok && s != indicial::StepStatus::angle_clamped);
+    for (int c = 0; c < out.count; ++c) sink += out.value[c];
     if (++m == motion.size()) m = 0;
     compute[r] = done - wake;
     lateness[r] = wake - next;
@@ -295,15 +332,16 @@ int main(int argc, char** argv) {
           : std::string("SCHED_OTHER (SCHED_FIFO refused: ") + std::strerror(fifo_err) + ")";
   std::vector<RunResult> results;
   const Ns clock_cost = clock_read_cost_ns();
-  for (double r : o.rates_hz) results.push_back(run_loop(r, o.seconds, o.wait));
+  const LoopModel model = read_loop_model(o.model_path);
+  for (double r : o.rates_hz) results.push_back(run_loop(r, o.seconds, o.wait, model));
 
   stop = true;
   if (load_thread.joinable()) load_thread.join();
 
-  std::printf("HIL loop: Predictor<double>::step, Model II, C_L + C_m, %g s per rate; "
+  std::printf("HIL loop: Predictor<double>::step, %s, %g s per rate; "
               "pinned to CPU %d: %s; scheduling: %s; mlockall: %s; load: %s; wait: %s; "
               "clock_gettime cost ~%lld ns (included in compute).\n\n",
-              o.seconds, o.cpu, pinned ? "yes" : "FAILED", policy.c_str(),
+              model.label.c_str(), o.seconds, o.cpu, pinned ? "yes" : "FAILED", policy.c_str(),
               locked ? "yes" : std::strerror(lock_err),
               o.load ? (std::string("memory+FP thread on CPU ") + std::to_string(o.load_cpu) +
                         (load_pinned.load() ? "" : " (pinning FAILED)"))

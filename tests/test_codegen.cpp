@@ -243,6 +243,13 @@ TEST_CASE("codegen refuses damaged files with file:line: reason, and existing ou
   CHECK(out.find("'class' is a C++ keyword") != std::string::npos);
   CHECK(run("codegen \"" + good + "\" --out \"" + hpp + "\" --name ok --namespace namespace --force", &out) == 1);
   CHECK(out.find("--namespace") != std::string::npos);
+  // A nested namespace (C++17 `namespace a::b {`), each part an identifier.
+  CHECK(run("codegen \"" + good + "\" --out \"" + hpp + "\" --name x --namespace sim::aero --force", &out) == 0);
+  CHECK(indicial::read_text(hpp).find("namespace sim::aero {") != std::string::npos);
+  CHECK(run("codegen \"" + good + "\" --out \"" + hpp + "\" --name x --namespace sim::class --force", &out) == 1);
+  CHECK_HAS(out, "has a part 'class' that is a C++ keyword");
+  CHECK(run("codegen \"" + good + "\" --out \"" + hpp + "\" --name x --namespace ::sim --force", &out) == 1);
+  CHECK_HAS(out, "--namespace");
   CHECK(run("codegen \"" + keyword_file + "\" --out \"" + (dir / "k.hpp").string() + "\" --name default_model", &out) == 0);
 
   // An unstable model (b1 < 0 somewhere) is refused like Predictor::load refuses it.
@@ -258,6 +265,9 @@ TEST_CASE("codegen refuses damaged files with file:line: reason, and existing ou
   CHECK(out.find("ok") != std::string::npos);
   CHECK(run("coef check \"" + bad + "\"", &out) == 1);
   CHECK(out.find("checksum_mismatch") != std::string::npos);
+  // A directory is named as one (it read as "empty input").
+  CHECK(run("coef check \"" + dir.string() + "\"", &out) == 1);
+  CHECK_HAS(out, "is a directory, expected a file");
 }
 
 TEST_CASE("a translation unit with only the generated header and runtime.hpp steps bit for bit") {

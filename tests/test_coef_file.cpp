@@ -210,6 +210,27 @@ TEST_CASE("comments, blank lines and CRLF line ends are accepted") {
   REQUIRE(parse(with_checksum(crlf + "checksum 0\n"), &back) == LoadStatus::ok);
 }
 
+TEST_CASE("a file written with LF loads after its line ends became CRLF, unsigned again") {
+  // git's core.autocrlf on Windows, or a Windows editor, turns every LF into CRLF, the
+  // checksum line's included: the checksum of the LF bytes still matches (crc32_lf). Any other
+  // change, a lone CR included, is still a mismatch.
+  const std::string text = write(indicial::test_models::lift_and_moment());
+  std::string crlf;
+  for (char ch : text) {
+    if (ch == '\n') crlf += '\r';
+    crlf += ch;
+  }
+  Set back{};
+  indicial::ParseDiagnostic diag;
+  REQUIRE_MESSAGE(parse(crlf, &back, &diag) == LoadStatus::ok, diag.reason);
+  check_models_equal(indicial::test_models::lift_and_moment(), back);
+  CHECK(parse(replace_once(crlf, "con 0.125", "con 0.126"), &back) == LoadStatus::checksum_mismatch);
+  CHECK(parse(replace_once(text, "con 0.125", "con 0.125\r"), &back) == LoadStatus::ok);  // CR before LF
+  CHECK(parse(replace_once(text, "con 0.125", "con\r 0.125"), &back) == LoadStatus::checksum_mismatch);
+  CHECK(indicial::crc32_lf(crlf.data(), crlf.rfind("checksum ")) ==
+        indicial::crc32(text.data(), text.rfind("checksum ")));
+}
+
 TEST_CASE("damaged files are refused, each with its own status, and *out is untouched") {
   const std::string good = write(indicial::test_models::lift_and_moment());
   const Set sentinel = indicial::test_models::roll_three();

@@ -9,6 +9,7 @@
 
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/model_merge.hpp"
+#include "indicial/fitter/provenance.hpp"
 #include "indicial/fitter/simulate.hpp"
 #include "indicial/runtime.hpp"
 
@@ -185,6 +186,11 @@ TEST_CASE("CLI: coef merge, a two-coefficient fit into one model.coef, diagnose 
   auto p = std::make_unique<indicial::Predictor<>>();
   REQUIRE(p->load(ab.data(), ab.size()) == indicial::LoadStatus::ok);
   CHECK(p->model().n_coefficients == 2);
+  // Where it came from: the version, the command and each input's digest, as a fit's model.coef.
+  CHECK(ab.rfind("# indicial ", 0) == 0);
+  CHECK_HAS(ab, "# command: ");
+  CHECK_HAS(ab, "# input model sha256 " + indicial::sha256_file(a / "truth.coef") + " " + (a / "truth.coef").string());
+  CHECK_HAS(ab, "# input model sha256 " + indicial::sha256_file(b / "truth.coef"));
   m = run_indicial("coef merge " + q(a / "truth.coef") + " " + q(a / "truth.coef") + " --out " + q(d.path / "AA.coef"), d.path);
   CHECK(m.exit_code == 1);
   CHECK(m.err == "indicial: error: " + (a / "truth.coef").string() +
@@ -210,6 +216,8 @@ TEST_CASE("CLI: coef merge, a two-coefficient fit into one model.coef, diagnose 
   CHECK(f.exit_code == 0);
   const std::string coef = indicial::testing::slurp(d.path / "F" / "model.coef");
   REQUIRE(p->load(coef.data(), coef.size()) == indicial::LoadStatus::ok);
+  CHECK(coef.rfind("# indicial ", 0) == 0);  // the merged model.coef carries the fit's provenance
+  CHECK_HAS(coef, "# input experiment sha256 " + indicial::sha256_file(a / "both.toml"));
   REQUIRE(p->model().n_coefficients == 2);
   CHECK(std::string(p->model().coefficients[0].name) == "CL");
   CHECK(std::string(p->model().coefficients[1].name) == "Cm");

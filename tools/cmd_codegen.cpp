@@ -103,6 +103,21 @@ std::string identifier_problem(const std::string& s) {
 }
 
 
+// A namespace: one identifier, or several joined by :: (a C++17 nested namespace definition,
+// `namespace sim::aero {`: simulator code bases nest theirs).
+std::string namespace_problem(const std::string& s) {
+  std::size_t from = 0;
+  while (true) {
+    const std::size_t at = s.find("::", from);
+    const std::string part = s.substr(from, at == std::string::npos ? std::string::npos : at - from);
+    const std::string problem = identifier_problem(part);
+    if (!problem.empty())
+      return part == s ? problem : "has a part '" + part + "' that " + problem;
+    if (at == std::string::npos) return "";
+    from = at + 2;
+  }
+}
+
 // tailless-model-2.coef -> tailless_model_2
 std::string identifier_from_path(const std::string& path) {
   std::string stem = std::filesystem::path(path).stem().string();
@@ -317,7 +332,7 @@ void run_codegen(const CodegenOptions& o) {
     throw InputError("--name", 0,
                      "'" + ident + "' " + ident_problem +
                          (o.name.empty() ? " (taken from the file name; give --name IDENT)" : ""));
-  const std::string ns_problem = identifier_problem(o.name_space);
+  const std::string ns_problem = namespace_problem(o.name_space);
   if (!ns_problem.empty())
     throw InputError("--namespace", 0, "'" + o.name_space + "' " + ns_problem);
   if (o.out.empty()) throw InputError("--out", 0, "an output header path is required");

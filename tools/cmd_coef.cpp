@@ -13,6 +13,7 @@
 #include "indicial/coef_file.hpp"
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/model_merge.hpp"
+#include "indicial/fitter/provenance.hpp"
 #include "indicial/fitter/output.hpp"
 #include "indicial/fitter/predict.hpp"
 #include "indicial/runtime.hpp"
@@ -109,7 +110,12 @@ void run_merge(const MergeCliOptions& o) {
   const ModelMerge merged = merge_model_sets(parts);
   for (const std::string& w : merged.warnings) std::fprintf(stderr, "indicial: warning: %s\n", w.c_str());
   refuse_output_onto_input(o.out, o.inputs);
-  write_file_atomically(o.out, coef_file_text(merged.model, o.out), o.force ? Overwrite::replace : Overwrite::refuse);
+  // Where the merged model came from, as a fitted model.coef says it: version, command line and
+  // each input file's digest (role "model") in its header comments.
+  Provenance provenance = make_provenance(tools::invocation(), tools::build_commit());
+  for (const std::string& path : o.inputs) add_input(provenance, "model", path);
+  write_file_atomically(o.out, with_provenance_header(coef_file_text(merged.model, o.out), provenance),
+                        o.force ? Overwrite::replace : Overwrite::refuse);
   std::printf("%s: %d coefficients (", o.out.c_str(), merged.model.n_coefficients);
   for (int c = 0; c < merged.model.n_coefficients; ++c)
     std::printf("%s%s", c ? ", " : "", merged.model.coefficients[c].name);

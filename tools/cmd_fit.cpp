@@ -36,6 +36,7 @@
 #include "indicial/fitter/fit.hpp"
 #include "indicial/fitter/io.hpp"
 #include "indicial/fitter/model_merge.hpp"
+#include "indicial/fitter/provenance.hpp"
 #include "indicial/fitter/report.hpp"
 #include "indicial/fitter/runtime_limits.hpp"
 
@@ -253,7 +254,10 @@ void run_fit_several(const FitCliOptions& o, const indicial::FitOptions& fo,
   const ModelMerge merged = merge_model_sets(parts);
   tools::print_warnings(merged.warnings);
   require_runtime_accepts(merged.model, o.out + "/model.coef", ModelFile::to_write);
-  out.write("model.coef", coef_file_text(merged.model, o.out + "/model.coef"));
+  // The merged model carries the fit's provenance (version, command line, every input's digest)
+  // as each coefficient's own model.coef does.
+  out.write("model.coef", with_provenance_header(coef_file_text(merged.model, o.out + "/model.coef"),
+                                                  tools::provenance_of(es.front())));
   out.write("fit.json", j.dump(2) + "\n");
   out.commit();
   std::printf("fit: wrote %s/model.coef (%d coefficients) and %s/fit.json\n", o.out.c_str(),

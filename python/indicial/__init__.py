@@ -61,6 +61,14 @@ _RATE = {"pitch": "q_radps", "roll": "p_radps", "yaw": "r_radps"}
 _MOTION_NAMES = frozenset(_ANGLE.values()) | frozenset(_RATE.values())
 
 
+def _real(value, name: str) -> float:
+    """float(value), refusing text: float("0.3") would turn a string angle into a number
+    (docs/python.md: strings raise TypeError)."""
+    if isinstance(value, (str, bytes)):
+        raise TypeError(f"{name}: expected a real number, got {type(value).__name__}")
+    return float(value)
+
+
 def _motion(axis: str, kwargs: dict, need_rate: bool = False):
     """The motion angle (rad) and rate (rad/s, or None) named for `axis` in kwargs; refuses
     another axis' names (a roll model given alpha_rad is a mistake, not a synonym)."""
@@ -337,8 +345,9 @@ class Predictor:
     """One instance of the runtime (runtime.hpp's Predictor): ``reset`` to the steady state,
     then ``step`` once per sample; returns {coefficient name: value}. The motion is named by
     the model's axis (alpha_rad, q_radps in pitch; phi_rad, p_radps in roll; psi_rad, r_radps
-    in yaw); airspeed_mps defaults to the model's reference airspeed; dt_s > 0, at most 1 s.
-    A refused step raises StepError and changes nothing. Usable as a context manager."""
+    in yaw); airspeed_mps defaults to the model's reference airspeed at reset, and at a step
+    to the airspeed of the last reset or accepted step; dt_s > 0, at most 1 s. A refused step
+    raises StepError and changes nothing. Usable as a context manager."""
 
     def __init__(self, model: Model):
         self._axis = model.axis
@@ -346,11 +355,11 @@ class Predictor:
 
     def reset(self, airspeed_mps: Optional[float] = None, **motion) -> str:
         angle, _ = _motion(self._axis, motion)
-        return self._p.reset(float(angle), airspeed_mps)
+        return self._p.reset(_real(angle, "angle"), airspeed_mps)
 
     def step(self, *, dt_s: float, airspeed_mps: Optional[float] = None, **motion) -> Dict[str, float]:
         angle, rate = _motion(self._axis, motion, need_rate=True)
-        return self._p.step(float(angle), float(rate), float(dt_s), airspeed_mps)
+        return self._p.step(_real(angle, "angle"), _real(rate, "rate"), _real(dt_s, "dt_s"), airspeed_mps)
 
     last_status = property(lambda self: self._p.last_status, doc='"ok" or "angle_clamped"')
     closed = property(lambda self: self._p.closed)

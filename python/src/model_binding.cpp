@@ -120,6 +120,8 @@ void bind_model(py::module_& m) {
            }, py::arg("x_rad"), py::arg("coefficient") = py::none())
       .def("save", [](const ModelHolder& h, const std::string& path, bool force) {
              std::error_code ec;
+             if (std::filesystem::is_directory(path, ec))
+               throw InputError(path, 0, "is a directory, expected the name of a file to write");
              if (!force && std::filesystem::exists(path, ec))
                throw InputError(path, 0, "output file exists (pass force=True to replace it)");
              write_file_atomically(path, h.text, force ? Overwrite::replace : Overwrite::refuse);

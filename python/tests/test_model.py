@@ -25,6 +25,21 @@ def test_save_refuses_to_overwrite(tmp_path):
     with pytest.raises(indicial.InputError):
         m.save(str(tmp_path / "m.coef"))
     m.save(str(tmp_path / "m.coef"), force=True)
+    # A directory is named as one, not "output file exists", force or not.
+    for force in (False, True):
+        with pytest.raises(indicial.InputError, match="is a directory, expected the name of a file"):
+            m.save(str(tmp_path), force=force)
+    with pytest.raises(indicial.InputError, match="is a directory, expected a file"):
+        indicial.Model.load(str(tmp_path))
+
+
+def test_a_crlf_copy_of_a_written_file_loads():
+    """A file written with LF lines loads after a checkout turned them into CRLF (its checksum
+    is of the LF bytes; the runtime accepts both)."""
+    text = EXAMPLE.read_text()
+    assert "\r" not in text
+    m = indicial.Model.from_text(text.replace("\n", "\r\n"))
+    assert m.coefficients == indicial.Model.from_text(text).coefficients
 
 
 def test_fitted_model_saved_is_read_by_the_cli(tmp_path, py_fit, cli):

@@ -206,3 +206,12 @@ def test_step_keeps_the_airspeed_of_reset(model):
     bs.reset(alpha_rad=alpha[0], airspeed_mps=v)
     assert np.array_equal(bg.run(alpha_rad=alpha, q_radps=q, dt_s=0.002, airspeed_mps=v),
                           bs.run(alpha_rad=alpha, q_radps=q, dt_s=0.002))
+
+
+def test_predictor_refuses_text(model):
+    p = indicial.Predictor(model)
+    with pytest.raises(TypeError, match="angle: expected a real number, got str"):
+        p.reset(alpha_rad="0.3")
+    p.reset(alpha_rad=0.3)
+    with pytest.raises(TypeError, match="angle: expected a real number, got str"):
+        p.step(alpha_rad="0.3", q_radps=0.0, dt_s=1e-3)

@@ -16,3 +16,28 @@ run(${CMAKE_COMMAND} --build ${WORK_DIR}/build)
 run(${WORK_DIR}/build/consumer_cpp)
 get_filename_component(examples ${SOURCE_DIR}/../../examples ABSOLUTE)
 run(${WORK_DIR}/build/consumer_c ${examples}/synthetic-lift-moment.coef)
+
+# A C-only project (LANGUAGES C): the static library links without the C++ linker, and the
+# shared one as it is.
+run(${CMAKE_COMMAND} -S ${SOURCE_DIR}/../install_consumer_c -B ${WORK_DIR}/build_c -G ${GENERATOR}
+    -DCMAKE_PREFIX_PATH=${WORK_DIR}/prefix -DCMAKE_BUILD_TYPE=Release
+    "-DCMAKE_EXE_LINKER_FLAGS=${LINKER_FLAGS}")
+run(${CMAKE_COMMAND} --build ${WORK_DIR}/build_c)
+run(${WORK_DIR}/build_c/consumer_c_static ${examples}/synthetic-lift-moment.coef)
+run(${WORK_DIR}/build_c/consumer_c_shared ${examples}/synthetic-lift-moment.coef)
+# Python ctypes loads the installed shared library and reads a model through it.
+find_program(PYTHON3 python3)
+if(PYTHON3)
+  file(GLOB so ${WORK_DIR}/prefix/lib*/libindicial_c.so)
+  run(${PYTHON3} -c "import ctypes, sys
+lib = ctypes.CDLL(sys.argv[1])
+lib.indicial_model_bytes.restype = ctypes.c_size_t
+model = ctypes.create_string_buffer(lib.indicial_model_bytes())
+text = open(sys.argv[2], 'rb').read()
+err = ctypes.create_string_buffer(128)
+rc = lib.indicial_model_load(model, text, ctypes.c_size_t(len(text)), err, ctypes.c_size_t(128))
+assert rc == 0, err.value
+lib.indicial_model_outputs.argtypes = [ctypes.c_void_p]
+print('ctypes:', lib.indicial_model_outputs(model), 'outputs')
+assert lib.indicial_model_outputs(model) == 2" ${so} ${examples}/synthetic-lift-moment.coef)
+endif()

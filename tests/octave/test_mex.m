@@ -138,7 +138,7 @@ expect_error(@() indicial_mex('step', h, 0.1 + 2i, 0, V, 0.01), 'indicial:badArg
 expect_error(@() indicial_mex('step', h, int32(1), 0, V, 0.01), 'indicial:badArgument', 'angle_rad');
 expect_error(@() indicial_mex('step', h, sparse(0.1), 0, V, 0.01), 'indicial:badArgument', 'angle_rad');
 expect_error(@() indicial_mex('step', h, {0.1}, 0, V, 0.01), 'indicial:badArgument', 'angle_rad');
-expect_error(@() indicial_mex('step', h, [0.1 0.2], 0, V, 0.01), 'indicial:badSize', 'expected 1 or 1');
+expect_error(@() indicial_mex('step', h, [0.1 0.2], 0, V, 0.01), 'indicial:badSize', 'expected 1 (one instance)');
 expect_error(@() indicial_mex('step', h, 0.1, 0, V, [0.01 0.02]), 'indicial:badArgument', 'dt_s must be a real double scalar');
 expect_error(@() indicial_mex('step', h, NaN, 0, V, 0.01), 'indicial:step', 'NaN or Inf');
 expect_error(@() indicial_mex('step', h, 0.1, 0, V, 0), 'indicial:step', 'non_positive_dt');

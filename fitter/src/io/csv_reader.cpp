@@ -653,19 +653,18 @@ bool fit_uniform_grid(const std::vector<double>& values, const std::vector<doubl
     return lo - hi;  // <= 0: feasible
   };
   if (preferred_step) {
-    b = *preferred_step;
     // From the first value (a phase cycle starting at 0), else offset to fit every value. Why
     // the second: a first value printed half a unit off (1.40625 deg as 1.4062) put every value
     // that rounded the other way a whole unit from the first grid, and the same file read as
     // uniform or not with the frequency (a user's trial).
+    b = *preferred_step;
     if (on_grid(values, tol, values.front(), b)) {
       a = values.front();
       return true;
     }
-    double mid = values.front();
-    if (spread(*preferred_step, mid) <= 0.0 && on_grid(values, tol, mid, *preferred_step)) {
+    double mid = 0.0;  // spread's
+    if (spread(b, mid) <= 0.0 && on_grid(values, tol, mid, b)) {
       a = mid;
-      b = *preferred_step;
       return true;
     }
   }
@@ -732,7 +731,7 @@ void check_cn_meaning(const std::string& path, const CsvTable& t, const std::str
 // With `coefficient` CL or CD absent: finds Cnormal and Ctangential to derive it from (true),
 // refuses half a pair or a non-pitch run, and explains an unmapped Cn/Ct pair.
 bool locate_body_axes(const std::string& path, const CsvTable& t, Axis axis, const std::string& coefficient,
-                      int& normal, int& chord) {
+                      const ColumnMap& columns, int& normal, int& chord) {
   if (coefficient != "CL" && coefficient != "CD") return false;
   normal = find_plain_column(t, kNormalForce);
   chord = find_plain_column(t, kChordForce);
@@ -755,10 +754,20 @@ bool locate_body_axes(const std::string& path, const CsvTable& t, Axis axis, con
     }
     return false;
   }
-  if (normal < 0 || chord < 0)
+  if (normal < 0 || chord < 0) {
+    // The half that is missing was often mapped to a column of another spelling (a trial's
+    // [columns] Ctangential = "-Cc" on a file with "CC"): name that mapping and the columns.
+    const std::string absent = normal < 0 ? kNormalForce : kChordForce;
+    std::string why;
+    if (const auto m = columns.find(absent); m != columns.end()) {
+      std::string found;
+      for (const auto& name : t.original) found += (found.empty() ? "" : ", ") + name;
+      why = "; [columns] maps " + absent + " to '" + m->second + "', not in this file (columns found: " + found + ")";
+    }
     throw InputError(path, t.header_line, coefficient + " from body-axis forces needs both '" + kNormalForce +
                                               "' and '" + kChordForce + "'; only '" +
-                                              (normal < 0 ? kChordForce : kNormalForce) + "' is here");
+                                              (normal < 0 ? kChordForce : kNormalForce) + "' is here" + why);
+  }
   if (axis != Axis::pitch)
     throw InputError(path, t.header_line, coefficient + " from '" + kNormalForce + "' and '" + kChordForce +
                                               "' needs the angle of attack of a pitch run; this is a " +
@@ -818,7 +827,7 @@ RunColumns locate_run_columns(const std::string& path, const CsvTable& t, Axis a
   rc.rate = find_unit_column(path, t, rate_base(axis), rc.rate_factor);
   rc.coefficient = find_plain_column(t, coefficient);
   check_cn_meaning(path, t, coefficient, columns);
-  if (rc.coefficient < 0 && locate_body_axes(path, t, axis, coefficient, rc.normal, rc.chord)) return rc;
+  if (rc.coefficient < 0 && locate_body_axes(path, t, axis, coefficient, columns, rc.normal, rc.chord)) return rc;
   if (rc.coefficient < 0 && presence == CoefficientPresence::required)
     missing_column(path, t, "'" + coefficient + "'", {coefficient}, columns);
   return rc;
@@ -1028,28 +1037,32 @@ void check_phase_gaps(const std::string& path, const CsvTable& t, int phase_col,
                         ": the cycle is interpolated across it (a feature inside the gap is lost)");
 }
 
+// A unit as written ("deg", "Degrees", "[rad/s]", "msec") as our column names' suffix ("deg",
+// "radps", "ms"): blanks and brackets dropped, case ignored. Empty for anything else ("-",
+// "[1]", "N"), which says nothing. The one table of unit spellings of warn_units_row and
+// warn_mapped_units.
+std::string unit_suffix_of(const std::string& written) {
+  std::string k;
+  for (char ch : written)
+    if (!std::isspace(static_cast<unsigned char>(ch)) && ch != '[' && ch != ']' && ch != '(' && ch != ')')
+      k += static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+  static const std::vector<std::pair<const char*, const char*>> names = {
+      {"ms", "ms"},           {"msec", "ms"},       {"s", "s"},         {"sec", "s"},       {"deg", "deg"},
+      {"degree", "deg"},      {"degrees", "deg"},   {"rad", "rad"},     {"radian", "rad"},  {"radians", "rad"},
+      {"deg/s", "degps"},     {"degps", "degps"},   {"rad/s", "radps"}, {"radps", "radps"}};
+  for (const auto& [name, suffix] : names)
+    if (k == name) return suffix;
+  return "";
+}
+
 // A units row (read_csv_lines) whose unit for one of our columns is not the column name's
 // ("alpha_deg" over "rad"): one of the two is wrong, and the name is what is read. Only units
-// recognised here are compared (deg, rad, s, deg/s, rad/s and their usual spellings); anything
-// else in the row ("-", "[1]", "N") says nothing.
+// unit_suffix_of recognises are compared.
 void warn_units_row(const std::string& path, const CsvTable& t, std::vector<std::string>* warnings) {
   if (t.units_line == 0) return;
-  auto spelled = [](std::string u) {
-    std::string k;
-    for (char ch : u)
-      if (!std::isspace(static_cast<unsigned char>(ch)) && ch != '[' && ch != ']' && ch != '(' && ch != ')')
-        k += static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
-    static const std::vector<std::pair<const char*, const char*>> names = {
-        {"deg", "deg"}, {"degree", "deg"}, {"degrees", "deg"}, {"rad", "rad"}, {"radian", "rad"},
-        {"radians", "rad"}, {"s", "s"}, {"sec", "s"}, {"deg/s", "degps"}, {"degps", "degps"},
-        {"rad/s", "radps"}, {"radps", "radps"}};
-    for (const auto& [name, suffix] : names)
-      if (k == name) return std::string(suffix);
-    return std::string();
-  };
   for (std::size_t c = 0; c < t.header.size() && c < t.units.size(); ++c) {
     const std::size_t us = t.header[c].find('_');
-    const std::string unit = spelled(t.units[c]);
+    const std::string unit = unit_suffix_of(t.units[c]);
     if (us == std::string::npos || unit.empty() || t.header[c].substr(us + 1) == unit) continue;
     warnings->push_back(path + ":" + std::to_string(t.units_line) + ": the units row gives '" + t.units[c] +
                         "' for column '" + t.original[c] + "', whose name reads it in " + t.header[c].substr(us + 1) +
@@ -1060,25 +1073,17 @@ void warn_units_row(const std::string& path, const CsvTable& t, std::vector<std:
 // A file column whose own name gives a unit (`t [ms]`, `AoA (rad)`, `alpha_deg`) read, through
 // the experiment's [columns] map, as one of our columns in another unit (time_s, alpha_deg):
 // the name is what is read, so the values are taken in our column's unit. Only units
-// recognised here are compared (ms, s, deg, rad, deg/s, rad/s); a trial's `t [ms]` mapped to
-// time_s fitted without a word and every step was 1000 times too long.
+// unit_suffix_of recognises are compared; a trial's `t [ms]` mapped to time_s fitted without a
+// word and every step was 1000 times too long.
 void warn_mapped_units(const std::string& path, const CsvTable& t, std::vector<std::string>* warnings) {
+  // The unit in a name: in brackets or parentheses, else after the last '_'.
   auto unit_of = [](const std::string& original) {
-    std::string u;
     const std::size_t open = original.find_first_of("[(");
     const std::size_t close = original.find_first_of("])", open == std::string::npos ? 0 : open);
-    if (open != std::string::npos && close != std::string::npos) u = original.substr(open + 1, close - open - 1);
-    else if (original.rfind('_') != std::string::npos) u = original.substr(original.rfind('_') + 1);
-    std::string k;
-    for (char ch : u)
-      if (!std::isspace(static_cast<unsigned char>(ch))) k += static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
-    static const std::vector<std::pair<const char*, const char*>> names = {
-        {"ms", "ms"}, {"msec", "ms"}, {"s", "s"}, {"sec", "s"}, {"deg", "deg"}, {"degree", "deg"},
-        {"degrees", "deg"}, {"rad", "rad"}, {"radian", "rad"}, {"radians", "rad"}, {"deg/s", "degps"},
-        {"degps", "degps"}, {"rad/s", "radps"}, {"radps", "radps"}};
-    for (const auto& [name, unit] : names)
-      if (k == name) return std::string(unit);
-    return std::string();
+    if (open != std::string::npos && close != std::string::npos)
+      return unit_suffix_of(original.substr(open + 1, close - open - 1));
+    const std::size_t us = original.rfind('_');
+    return us == std::string::npos ? std::string() : unit_suffix_of(original.substr(us + 1));
   };
   for (std::size_t c = 0; c < t.header.size() && c < t.original.size(); ++c) {
     if (t.original[c] == t.header[c]) continue;  // not mapped
@@ -1180,7 +1185,7 @@ PhaseSeries read_phase_series(const std::string& path, Axis axis, const std::str
   rc.rate = find_unit_column(path, t, rate_base(axis), rc.rate_factor);
   rc.coefficient = find_plain_column(t, coefficient);
   check_cn_meaning(path, t, coefficient, options.columns);
-  if (rc.coefficient < 0 && locate_body_axes(path, t, axis, coefficient, rc.normal, rc.chord) && rc.angle < 0)
+  if (rc.coefficient < 0 && locate_body_axes(path, t, axis, coefficient, options.columns, rc.normal, rc.chord) && rc.angle < 0)
     throw InputError(path, t.header_line, coefficient + " from '" + kNormalForce + "' and '" + kChordForce +
                                               "' needs the angle of attack in the same file");
   PhaseSeries s;
@@ -1237,7 +1242,7 @@ void read_static_table(const std::string& path, Axis axis, const std::string& co
   const int c_col = find_plain_column(t, coefficient);
   check_cn_meaning(path, t, coefficient, columns);
   int normal = -1, chord = -1;
-  const bool derived = c_col < 0 && locate_body_axes(path, t, axis, coefficient, normal, chord);
+  const bool derived = c_col < 0 && locate_body_axes(path, t, axis, coefficient, columns, normal, chord);
   if (c_col < 0 && !derived) missing_column(path, t, "'" + coefficient + "'", {coefficient}, columns);
   config.table_x_rad = numeric_column(path, t, x_col, factor);
   config.table_value = derived ? lift_or_drag(coefficient, numeric_column(path, t, normal, 1.0),

@@ -207,6 +207,9 @@ void refuse_output_onto_input(const fs::path& output, const std::vector<std::str
 void write_file_atomically(const fs::path& path, Overwrite overwrite,
                            const std::function<void(const fs::path& tmp)>& produce) {
   std::error_code ec;
+  // A directory is never replaced by a file, --force or not (it said "output file exists").
+  if (fs::is_directory(path, ec))
+    throw InputError(path.string(), 0, "is a directory, expected the name of a file to write");
   if (fs::exists(path, ec) && overwrite == Overwrite::refuse) {
     throw InputError(path.string(), 0, "output file exists (use --force to replace it)");
   }
@@ -243,6 +246,9 @@ void write_file_atomically(const fs::path& path, const std::string& text, Overwr
 }
 
 std::string read_text(const fs::path& path) {
+  std::error_code ec;
+  // Named as such: a directory opens as an empty stream and read as "empty input".
+  if (fs::is_directory(path, ec)) throw InputError(path.string(), 0, "is a directory, expected a file");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path.string(), 0, "cannot open file (does it exist?)");
   std::ostringstream ss;

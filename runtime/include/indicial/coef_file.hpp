@@ -34,7 +34,8 @@
 //    the dynamics: that b_j(x) > 0 over the envelope is checked by Predictor::load
 //    (runtime.hpp, validate_for_runtime). Use the Predictor, not the bare parser, to run.
 // 3. The checksum covers every byte before the `checksum` line, comments included: editing a
-//    file by hand means recomputing it (`indicial coef check` prints the expected value).
+//    file by hand means recomputing it (`indicial coef check` prints the expected value). A
+//    file whose only change is LF -> CRLF line ends still matches (crc32_lf).
 // 4. write_coef_file writes exactly *length bytes and no terminating NUL. Numbers are written
 //    by std::to_chars in their shortest round-trip form, so write -> parse -> write is
 //    byte-identical and every double comes back bit for bit (including -0).
@@ -117,6 +118,20 @@ inline constexpr Crc32Table crc32_table = make_crc32_table();
 inline std::uint32_t crc32(const char* data, std::size_t n, std::uint32_t crc = 0) {
   crc = ~crc;
   for (std::size_t i = 0; i < n; ++i) {
+    const std::uint32_t byte = static_cast<unsigned char>(data[i]);
+    crc = detail::crc32_table.entry[(crc ^ byte) & 0xFFu] ^ (crc >> 8);
+  }
+  return ~crc;
+}
+
+// The same CRC over the bytes with each '\r' that precedes a '\n' left out: the checksum of
+// the file as written (LF) after a Windows checkout or editor turned it into CRLF (git's
+// core.autocrlf), which the parser accepts as well as crc32 of the bytes themselves. No
+// other byte is skipped, so any other edit still changes it.
+inline std::uint32_t crc32_lf(const char* data, std::size_t n) {
+  std::uint32_t crc = ~std::uint32_t{0};
+  for (std::size_t i = 0; i < n; ++i) {
+    if (data[i] == '\r' && i + 1 < n && data[i + 1] == '\n') continue;
     const std::uint32_t byte = static_cast<unsigned char>(data[i]);
     crc = detail::crc32_table.entry[(crc ^ byte) & 0xFFu] ^ (crc >> 8);
   }
@@ -934,7 +949,8 @@ inline LoadStatus find_checksum(const char* text, LineCursor scan, Frame* f, Par
     }
   }
   if (!found) return refuse(diag, scan.number, "no checksum line (file truncated?)", LoadStatus::truncated);
-  if (crc32(text, f->checksum_start) != stored_crc)
+  // The bytes as they are, or as written before a change of line ends (LF -> CRLF).
+  if (crc32(text, f->checksum_start) != stored_crc && crc32_lf(text, f->checksum_start) != stored_crc)
     return refuse(diag, f->checksum_line, "checksum mismatch: the file is corrupted",
                   LoadStatus::checksum_mismatch);
   return LoadStatus::ok;

@@ -98,8 +98,10 @@ double scalar(const mxArray* a, const char* what) {
 const double* vector_arg(const mxArray* a, std::size_t n, const char* what, std::size_t* stride) {
   if (!is_real_double(a)) fail("indicial:badArgument", "%s must be real double", what);
   const std::size_t k = mxGetNumberOfElements(a);
-  if (k != 1 && k != n)
+  if (k != 1 && k != n) {
+    if (n == 1) fail("indicial:badSize", "%s has %zu elements; expected 1 (one instance)", what, k);
     fail("indicial:badSize", "%s has %zu elements; expected 1 or %zu (one per instance)", what, k, n);
+  }
   *stride = k == 1 ? 0 : 1;
   return mxGetPr(a);
 }
