@@ -188,8 +188,8 @@ TEST_CASE("Cn: the yawing moment, never silently the normal force") {
             "CL from body-axis forces needs both 'Cnormal' and 'Ctangential'; only 'Cnormal' is here");
   // The other half mapped to a column the file does not have (its spelling is 'Ct'): named.
   const std::string miss = load_error("miss.toml", experiment("CL", phase_only + "Cnormal = \"Cn\"\nCtangential = \"-CC\"\n"));
-  CHECK_HAS(miss, "only 'Cnormal' is here; [columns] maps Ctangential to '-CC', not in this file (columns found: ");
-  CHECK_HAS(miss, "Ct");
+  CHECK_HAS(miss, "only 'Cnormal' is here; [columns] maps Ctangential to '-CC', not in this file (columns found: "
+                  "Time(), Angle(deg), Cn, Ct, Cm)");
   // Not a pitch run: no angle of attack to rotate by.
   std::string roll = database_text(c, "% Time() phi_deg Cnormal Ctangential Cm");
   write("cycle.dat", roll);

@@ -180,11 +180,11 @@ TEST_CASE("what the readers did with the files travels with the result: fit.json
   for (const auto& n : j["input_notes"]) noted = noted || n.get<std::string>().find("rig_temp_C") != std::string::npos;
   CHECK(noted);
   const std::string md = slurp(o / "report.md");
-  CHECK(md.find("## Input as read") != std::string::npos);
+  CHECK(md.find("## Notes and warnings") != std::string::npos);
   CHECK(md.find("rig_temp_C") != std::string::npos);
   // A fit whose reader had nothing to say has an empty list and no section.
   CHECK(nlohmann::json::parse(slurp(fitted_dir() / "fit.json"))["input_notes"].empty());
-  CHECK(slurp(fitted_dir() / "report.md").find("## Input as read") == std::string::npos);
+  CHECK(slurp(fitted_dir() / "report.md").find("## Notes and warnings") == std::string::npos);
 }
 
 TEST_CASE("without gnuplot everything else is still written and the report says so") {

@@ -748,6 +748,42 @@ TEST_CASE("[columns] maps the file's names to ours, in runs and the static table
             "typemap.toml:29: wrong type: 'columns.alpha_deg' must be a string, found an integer");
 }
 
+TEST_CASE("[static] columns: the static table's own column names, over [columns]") {
+  // The runs mapped by [columns] (Time, AoA, CM_balance), the polar headed otherwise (Alpha,
+  // Cm_static): one map cannot serve both; [static] columns names the table's.
+  std::string t = replace(kInterfaceExample, "run_f0.25.csv\", \"run_f0.50.csv\", \"run_f1.00.csv",
+                          "mapped_run_f0.25.csv\", \"mapped_run_f0.50.csv\", \"mapped_run_f1.00.csv");
+  t = replace(t, "polynomial = [0.0, 0.42, 0.34, -1.0, 0.40]",
+              "table = \"tables/polar.csv\"\ncolumns = { alpha_deg = \"Alpha\", Cm = \"Cm_static\" }");
+  std::string table = "Alpha,Cm_static\n";
+  for (int d = 0; d <= 70; d += 2) table += std::to_string(d) + "," + std::to_string(0.001 * d) + "\n";
+  fs::create_directories(runs_dir() / "tables");
+  std::ofstream(runs_dir() / "tables" / "polar.csv") << table;
+  for (const char* f : {"run_f0.25.csv", "run_f0.50.csv", "run_f1.00.csv"}) {  // as the [columns] test writes them
+    std::string text = indicial::read_text(runs_dir() / f);
+    for (auto [from, to] : {std::pair<const char*, const char*>{"time_s,", "Time,"}, {"alpha_deg,", "AoA,"},
+                            {",Cm,", ",CM_balance,"}})
+      if (const std::size_t i = text.find(from); i != std::string::npos) text.replace(i, std::string(from).size(), to);
+    std::ofstream(runs_dir() / (std::string("mapped_") + f)) << text;
+  }
+  const std::string columns = "\n[columns]\ntime_s = \"Time\"\nalpha_deg = \"AoA\"\nCm = \"CM_balance\"\n";
+  const indicial::Experiment e = indicial::load_experiment(write_exp("static_columns.toml", t + columns));
+  REQUIRE(e.static_curve.kind == indicial::StaticKind::table);
+  CHECK(e.static_curve.table_x_rad.size() == 36);
+  CHECK(e.static_curve.table_value[35] == doctest::Approx(0.07).epsilon(1e-12).scale(0));
+  CHECK(e.runs.size() == 3);
+  // Written back and read again: the same table (write_experiment_toml keeps the key).
+  const std::string written = indicial::write_experiment_toml(e, {"round trip"});
+  CHECK_HAS(written, "columns = { Cm = \"Cm_static\", alpha_deg = \"Alpha\" }");
+  // Without it the table's columns are missing (the runs' map does not name them).
+  CHECK_HAS(exp_error("static_nocolumns.toml", replace(t, "\ncolumns = { alpha_deg = \"Alpha\", Cm = \"Cm_static\" }", "") + columns),
+            "polar.csv:1: missing column");
+  // Only with a table.
+  CHECK_HAS(exp_error("static_polycolumns.toml", replace(kInterfaceExample, "polynomial = [0.0, 0.42, 0.34, -1.0, 0.40]",
+                                                         "polynomial = [0.0]\ncolumns = { Cm = \"x\" }")),
+            "'static.columns' names a static table's columns: give 'static.table'");
+}
+
 // ==========================================================================================
 // Phase-averaged cycles and per-run conditions (issue 12 item 3, input side)
 // ==========================================================================================

@@ -43,7 +43,8 @@ int subnormal_states(const Snapshot& s) {
   for (const auto& per_coefficient : s.y)
     for (const auto& y : per_coefficient) count += subnormal(y) ? 1 : 0;
   for (const auto& st : s.stall)
-    count += (subnormal(st.vortex_lift) ? 1 : 0) + (subnormal(st.vortex_clock_semichords) ? 1 : 0);
+    count += (subnormal(st.vortex_lift) ? 1 : 0) + (subnormal(st.vortex_clock_semichords) ? 1 : 0) +
+             (subnormal(st.separation_point) ? 1 : 0);
   return count;
 }
 
@@ -80,26 +81,49 @@ TEST_CASE("a held angle: no lag state is ever subnormal (Model II, double and fl
   CHECK(worst_hold<float>(m, 0.3, 0.6, 0.05, 8000) == 0);
 }
 
-TEST_CASE("a held angle below stall: no vortex state is ever subnormal (both families, double and float)") {
-  // Up past the shedding criterion (24 deg), then held attached (5 deg): the vortex lift and
-  // its clock decay to 0.
-  const Set m = indicial::test_models::lift_and_moment_stall();
+// Into stall and back: the vortex fed past the shedding criterion (24 deg), then the angle
+// held attached (5 deg) while the vortex lift and its clock decay; or held in deep stall
+// where the static separation is clipped to 0 (the test model's f0 table set to 0 above 20
+// deg), while the separation point decays. The largest count of subnormal family states seen
+// at any step of the hold, and whether the decaying state ended at +0.
+template <class Scalar>
+int worst_stall_hold(const Set& m, double hold_deg, bool* ended_at_zero) {
   const double deg = 0.017453292519943295;
-  CHECK(worst_hold<double>(m, 5 * deg, 24 * deg, 0.0, 0) == 0);  // the ramp alone is fine
-  indicial::Predictor<double> p;
+  indicial::Predictor<Scalar> p;
   const std::string text = text_of(m);
   REQUIRE(p.load(text.data(), text.size()) == indicial::LoadStatus::ok);
-  REQUIRE(p.reset(5 * deg, m.airspeed_mps) == StepStatus::ok);
-  indicial::Predictor<double>::Outputs out;
-  for (int k = 1; k <= 200; ++k) REQUIRE(stepped(p.step({(5 + 0.095 * k) * deg, 0.095 * deg / 0.005, m.airspeed_mps}, 0.005, &out)));
-  CHECK(p.snapshot().stall[0].vortex_lift != 0.0);  // a vortex was fed
+  const Scalar v = Scalar(m.airspeed_mps);
+  REQUIRE(p.reset(Scalar(5 * deg), v) == StepStatus::ok);
+  typename indicial::Predictor<Scalar>::Outputs out;
+  for (int k = 1; k <= 200; ++k)
+    REQUIRE(stepped(p.step({Scalar((5 + 0.095 * k) * deg), Scalar(0.095 * deg / 0.005), v}, Scalar(0.005), &out)));
+  CHECK(p.snapshot().stall[0].vortex_lift != Scalar(0));  // a vortex was fed
   int worst = 0;
   for (int k = 0; k < 40000; ++k) {
-    REQUIRE(stepped(p.step({5 * deg, 0.0, m.airspeed_mps}, 0.01, &out)));
+    REQUIRE(stepped(p.step({Scalar(hold_deg * deg), Scalar(0), v}, Scalar(0.01), &out)));
+    for (int c = 0; c < out.count; ++c) REQUIRE(std::isfinite(out.value[c]));
     worst = std::max(worst, subnormal_states(p.snapshot()));
   }
-  CHECK(worst == 0);
-  CHECK(p.snapshot().stall[0].vortex_lift == 0.0);  // decayed to +0, not held subnormal
+  const auto& st = p.snapshot().stall[0];
+  *ended_at_zero = hold_deg < 20 ? st.vortex_lift == Scalar(0) : st.separation_point == Scalar(0);
+  return worst;
+}
+
+TEST_CASE("a held angle out of stall or in deep stall: no family state is ever subnormal (double and float)") {
+  const Set attached = indicial::test_models::lift_and_moment_stall();
+  Set clipped = attached;  // f0 clipped to 0 above 20 deg
+  for (auto& c : clipped.coefficients)
+    for (int i = 0; i < c.stall.separation.n_f0; ++i)
+      if (c.stall.separation.f0_x_rad[i] > 20 * 0.017453292519943295) c.stall.separation.f0_value[i] = 0.0;
+  bool zero = false;
+  CHECK(worst_stall_hold<double>(attached, 5.0, &zero) == 0);
+  CHECK(zero);  // the vortex lift decayed to +0, not held subnormal
+  CHECK(worst_stall_hold<float>(attached, 5.0, &zero) == 0);
+  CHECK(zero);
+  CHECK(worst_stall_hold<double>(clipped, 25.0, &zero) == 0);
+  CHECK(zero);  // the separation point decayed to +0
+  CHECK(worst_stall_hold<float>(clipped, 25.0, &zero) == 0);
+  CHECK(zero);
 }
 
 TEST_CASE("a held angle in a batch: no lane's lag state is ever subnormal, and the lanes equal single steps") {

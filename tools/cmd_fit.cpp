@@ -207,6 +207,19 @@ void run_fit_one(const FitCliOptions& o, const indicial::FitOptions& fo, const i
   if (status != 0) throw CLI::RuntimeError(status);
 }
 
+// The provenance of several coefficients' merged model: the first experiment's, with every
+// other experiment's inputs not already listed.
+indicial::Provenance merged_provenance(const std::vector<indicial::Experiment>& es) {
+  indicial::Provenance p = indicial::tools::provenance_of(es.front());
+  for (std::size_t i = 1; i < es.size(); ++i)
+    for (const indicial::InputDigest& d : indicial::tools::provenance_of(es[i]).inputs) {
+      bool listed = false;
+      for (const indicial::InputDigest& have : p.inputs) listed = listed || (have.role == d.role && have.path == d.path);
+      if (!listed) p.inputs.push_back(d);
+    }
+  return p;
+}
+
 std::vector<std::string> with_after(std::vector<std::string> w, const std::vector<std::string>& more) {
   w.insert(w.end(), more.begin(), more.end());
   return w;
@@ -257,7 +270,7 @@ void run_fit_several(const FitCliOptions& o, const indicial::FitOptions& fo,
   // The merged model carries the fit's provenance (version, command line, every input's digest)
   // as each coefficient's own model.coef does.
   out.write("model.coef", with_provenance_header(coef_file_text(merged.model, o.out + "/model.coef"),
-                                                  tools::provenance_of(es.front())));
+                                                  merged_provenance(es)));
   out.write("fit.json", j.dump(2) + "\n");
   out.commit();
   std::printf("fit: wrote %s/model.coef (%d coefficients) and %s/fit.json\n", o.out.c_str(),

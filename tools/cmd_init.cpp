@@ -96,6 +96,9 @@ const std::vector<KeyDoc>& key_docs() {
       {"static", "table", "instead of polynomial: a CSV with columns alpha_deg (or beta_deg, or _rad) and the\n"
                           "coefficient, angles strictly increasing and covering the data; natural cubic spline.",
        "table = \"static.csv\""},
+      {"static", "columns", "with table: the table file's own column names, over [columns] (the runs' map, which\n"
+                            "the table uses without this key): a polar headed otherwise than the runs.",
+       "columns = { alpha_deg = \"AoA\", CL = \"CL_static\" }"},
       {"rotary", "polynomial", "the a priori rotary derivative C_aq(x): coefficients of x^0, x^1, ... with x in RAD;\n"
                                "multiplies (l/V) rate, rate in rad/s. Default [] (C_aq = 0; so does a missing [rotary]).",
        "polynomial = [-2.0, 0.0, 0.8]"},

@@ -384,8 +384,11 @@ class BatchStepper:
     it), or ``out``. ``run(alpha_rad=(T, N), q_radps=(T, N), dt_s=...)`` steps T samples in
     one call and returns (T, N, n_coefficients). A refused instance (NaN input, dt <= 0, ...)
     keeps its state and outputs while the others step; then StepError is raised unless
-    errors="keep". ``status`` holds each instance's last status (0 ok, 1 angle_clamped, other
-    values: ``BatchStepper.status_names``). The GIL is released while stepping."""
+    errors="keep". ``status`` holds each instance's last status, after ``run`` its first
+    refusal of the run if it had one (0 ok, 1 angle_clamped, other values:
+    ``BatchStepper.status_names``). ``airspeed_mps`` not given: the model's reference airspeed
+    at ``reset``, the instance's airspeed of its last reset or accepted step at ``step`` and
+    ``run``. The GIL is released while stepping."""
 
     status_names = _indicial._step_status_names()
 
@@ -619,7 +622,7 @@ def predict(model: Model, *, time_s, airspeed_mps: Optional[float] = None, perio
     predicted). The GIL is released while stepping."""
     angle, rate = _motion(model.axis, motion)
     return Prediction(_indicial._predict(model._m, time_s, angle, rate, airspeed_mps, bool(periodic), measured,
-                                         time_grid, float(score_from_s)))
+                                         time_grid, _real(score_from_s, "score_from_s")))
 
 
 @dataclass

@@ -132,8 +132,12 @@ class BatchStepper {
 
   void reset(const py::handle& angle, const py::handle& airspeed, const std::string& errors) {
     Busy busy(busy_);
+    check_errors_value(errors);  // before anything changes
     const Inputs a = inputs(angle_slot, angle, "angle_rad");
-    const Inputs v = airspeed_inputs(airspeed);
+    // Not given: the model's reference airspeed, as Predictor.reset (a step's default is the
+    // last reset's or step's airspeed, airspeed_inputs).
+    const Inputs v = airspeed.is_none() ? constant(airspeed_slot, model_->set->airspeed_mps)
+                                        : inputs(airspeed_slot, airspeed, "airspeed_mps");
     // An instance reset writes its outputs at rest (they read 0 until the first step); a
     // refused one keeps its state and outputs.
     double* o = outputs_.mutable_data();
@@ -151,6 +155,7 @@ class BatchStepper {
   py::array_t<double> step(const py::handle& angle, const py::handle& rate, double dt_s, const py::handle& airspeed,
                            const py::object& out, const std::string& errors) {
     Busy busy(busy_);
+    check_errors_value(errors);  // before anything changes
     const Inputs a = inputs(angle_slot, angle, "angle_rad");
     const Inputs r = inputs(rate_slot, rate, "rate_radps");
     const Inputs v = airspeed_inputs(airspeed);
@@ -163,7 +168,6 @@ class BatchStepper {
     }
     keep_airspeeds(v);
     if (!stepped(first)) raise_first_refusal(errors, "step");  // step_batch returns the first refusal
-    else if (errors != "raise" && errors != "keep") throw InputError("errors", 0, "expected 'raise' or 'keep'");
     return target;
   }
 
@@ -172,7 +176,7 @@ class BatchStepper {
   py::array_t<double> run(const py::handle& angle, const py::handle& rate, double dt_s, const py::handle& airspeed,
                           const py::object& out, const std::string& errors) {
     Busy busy(busy_);
-    if (errors != "raise" && errors != "keep") throw InputError("errors", 0, "expected 'raise' or 'keep'");
+    check_errors_value(errors);  // before anything changes
     const DoubleArray a = as_doubles(angle, "angle_rad"), r = as_doubles(rate, "rate_radps");
     const std::size_t n = core().n;
     if (a.ndim() != 2 || r.ndim() != 2 || a.shape(1) != static_cast<py::ssize_t>(n) ||
@@ -214,13 +218,20 @@ class BatchStepper {
       }
       std::copy(o + (t_count - 1) * row, o + t_count * row, outputs_.mutable_data());
     }
+    keep_airspeeds(v);  // by each instance's last step, before the statuses become the first refusals
     for (std::size_t i = 0; i < n; ++i)
       if (refused_at[i] < t_count) status_[i] = refusal[i];
-    keep_airspeeds(v);
+    // The first refusal in time (the lowest instance among those refused at that step).
     const std::size_t first = static_cast<std::size_t>(
         std::min_element(refused_at.begin(), refused_at.end()) - refused_at.begin());
-    if (refused_at[first] < t_count)
-      raise_first_refusal(errors, "run (time step " + std::to_string(refused_at[first]) + " first refused)");
+    if (refused_at[first] < t_count && errors == "raise") {
+      std::size_t more = 0;
+      for (std::size_t i = 0; i < n; ++i) more += (i != first && refused_at[i] < t_count) ? 1 : 0;
+      throw StepError("run (time step " + std::to_string(refused_at[first]) + " first refused): the runtime refused "
+                      "instance " + std::to_string(first) + " (" + to_string(refusal[first]) + ")" +
+                      (more > 0 ? " and " + std::to_string(more) + " more" : std::string()) +
+                      "; refused instances keep their state and outputs, the others stepped (see .status)");
+    }
     return target;
   }
 
@@ -320,8 +331,10 @@ class BatchStepper {
     }
     return py::reinterpret_borrow<py::array_t<double>>(arr);
   }
-  void raise_first_refusal(const std::string& errors, const std::string& what) const {
+  static void check_errors_value(const std::string& errors) {
     if (errors != "raise" && errors != "keep") throw InputError("errors", 0, "expected 'raise' or 'keep'");
+  }
+  void raise_first_refusal(const std::string& errors, const std::string& what) const {
     if (errors == "keep") return;
     std::size_t refused = 0, first = status_.size();
     for (std::size_t i = 0; i < status_.size(); ++i)

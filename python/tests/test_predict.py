@@ -65,7 +65,7 @@ def test_score_from_s_equals_cli(case_dir, cli_fit, cli, tmp_path):
     assert p.predicted["Cm"].shape == run["time_s"].shape
     got, want = p.metrics["Cm"]["model"]["rms_error"], cli_metrics["coefficients"][0]["model"]["rms_error"]
     assert abs(got - want) <= 1e-12 * want
-    with pytest.raises(indicial.InputError, match="^--score-from-s: .* leaves 0 sample"):
+    with pytest.raises(indicial.InputError, match="^score_from_s: .* leaves 0 sample"):
         indicial.predict(model, time_s=run["time_s"], alpha_rad=run["motion_angle_rad"], score_from_s=1e9)
 
 

@@ -215,3 +215,30 @@ def test_predictor_refuses_text(model):
     p.reset(alpha_rad=0.3)
     with pytest.raises(TypeError, match="angle: expected a real number, got str"):
         p.step(alpha_rad="0.3", q_radps=0.0, dt_s=1e-3)
+
+
+def test_run_names_the_first_refusal_in_time(model):
+    s = indicial.BatchStepper(model, 3)
+    s.reset(alpha_rad=0.3)
+    a = np.full((5, 3), 0.3)
+    a[3, 0] = np.nan  # instance 0 refused later
+    a[1, 2] = np.nan  # instance 2 refused first
+    with pytest.raises(indicial.StepError, match=r"^run \(time step 1 first refused\): .*instance 2 \(non_finite_input\) and 1 more"):
+        s.run(alpha_rad=a, q_radps=np.zeros((5, 3)), dt_s=1e-3)
+    assert list(s.status) == [5, 0, 5]
+
+
+def test_reset_without_airspeed_is_the_reference_and_errors_is_checked_first(model):
+    v = model.airspeed_mps * 1.3
+    alpha, q = motion(30, 2, 0.002)
+    b, ref = indicial.BatchStepper(model, 2), indicial.BatchStepper(model, 2)
+    b.reset(alpha_rad=alpha[0], airspeed_mps=v)
+    b.reset(alpha_rad=alpha[0])  # back at the reference airspeed, as Predictor.reset
+    ref.reset(alpha_rad=alpha[0])
+    assert np.array_equal(b.run(alpha_rad=alpha, q_radps=q, dt_s=0.002), ref.run(alpha_rad=alpha, q_radps=q, dt_s=0.002))
+    before = b.outputs.copy()
+    with pytest.raises(indicial.InputError, match="^errors: expected 'raise' or 'keep'"):
+        b.step(alpha_rad=alpha[0] + 0.1, q_radps=0.0, dt_s=0.002, errors="bogus")
+    with pytest.raises(indicial.InputError, match="^errors: expected 'raise' or 'keep'"):
+        b.reset(alpha_rad=alpha[0] + 0.1, errors="bogus")
+    assert np.array_equal(b.outputs, before)  # nothing changed

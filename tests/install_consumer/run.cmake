@@ -25,10 +25,30 @@ run(${CMAKE_COMMAND} -S ${SOURCE_DIR}/../install_consumer_c -B ${WORK_DIR}/build
 run(${CMAKE_COMMAND} --build ${WORK_DIR}/build_c)
 run(${WORK_DIR}/build_c/consumer_c_static ${examples}/synthetic-lift-moment.coef)
 run(${WORK_DIR}/build_c/consumer_c_shared ${examples}/synthetic-lift-moment.coef)
+file(GLOB so ${WORK_DIR}/prefix/lib*/libindicial_c.so)
+if(NOT so)
+  message(FATAL_ERROR "libindicial_c.so was not installed")
+endif()
+# It exports the C interface only (runtime/src/indicial_c.map), not the runtime's C++ template
+# instances.
+find_program(NM nm)
+if(NM)
+  execute_process(COMMAND ${NM} -D --defined-only ${so} OUTPUT_VARIABLE symbols RESULT_VARIABLE rc)
+  string(REGEX MATCHALL "[^\n]+" lines "${symbols}")
+  list(LENGTH lines count)
+  if(NOT rc EQUAL 0 OR count LESS 10)
+    message(FATAL_ERROR "nm -D ${so} failed or listed too few symbols (${count}):\n${symbols}")
+  endif()
+  foreach(line ${lines})
+    if(NOT line MATCHES " indicial_[a-z0-9_]+$")
+      message(FATAL_ERROR "libindicial_c.so exports more than the C interface: ${line}")
+    endif()
+  endforeach()
+  message(STATUS "libindicial_c.so exports ${count} symbols, all indicial_*")
+endif()
 # Python ctypes loads the installed shared library and reads a model through it.
 find_program(PYTHON3 python3)
 if(PYTHON3)
-  file(GLOB so ${WORK_DIR}/prefix/lib*/libindicial_c.so)
   run(${PYTHON3} -c "import ctypes, sys
 lib = ctypes.CDLL(sys.argv[1])
 lib.indicial_model_bytes.restype = ctypes.c_size_t

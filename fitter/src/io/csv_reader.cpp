@@ -1039,8 +1039,8 @@ void check_phase_gaps(const std::string& path, const CsvTable& t, int phase_col,
 
 // A unit as written ("deg", "Degrees", "[rad/s]", "msec") as our column names' suffix ("deg",
 // "radps", "ms"): blanks and brackets dropped, case ignored. Empty for anything else ("-",
-// "[1]", "N"), which says nothing. The one table of unit spellings of warn_units_row and
-// warn_mapped_units.
+// "[1]", "N"), which says nothing. The spellings warn_units_row and warn_mapped_units compare
+// (names_a_unit's wider set only tells a unit from another quantity, to refuse it).
 std::string unit_suffix_of(const std::string& written) {
   std::string k;
   for (char ch : written)

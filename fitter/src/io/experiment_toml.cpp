@@ -351,17 +351,34 @@ void read_csv_section(LoadContext& c, const toml::node* node) {
 // [columns]) when the experiment models another coefficient in pitch: Experiment::table_lift_polar,
 // which diagnose offers the dynamic-stall families with (a Cm experiment whose table also has
 // the lift). Optional: a table without it is not an error.
-void read_table_lift_polar(const std::string& path, const LoadContext& c, Experiment& e) {
+void read_table_lift_polar(const std::string& path, const LoadContext& c, const ColumnMap& columns, Experiment& e) {
   if (e.axis != Axis::pitch || e.coefficient == "CL") return;
   StaticConfig lift;
   try {
-    read_static_table(path, e.axis, "CL", lift, c.columns, c.dialect);
+    read_static_table(path, e.axis, "CL", lift, columns, c.dialect);
   } catch (const InputError&) {
     return;  // no lift column: the stall families need model.stall_polar then
   }
   e.table_lift_polar.x_rad = lift.table_x_rad;
   e.table_lift_polar.lift = lift.table_value;
   e.table_lift_polar.path = path;
+}
+
+// The static table's column map: [columns] (the runs') with [static] columns over it
+// (e.static_curve.table_columns keeps the latter for write_experiment_toml).
+ColumnMap static_table_columns(const LoadContext& c, const toml::table& st, Experiment& e) {
+  ColumnMap columns = c.columns;
+  const toml::node* node = st.get("columns");
+  if (!node) return columns;
+  const TomlReader& r = c.r;
+  for (auto&& [key, value] : r.table(*node, "static.columns")) {
+    const std::string ours(key.str());
+    const std::string theirs = r.string(value, "static.columns." + ours);
+    if (theirs.empty()) r.fail(value, "'static.columns." + ours + "' is empty: name the table's column");
+    columns[ours] = theirs;
+    e.static_curve.table_columns[ours] = theirs;
+  }
+  return columns;
 }
 
 void read_static_section(LoadContext& c, const toml::table& root, const toml::node* section, Experiment& e) {
@@ -372,10 +389,11 @@ void read_static_section(LoadContext& c, const toml::table& root, const toml::no
   }
   const toml::node& static_node = *section;
   const toml::table& st = r.table(static_node, "static");
-  r.check_keys(st, {"polynomial", "table"}, "static.");
+  r.check_keys(st, {"polynomial", "table", "columns"}, "static.");
   const toml::node* poly = st.get("polynomial");
   const toml::node* table = st.get("table");
   if (poly && table) r.fail(*table, "give 'static.polynomial' or 'static.table', not both");
+  if (poly && st.get("columns")) r.fail(*st.get("columns"), "'static.columns' names a static table's columns: give 'static.table'");
   if (!poly && !table) r.fail(static_node, "missing required key 'static.polynomial' or 'static.table'");
   c.static_where = static_node.source();
   if (poly) {
@@ -391,8 +409,9 @@ void read_static_section(LoadContext& c, const toml::table& root, const toml::no
   } else {
     c.static_where = table->source();
     const std::string tp = c.resolve(r.string(*table, "static.table"));
-    read_static_table(tp, e.axis, e.coefficient, e.static_curve, c.columns, c.dialect);
-    read_table_lift_polar(tp, c, e);
+    const ColumnMap columns = static_table_columns(c, st, e);
+    read_static_table(tp, e.axis, e.coefficient, e.static_curve, columns, c.dialect);
+    read_table_lift_polar(tp, c, columns, e);
     c.capacity.push_back({{"static.table", "rows ('" + tp + "')", static_cast<int>(e.static_curve.table_x_rad.size()),
                            DefaultCapacity::max_table_points},
                           table->source()});
@@ -677,7 +696,11 @@ void read_stall_keys(LoadContext& c, const toml::node* model_node, Experiment& e
   if (const toml::node* n = mt.get("stall_polar")) {
     s.polar_path = c.resolve(r.string(*n, "model.stall_polar"));
     StaticConfig polar;
-    read_static_table(s.polar_path, e.axis, s.polar_column, polar, c.columns, c.dialect);
+    // The static table named again as the polar is read with its own column names.
+    ColumnMap polar_columns = c.columns;
+    if (s.polar_path == e.static_curve.table_path)
+      for (const auto& [ours, theirs] : e.static_curve.table_columns) polar_columns[ours] = theirs;
+    read_static_table(s.polar_path, e.axis, s.polar_column, polar, polar_columns, c.dialect);
     s.polar_x_rad = polar.table_x_rad;
     s.polar_lift = polar.table_value;
   } else if (!stall_polar_from_static_table(e, s)) {
@@ -1003,6 +1026,15 @@ std::string write_experiment_toml(const Experiment& e, const std::vector<std::st
     out += "polynomial = " + number_list(e.static_curve.polynomial, 1.0) + "  # x^0, x^1, ... with x in rad\n";
   } else {
     out += "table = " + toml_string(e.static_curve.table_path) + "\n";
+    if (!e.static_curve.table_columns.empty()) {
+      out += "columns = {";
+      bool first = true;
+      for (const auto& [ours, theirs] : e.static_curve.table_columns) {
+        out += std::string(first ? " " : ", ") + toml_key(ours) + " = " + toml_string(theirs);
+        first = false;
+      }
+      out += " }  # the table's own column names, over [columns]\n";
+    }
   }
   out += "\n[rotary]\npolynomial = " + number_list(e.rotary.polynomial, 1.0) + "  # x^0, x^1, ... with x in rad\n";
   if (!e.rotary.prior_knots_rad.empty()) {

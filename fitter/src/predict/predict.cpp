@@ -206,15 +206,16 @@ Prediction predict_periodic(const ModelSet<double, FitCapacity>& model, const st
   return p;
 }
 
-void score_coefficients(Prediction& p, double score_from_s) {
+void score_coefficients(Prediction& p, double score_from_s, const std::string& option_name) {
   const std::vector<double>& t = p.time_s;
+  if (std::isnan(score_from_s)) throw InputError(option_name, 0, "is NaN: give a time in s");
   const std::size_t first =
       static_cast<std::size_t>(std::lower_bound(t.begin(), t.end(), score_from_s) - t.begin());
-  if (std::isnan(score_from_s) || (!t.empty() && t.size() - first < 2))
-    throw InputError("--score-from-s", 0,
-                     fmt::format("{} leaves {} sample(s) to score; the data run from {} to {} s", score_from_s,
-                                 t.size() - std::min(first, t.size()), t.empty() ? 0.0 : t.front(),
-                                 t.empty() ? 0.0 : t.back()));
+  const bool given = score_from_s != -std::numeric_limits<double>::infinity();
+  if (given && t.size() - first < 2)
+    throw InputError(option_name, 0,
+                     fmt::format("{} s leaves {} sample(s) to score; the data run from {} to {} s", score_from_s,
+                                 t.size() - first, t.empty() ? 0.0 : t.front(), t.empty() ? 0.0 : t.back()));
   p.score_from_s = score_from_s;
   p.first_scored = first;
   p.scored_samples = t.size() - first;

@@ -27,9 +27,9 @@ std::string estimates_text_table(const std::vector<ParameterEstimate>& parameter
 
 std::string input_as_read_markdown(const ReportOptions& ro) {
   if (ro.notes.empty() && ro.warnings.empty()) return "";
-  std::string m = "## Input as read\n\n";
+  std::string m = "## Notes and warnings\n\n";
   if (!ro.notes.empty()) {
-    m += "What the readers did with the files:\n\n";
+    m += "What the readers did with the input files:\n\n";
     for (const std::string& n : ro.notes) m += "* " + n + "\n";
     m += "\n";
   }

@@ -1068,7 +1068,7 @@ struct smallest_normal<float> {
 }  // namespace detail
 
 // A decaying state below the smallest normal number becomes 0 (+0). Why: a lag (or a vortex
-// state) held still decays toward 0 and reaches the subnormal range after ~700 / z steps;
+// state, or the separation point where the static f0 is clipped to 0) held still decays toward 0 and reaches the subnormal range after ~700 / z steps;
 // with a decay exp(-z) near 1 it then stays there (a few ulp of the smallest subnormal times
 // 0.997 rounds back to itself), and subnormal arithmetic costs x86 ~100 cycles an operation:
 // a trial's HIL loop measured the step 120 -> 161 ns median after 400 s of holding an angle
@@ -1081,10 +1081,13 @@ struct smallest_normal<float> {
 template <class Ops>
 INDICIAL_HOT_INLINE void flush_below_normal(typename Ops::V* v) {
   using V = typename Ops::V;
-  if constexpr (!std::is_floating_point<typename Ops::Scalar>::value) return;
-  const V kept = *v;
-  *v = Ops::choose(Ops::abs_less(kept, detail::smallest_normal<typename Ops::Scalar>::value),
-                   [] { return V(Ops::constant(typename Ops::Scalar(0))); }, [&kept] { return kept; });
+  if constexpr (std::is_floating_point<typename Ops::Scalar>::value) {
+    const V kept = *v;
+    *v = Ops::choose(Ops::abs_less(kept, detail::smallest_normal<typename Ops::Scalar>::value),
+                     [] { return V(Ops::constant(typename Ops::Scalar(0))); }, [&kept] { return kept; });
+  } else {
+    (void)v;
+  }
 }
 
 template <class Ops, class Cap>
@@ -1693,6 +1696,8 @@ INDICIAL_HOT_INLINE void stall_separation_stage(const StallModel<Scalar, Cap>& m
   }
   q->f0 = f0;
   s->separation_point = e * f0 + (w - e) * u0 + (Scalar(1) - w) * u1;
+  // Decays as e^k f0 where the static f0 is clipped to 0 (deep stall held).
+  flush_below_normal<ScalarOps<Scalar>>(&s->separation_point);
 }
 
 // Stage 2 (vortex): the shedding switch g at the mean lagged angle.

@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <limits>
+#include <map>
 #include <optional>
 #include <string>
 #include <utility>
@@ -76,6 +77,9 @@ struct StaticConfig {
   StaticKind kind = StaticKind::polynomial;
   std::vector<double> polynomial;    // coefficients of x^0, x^1, ... (x in rad)
   std::string table_path;            // when kind == table
+  // [static] columns = { ours = "theirs", ... }: the table file's own column names, over the
+  // experiment's [columns] (which the runs use): a polar headed otherwise than the runs.
+  std::map<std::string, std::string> table_columns;
   std::vector<double> table_x_rad;   // alpha or beta, rad, strictly increasing
   std::vector<double> table_value;
 };

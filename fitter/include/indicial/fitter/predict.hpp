@@ -123,10 +123,10 @@ Prediction predict_periodic(const ModelSet<double, FitCapacity>& model,
 // samples at time_s >= score_from_s (`predict --score-from-s`: a raw multi-cycle log is
 // predicted from a state at rest or at the first sample's steady state, and its start-up
 // transient is the initial state's error, not the model's; the default scores every sample).
-// Throws InputError("--score-from-s", 0, ...) naming the data's time range when fewer than
-// two samples are left or score_from_s is NaN.
-void score_coefficients(Prediction& p,
-                        double score_from_s = -std::numeric_limits<double>::infinity());
+// Throws InputError(option_name, 0, ...) naming the data's time range when a given
+// score_from_s (not -inf) leaves fewer than two samples, or is NaN.
+void score_coefficients(Prediction& p, double score_from_s = -std::numeric_limits<double>::infinity(),
+                        const std::string& option_name = "--score-from-s");
 
 // Reads a coefficient file (parse_coef_file, FitCapacity); throws InputError(path, line, ...).
 ModelSet<double, FitCapacity> read_model_file(const std::string& path);

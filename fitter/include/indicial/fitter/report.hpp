@@ -109,13 +109,14 @@ struct ReportOptions {
   // What the readers did with the files, one line each (Experiment::notes: the delimiter and
   // header found, ignored columns, a column read negated, CL and CD derived from Cn and Ct,
   // times snapped to a uniform grid, coefficients resampled to common phases): fit.json /
-  // diagnosis.json "input_notes" and report.md's "Input as read" list, so that what was done to
-  // the data travels with the result (they were on stderr only).
+  // diagnosis.json "input_notes" and report.md's "Notes and warnings" list, so that what was
+  // done to the data travels with the result (they were on stderr only).
   std::vector<std::string> notes;
 };
 
-// report.md's "## Input as read" section: ro.notes and ro.warnings as lists (empty when both
-// are empty). Shared by the fit and diagnose reports.
+// report.md's "## Notes and warnings" section: ro.notes (what the readers did with the input
+// files) and ro.warnings (input and result warnings) as lists; empty when both are empty.
+// Shared by the fit and diagnose reports.
 std::string input_as_read_markdown(const ReportOptions& ro);
 
 // j with "provenance" (when ro.provenance has a version), "warnings" and "input_notes" (always,
