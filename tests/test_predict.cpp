@@ -28,6 +28,18 @@ namespace {
 using indicial::testing::kPi;
 constexpr double kDeg = kPi / 180.0;
 
+// 30 deg + A sin(2 pi 0.7 t), sampled at 100 Hz: a motion Model II was never built around.
+indicial::MotionSpec sine_at_0_7_hz(double amplitude_deg, int cycles) {
+  indicial::MotionSpec s;
+  s.kind = indicial::MotionKind::sine;
+  s.mean_rad = 30.0 * kDeg;
+  s.amplitude_rad = amplitude_deg * kDeg;
+  s.freq_hz = 0.7;
+  s.cycles = cycles;
+  s.dt_s = 0.01;
+  return s;
+}
+
 using indicial::testing::TempDir;
 
 int run(const std::string& cmd) { return std::system((cmd + " > /dev/null 2>&1").c_str()); }
@@ -60,14 +72,7 @@ TEST_CASE("predict: metrics on hand-checked values") {
 TEST_CASE("predict: the runtime's prediction follows the reference integration on a new motion") {
   // Model II of Example 1 on a motion it was never built around: 20 deg amplitude, 0.7 Hz.
   const auto& c = indicial::find_simulation_case("tailless-model-2");
-  indicial::MotionSpec s;
-  s.kind = indicial::MotionKind::sine;
-  s.mean_rad = 30.0 * kDeg;
-  s.amplitude_rad = 20.0 * kDeg;
-  s.freq_hz = 0.7;
-  s.cycles = 3;
-  s.dt_s = 0.01;
-  const indicial::SimulatedRun sim = indicial::simulate_reference(c.truth, s);
+  const indicial::SimulatedRun sim = indicial::simulate_reference(c.truth, sine_at_0_7_hz(20.0, 3));
   indicial::Prediction p =
       indicial::predict_motion(c.truth, sim.time_s, sim.motion_angle_rad, sim.rate_radps,
                                c.truth.airspeed_mps);
@@ -101,14 +106,7 @@ TEST_CASE("predict: score_from_s scores the samples from that time on, predicts 
   // that starts before the tunnel settled) dominates the RMS over every sample and is left out
   // from the first time scored on. The scored tail's metrics are score_prediction's on it.
   const auto& c = indicial::find_simulation_case("tailless-model-2");
-  indicial::MotionSpec s;
-  s.kind = indicial::MotionKind::sine;
-  s.mean_rad = 30.0 * kDeg;
-  s.amplitude_rad = 10.0 * kDeg;
-  s.freq_hz = 0.7;
-  s.cycles = 2;
-  s.dt_s = 0.01;
-  const indicial::SimulatedRun sim = indicial::simulate_reference(c.truth, s);
+  const indicial::SimulatedRun sim = indicial::simulate_reference(c.truth, sine_at_0_7_hz(10.0, 2));
   indicial::Prediction p = indicial::predict_motion(c.truth, sim.time_s, sim.motion_angle_rad, sim.rate_radps,
                                                     c.truth.airspeed_mps);
   std::vector<double> measured = sim.coefficient_true[0];
