@@ -115,6 +115,19 @@ nlohmann::json rotary_json(const CoefficientModel<double, FitCapacity>& cm, cons
   return rot;
 }
 
+// fit.json's "equation_error": the start values' regression and its stepwise log.
+nlohmann::json equation_error_json(const EquationErrorResult& ee) {
+  nlohmann::json eej;
+  eej["fit_error"] = finite_or_null(ee.fit_error);
+  eej["r_squared"] = finite_or_null(ee.r_squared);
+  eej["n_samples"] = ee.n_samples;
+  eej["correlation_lag"] = ee.correlation_lag;
+  eej["state_derivative"] = state_derivative_name(ee.state_derivative);
+  eej["parameters"] = nlohmann::json::array();
+  for (const ParameterEstimate& p : ee.parameters) eej["parameters"].push_back(parameter_json(p));
+  eej["stepwise"] = stepwise_json(ee.stepwise);
+  return eej;
+}
 
 }  // namespace
 
@@ -162,17 +175,7 @@ nlohmann::json fit_json(const FitResult& r, const Experiment& e, const FitOption
                                      {"damping", finite_or_null(it.damping)},
                                      {"max_step_in_bounds", finite_or_null(it.max_step_in_bounds)}});
   }
-  const EquationErrorResult& ee = r.equation_error;
-  nlohmann::json eej;
-  eej["fit_error"] = finite_or_null(ee.fit_error);
-  eej["r_squared"] = finite_or_null(ee.r_squared);
-  eej["n_samples"] = ee.n_samples;
-  eej["correlation_lag"] = ee.correlation_lag;
-  eej["state_derivative"] = state_derivative_name(ee.state_derivative);
-  eej["parameters"] = nlohmann::json::array();
-  for (const ParameterEstimate& p : ee.parameters) eej["parameters"].push_back(parameter_json(p));
-  eej["stepwise"] = stepwise_json(ee.stepwise);
-  j["equation_error"] = eej;
+  j["equation_error"] = equation_error_json(r.equation_error);
   j["rotary"] = rotary_json(r.model.coefficients[0], e);
   j["runs"] = nlohmann::json::array();
   for (std::size_t ri = 0; ri < r.runs.size(); ++ri) {
