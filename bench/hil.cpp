@@ -48,6 +48,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <string>
 #include <thread>
 #include <vector>
@@ -202,6 +203,11 @@ struct LoopModel {
 LoopModel read_loop_model(const std::string& path) {
   LoopModel m;
   if (path.empty()) return m;
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) {
+    std::fprintf(stderr, "hil: %s: is a directory, expected a coefficient file (.coef)\n", path.c_str());
+    std::exit(1);
+  }
   FILE* f = std::fopen(path.c_str(), "rb");
   if (f == nullptr) {
     std::fprintf(stderr, "hil: %s: cannot open file (does it exist?)\n", path.c_str());

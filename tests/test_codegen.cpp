@@ -250,6 +250,18 @@ TEST_CASE("codegen refuses damaged files with file:line: reason, and existing ou
   CHECK_HAS(out, "has a part 'class' that is a C++ keyword");
   CHECK(run("codegen \"" + good + "\" --out \"" + hpp + "\" --name x --namespace ::sim --force", &out) == 1);
   CHECK_HAS(out, "--namespace");
+  // A CRLF copy of the file (git autocrlf) generates from the same model and names the file's
+  // own checksum, not the CRC of its CRLF bytes.
+  {
+    const std::string lf = indicial::read_text(good);
+    std::string crlf;
+    for (char ch : lf) crlf += ch == '\n' ? std::string("\r\n") : std::string(1, ch);
+    const std::string crlf_file = (dir / "crlf.coef").string();
+    indicial::write_file_atomically(crlf_file, crlf, indicial::Overwrite::refuse);
+    CHECK(run("codegen \"" + crlf_file + "\" --out \"" + (dir / "crlf.hpp").string() + "\"", &out) == 0);
+    const std::string sum = lf.substr(lf.rfind("checksum ") + 9, 8);
+    CHECK_HAS(indicial::read_text((dir / "crlf.hpp").string()), "crlf.coef (checksum " + sum + ")");
+  }
   CHECK(run("codegen \"" + keyword_file + "\" --out \"" + (dir / "k.hpp").string() + "\" --name default_model", &out) == 0);
 
   // An unstable model (b1 < 0 somewhere) is refused like Predictor::load refuses it.

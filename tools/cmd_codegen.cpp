@@ -22,6 +22,7 @@
 #include <algorithm>
 #include <charconv>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -344,8 +345,11 @@ void run_codegen(const CodegenOptions& o) {
     throw InputError(o.model_path, static_cast<long>(diag.line),
                      std::string(diag.reason) + " (" + to_string(st) + ")");
   }
+  // The file's own checksum line (the parse above accepted it: 8 hex digits), not a CRC of its
+  // bytes, which differs for a CRLF copy of an LF-signed file (coef_file.hpp's crc32_lf).
   const std::size_t at = text.rfind("checksum ");
-  const std::uint32_t crc = crc32(text.data(), at == std::string::npos ? 0 : at);
+  const std::uint32_t crc =
+      at == std::string::npos ? 0u : static_cast<std::uint32_t>(std::strtoul(text.c_str() + at + 9, nullptr, 16));
   const std::string source = std::filesystem::path(o.model_path).filename().string();
   // The usage comment includes the header by the name it is written under (it said
   // `<identifier>.hpp` whatever --out named).
