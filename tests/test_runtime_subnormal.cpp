@@ -143,7 +143,7 @@ TEST_CASE("a held angle in a batch: no lane's lag state is ever subnormal, and t
     REQUIRE(indicial::step_batch(model, batch.data(), n, angle.data(), rate.data(), airspeed.data(), 0.05,
                                  out.data()) == StepStatus::ok);
     for (std::size_t i = 0; i < n; ++i) {
-      double o[1];
+      double o[indicial::DefaultCapacity::max_coefficients];  // as step may write: the capacity
       REQUIRE(stepped(indicial::step(model, single[i], {angle[i], 0.0, airspeed[i]}, 0.05, o)));
       for (const auto& y : batch[i].y[0]) worst = std::max(worst, subnormal(y) ? 1 : 0);
       if (k == 39999) CHECK(batch[i].y[0][0] == single[i].y[0][0]);
