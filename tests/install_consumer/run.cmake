@@ -46,9 +46,11 @@ if(NM)
   endforeach()
   message(STATUS "libindicial_c.so exports ${count} symbols, all indicial_*")
 endif()
-# Python ctypes loads the installed shared library and reads a model through it.
+# Python ctypes loads the installed shared library and reads a model through it. Not in a
+# sanitizer build: a library built with -fsanitize=address cannot be loaded into an
+# interpreter that was not started with the ASan runtime ("ASan runtime does not come first").
 find_program(PYTHON3 python3)
-if(PYTHON3)
+if(PYTHON3 AND NOT LINKER_FLAGS MATCHES "sanitize")
   run(${PYTHON3} -c "import ctypes, sys
 lib = ctypes.CDLL(sys.argv[1])
 lib.indicial_model_bytes.restype = ctypes.c_size_t
