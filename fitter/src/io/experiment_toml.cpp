@@ -319,16 +319,27 @@ std::vector<RunEntry> read_run_entries(LoadContext& c, const toml::table& root, 
   return entries;
 }
 
-// [columns]: our column name = the file's name.
-void read_columns_section(LoadContext& c, const toml::node* node) {
-  if (!node) return;
-  const TomlReader& r = c.r;
-  for (auto&& [key, value] : r.table(*node, "columns")) {
+// A column map (`[columns]`, `[static] columns`): our column name = the file's name, into *out.
+void read_column_map(const TomlReader& r, const toml::node& node, const std::string& key_name,
+                     std::map<std::string, std::string>* out) {
+  for (auto&& [key, value] : r.table(node, key_name)) {
     const std::string ours(key.str());
-    const std::string theirs = r.string(value, "columns." + ours);
-    if (theirs.empty()) r.fail(value, "'columns." + ours + "' is empty: name the file's column");
-    c.columns[ours] = theirs;
+    const std::string theirs = r.string(value, key_name + "." + ours);
+    if (theirs.empty()) r.fail(value, "'" + key_name + "." + ours + "' is empty: name the file's column");
+    (*out)[ours] = theirs;
   }
+}
+
+// [columns]: the runs' (and, without [static] columns, the static table's) column map.
+void read_columns_section(LoadContext& c, const toml::node* node) {
+  if (node) read_column_map(c.r, *node, "columns", &c.columns);
+}
+
+// The static table's column map: [columns] with [static] columns over it.
+ColumnMap static_table_column_map(const ColumnMap& runs, const StaticConfig& table) {
+  ColumnMap columns = runs;
+  for (const auto& [ours, theirs] : table.table_columns) columns[ours] = theirs;
+  return columns;
 }
 
 // [csv]: the run files' delimiter and comment characters (CsvDialect; detected by default).
@@ -364,23 +375,6 @@ void read_table_lift_polar(const std::string& path, const LoadContext& c, const 
   e.table_lift_polar.path = path;
 }
 
-// The static table's column map: [columns] (the runs') with [static] columns over it
-// (e.static_curve.table_columns keeps the latter for write_experiment_toml).
-ColumnMap static_table_columns(const LoadContext& c, const toml::table& st, Experiment& e) {
-  ColumnMap columns = c.columns;
-  const toml::node* node = st.get("columns");
-  if (!node) return columns;
-  const TomlReader& r = c.r;
-  for (auto&& [key, value] : r.table(*node, "static.columns")) {
-    const std::string ours(key.str());
-    const std::string theirs = r.string(value, "static.columns." + ours);
-    if (theirs.empty()) r.fail(value, "'static.columns." + ours + "' is empty: name the table's column");
-    columns[ours] = theirs;
-    e.static_curve.table_columns[ours] = theirs;
-  }
-  return columns;
-}
-
 void read_static_section(LoadContext& c, const toml::table& root, const toml::node* section, Experiment& e) {
   const TomlReader& r = c.r;
   if (!section) {
@@ -409,7 +403,8 @@ void read_static_section(LoadContext& c, const toml::table& root, const toml::no
   } else {
     c.static_where = table->source();
     const std::string tp = c.resolve(r.string(*table, "static.table"));
-    const ColumnMap columns = static_table_columns(c, st, e);
+    if (const toml::node* n = st.get("columns")) read_column_map(r, *n, "static.columns", &e.static_curve.table_columns);
+    const ColumnMap columns = static_table_column_map(c.columns, e.static_curve);
     read_static_table(tp, e.axis, e.coefficient, e.static_curve, columns, c.dialect);
     read_table_lift_polar(tp, c, columns, e);
     c.capacity.push_back({{"static.table", "rows ('" + tp + "')", static_cast<int>(e.static_curve.table_x_rad.size()),
@@ -697,9 +692,8 @@ void read_stall_keys(LoadContext& c, const toml::node* model_node, Experiment& e
     s.polar_path = c.resolve(r.string(*n, "model.stall_polar"));
     StaticConfig polar;
     // The static table named again as the polar is read with its own column names.
-    ColumnMap polar_columns = c.columns;
-    if (s.polar_path == e.static_curve.table_path)
-      for (const auto& [ours, theirs] : e.static_curve.table_columns) polar_columns[ours] = theirs;
+    const ColumnMap polar_columns =
+        s.polar_path == e.static_curve.table_path ? static_table_column_map(c.columns, e.static_curve) : c.columns;
     read_static_table(s.polar_path, e.axis, s.polar_column, polar, polar_columns, c.dialect);
     s.polar_x_rad = polar.table_x_rad;
     s.polar_lift = polar.table_value;
