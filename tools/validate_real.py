@@ -5,13 +5,15 @@ Called by tools/validate-real.sh (read that first). Standard library only. For e
 choice and coefficient (CL, Cm) it writes an experiment file in a scratch directory whose runs
 point at the data directory's own files (nothing is copied), runs `indicial fit` (the
 configured model) and `indicial diagnose` (leave-one-run-out with three runs), and predicts
-every cycle of the catalogue that is not a training cycle at its periodic steady state
+every other cycle of the catalogue that is not quasi-static at its periodic steady state
 (`indicial predict --periodic --experiment`). Per cycle: RMS of each model column and of the
-quasi-steady model. The models after each diagnose step come from `--max-steps k`.
+quasi-steady model. The models after each diagnose step come from `--max-steps k`. The
+training cycles, the polar's cycles and the regimes are chosen by the rules of
+tools/cycle_catalog.py, never by cycle id: `python3 tools/validate_real.py --choices DIR` prints
+what the study would train on.
 
-Columns are a list (MODEL_COLUMNS below, built per training choice): another study adds a
-column by appending (label, coefficient file) -- the extended dynamic-stall model, or a peer
-read from bl-reference.csv (PEER_COLUMNS).
+Columns are a list (`columns` in main(), one per model: the configured fit, then one per
+diagnose step): another study adds a column by appending (label, coefficient file).
 """
 import csv
 import json
@@ -21,92 +23,60 @@ import subprocess
 import sys
 import time
 
-DATA = os.path.abspath(sys.argv[1])
-EXE = os.path.abspath(sys.argv[2])
-SCRATCH = os.path.abspath(sys.argv[3])
-OUT_MD = sys.argv[4]
+import cycle_catalog
 
-CHORD_M = 0.55
-L_REF_M = CHORD_M / 2.0  # the README: l = c / 2 in pitch
+CHOICES_ONLY = len(sys.argv) == 3 and sys.argv[1] == "--choices"
+if not CHOICES_ONLY and len(sys.argv) != 5:
+    sys.exit("usage: validate_real.py DIR INDICIAL SCRATCH OUT.md | validate_real.py --choices DIR")
+DATA = os.path.abspath(sys.argv[2] if CHOICES_ONLY else sys.argv[1])
+EXE = None if CHOICES_ONLY else os.path.abspath(sys.argv[2])
+SCRATCH = None if CHOICES_ONLY else os.path.abspath(sys.argv[3])
+OUT_MD = None if CHOICES_ONLY else sys.argv[4]
 
-# Training choices (the issue's two): three cycles of one frequency sweep, and cycles across
-# mean angles at one reduced frequency. Campaign 4, amplitude 10 deg (the peer's cycles).
-TRAINING = [
-    ("sweep", "one frequency sweep: mean 15 deg, amplitude 10 deg, k = 0.05, 0.10, 0.15",
-     lambda c: c["campaign"] == 4 and c["mean"] == 15.0 and c["amp"] == 10.0 and
-     any(abs(c["k"] - k) < 0.006 for k in (0.0497, 0.1005, 0.1515))),
-    # Means 6, 8, 15 rather than 4: the mean-4 cycle reaches -6.49 deg, below the quasi-static
-    # polar's lowest bin (-6 deg), and fit refuses a static table that does not cover its runs.
-    ("means", "across mean angles: amplitude 10 deg, k = 0.10, means 6, 8 and 15 deg",
-     lambda c: c["campaign"] == 4 and c["amp"] == 10.0 and abs(c["k"] - 0.1005) < 0.003 and
-     c["mean"] in (6.0, 8.0, 15.0)),
-]
-
-
-def read_catalog():
-    rows = []
-    with open(os.path.join(DATA, "catalog.csv")) as f:
-        for r in csv.DictReader(f):
-            rows.append({"id": r["id"], "campaign": int(r["campaign"]), "mean": float(r["mean_deg"]),
-                         "amp": float(r["amplitude_deg"]), "f": float(r["frequency_hz"]),
-                         "k": float(r["reduced_frequency"]), "v": float(r["airspeed_mps"])})
-    return rows
+# The reference length in pitch: the chord's half (the development set's README: c = 0.55 m).
+# Another database in this layout with another chord: INDICIAL_CHORD_M.
+CHORD_M = float(os.environ.get("INDICIAL_CHORD_M", "0.55"))
+L_REF_M = CHORD_M / 2.0
 
 
 def cycle_file(c):
-    return os.path.join(DATA, "cycles", c["id"] + "_coeffs.dat")
-
-
-def read_cycle(c):
-    """alpha (deg), Cn, Ct, Cm of one cycle, as the database stores them."""
-    a, cn, ct, cm = [], [], [], []
-    with open(cycle_file(c)) as f:
-        for line in f:
-            s = line.split()
-            if not s or s[0].startswith("%"):
-                continue
-            a.append(float(s[1]))
-            cn.append(float(s[2]))
-            ct.append(float(s[3]))
-            cm.append(float(s[4]))
-    return a, cn, ct, cm
-
-
-def regime(c):
-    """Flow regime by the cycle's peak angle (static stall of this airfoil at these Reynolds
-    numbers is near 13 deg): attached below 13 deg, deep stall from 22 deg, light between."""
-    peak = c["mean"] + c["amp"]
-    return "attached" if peak < 13.0 else ("deep" if peak >= 22.0 else "light")
+    return cycle_catalog.cycle_path(DATA, c)
 
 
 def static_table(catalog, path):
-    """The static polar: upstrokes (alpha increasing) of every k ~ 0.010 cycle, Cn, Ct and Cm
-    averaged in 1 deg bins (the runtime holds 64 rows at most); written in the database's own layout (a % header, whitespace), so
-    that the experiment's [columns] read it as they read the cycles (CL derived from Cn, Ct)."""
-    bins = {}
-    n_cycles = 0
-    for c in catalog:
-        if c["k"] > 0.011:
-            continue
-        n_cycles += 1
-        a, cn, ct, cm = read_cycle(c)
-        n = len(a)
-        for i in range(n):
-            if a[(i + 1) % n] - a[i - 1] <= 0.0:
-                continue  # the downstroke
-            b = float(round(a[i]))
-            s = bins.setdefault(b, [0.0, 0.0, 0.0, 0])
-            s[0] += cn[i]
-            s[1] += ct[i]
-            s[2] += cm[i]
-            s[3] += 1
+    """The static polar: upstrokes (alpha increasing) of the quasi-static cycles
+    (cycle_catalog.polar_cycles), Cn, Ct and Cm averaged in 1 deg bins (the runtime holds 64
+    rows at most); written in the database's own layout (a % header, whitespace), so that the
+    experiment's [columns] read it as they read the cycles (CL derived from Cn, Ct). Returns the
+    first and last rows' angles, the rows, the sentence naming the source, the stall angle."""
+    cycles, source = cycle_catalog.polar_cycles(catalog)
+    bins = cycle_catalog.upstroke_bins(DATA, cycles)
     with open(path, "w") as f:
         f.write("% Angle(deg) Cn Ct Cm\n")
         for b in sorted(bins):
             s = bins[b]
-            f.write(f"{b} {s[0] / s[3]:.6g} {s[1] / s[3]:.6g} {s[2] / s[3]:.6g}\n")
+            f.write(f"{b} {s[1] / s[0]:.6g} {s[2] / s[0]:.6g} {s[3] / s[0]:.6g}\n")
     keys = sorted(bins)
-    return keys[0], keys[-1], len(keys), n_cycles
+    return keys[0], keys[-1], len(keys), source, cycle_catalog.stall_angle_deg(bins)
+
+
+def training_choices(catalog, static_info):
+    """The issue's two training choices, by cycle_catalog's rules: three cycles of one frequency
+    sweep, and three cycles across mean angles."""
+    lo, hi, _, _, stall = static_info
+    sweep, group = cycle_catalog.choose_sweep(DATA, catalog, stall, lo, hi)
+    means = cycle_catalog.choose_means(DATA, catalog, group, [c["k"] for c in sweep], lo, hi)
+    m = means[0]
+    return [
+        ("sweep", f"one frequency sweep: campaign {group[0]}, mean {group[1]:g} deg, amplitude {group[2]:g} deg, "
+                  "k = " + ", ".join(f"{c['k']:.3f}" for c in sweep), sweep),
+        ("means", f"across mean angles: campaign {m['campaign']}, amplitude {m['amp']:g} deg, k = {m['k']:.3f}, "
+                  "means " + ", ".join(f"{c['mean']:g}" for c in means) + " deg", means),
+    ]
+
+
+def peak_deg(c):
+    return cycle_catalog.measured_range_deg(DATA, c)[1]
 
 
 def experiment_toml(coef, runs, static_csv, v_ref, knots):
@@ -163,20 +133,34 @@ def predict_rms(model, c, exp_path, work):
     return co["model"]["rms_error"], co["quasi_steady"]["rms_error"]
 
 
+def print_choices():
+    import tempfile
+    catalog = cycle_catalog.read_catalog(DATA)
+    with tempfile.TemporaryDirectory() as tmp:
+        info = static_table(catalog, os.path.join(tmp, "static.dat"))
+    print(f"static polar: {info[3]}; {info[2]} rows, {info[0]:g} to {info[1]:g} deg; stall angle {info[4]:g} deg")
+    print("regimes: " + cycle_catalog.regime_rule(info[4]))
+    for name, label, train in training_choices(catalog, info):
+        print(f"{name}: {label}: " + ", ".join(c["id"] for c in train))
+
+
 def main():
+    if CHOICES_ONLY:
+        print_choices()
+        return
     t0 = time.time()
-    catalog = read_catalog()
+    catalog = cycle_catalog.read_catalog(DATA)
     os.makedirs(SCRATCH, exist_ok=True)
     static_csv = os.path.join(SCRATCH, "static.dat")
     static_info = static_table(catalog, static_csv)
     sections = []
-    for name, label, pick in TRAINING:
-        train = [c for c in catalog if pick(c)]
+    for name, label, train in training_choices(catalog, static_info):
         train_ids = {c["id"] for c in train}
-        held = [c for c in catalog if c["id"] not in train_ids]
+        # Held out: every other cycle except the quasi-static ones (the polar's source).
+        held = [c for c in catalog if c["id"] not in train_ids and not cycle_catalog.is_quasi_static(c)]
         v_ref = round(sum(c["v"] for c in train) / len(train), 3)
-        a_lo = min(c["mean"] - c["amp"] for c in train)
-        a_hi = max(c["mean"] + c["amp"] for c in train)
+        a_lo = min(cycle_catalog.measured_range_deg(DATA, c)[0] for c in train)
+        a_hi = max(peak_deg(c) for c in train)
         # a(x) knots every 5 deg inside the training range (a generic grid, not tuned).
         knots = [k for k in range(0, 40, 5) if a_lo + 2.0 < k < a_hi - 2.0]
         for coef in ("CL", "Cm"):
@@ -219,22 +203,29 @@ def main():
 
 
 def write_md(sections, static_info, seconds):
-    lo, hi, nrows, n_cycles = static_info
+    lo, hi, nrows, source, stall_deg = static_info
+    regime = lambda c: cycle_catalog.regime(peak_deg(c), stall_deg)
     out = []
     w = out.append
     w("# Validation on measured cycles (issue 21)\n")
-    w("Written by `tools/validate-real.sh DIR` (do not edit by hand; rerun it). Data: 186 ensemble-averaged "
-      "pitching cycles of a NACA 0012 wing section, University of Glasgow dynamic-stall database (Green, R. B. & "
-      "Giuni, M., \"Dynamic stall database R and D 1570-AM-01: Final Report\", University of Glasgow, 2017; as "
-      "stored in the public repository luizpancini/BL-DSM-JFS-2021, folder \"Glasgow Data\"), campaigns 4-6. The "
-      "data are not in this repository: the script reads them from DIR.\n")
-    w(f"Static polar (the same for every column): the upstrokes of the {n_cycles} k ~ 0.010 cycles "
-      f"(quasi-static), CL = Cn cos(alpha) + Ct sin(alpha), averaged in 1 deg bins: {nrows} rows, {lo} to {hi} "
-      "deg. Model: one lag, a(x) of degree 2 with knots every 5 deg inside the training cycles' angle range, b1 "
-      "constant, C_aq = 0 a priori (not estimated): the configured model. `indicial diagnose` (three runs: "
-      "leave-one-run-out) adds effects to it. Every non-training cycle is predicted at its periodic steady state "
-      "(`indicial predict --periodic`) and scored by RMS over its 128 samples. Regimes by the peak angle "
-      "(mean + amplitude): attached < 13 deg, light stall 13-22 deg, deep stall >= 22 deg.\n")
+    campaigns = sorted({c["campaign"] for _, _, _, train, *_ in sections for c in train} |
+                       {r["c"]["campaign"] for *_, rows in sections for r in rows})
+    n_held = len(sections[0][-1]) if sections else 0
+    w("Written by `tools/validate-real.sh DIR` (do not edit by hand; rerun it). Data: the pitching cycles of DIR's "
+      f"catalog.csv (campaigns {', '.join(campaigns)}); for the committed file DIR is the development set: "
+      "ensemble-averaged pitching cycles of a NACA 0012 wing section, University of Glasgow dynamic-stall database "
+      "(Green, R. B. & Giuni, M., \"Dynamic stall database R and D 1570-AM-01: Final Report\", University of "
+      "Glasgow, 2017; as stored in the public repository luizpancini/BL-DSM-JFS-2021, folder \"Glasgow Data\"). "
+      "The data are not in this repository: the script reads them from DIR. Every choice below (the polar's cycles, "
+      "the training cycles, the regimes) is a rule on the catalog stated in tools/cycle_catalog.py, not a list of "
+      "cycles: the script runs unchanged on another campaign or database in the same layout.\n")
+    w(f"Static polar (the same for every column): {source}, CL = Cn cos(alpha) + Ct sin(alpha), averaged in 1 deg "
+      f"bins: {nrows} rows, {lo:g} to {hi:g} deg; static stall angle (largest lift) {stall_deg:g} deg. Model: one "
+      "lag, a(x) of degree 2 with knots every 5 deg inside the training cycles' angle range, b1 constant, C_aq = 0 "
+      "a priori (not estimated): the configured model. `indicial diagnose` (three runs: leave-one-run-out) adds "
+      f"effects to it. Every other cycle that is not quasi-static ({n_held}) is predicted at its periodic steady "
+      "state (`indicial predict --periodic`) and scored by RMS over its samples. Regimes by the cycle's largest "
+      f"measured angle: {cycle_catalog.regime_rule(stall_deg)}.\n")
     w(f"Total wall time of the study: {seconds:.0f} s (nice, shared 2-core machine).\n")
     for name, label, coef, train, knots, dj, t_diag, columns, rows in sections:
         w(f"## Training `{name}` ({label}): {coef}\n")

@@ -3,8 +3,11 @@
 
 Usage: tools/validate-stall.sh DATA_DIR [INDICIAL] > docs/validation-stall.md
        python3 tools/validate_stall.py --static-polar DATA_DIR static.csv   (the polar only)
+       python3 tools/validate_stall.py --choices DATA_DIR   (what it would fit and hold out)
 DATA_DIR is the Glasgow development set (README there: Green & Giuni, University of Glasgow
-dynamic-stall database, campaigns 4-6); nothing of it is copied into the repository. The
+dynamic-stall database, campaigns 4-6) or any directory in its layout (tools/cycle_catalog.py:
+every choice below is a rule on the catalog; the numbers in brackets are what the rules give
+on the development set); nothing of it is copied into the repository. The
 script writes every intermediate file into a temporary directory, runs `indicial fit` and
 `indicial predict`, and prints the Markdown report on stdout.
 
@@ -12,19 +15,22 @@ What it does (every choice is stated in the report it prints):
  1. Runs: each cycle's phase (rad), Angle (deg), CL = Cn cos(alpha) + Ct sin(alpha) and Cm,
     as phase-averaged run CSVs (phase_rad column, periodic), at the catalog's airspeed and
     frequency.
- 2. The static polar: the 15 campaign-4 cycles at k = 0.010 (quasi-static), the UPSTROKE
+ 2. The static polar: the quasi-static cycles (k <= 0.015; cycle_catalog.polar_cycles, which
+    says what it does without any) [the 15 campaign-4 cycles at k = 0.010], the UPSTROKE
     samples only (the angle rising: the data's README suggests upstrokes; a downstroke's flow
     stays separated below the static stall angle and reattaches late, so pooling both strokes
     puts that hysteresis into the static curve: measured, it raised the quasi-steady C_m error
     of the attached held-out cycles from 0.0195 to 0.0239), in 1-deg bins of the measured angle
     (bin mean of CL and Cm; bins with fewer than 4 samples dropped), held at the end values one
     row 4 deg beyond each end: static.csv with alpha_deg, CL, Cm.
- 3. Fit cycles: campaigns 5 and 6 (amplitude 8 deg), one cycle per (campaign, mean angle,
-    reduced frequency to 0.025); held-out cycles: the 35 campaign-4 cycles of amplitude 10 deg
-    that the Beddoes-Leishman peer was run on (bl-reference.csv) -- another campaign and
-    another amplitude than the fit.
+ 3. Held-out and fit cycles by choose_cycles' rule: held out, the cycles the Beddoes-Leishman
+    peer was run on (bl-reference.csv; without that file, a campaign) [the 35 campaign-4 cycles
+    of amplitude 10 deg]; fit, the other campaigns' non-quasi-static cycles, one per (campaign,
+    mean angle, amplitude, reduced frequency to 0.025) [104 cycles of campaigns 5 and 6,
+    amplitude 8 deg] -- another campaign and another amplitude than the fit.
  4. Four models per coefficient: quasi-steady (the static table alone), the report's model
-    (a(x) of degree 2 with knots at 12 and 16 deg, b1 constant), the extended model (the
+    (a(x) of degree 2 with knots 3 deg below and 1 deg above the polar's stall angle [12 and
+    16 deg], b1 constant; V_ref the fit cycles' median airspeed to 5 m/s [40]), the extended model (the
     same plus the separation and vortex families, stall = "separation_and_vortex", every stall
     parameter free: holding C_m's T1, T2 at the extended C_L fit's values (model.stall_known, as
     Beddoes-Leishman's moment does) raised the C_m fit error from 0.0461 to 0.0537; plus a
@@ -44,7 +50,7 @@ What it does (every choice is stated in the report it prints):
     104 runs the ten folds guard the choice and the time is affordable), its final model.coef.
  5. Per held-out cycle: RMS of prediction minus measurement over the 128 samples (the
     periodic steady state, `indicial predict --periodic`), grouped by the cycle's largest
-    angle: attached < 15 deg <= light stall < 22 deg <= deep stall.
+    angle (cycle_catalog.regime) [attached < 15 deg <= light stall < 22 deg <= deep stall].
 """
 import csv
 import json
@@ -54,22 +60,16 @@ import subprocess
 import sys
 import tempfile
 import time
-from collections import defaultdict
+
+import cycle_catalog
 
 L_M = 0.275  # reference length: half the 0.55 m chord
 KINDS = ('report', 'extended', 'diagnosed')
 
 
 def read_cycle(path):
-    rows = []
-    with open(path) as f:
-        for line in f:
-            if line.startswith('%') or not line.strip():
-                continue
-            ph, a, cn, ct, cm = (float(v) for v in line.split()[:5])
-            ar = math.radians(a)
-            rows.append((ph, a, cn * math.cos(ar) + ct * math.sin(ar), cm))
-    return rows
+    """(phase_rad, alpha_deg, CL, Cm) per row: CL = Cn cos(alpha) + Ct sin(alpha)."""
+    return [(ph, a, cl, cm) for ph, a, _, _, cm, cl in cycle_catalog.read_cycle(path)]
 
 
 def write_run(path, rows):
@@ -81,19 +81,12 @@ def write_run(path, rows):
 
 
 def static_polar(data, catalog, out):
-    bins = defaultdict(lambda: [0, 0.0, 0.0])
-    for c in catalog:
-        if c['campaign'] == '4' and float(c['reduced_frequency']) < 0.015:
-            rows = read_cycle(os.path.join(data, 'cycles', f"{c['id']}_coeffs.dat"))
-            n = len(rows)
-            for i, (_, a, cl, cm) in enumerate(rows):
-                if rows[(i + 1) % n][1] - rows[i - 1][1] <= 0.0:
-                    continue  # the downstroke: its separated flow reattaches late (hysteresis)
-                b = bins[round(a)]
-                b[0] += 1
-                b[1] += cl
-                b[2] += cm
-    rows = sorted((k, v[1] / v[0], v[2] / v[0]) for k, v in bins.items() if v[0] >= 4)
+    """The polar (cycle_catalog.polar_cycles: the quasi-static cycles' upstrokes) in 1-deg bins
+    of >= 4 samples, held at its end values one row 4 deg beyond each end; written as
+    alpha_deg, CL, Cm. Returns the rows, the sentence naming the source, the stall angle."""
+    cycles, source = cycle_catalog.polar_cycles(catalog)
+    bins = cycle_catalog.upstroke_bins(data, cycles)
+    rows = sorted((a, b[4] / b[0], b[3] / b[0]) for a, b in bins.items() if b[0] >= cycle_catalog.MIN_BIN_SAMPLES)
     # Beyond the measured bins the polar is held at its end values (what the runtime does with
     # a table outside its rows), 4 deg further, so that the table covers every fit cycle.
     rows = [(rows[0][0] - 4, rows[0][1], rows[0][2])] + rows + [(rows[-1][0] + 4, rows[-1][1], rows[-1][2])]
@@ -101,16 +94,57 @@ def static_polar(data, catalog, out):
         f.write('alpha_deg,CL,Cm\n')
         for a, cl, cm in rows:
             f.write(f'{a:.1f},{cl:.6f},{cm:.6f}\n')
-    return rows
+    return rows, source, cycle_catalog.stall_angle_deg(bins)
 
 
-def experiment(path, coefficient, runs, stall, vref):
+def choose_cycles(data, catalog):
+    """Held out: the peer's cycles (bl-reference.csv) when the directory has the peer's file,
+    else every non-quasi-static cycle of the catalog's first campaign (another catalog: a
+    campaign never seen by the fit); with one campaign only, every third cycle. Fit: the
+    non-quasi-static cycles of the campaigns that hold no held-out cycle (with one campaign,
+    the rest), one per (campaign, mean, amplitude, reduced frequency to 0.025)."""
+    peer_path = os.path.join(data, 'bl-reference.csv')
+    bl = {}
+    if os.path.exists(peer_path):
+        with open(peer_path) as f:
+            bl = {r['id']: r for r in csv.DictReader(f)}
+    moving = [c for c in catalog if not cycle_catalog.is_quasi_static(c)]
+    campaigns = sorted({c['campaign'] for c in moving})
+    if bl:
+        held = [c for c in moving if c['id'] in bl]
+    elif len(campaigns) > 1:
+        held = [c for c in moving if c['campaign'] == campaigns[0]]
+    else:
+        held = moving[::3]
+    held_ids = {c['id'] for c in held}
+    held_campaigns = {c['campaign'] for c in held}
+    pool = [c for c in moving if c['id'] not in held_ids and
+            (len(campaigns) == 1 or c['campaign'] not in held_campaigns)]
+    fit, seen = [], set()
+    for c in pool:
+        key = (c['campaign'], c['mean'], c['amp'], round(c['k'] / 0.025))
+        if key not in seen:
+            seen.add(key)
+            fit.append(c)
+    if not held or not fit:
+        raise SystemExit(f'{data}: no held-out or no fit cycles by the rule of choose_cycles')
+    return fit, held, bl
+
+
+def describe(cycles):
+    camp = sorted({c['campaign'] for c in cycles})
+    amps = sorted({c['amp'] for c in cycles})
+    return (f"{len(cycles)} cycles of campaign{'s' if len(camp) > 1 else ''} {', '.join(camp)} "
+            f"(amplitude{'s' if len(amps) > 1 else ''} {', '.join(f'{a:g}' for a in amps)} deg)")
+
+
+def experiment(path, coefficient, runs, stall, vref, knots):
     lines = [f'axis = "pitch"', f'coefficient = "{coefficient}"', f'reference_length_m = {L_M}',
              f'airspeed_mps = {vref}', 'runs = [']
     for r in runs:
         lines.append(f'  {{file = "{r["file"]}", frequency_hz = {r["f"]}, airspeed_mps = {r["v"]}}},')
     lines += [']', '', '[static]', 'table = "static.csv"', '', '[model]', 'a_degree = 2',
-              'a_knots_deg = [12.0, 16.0]', 'b1_degree = 0']
+              f'a_knots_deg = [{knots[0]:.1f}, {knots[1]:.1f}]', 'b1_degree = 0']
     if stall:
         lines += ['stall = "separation_and_vortex"', 'stall_polar = "static.csv"', 'stall_polar_column = "CL"',
                   'rotary_correction_powers = [0]']
@@ -136,30 +170,44 @@ def main():
     if len(sys.argv) == 4 and sys.argv[1] == '--static-polar':
         # Only the static polar (step 2 above), as a [static] table / model.stall_polar CSV.
         data = sys.argv[2]
-        catalog = list(csv.DictReader(open(os.path.join(data, 'catalog.csv'))))
+        catalog = cycle_catalog.read_catalog(data)
         static_polar(data, catalog, sys.argv[3])
+        return
+    if len(sys.argv) == 3 and sys.argv[1] == '--choices':
+        # What the study would fit and hold out, without running anything.
+        data = sys.argv[2]
+        catalog = cycle_catalog.read_catalog(data)
+        with tempfile.TemporaryDirectory() as tmp:
+            polar, source, stall_deg = static_polar(data, catalog, os.path.join(tmp, 'static.csv'))
+        fit, held, bl = choose_cycles(data, catalog)
+        print(f'static polar: {source}; {len(polar)} rows; stall angle {stall_deg:g} deg')
+        print(f'fit: {describe(fit)}: ' + ' '.join(c['id'] for c in fit))
+        print(f'held out: {describe(held)}' + (' (the peer\'s cycles)' if bl else '') + ': ' +
+              ' '.join(c['id'] for c in held))
         return
     data = sys.argv[1]
     exe = sys.argv[2] if len(sys.argv) > 2 else 'indicial'
-    catalog = list(csv.DictReader(open(os.path.join(data, 'catalog.csv'))))
-    bl = {r['id']: r for r in csv.DictReader(open(os.path.join(data, 'bl-reference.csv')))}
+    catalog = cycle_catalog.read_catalog(data)
     work = tempfile.mkdtemp(prefix='indicial-stall-')
-    polar = static_polar(data, catalog, os.path.join(work, 'static.csv'))
-    fit_runs, seen = [], set()
-    for c in catalog:
-        key = (c['campaign'], c['mean_deg'], round(float(c['reduced_frequency']) / 0.025))
-        if c['campaign'] in ('5', '6') and key not in seen:
-            seen.add(key)
-            name = f"fit_{c['id']}.csv"
-            write_run(os.path.join(work, name), read_cycle(os.path.join(data, 'cycles', f"{c['id']}_coeffs.dat")))
-            fit_runs.append({'file': name, 'f': float(c['frequency_hz']), 'v': float(c['airspeed_mps'])})
-    vref = 40.0
-    held = [c for c in catalog if c['id'] in bl]
+    polar, source, stall_deg = static_polar(data, catalog, os.path.join(work, 'static.csv'))
+    fit, held, bl = choose_cycles(data, catalog)
+    fit_runs = []
+    for c in fit:
+        name = f"fit_{c['id']}.csv"
+        write_run(os.path.join(work, name), read_cycle(cycle_catalog.cycle_path(data, c)))
+        fit_runs.append({'file': name, 'f': c['f'], 'v': c['v']})
+    # V_ref: the fit cycles' median airspeed to 5 m/s (40 on the development set); it sets only
+    # the units of b1 (1/s at V_ref), not the model.
+    speeds = sorted(c['v'] for c in fit)
+    vref = 5.0 * round(speeds[len(speeds) // 2] / 5.0)
+    # The report model's a(x) knots: 3 deg below and 1 deg above the static stall angle (12 and
+    # 16 deg on the development set, where they were chosen on the fit cycles).
+    knots = (stall_deg - 3.0, stall_deg + 1.0)
     models = {}
     for coef in ('CL', 'Cm'):
         for kind, stall in (('report', False), ('extended', True)):
             exp = os.path.join(work, f'exp-{coef}-{kind}.toml')
-            experiment(exp, coef, fit_runs, stall, vref)
+            experiment(exp, coef, fit_runs, stall, vref, knots)
             out = os.path.join(work, f'fit-{coef}-{kind}')
             ok = run([exe, 'fit', exp, '--out', out, '--no-plots', '--quiet'])
             models[(coef, kind)] = os.path.join(out, 'model.coef') if ok else None
@@ -178,13 +226,13 @@ def main():
             models[(coef, 'diagnosed', 'json')] = dj
     results = []
     for c in held:
-        rows = read_cycle(os.path.join(data, 'cycles', f"{c['id']}_coeffs.dat"))
+        rows = read_cycle(cycle_catalog.cycle_path(data, c))
         path = os.path.join(work, f"held_{c['id']}.csv")
         write_run(path, rows)
-        amax = max(r[1] for r in rows)
-        regime = 'attached' if amax < 15 else 'light' if amax < 22 else 'deep'
-        res = {'id': c['id'], 'mean': float(c['mean_deg']), 'k': float(c['reduced_frequency']), 'regime': regime,
-               'bl_CL': float(bl[c['id']]['bl_rms_CL']), 'bl_Cm': float(bl[c['id']]['bl_rms_Cm'])}
+        regime = cycle_catalog.regime(max(r[1] for r in rows), stall_deg)
+        peer = bl.get(c['id'], {})
+        res = {'id': c['id'], 'mean': c['mean'], 'k': c['k'], 'regime': regime,
+               'bl_CL': float(peer.get('bl_rms_CL', 'nan')), 'bl_Cm': float(peer.get('bl_rms_Cm', 'nan'))}
         for coef, col in (('CL', 2), ('Cm', 3)):
             meas = [r[col] for r in rows]
             for kind in KINDS:
@@ -193,8 +241,8 @@ def main():
                     res[f'{kind}_{coef}'] = float('nan')
                     continue
                 out = os.path.join(work, f"pred_{c['id']}_{coef}_{kind}.csv")
-                ok = run([exe, 'predict', m, path, '--out', out, '--frequency-hz', c['frequency_hz'],
-                          '--airspeed-mps', c['airspeed_mps'], '--force'])
+                ok = run([exe, 'predict', m, path, '--out', out, '--frequency-hz', str(c['f']),
+                          '--airspeed-mps', str(c['v']), '--force'])
                 if not ok:
                     res[f'{kind}_{coef}'] = float('nan')
                     continue
@@ -206,7 +254,7 @@ def main():
                     res[f'qs_{coef}'] = rms([float(p[f'{coef}_quasi_steady']) for p in pred], meas) \
                         if f'{coef}_quasi_steady' in pred[0] else float('nan')
         results.append(res)
-    report(results, polar, fit_runs, models)
+    report(results, (polar, source, stall_deg), (fit, held), models)
 
 
 def mean(v):
@@ -231,17 +279,21 @@ def diagnosis_lines(coef, dj):
             p(f'  * step {i}: `{st.get("effect")}` ({st.get("term")})')
 
 
-def report(results, polar, fit_runs, models):
+def report(results, static, cycles, models):
     p = print
     p('# Held-out validation of the dynamic-stall families on measured cycles (issue 22)\n')
     p('Data: University of Glasgow dynamic-stall database, NACA 0012 (Green, R. B. & Giuni, M., '
       '"Dynamic stall database R and D 1570-AM-01: Final Report", University of Glasgow, 2017), '
-      'campaigns 4-6, as in the development set\'s README. Peer: the Beddoes-Leishman model of dos '
+      'campaigns 4-6, as in the development set\'s README (for the committed file; the script reads any '
+      'directory in that layout). Peer: the Beddoes-Leishman model of dos '
       'Santos & Marques (2021) with its published parameters (bl-reference.csv). Produced by '
-      '`tools/validate-stall.sh DATA_DIR` (the method is in tools/validate_stall.py\'s docstring).\n')
-    p(f'Static polar: {len(polar)} 1-deg bins of the upstrokes of the 15 campaign-4 cycles at k = 0.010 '
-      '(angle rising). Fit: ' + f'{len(fit_runs)} cycles of campaigns 5 and 6 (amplitude 8 deg, one per mean angle '
-      'and k), CL and Cm fitted apart. Held out: the 35 campaign-4 cycles of amplitude 10 deg.\n')
+      '`tools/validate-stall.sh DATA_DIR` (the method is in tools/validate_stall.py\'s docstring; every choice '
+      'is a rule of tools/cycle_catalog.py or choose_cycles, not a list of cycles).\n')
+    polar, source, stall_deg = static
+    fit, held = cycles
+    p(f'Static polar: {len(polar)} 1-deg bins of {source} (angle rising); static stall angle {stall_deg:g} deg. '
+      f'Fit: {describe(fit)}, one per mean angle, amplitude and k, CL and Cm fitted apart. '
+      f'Held out: {describe(held)}.\n')
     for coef in ('CL', 'Cm'):
         for kind in ('report', 'extended'):
             fj = models.get((coef, kind, 'json'))
@@ -257,7 +309,7 @@ def report(results, polar, fit_runs, models):
         else:
             p(f'* diagnose {coef}: FAILED (see stderr)')
     p('')
-    p('Mean held-out RMS per regime (attached: max angle < 15 deg; light: < 22; deep: >= 22):\n')
+    p(f'Mean held-out RMS per regime ({cycle_catalog.regime_rule(stall_deg)}):\n')
     p('| regime | cycles | coef | quasi-steady | report model | extended | diagnosed | BL peer | extended / BL | '
       'diagnosed / BL | diagnosed / QS | diagnosed <= 0.5x QS |')
     p('|---|---|---|---|---|---|---|---|---|---|---|---|')
