@@ -10,8 +10,8 @@ studies run unchanged on another campaign or another database in this layout (is
 acceptance is measured on cycles we do not have). Standard library only.
 
 The rules:
-* quasi-static cycles: reduced frequency <= QUASI_STATIC_K; they give the static polar and are
-  never a training or held-out cycle. A catalog without any gives the polar from its slowest
+* quasi-static cycles: reduced frequency <= QUASI_STATIC_K; they give the static polar. The
+  polar's cycles (these, or the fallback's below) are never a training or held-out cycle. A catalog without any gives the polar from its slowest
   cycles (reduced frequency within 10 % of the lowest), which carry their own lag: the study
   then says so, because its "quasi-steady" column is no longer a static model.
 * the static stall angle: the angle of the polar's largest lift (bins of >= 4 samples).
@@ -25,22 +25,37 @@ import os
 QUASI_STATIC_K = 0.015
 DEEP_STALL_MARGIN_DEG = 7.0
 MIN_BIN_SAMPLES = 4
+K_RESOLUTION = 0.005  # reduced frequencies closer than this are one frequency (one nominal k at two airspeeds)
 
 
 def read_catalog(data):
-    """The catalog's rows: id, campaign (text), mean, amp (deg), f (Hz), k, v (m/s)."""
+    """The catalog's rows: id, campaign (text), mean, amp (deg), f (Hz), k, v (m/s). A row that
+    cannot be read, a value out of its range, a repeated id or a missing cycle file stops the
+    study with the file, the line and the problem."""
     path = os.path.join(data, "catalog.csv")
-    rows = []
+    if not os.path.exists(path):
+        raise SystemExit(f"{path}: not found (a catalog.csv and cycles/<id>_coeffs.dat are needed)")
+    rows, seen = [], {}
     with open(path) as f:
         for line, r in enumerate(csv.DictReader(f), start=2):
             try:
-                rows.append({"id": r["id"].strip(), "campaign": r["campaign"].strip(),
-                             "mean": float(r["mean_deg"]), "amp": float(r["amplitude_deg"]),
-                             "f": float(r["frequency_hz"]), "k": float(r["reduced_frequency"]),
-                             "v": float(r["airspeed_mps"])})
-            except (KeyError, ValueError, AttributeError) as e:
+                c = {"id": r["id"].strip(), "campaign": r["campaign"].strip(),
+                     "mean": float(r["mean_deg"]), "amp": float(r["amplitude_deg"]),
+                     "f": float(r["frequency_hz"]), "k": float(r["reduced_frequency"]),
+                     "v": float(r["airspeed_mps"])}
+            except (KeyError, ValueError, TypeError, AttributeError) as e:
                 raise SystemExit(f"{path}:{line}: cannot read the row ({e!r}); the columns needed are id, "
                                  "campaign, mean_deg, amplitude_deg, frequency_hz, reduced_frequency, airspeed_mps")
+            bad = [k for k in ("amp", "f", "k", "v") if not (math.isfinite(c[k]) and c[k] > 0)]
+            if bad or not math.isfinite(c["mean"]):
+                raise SystemExit(f"{path}:{line}: cycle {c['id']}: amplitude_deg, frequency_hz, reduced_frequency "
+                                 "and airspeed_mps must be finite and > 0, mean_deg finite")
+            if c["id"] in seen:
+                raise SystemExit(f"{path}:{line}: cycle id {c['id']} repeats line {seen[c['id']]}")
+            seen[c["id"]] = line
+            if not os.path.exists(cycle_path(data, c)):
+                raise SystemExit(f"{path}:{line}: {cycle_path(data, c)}: cycle file not found")
+            rows.append(c)
     if not rows:
         raise SystemExit(f"{path}: no cycles")
     return rows
@@ -68,6 +83,10 @@ def is_quasi_static(c):
     return c["k"] <= QUASI_STATIC_K
 
 
+def k_key(c):
+    return round(c["k"] / K_RESOLUTION)
+
+
 def polar_cycles(catalog):
     """The cycles the static polar is built from, and a sentence saying which."""
     qs = [c for c in catalog if is_quasi_static(c)]
@@ -75,9 +94,11 @@ def polar_cycles(catalog):
         return qs, f"the upstrokes of the {len(qs)} quasi-static cycles (k <= {QUASI_STATIC_K})"
     k_min = min(c["k"] for c in catalog)
     slow = [c for c in catalog if c["k"] <= 1.1 * k_min]
+    k_max = max(c["k"] for c in slow)
     return slow, (f"NO quasi-static cycle (k <= {QUASI_STATIC_K}) in the catalog: the upstrokes of its "
-                  f"{len(slow)} slowest cycles (k = {k_min:.3f}), which carry their own lag, so the "
-                  "quasi-steady column is not a static model here")
+                  f"{len(slow)} slowest cycles (k = {k_min:.4f} to {k_max:.4f}), which carry their own lag, so "
+                  "the quasi-steady column is not a static model here and the stall angle (the regimes) is "
+                  "a dynamic one")
 
 
 def upstroke_bins(data, cycles):
@@ -154,37 +175,39 @@ def within(data, c, angle_lo, angle_hi):
     return lo >= angle_lo and hi <= angle_hi
 
 
-def choose_sweep(data, catalog, stall_deg, angle_lo, angle_hi):
+def choose_sweep(data, catalog, stall_deg, angle_lo, angle_hi, exclude=frozenset()):
     """Three cycles of one frequency sweep: among the (campaign, mean, amplitude) groups of
     non-quasi-static cycles whose measured angles lie inside the polar's rows with three or more reduced frequencies,
     the group whose mean is nearest the static stall angle (its cycles pass from attached flow
-    through stall), then the most frequencies, then the larger amplitude; from it the three
+    through stall), then the most frequencies, then the larger amplitude, then the lower mean;
+    cycles of the ids in `exclude` (the polar's) never count; from it the three
     frequencies spread over its range (spread_pick)."""
     groups = {}
     for c in catalog:
-        if not is_quasi_static(c) and within(data, c, angle_lo, angle_hi):
-            groups.setdefault((c["campaign"], c["mean"], c["amp"]), {}).setdefault(round(c["k"], 3), c)
+        if c["id"] not in exclude and not is_quasi_static(c) and within(data, c, angle_lo, angle_hi):
+            groups.setdefault((c["campaign"], c["mean"], c["amp"]), {}).setdefault(k_key(c), c)
     eligible = [(g, ks) for g, ks in groups.items() if len(ks) >= 3]
     if not eligible:
         raise SystemExit("no frequency sweep: no (campaign, mean, amplitude) group holds three reduced frequencies")
-    g, ks = min(eligible, key=lambda e: (abs(e[0][1] - stall_deg), -len(e[1]), -e[0][2], e[0][0]))
-    return [ks[k] for k in spread_pick(list(ks))], g
+    g, ks = min(eligible, key=lambda e: (abs(e[0][1] - stall_deg), -len(e[1]), -e[0][2], e[0][1], e[0][0]))
+    by_k = {c["k"]: c for c in ks.values()}
+    return [by_k[k] for k in spread_pick(list(by_k))], g
 
 
-def choose_means(data, catalog, sweep_group, sweep_ks, angle_lo, angle_hi):
+def choose_means(data, catalog, sweep_group, sweep_ks, angle_lo, angle_hi, exclude=frozenset()):
     """Three cycles across mean angles at one amplitude and reduced frequency: among the
-    (campaign, amplitude, k to 0.005) groups of cycles inside the polar's rows with three or more means,
+    (campaign, amplitude, k to K_RESOLUTION) groups of cycles (not in `exclude`) inside the polar's rows with three or more means,
     the sweep's campaign and amplitude first, then the k nearest the sweep's middle frequency,
     then the most means; from it the lowest mean, the highest, and the one nearest their middle."""
     groups = {}
     for c in catalog:
-        if not is_quasi_static(c) and within(data, c, angle_lo, angle_hi):
-            key = (c["campaign"], c["amp"], round(c["k"] / 0.005))
+        if c["id"] not in exclude and not is_quasi_static(c) and within(data, c, angle_lo, angle_hi):
+            key = (c["campaign"], c["amp"], k_key(c))
             groups.setdefault(key, {}).setdefault(c["mean"], c)
     eligible = [(g, ms) for g, ms in groups.items() if len(ms) >= 3]
     if not eligible:
         raise SystemExit("no mean-angle set: no (campaign, amplitude, k) group holds three mean angles")
     k_mid = sorted(sweep_ks)[len(sweep_ks) // 2]
     same = lambda g: g[0] == sweep_group[0] and g[1] == sweep_group[2]
-    g, ms = min(eligible, key=lambda e: (not same(e[0]), abs(e[0][2] * 0.005 - k_mid), -len(e[1]), e[0]))
+    g, ms = min(eligible, key=lambda e: (not same(e[0]), abs(e[0][2] * K_RESOLUTION - k_mid), -len(e[1]), e[0]))
     return [ms[m] for m in ends_and_middle(list(ms))]

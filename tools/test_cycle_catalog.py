@@ -22,22 +22,26 @@ def polar_cl(a_deg):
     return 0.1 * a_deg if a_deg <= STALL_DEG else 0.1 * STALL_DEG - 0.05 * (a_deg - STALL_DEG)
 
 
-def write_database(root, cycles, peer_ids=()):
+DOWNSTROKE_DROP = 0.3  # the downstroke's lift below the polar's: hysteresis the polar must not see
+
+
+def write_database(root, cycles, peer_ids=(), airspeed_mps=30.0):
     """cycles: (id, campaign, mean_deg, amplitude_deg, k) each; 128 samples of
-    alpha = mean + amp sin(phase), Cn and Ct such that CL = polar_cl(alpha)."""
+    alpha = mean + amp sin(phase), Cn and Ct such that CL = polar_cl(alpha) on the upstroke and
+    DOWNSTROKE_DROP less on the downstroke."""
     os.makedirs(os.path.join(root, "cycles"))
     with open(os.path.join(root, "catalog.csv"), "w", newline="") as f:
         w = csv.writer(f)
         w.writerow(["id", "campaign", "mean_deg", "amplitude_deg", "frequency_hz", "reduced_frequency",
                     "airspeed_mps"])
         for cid, camp, mean, amp, k in cycles:
-            w.writerow([cid, camp, mean, amp, k * 30.0 / (math.pi * 0.4), k, 30.0])
+            w.writerow([cid, camp, mean, amp, k * airspeed_mps / (math.pi * 0.4), k, airspeed_mps])
             with open(os.path.join(root, "cycles", f"{cid}_coeffs.dat"), "w") as g:
                 g.write("% Time() Angle(deg) Cn Ct Cm\n")
                 for i in range(128):
                     ph = 2 * math.pi * i / 128
                     a = mean + amp * math.sin(ph)
-                    cl = polar_cl(a)
+                    cl = polar_cl(a) - (DOWNSTROKE_DROP if math.cos(ph) < 0 else 0.0)
                     ar = math.radians(a)
                     g.write(f"{ph:.2f}\t{a:.6f}\t{cl * math.cos(ar):.6f}\t{cl * math.sin(ar):.6f}\t0\n")
     if peer_ids:
@@ -87,6 +91,10 @@ class CycleCatalogTest(unittest.TestCase):
         write_database(self.root, database())
         source, stall, sweep, group, means, (lo, hi) = self.selections()
         self.assertIn("3 quasi-static cycles", source)
+        # The polar is the upstrokes': the downstroke's hysteresis is not in it.
+        bins = cc.upstroke_bins(self.root, cc.polar_cycles(cc.read_catalog(self.root))[0])
+        for a in (0.0, 8.0, 20.0):
+            self.assertAlmostEqual(bins[a][4] / bins[a][0], polar_cl(a), delta=0.03)
         self.assertEqual(stall, STALL_DEG)
         self.assertEqual((lo, hi), (-5.0, 25.0))
         # The sweep: mean nearest the stall angle, three frequencies spread over 0.02-0.2.
@@ -98,19 +106,36 @@ class CycleCatalogTest(unittest.TestCase):
         self.assertTrue(all(c["k"] == 0.1 and c["campaign"] == "7" for c in means))
         self.assertEqual(cc.regime(11.9, stall), "attached")
         self.assertEqual(cc.regime(12.0, stall), "light")
+        self.assertEqual(cc.regime(18.9, stall), "light")
         self.assertEqual(cc.regime(19.0, stall), "deep")
 
-    def test_without_quasi_static_cycles_the_polar_says_what_it_is(self):
-        write_database(self.root, database(quasi_static=False))
+    def test_without_quasi_static_cycles_the_polar_says_what_it_is_and_its_cycles_stay_out(self):
+        write_database(self.root, database(quasi_static=False) + [("b1", "7", 12, 6, 0.015), ("b2", "7", 12, 6, 0.023)])
         catalog = cc.read_catalog(self.root)
+        self.assertTrue(cc.is_quasi_static(next(c for c in catalog if c["id"] == "b1")))
+        catalog = [c for c in catalog if c["id"] != "b1"]
         cycles, source = cc.polar_cycles(catalog)
         self.assertIn("NO quasi-static cycle", source)
-        self.assertTrue(cycles and all(c["k"] == 0.02 for c in cycles))
+        # The slowest cycles: k within 10 % of the lowest (0.02), not 0.023.
+        self.assertEqual(sorted({c["k"] for c in cycles}), [0.02])
+        ids = {c["id"] for c in cycles}
+        bins = cc.upstroke_bins(self.root, cycles)
+        sweep, group = cc.choose_sweep(self.root, catalog, STALL_DEG, min(bins), max(bins), ids)
+        means = cc.choose_means(self.root, catalog, group, [c["k"] for c in sweep], min(bins), max(bins), ids)
+        self.assertFalse(ids & {c["id"] for c in sweep + means})
+        # Below k = 0.05 only the polar's cycles would make a sweep (0.02, 0.023, 0.05 at mean 12).
+        slow = [c for c in catalog if c["k"] <= 0.05]
+        with self.assertRaises(SystemExit):
+            cc.choose_sweep(self.root, slow, STALL_DEG, min(bins), max(bins), ids)
+        self.assertTrue(cc.choose_sweep(self.root, slow, STALL_DEG, min(bins), max(bins)))
+        fit, held, _ = validate_stall.choose_cycles(self.root, catalog)
+        self.assertFalse(ids & {c["id"] for c in fit + held})
 
     def test_no_sweep_is_an_error_not_a_guess(self):
         write_database(self.root, [("q1", "7", 10, 9, 0.01), ("a", "7", 10, 5, 0.05), ("b", "7", 10, 5, 0.1)])
-        with self.assertRaises(SystemExit):
+        with self.assertRaises(SystemExit) as e:
             self.selections()
+        self.assertIn("no frequency sweep", str(e.exception))
 
     def test_bad_catalog_row_names_the_line(self):
         write_database(self.root, database())
@@ -118,7 +143,33 @@ class CycleCatalogTest(unittest.TestCase):
             f.write("x9,7,abc,6,1.0,0.1,30\n")
         with self.assertRaises(SystemExit) as e:
             cc.read_catalog(self.root)
-        self.assertIn("catalog.csv:", str(e.exception))
+        self.assertIn("catalog.csv:34:", str(e.exception))
+
+    def test_repeated_ids_nonpositive_k_and_missing_files_are_refused(self):
+        write_database(self.root, database())
+        path = os.path.join(self.root, "catalog.csv")
+        with open(path) as f:
+            good = f.read()
+        for extra, message in (("s4,7,2,6,1.0,0.1,30\n", "repeats line"),
+                               ("x9,7,2,6,1.0,-0.1,30\n", "must be finite and > 0"),
+                               ("x9,7,2,6,1.0,nan,30\n", "must be finite and > 0"),
+                               ("x9,7,2,6,1.0,0.1,30\n", "cycle file not found")):
+            with open(path, "w") as f:
+                f.write(good + extra)
+            with self.assertRaises(SystemExit) as e:
+                cc.read_catalog(self.root)
+            self.assertIn(message, str(e.exception))
+            self.assertIn("catalog.csv:34:", str(e.exception))
+
+    def test_one_frequency_at_two_airspeeds_is_one_frequency(self):
+        # Mean 12 at k = 0.05 and 0.1 at 30 m/s, and 0.1007 at 60 m/s: two frequencies, no sweep
+        # at mean 12; the sweep is then mean 7's (three frequencies).
+        cycles = [("q1", "7", 10, 15, 0.01), ("a", "7", 12, 5, 0.05), ("b", "7", 12, 5, 0.1),
+                  ("c", "7", 12, 5, 0.1007), ("d", "7", 7, 5, 0.05), ("e", "7", 7, 5, 0.1), ("f", "7", 7, 5, 0.15)]
+        write_database(self.root, cycles)
+        catalog = cc.read_catalog(self.root)
+        sweep, group = cc.choose_sweep(self.root, catalog, STALL_DEG, -5.0, 25.0)
+        self.assertEqual(group, ("7", 7.0, 5.0))
 
     def test_stall_study_holds_out_the_peers_cycles_and_fits_other_campaigns(self):
         cycles = database()

@@ -15,9 +15,8 @@ what the study would train on.
 Columns are a list (`columns` in main(), one per model: the configured fit, then one per
 diagnose step): another study adds a column by appending (label, coefficient file).
 """
-import csv
+import hashlib
 import json
-import math
 import os
 import subprocess
 import sys
@@ -48,7 +47,8 @@ def static_table(catalog, path):
     (cycle_catalog.polar_cycles), Cn, Ct and Cm averaged in 1 deg bins (the runtime holds 64
     rows at most); written in the database's own layout (a % header, whitespace), so that the
     experiment's [columns] read it as they read the cycles (CL derived from Cn, Ct). Returns the
-    first and last rows' angles, the rows, the sentence naming the source, the stall angle."""
+    first and last rows' angles, the number of rows, the sentence naming the source, the stall
+    angle and the ids of the polar's cycles (never trained on or held out)."""
     cycles, source = cycle_catalog.polar_cycles(catalog)
     bins = cycle_catalog.upstroke_bins(DATA, cycles)
     with open(path, "w") as f:
@@ -57,15 +57,15 @@ def static_table(catalog, path):
             s = bins[b]
             f.write(f"{b} {s[1] / s[0]:.6g} {s[2] / s[0]:.6g} {s[3] / s[0]:.6g}\n")
     keys = sorted(bins)
-    return keys[0], keys[-1], len(keys), source, cycle_catalog.stall_angle_deg(bins)
+    return keys[0], keys[-1], len(keys), source, cycle_catalog.stall_angle_deg(bins), {c["id"] for c in cycles}
 
 
 def training_choices(catalog, static_info):
     """The issue's two training choices, by cycle_catalog's rules: three cycles of one frequency
     sweep, and three cycles across mean angles."""
-    lo, hi, _, _, stall = static_info
-    sweep, group = cycle_catalog.choose_sweep(DATA, catalog, stall, lo, hi)
-    means = cycle_catalog.choose_means(DATA, catalog, group, [c["k"] for c in sweep], lo, hi)
+    lo, hi, _, _, stall, polar_ids = static_info
+    sweep, group = cycle_catalog.choose_sweep(DATA, catalog, stall, lo, hi, polar_ids)
+    means = cycle_catalog.choose_means(DATA, catalog, group, [c["k"] for c in sweep], lo, hi, polar_ids)
     m = means[0]
     return [
         ("sweep", f"one frequency sweep: campaign {group[0]}, mean {group[1]:g} deg, amplitude {group[2]:g} deg, "
@@ -165,6 +165,26 @@ def print_choices():
 REUSED = []  # the studies whose fit and diagnosis came from an earlier run (study, below)
 
 
+def tool_version():
+    return run([EXE, "--version"]).stdout.strip()
+
+
+def reuse_key(experiment_text):
+    """What a kept fit and diagnosis depend on: the experiment, the static polar's bytes, the
+    tool's version and commit."""
+    with open(os.path.join(SCRATCH, "static.dat"), "rb") as f:
+        polar = hashlib.sha256(f.read()).hexdigest()
+    return hashlib.sha256("\n".join((experiment_text, polar, tool_version())).encode()).hexdigest()
+
+
+def reuse_key_matches(work, experiment_text):
+    path = os.path.join(work, "reuse.key")
+    if not os.path.exists(path):
+        return False
+    with open(path) as f:
+        return f.read() == reuse_key(experiment_text)
+
+
 def study(work, experiment_text, held, qs):
     """Fit and diagnose one experiment, predict every held-out cycle with each model (the fit,
     then one per diagnose step). qs: cycle id -> the quasi-steady RMS, filled by the first
@@ -173,11 +193,11 @@ def study(work, experiment_text, held, qs):
     that column) and reused by the next."""
     os.makedirs(work, exist_ok=True)
     exp = os.path.join(work, "experiment.toml")
-    # A scratch directory kept from an earlier run of the same experiment (python3
+    # INDICIAL_VALIDATE_REUSE=1 with a SCRATCH kept from an earlier run (python3
     # tools/validate_real.py with a SCRATCH of your own; validate-real.sh always starts afresh)
-    # reuses its fit and diagnosis: only the predictions are run again.
-    reuse = os.path.exists(exp) and open(exp).read() == experiment_text and \
-        os.path.exists(os.path.join(work, "diag", "diagnosis.json"))
+    # reuses the fit and diagnosis of an experiment whose reuse_key (experiment text, polar
+    # bytes, tool version) is unchanged: only the predictions run again, and the report says so.
+    reuse = os.environ.get("INDICIAL_VALIDATE_REUSE") == "1" and reuse_key_matches(work, experiment_text)
     if reuse:
         REUSED.append(work)
     else:
@@ -186,6 +206,8 @@ def study(work, experiment_text, held, qs):
         run([EXE, "fit", exp, "--out", os.path.join(work, "fit"), "--force", "--no-plots"])
         run([EXE, "diagnose", exp, "--out", os.path.join(work, "diag"), "--force", "--no-plots", "--quiet"],
             ok=(0, 6))
+        with open(os.path.join(work, "reuse.key"), "w") as f:
+            f.write(reuse_key(experiment_text))
     with open(os.path.join(work, "diag", "diagnosis.json")) as f:
         dj = json.load(f)
     t_diag = dj["elapsed_s"]  # diagnose's own wall time
@@ -227,8 +249,8 @@ def main():
     sections = []
     for name, label, train in training_choices(catalog, static_info):
         train_ids = {c["id"] for c in train}
-        # Held out: every other cycle except the quasi-static ones (the polar's source).
-        held = [c for c in catalog if c["id"] not in train_ids and not cycle_catalog.is_quasi_static(c)]
+        # Held out: every other cycle except the polar's.
+        held = [c for c in catalog if c["id"] not in train_ids and c["id"] not in static_info[5]]
         v_ref = round(sum(c["v"] for c in train) / len(train), 3)
         a_lo = min(cycle_catalog.measured_range_deg(DATA, c)[0] for c in train)
         a_hi = max(peak_deg(c) for c in train)
@@ -245,7 +267,7 @@ def main():
 
 
 def write_md(sections, static_info, seconds):
-    lo, hi, nrows, source, stall_deg = static_info
+    lo, hi, nrows, source, stall_deg, _ = static_info
     regime = lambda c: cycle_catalog.regime(peak_deg(c), stall_deg)
     out = []
     w = out.append
@@ -265,10 +287,11 @@ def write_md(sections, static_info, seconds):
       f"bins: {nrows} rows, {lo:g} to {hi:g} deg; static stall angle (largest lift) {stall_deg:g} deg. Two "
       "starting models, each fitted and then diagnosed (`indicial diagnose`, three runs: leave-one-run-out, adds "
       "effects to it): " + "; ".join(f"`{c}`, {lab}" for c, lab in CONFIGS) + ". Both have one lag and C_aq = 0 "
-      "a priori; the quasi-steady model every ratio below divides by is the static table alone. Every other cycle that is not quasi-static ({n_held}) is predicted at its periodic steady "
+      "a priori; the quasi-steady model every ratio below divides by is the static table alone. "
+      f"Every other cycle that is not one of the polar's ({n_held}) is predicted at its periodic steady "
       "state (`indicial predict --periodic`) and scored by RMS over its samples. Regimes by the cycle's largest "
       f"measured angle: {cycle_catalog.regime_rule(stall_deg)}.\n")
-    w(f"Total wall time of the study: {seconds:.0f} s (nice, shared 2-core machine)" +
+    w(f"Tool: `{tool_version()}`. Total wall time of the study: {seconds:.0f} s (nice, shared 2-core machine)" +
       (f"; the fits and diagnoses of {len(REUSED)} of its {len(sections)} studies were kept from an earlier run of "
        "the same experiment files (each diagnose's own wall time is in its section)" if REUSED else "") + ".\n")
     for name, label, coef, config_label, train, knots, dj, t_diag, columns, rows in sections:
@@ -302,13 +325,15 @@ def write_md(sections, static_info, seconds):
                 cells.append(f"{med:.2f} | {good} of {len(ratios)}")
             w(f"| {reg} | {len(sel)} | " + " | ".join(cells) + " |")
         w("")
-        w("What each effect bought on the held-out cycles (median over cycles of the RMS change, previous column "
-          "-> this one):\n")
+        if len(labels) > 1:
+            w("What each effect bought on the held-out cycles (median over cycles of the RMS change, previous "
+              "column -> this one):\n")
         for j in range(1, len(labels)):
             ch = sorted(r["rms"][j] / r["rms"][j - 1] for r in rows if r["rms"][j - 1] > 0)
             better = sum(1 for x in ch if x < 1.0)
             w(f"* `{labels[j]}`: median RMS ratio {ch[len(ch) // 2]:.3f}, lower on {better} of {len(ch)} cycles.")
-        w("")
+        if len(labels) > 1:
+            w("")
     verdict = []
     for name, label, coef, config_label, train, knots, dj, t_diag, columns, rows in sections:
         ratios = [r["rms"][-1] / r["qs"] for r in rows if r["qs"] > 0]

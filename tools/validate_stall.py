@@ -63,7 +63,8 @@ import time
 
 import cycle_catalog
 
-L_M = 0.275  # reference length: half the 0.55 m chord
+# Reference length: half the chord (0.55 m in the development set; INDICIAL_CHORD_M for another).
+L_M = float(os.environ.get('INDICIAL_CHORD_M', '0.55')) / 2.0
 KINDS = ('report', 'extended', 'diagnosed')
 
 
@@ -99,16 +100,17 @@ def static_polar(data, catalog, out):
 
 def choose_cycles(data, catalog):
     """Held out: the peer's cycles (bl-reference.csv) when the directory has the peer's file,
-    else every non-quasi-static cycle of the catalog's first campaign (another catalog: a
-    campaign never seen by the fit); with one campaign only, every third cycle. Fit: the
-    non-quasi-static cycles of the campaigns that hold no held-out cycle (with one campaign,
-    the rest), one per (campaign, mean, amplitude, reduced frequency to 0.025)."""
+    else every cycle of the campaign whose name sorts first (another catalog: a campaign never
+    seen by the fit); with one campaign only, every third cycle. Fit: the cycles of the
+    campaigns that hold no held-out cycle (with one campaign, the rest), one per (campaign,
+    mean, amplitude, reduced frequency to 0.025). The polar's cycles are never either."""
     peer_path = os.path.join(data, 'bl-reference.csv')
     bl = {}
     if os.path.exists(peer_path):
         with open(peer_path) as f:
             bl = {r['id']: r for r in csv.DictReader(f)}
-    moving = [c for c in catalog if not cycle_catalog.is_quasi_static(c)]
+    polar_ids = {c['id'] for c in cycle_catalog.polar_cycles(catalog)[0]}
+    moving = [c for c in catalog if c['id'] not in polar_ids]
     campaigns = sorted({c['campaign'] for c in moving})
     if bl:
         held = [c for c in moving if c['id'] in bl]
@@ -171,7 +173,8 @@ def main():
         # Only the static polar (step 2 above), as a [static] table / model.stall_polar CSV.
         data = sys.argv[2]
         catalog = cycle_catalog.read_catalog(data)
-        static_polar(data, catalog, sys.argv[3])
+        _, source, stall_deg = static_polar(data, catalog, sys.argv[3])
+        sys.stderr.write(f'static polar: {source}; stall angle {stall_deg:g} deg\n')
         return
     if len(sys.argv) == 3 and sys.argv[1] == '--choices':
         # What the study would fit and hold out, without running anything.
@@ -284,7 +287,8 @@ def report(results, static, cycles, models):
     p('# Held-out validation of the dynamic-stall families on measured cycles (issue 22)\n')
     p('Data: University of Glasgow dynamic-stall database, NACA 0012 (Green, R. B. & Giuni, M., '
       '"Dynamic stall database R and D 1570-AM-01: Final Report", University of Glasgow, 2017), '
-      'campaigns 4-6, as in the development set\'s README (for the committed file; the script reads any '
+      'campaigns ' + ', '.join(sorted({c['campaign'] for c in cycles[0] + cycles[1]})) + ' (for the committed file the '
+      'development set, as in its README; the script reads any '
       'directory in that layout). Peer: the Beddoes-Leishman model of dos '
       'Santos & Marques (2021) with its published parameters (bl-reference.csv). Produced by '
       '`tools/validate-stall.sh DATA_DIR` (the method is in tools/validate_stall.py\'s docstring; every choice '
