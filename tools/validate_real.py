@@ -117,7 +117,7 @@ estimate = false
 # * "bl": the Beddoes-Leishman structure in the report's form: a and b1 constants, a constant
 #   pitch-rate correction C_aq estimated (rotary_correction_powers = [0]), and the separation
 #   and leading-edge-vortex families with the static table as the lift polar.
-# docs/measured-cycles.md recommends the first for C_L and the second for C_m from these tables.
+# docs/measured-cycles.md compares them (these tables and a user's trial) and recommends the second.
 CONFIGS = (
     ("report", "the report's model (a(x) of degree 2 with knots every 5 deg inside the training range, b1 constant)"),
     ("bl", "the Beddoes-Leishman structure (a and b1 constants, C_aq constant estimated, separation and vortex "

@@ -169,6 +169,12 @@ def rms(a, b):
 
 
 def main():
+    usage = __doc__.split('\n\n')[1]
+    if sys.argv[1:2] in (['-h'], ['--help']):
+        print(usage)
+        return
+    if len(sys.argv) < 2 or sys.argv[1].startswith('-') and sys.argv[1] not in ('--static-polar', '--choices'):
+        sys.exit(usage)
     if len(sys.argv) == 4 and sys.argv[1] == '--static-polar':
         # Only the static polar (step 2 above), as a [static] table / model.stall_polar CSV.
         data = sys.argv[2]
