@@ -296,6 +296,31 @@ TEST_CASE("predict: CLI writes the CSV and metrics and plot and refuses overwrit
   CHECK(slurp(so).find("warning") == std::string::npos);
 }
 
+// A phase cycle carries no airspeed: without --airspeed-mps it is predicted at the model's
+// reference airspeed, and says so (a user's trial predicted cycles at 27 and 54 m/s at 40 m/s
+// without a word); with it, or for a time history, nothing is said.
+TEST_CASE("predict: a phase cycle without --airspeed-mps is warned") {
+  TempDir tmp;
+  const std::string exe = INDICIAL_EXE;
+  const fs::path sim = tmp.path / "sim";
+  REQUIRE(run(exe + " simulate --case dynamic-stall --out " + sim.string()) == 0);
+  REQUIRE(run(exe + " fit " + (sim / "experiment-CL.toml").string() + " --out " + (tmp.path / "fit").string() +
+              " --no-plots") == 0);
+  const std::string coef = (tmp.path / "fit" / "model.coef").string();
+  const std::string cycle = (sim / "a8_k0.080_v30.csv").string();
+  const std::string se = (tmp.path / "se.txt").string();
+  auto stderr_of = [&](const std::string& args) {
+    REQUIRE(std::system((exe + " predict " + coef + " " + cycle + args + " --out " + (tmp.path / "p.csv").string() +
+                         " --force > /dev/null 2> " + se).c_str()) == 0);
+    std::ifstream i(se);
+    return std::string(std::istreambuf_iterator<char>(i), std::istreambuf_iterator<char>());
+  };
+  const std::string warned = stderr_of(" --reduced-frequency 0.08");
+  CHECK(warned.find("indicial: warning: " + cycle + ": no --airspeed-mps: the cycle is predicted at the model's "
+                    "reference airspeed, 30 m/s") != std::string::npos);
+  CHECK(stderr_of(" --reduced-frequency 0.08 --airspeed-mps 30").find("--airspeed-mps") == std::string::npos);
+}
+
 // A log with dropped samples (irregular steps of 1-3 x 0.01 s): refused as it stands (the
 // interface's uniform step), predicted with --time-grid nonuniform, where the runtime steps
 // with each sample's own dt. Truth: the reference integration (noise-free simulate output).

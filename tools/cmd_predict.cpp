@@ -129,6 +129,16 @@ void run_predict(const PredictOptions& o) {
   const Run& run = runs.front();
   tools::print_notes(run.notes);
   tools::print_warnings(run.warnings);
+  // A phase cycle carries no airspeed, and the airspeed sets its lags' and stall states' time
+  // constants (l / V) and, with --reduced-frequency, its frequency: without --airspeed-mps it is
+  // predicted at the model's reference airspeed, said (a user's trial predicted 27 and 54 m/s
+  // cycles at 40 m/s without a word).
+  if (o.airspeed_mps == 0.0 && run.time_source == TimeSource::phase_column) {
+    char v[32];
+    std::snprintf(v, sizeof v, "%g", airspeed);
+    tools::print_warnings({o.data_label + ": no --airspeed-mps: the cycle is predicted at the model's reference "
+                                          "airspeed, " + std::string(v) + " m/s (give the cycle's own)"});
+  }
   // A phase column is one ensemble-averaged cycle: periodic whether or not --periodic is given.
   const bool periodic = o.periodic || run.time_source == TimeSource::phase_column;
   if (o.periodic && run.time_source == TimeSource::time_column) {
