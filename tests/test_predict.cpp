@@ -296,6 +296,14 @@ TEST_CASE("predict: CLI writes the CSV and metrics and plot and refuses overwrit
   CHECK(slurp(so).find("warning") == std::string::npos);
 }
 
+// The dynamic-stall case's cycles in `sim` and its C_L fit in `fit`: the model.coef's path.
+std::string fit_dynamic_stall_cl(const fs::path& sim, const fs::path& fit) {
+  const std::string exe = INDICIAL_EXE;
+  REQUIRE(run(exe + " simulate --case dynamic-stall --out " + sim.string()) == 0);
+  REQUIRE(run(exe + " fit " + (sim / "experiment-CL.toml").string() + " --out " + fit.string() + " --no-plots") == 0);
+  return (fit / "model.coef").string();
+}
+
 // A phase cycle carries no airspeed: without --airspeed-mps it is predicted at the model's
 // reference airspeed, and says so (a user's trial predicted cycles at 27 and 54 m/s at 40 m/s
 // without a word); with it, or for a time history, nothing is said.
@@ -303,17 +311,13 @@ TEST_CASE("predict: a phase cycle without --airspeed-mps is warned") {
   TempDir tmp;
   const std::string exe = INDICIAL_EXE;
   const fs::path sim = tmp.path / "sim";
-  REQUIRE(run(exe + " simulate --case dynamic-stall --out " + sim.string()) == 0);
-  REQUIRE(run(exe + " fit " + (sim / "experiment-CL.toml").string() + " --out " + (tmp.path / "fit").string() +
-              " --no-plots") == 0);
-  const std::string coef = (tmp.path / "fit" / "model.coef").string();
+  const std::string coef = fit_dynamic_stall_cl(sim, tmp.path / "fit");
   const std::string cycle = (sim / "a8_k0.080_v30.csv").string();
   const std::string se = (tmp.path / "se.txt").string();
   auto stderr_of = [&](const std::string& args) {
     REQUIRE(std::system((exe + " predict " + coef + " " + cycle + args + " --out " + (tmp.path / "p.csv").string() +
                          " --force > /dev/null 2> " + se).c_str()) == 0);
-    std::ifstream i(se);
-    return std::string(std::istreambuf_iterator<char>(i), std::istreambuf_iterator<char>());
+    return slurp_file(se);
   };
   const std::string warned = stderr_of(" --reduced-frequency 0.08");
   CHECK(warned.find("indicial: warning: " + cycle + ": no --airspeed-mps: the cycle is predicted at the model's "
@@ -401,10 +405,7 @@ TEST_CASE("predict: several DATA files are one cycle at their own phases, as the
   TempDir tmp;
   const std::string exe = INDICIAL_EXE;
   const fs::path sim = tmp.path / "sim";
-  REQUIRE(run(exe + " simulate --case dynamic-stall --out " + sim.string()) == 0);
-  REQUIRE(run(exe + " fit " + (sim / "experiment-CL.toml").string() + " --out " + (tmp.path / "fit").string() +
-              " --no-plots") == 0);
-  const std::string coef = (tmp.path / "fit" / "model.coef").string();
+  const std::string coef = fit_dynamic_stall_cl(sim, tmp.path / "fit");
   const fs::path cycle = sim / "a8_k0.080_v30.csv";  // phase_rad,alpha_deg,q_degps,CL,Cm,...
   std::ifstream in(cycle);
   std::ofstream angle(tmp.path / "angle.csv"), lift(tmp.path / "lift.csv");
