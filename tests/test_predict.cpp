@@ -306,7 +306,7 @@ std::string fit_dynamic_stall_cl(const fs::path& sim, const fs::path& fit) {
 
 // A phase cycle carries no airspeed: without --airspeed-mps it is predicted at the model's
 // reference airspeed, and says so (a user's trial predicted cycles at 27 and 54 m/s at 40 m/s
-// without a word); with it, or for a time history, nothing is said.
+// without a word); with it nothing is said.
 TEST_CASE("predict: a phase cycle without --airspeed-mps is warned") {
   TempDir tmp;
   const std::string exe = INDICIAL_EXE;

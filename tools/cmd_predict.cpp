@@ -134,10 +134,8 @@ void run_predict(const PredictOptions& o) {
   // predicted at the model's reference airspeed, said (a user's trial predicted 27 and 54 m/s
   // cycles at 40 m/s without a word).
   if (o.airspeed_mps == 0.0 && run.time_source == TimeSource::phase_column) {
-    char v[32];
-    std::snprintf(v, sizeof v, "%g", airspeed);
     tools::print_warnings({o.data_label + ": no --airspeed-mps: the cycle is predicted at the model's reference "
-                                          "airspeed, " + std::string(v) + " m/s (give the cycle's own)"});
+                                          "airspeed, " + format_double(airspeed) + " m/s (give the cycle's own)"});
   }
   // A phase column is one ensemble-averaged cycle: periodic whether or not --periodic is given.
   const bool periodic = o.periodic || run.time_source == TimeSource::phase_column;
