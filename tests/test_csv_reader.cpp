@@ -447,3 +447,23 @@ TEST_CASE("a phase column printed at exact half units is uniform at every freque
     CHECK(r.time_s[1] - r.time_s[0] == doctest::Approx(1.0 / (128 * f)).epsilon(1e-12));
   }
 }
+
+// The database's "Time()" is the cycle's phase in rad: a missing time column whose nearest name
+// holds one cycle's phase (0 to 2 pi, non-decreasing) is advised as phase_rad, with the
+// frequency it needs; a real time column of that name is still advised as time_s.
+TEST_CASE("a missing time column whose nearest name holds a phase is advised as phase_rad") {
+  write("cycle.dat", database_text(database_cycle()));
+  const char* unmapped_phase = "[columns]\nalpha_deg = \"Angle(deg)\"\nCnormal = \"Cn\"\nCtangential = \"Ct\"\n";
+  const std::string m = load_error("no_phase.toml", experiment("CL", unmapped_phase));
+  CHECK_HAS(m, "cycle.dat:1: missing column 'time_s' (or 'phase_rad' / 'phase_deg')");
+  CHECK_HAS(m, "'Time()' runs from 0 to 2 pi: if it is the cycle's phase in rad, map it in the experiment: "
+               "[columns] phase_rad = \"Time()\"");
+  CHECK(m.find("time_s = \"Time()\"") == std::string::npos);
+  // Times of 0 to 0.5 s under the same name: a time column, advised as such.
+  std::string timed = "% Time() Angle(deg) Cn Ct Cm\n";
+  for (int k = 0; k < 50; ++k) timed += std::to_string(0.01 * k) + " 5 0.5 0.01 -0.01\n";
+  write("cycle.dat", timed);
+  const std::string t = load_error("no_time.toml", experiment("CL", unmapped_phase));
+  CHECK_HAS(t, "did you mean 'Time()'? (rename it, or map it in the experiment: [columns] time_s = \"Time()\")");
+  CHECK(t.find("phase_rad = \"Time()\"") == std::string::npos);
+}

@@ -690,6 +690,9 @@ TEST_CASE("a missing column lists the columns found and suggests the nearest") {
   m = csv_error("typo.csv", replace_line(good, 2, "time_s,alpah_deg,q_degps,Cm"));
   CHECK_HAS(m, "missing column 'alpha_deg' or 'alpha_rad' (the pitch motion angle) (columns found: time_s, alpah_deg, "
                "q_degps, Cm); did you mean 'alpah_deg'?");
+  // The suggestion names the wanted column the file's name is nearest to (its unit included).
+  m = csv_error("unit.csv", replace_line(good, 2, "time_s,alpha_rd,q_degps,Cm"));
+  CHECK_HAS(m, "did you mean 'alpha_rd'? (rename it, or map it in the experiment: [columns] alpha_rad = \"alpha_rd\")");
   // Nothing near: no suggestion.
   m = csv_error("far.csv", replace_line(good, 2, "time_s,alpha_deg,q_degps,balance"));
   CHECK_HAS(m, "missing column 'Cm' (columns found: time_s, alpha_deg, q_degps, balance)");

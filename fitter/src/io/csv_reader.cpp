@@ -446,21 +446,45 @@ CsvTable read_csv_table(const std::string& path, const ColumnMap& columns, const
   return t;
 }
 
+// Whether column `col` reads as one cycle's phase in rad: every row a number, non-decreasing,
+// from [0, 0.2] to [6.0, 2 pi + 0.05] (the Glasgow database's "Time()" column is such a phase:
+// a name nearest "time_s" must not send that file to a time column).
+bool looks_like_phase_rad(const CsvTable& t, std::size_t col) {
+  double previous = -1.0, first = 0.0;
+  for (std::size_t r = 0; r < t.rows.size(); ++r) {
+    if (col >= t.rows[r].size()) return false;
+    const char* text = t.rows[r][col].c_str();
+    char* end = nullptr;
+    const double v = std::strtod(text, &end);
+    if (end == text || !std::isfinite(v) || v < previous) return false;
+    if (r == 0) first = v;
+    previous = v;
+  }
+  return !t.rows.empty() && first >= 0.0 && first <= 0.2 && previous >= 6.0 && previous <= 2.0 * kPi + 0.05;
+}
+
 // "missing column 'Cm' (columns found: time_s, alpha_deg, cm; did you mean 'cm'? ...)".
 [[noreturn]] void missing_column(const std::string& path, const CsvTable& t, const std::string& what,
                                  const std::vector<std::string>& wanted, const ColumnMap& columns) {
-  std::string found, nearest;
-  std::size_t best = 3;  // suggest only within 2 edits (case does not count)
-  for (const auto& name : t.original) {
+  std::string found, nearest, nearest_wanted;
+  std::size_t best = 3, nearest_col = 0;  // suggest only within 2 edits (case does not count)
+  for (std::size_t c = 0; c < t.original.size(); ++c) {
+    const std::string& name = t.original[c];
     found += (found.empty() ? "" : ", ") + name;
     for (const auto& w : wanted) {
       const std::size_t d = edit_distance(name, w, LetterCase::ignored);
       if (d < best && d < w.size()) {
         best = d;
         nearest = name;
+        nearest_wanted = w;
+        nearest_col = c;
       }
     }
   }
+  // A time-like name whose values are one cycle's phase in rad is mapped as the phase.
+  const bool wants_phase = std::find(wanted.begin(), wanted.end(), "phase_rad") != wanted.end();
+  const bool phase_values = wants_phase && !nearest.empty() && looks_like_phase_rad(t, nearest_col);
+  if (phase_values) nearest_wanted = "phase_rad";
   std::string msg = "missing column " + what + " (columns found: " + found + ")";
   for (const auto& w : wanted) {
     const auto m = columns.find(w);
@@ -475,9 +499,13 @@ CsvTable read_csv_table(const std::string& path, const ColumnMap& columns, const
              " delimiter but splits at " + delimiter_name(d) + ": [csv] delimiter applies to every run and the "
              "static table, so write this file with the same delimiter (or [csv] delimiter = \"detect\")";
   }
-  if (!nearest.empty()) {
+  if (phase_values) {
+    msg += "; '" + nearest + "' runs from 0 to 2 pi: if it is the cycle's phase in rad, map it in the experiment: "
+           "[columns] phase_rad = \"" + nearest + "\" (indicial predict reads [columns] with --experiment FILE; "
+           "a phase cycle also needs its frequency: the runs entry's frequency_hz, or predict's --frequency-hz)";
+  } else if (!nearest.empty()) {
     msg += "; did you mean '" + nearest + "'? (rename it, or map it in the experiment: [columns] " +
-           wanted.front() + " = \"" + nearest + "\")";
+           nearest_wanted + " = \"" + nearest + "\")";
   }
   throw InputError(path, t.header_line, msg);
 }
