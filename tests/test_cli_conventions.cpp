@@ -315,6 +315,38 @@ TEST_CASE("progress: a line per stage once the command runs past the threshold, 
   CHECK_THROWS_AS(failing.stage("load", [] { throw std::runtime_error("bad"); }), std::runtime_error);
 }
 
+// --quiet: no progress lines and no notes on stderr (a user's script asked for silence); the
+// notes stay in report.md, and warnings and errors are still printed.
+TEST_CASE("--quiet silences notes on stderr, report.md keeps them") {
+  const fs::path d = scratch() / "quiet-data";
+  fs::remove_all(d);
+  fs::copy(data_dir(), d, fs::copy_options::recursive);
+  std::ifstream in(d / "run_f0.25.csv");
+  std::string text, line;
+  for (bool header = false; std::getline(in, line);) {
+    const bool data_line = !line.empty() && line[0] != '#';
+    text += line + (data_line ? (header ? ",1" : ",extra") : "") + "\n";
+    header = header || data_line;
+  }
+  in.close();
+  std::ofstream(d / "run_f0.25.csv") << text;
+  const std::string note = "ignored column(s) 'extra'";
+  const std::string exp = "'" + (d / "experiment.toml").string() + "'";
+  const CliRun loud = run_cli("fit " + exp + " --no-plots --out '" + (scratch() / "quiet-fit1").string() + "'");
+  REQUIRE_MESSAGE(loud.exit_code == 0, loud.err);
+  CHECK(loud.err.find("indicial: note: ") != std::string::npos);
+  CHECK(loud.err.find(note) != std::string::npos);
+  const fs::path out = scratch() / "quiet-fit2";
+  const CliRun quiet = run_cli("fit " + exp + " --no-plots --quiet --out '" + out.string() + "'");
+  REQUIRE_MESSAGE(quiet.exit_code == 0, quiet.err);
+  CHECK(quiet.err.find(note) == std::string::npos);
+  CHECK(slurp(out / "report.md").find(note) != std::string::npos);
+  const CliRun diag = run_cli("diagnose " + exp + " --no-plots --quiet --max-steps 0 --out '" +
+                              (scratch() / "quiet-diag").string() + "'");
+  REQUIRE_MESSAGE(diag.exit_code == 0, diag.err);
+  CHECK(diag.err.find(note) == std::string::npos);
+}
+
 TEST_CASE("init writes a commented template with every key, refuses to overwrite, --force replaces") {
   const fs::path f = scratch() / "template.toml";
   const CliRun r = run_cli("init '" + f.string() + "'");

@@ -11,7 +11,7 @@
 //   invocation()         the whole command line as typed (shell-quoted), for provenance
 //   build_commit()       the commit the executable was built from
 //   provenance_of(e)     version, commit, command line and input digests for outputs of e
-//   print_notes(v)       each entry on stderr as "indicial: note: ..."
+//   print_notes(v)       each entry on stderr as "indicial: note: ..." (none under --quiet)
 //   print_warnings(v)    each entry on stderr as "indicial: warning: ..."
 //   StageClock           progress lines on stderr for stages longer than ~2 s
 //   formats_pointer      the sentence every --help text ends with
@@ -72,8 +72,13 @@ inline constexpr const char* formats_pointer =
     "\nFile formats (experiment keys with units and defaults, run CSV columns, outputs):\n"
     "docs/formats.md in the source tree; `indicial init FILE.toml` writes a commented template.\n";
 
-// Prints each note (what a reader did: an ignored column, ...) as one line on stderr.
-inline void print_notes(const std::vector<std::string>& notes) {
+// Whether progress lines and notes are printed (warnings and errors always are).
+enum class Verbosity { progress, quiet };
+
+// Prints each note (what a reader did: an ignored column, ...) as one line on stderr; nothing
+// under Verbosity::quiet (report.md and fit.json / diagnosis.json still list them).
+inline void print_notes(const std::vector<std::string>& notes, Verbosity verbosity = Verbosity::progress) {
+  if (verbosity == Verbosity::quiet) return;
   for (const std::string& n : notes) std::fprintf(stderr, "indicial: note: %s\n", n.c_str());
   std::fflush(stderr);
 }
@@ -84,8 +89,6 @@ inline void print_warnings(const std::vector<std::string>& warnings) {
   std::fflush(stderr);
 }
 
-// Whether progress lines are printed.
-enum class Verbosity { progress, quiet };
 
 // Progress of a long command on stderr, one line per stage once the command has run longer
 // than `threshold` (2 s):
@@ -99,6 +102,8 @@ class StageClock {
   StageClock(std::string command, Verbosity v, std::chrono::milliseconds threshold = std::chrono::milliseconds(2000))
       : command_(std::move(command)), verbosity_(v), threshold_(threshold),
         command_start_(std::chrono::steady_clock::now()) {}
+
+  Verbosity verbosity() const { return verbosity_; }
 
   // Runs fn as the stage `name`; exceptions pass through (the watchdog is stopped first).
   template <class Fn>
