@@ -829,6 +829,10 @@ TEST_CASE("a 128-sample cycle with phase rounded to 0.01 rad is uniform, snapped
   for (std::size_t k = 0; k < r.size(); ++k) CHECK(r.time_s[k] == doctest::Approx(static_cast<double>(k) / 256.0).epsilon(1e-9));
   CHECK(r.dt_s() == doctest::Approx(1 / 256.0).epsilon(1e-9));
   CHECK(any_note_has(e.notes, "cycle128.csv: 'phase_rad' is uniform to its printed digits"));
+  // In the column's own unit (2 pi / 128 rad), seconds beside; the rounding is below 0.005 rad.
+  CHECK(any_note_has(e.notes, "snapped to a step of 0.049087385212"));
+  CHECK(any_note_has(e.notes, " rad (0.00390625"));
+  CHECK(any_note_has(e.notes, "(max deviation 0.00"));
   // The writer writes the run keys back; the file reads back the same run.
   const std::string text = indicial::write_experiment_toml(e, {});
   CHECK(text.find("frequency_hz = 2}") != std::string::npos);

@@ -979,6 +979,13 @@ void check_time_grid(const std::string& path, const CsvTable& t, const RunColumn
   if (bad == 0) bad = largest;
   run.time_grid = declared;
   if (bad == 0 || declared == TimeGrid::nonuniform) return;
+  // A duration in the column's own unit: a phase column's in rad or deg, with seconds beside.
+  const auto in_column = [&](double seconds) {
+    if (rc.phase < 0) return format_double(seconds) + " s";
+    const double per_s = 2.0 * kPi * run.frequency_hz / rc.phase_factor;
+    return format_double(seconds * per_s) + (rc.phase_factor == 1.0 ? " rad" : " deg") + " (" +
+           format_double(seconds) + " s)";
+  };
   double a = 0.0, b = 0.0;
   // A phase cycle of n samples: one cycle over n steps, 1 / (n f) s each.
   const double cycle_step = rc.phase >= 0 ? 1.0 / (static_cast<double>(n) * run.frequency_hz) : 0.0;
@@ -990,21 +997,21 @@ void check_time_grid(const std::string& path, const CsvTable& t, const RunColumn
       run.time_s[k] = snapped;
     }
     run.notes.push_back(path + ": '" + t.header[c] + "' is uniform to its printed digits (max deviation " +
-                        format_double(worst) + " s): snapped to a step of " + format_double(b) + " s");
+                        in_column(worst) + "): snapped to a step of " + in_column(b));
     return;
   }
   if (rc.phase >= 0 && !given) {
     run.time_grid = TimeGrid::nonuniform;
     run.notes.push_back(path + ": '" + t.header[c] + "' is not uniform even to its printed digits (step " +
-                        format_double(steps[bad - 1]) + " s after " + t.rows[bad - 1][c] + ", median " +
-                        format_double(dt) + " s): read as a nonuniform cycle, each sample at its own phase");
+                        in_column(steps[bad - 1]) + " after " + t.rows[bad - 1][c] + ", median " +
+                        in_column(dt) + "): read as a nonuniform cycle, each sample at its own phase");
     return;
   }
   if (rc.phase >= 0) {
     throw InputError(path, t.row_line[bad],
                      "'" + t.header[c] + "' is not uniform even to its printed digits (step " +
-                         format_double(steps[bad - 1]) + " s after " + t.rows[bad - 1][c] + ", median " +
-                         format_double(dt) + " s) but a uniform grid was declared: declare time_grid = "
+                         in_column(steps[bad - 1]) + " after " + t.rows[bad - 1][c] + ", median " +
+                         in_column(dt) + ") but a uniform grid was declared: declare time_grid = "
                          "\"nonuniform\" (predict: --time-grid nonuniform), or leave the grid undeclared, "
                          "to read it as a nonuniform cycle");
   }
