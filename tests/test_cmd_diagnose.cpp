@@ -187,6 +187,11 @@ TEST_CASE("indicial diagnose: the rule's options reach diagnosis.json, a bad one
   CHECK(j["threads"] == 1);
   CHECK(j["test"].get<std::string>().find("ln(1 - 0.2)") != std::string::npos);
   CHECK(j["verdict"] == "time_delay");
+  // report.md says the LR columns did not decide a held-out step (their p-value may exceed its
+  // threshold); under --rule lr they did, and nothing says otherwise.
+  const std::string report_cv = slurp(cv / "report.md");
+  CHECK(report_cv.find("This diagnose decided by held-out error") != std::string::npos);
+  CHECK(report_cv.find("they did not decide it)") != std::string::npos);
   // --rule lr: the likelihood ratio decides even with three runs; no cross-validation keys.
   const fs::path lr = scratch() / "options-lr";
   const Cmd l = run("diagnose " + experiment + " --out " + lr.string() + " --no-plots --quiet --max-steps 1 --rule lr");
@@ -197,6 +202,7 @@ TEST_CASE("indicial diagnose: the rule's options reach diagnosis.json, a bad one
   CHECK(!jl.contains("cv_folds"));
   CHECK(!jl.contains("cv_min_gain"));
   CHECK(jl["threads"] == 2);
+  CHECK(slurp(lr / "report.md").find("did not decide") == std::string::npos);
   // A bad value: DiagnoseOptions::IsValid's line, exit 1, nothing written.
   for (const char* bad : {"--min-gain 1", "--max-folds 1", "--threads 0"}) {
     const fs::path none = scratch() / "options-none";

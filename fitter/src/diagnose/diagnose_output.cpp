@@ -201,7 +201,9 @@ std::string steps_markdown(const DiagnoseResult& d) {
     md += fmt::format("Step {} decided by `{}`", s.step, decision_rule_name(s.rule));
     if (s.rule == DecisionRule::leave_one_run_out)
       md += fmt::format(": held-out RMS per run (each run predicted by the model fitted to the others) {} "
-                        "without it, {} with it; mean ln(MSE ratio) {:.3f} +- {:.3f}",
+                        "without it, {} with it; mean ln(MSE ratio) {:.3f} +- {:.3f} (its LR / kappa, p-value "
+                        "and threshold are the likelihood-ratio rule's reading, for comparison: they did not "
+                        "decide it)",
                         rms_list(s.held_out_rms_before), rms_list(s.held_out_rms_after), s.held_out_log_ratio,
                         s.held_out_standard_error);
     md += ".\n";
@@ -332,7 +334,12 @@ std::string report_markdown(const DiagnoseResult& d, const Experiment& e, const 
         "they are reported, not used as the noise" +
         std::string(replicated ? " (the noise is the replicates' spread, above)" : "") + ".\n\n";
   md += steps_markdown(d);
-  md += fmt::format("Test: LR = N ln(s0^2/s1^2) divided by kappa = (1 + r1) / (1 - r1), r1 the lag-1 "
+  if (d.rule == DecisionRule::leave_one_run_out)
+    md += "This diagnose decided by held-out error (`leave_one_run_out`, above); a candidate reached its held-out "
+          "test when its white LR (the LR below with kappa = 1, a cost screen) passed chi^2(dp) at alpha / M. The "
+          "LR / kappa, p-value and threshold columns are the likelihood-ratio rule's reading, for comparison (the "
+          "rule fewer runs get): a step's p-value may exceed its threshold. ";
+  md += fmt::format("Likelihood-ratio test: LR = N ln(s0^2/s1^2) divided by kappa = (1 + r1) / (1 - r1), r1 the lag-1 "
                     "autocorrelation of the extended fit's residuals (colored residuals inflate LR by about "
                     "kappa), against chi^2(dp) (Boost.Math), N = {} samples. A first term enters when p < "
                     "alpha / M (Bonferroni, alpha = {}, M = every candidate of the round, knot positions "
