@@ -306,7 +306,7 @@ std::string fit_dynamic_stall_cl(const fs::path& sim, const fs::path& fit) {
 
 // A phase cycle carries no airspeed: without --airspeed-mps it is predicted at the model's
 // reference airspeed, and says so (a user's trial predicted cycles at 27 and 54 m/s at 40 m/s
-// without a word); with it nothing is said.
+// without a word); with it nothing is said. --quiet silences the notes, not the warning.
 TEST_CASE("predict: a phase cycle without --airspeed-mps is warned") {
   TempDir tmp;
   const std::string exe = INDICIAL_EXE;
@@ -323,6 +323,11 @@ TEST_CASE("predict: a phase cycle without --airspeed-mps is warned") {
   CHECK(warned.find("indicial: warning: " + cycle + ": no --airspeed-mps: the cycle is predicted at the model's "
                     "reference airspeed, 30 m/s") != std::string::npos);
   CHECK(stderr_of(" --reduced-frequency 0.08 --airspeed-mps 30").find("--airspeed-mps") == std::string::npos);
+  // --quiet: the reader's notes (the snapped phase grid) are not printed; warnings still are.
+  CHECK(stderr_of(" --reduced-frequency 0.08 --airspeed-mps 30").find("indicial: note: ") != std::string::npos);
+  const std::string quiet = stderr_of(" --reduced-frequency 0.08 --quiet");
+  CHECK(quiet.find("indicial: note: ") == std::string::npos);
+  CHECK(quiet.find("indicial: warning: " + cycle + ": no --airspeed-mps") != std::string::npos);
 }
 
 // A log with dropped samples (irregular steps of 1-3 x 0.01 s): refused as it stands (the

@@ -3,7 +3,7 @@
 //   indicial predict MODEL.coef DATA.csv [DATA2.csv ...] --out FILE.csv [--plot FILE.png [--gnuplot EXE]]
 //                    [--metrics FILE.json] [--airspeed-mps V] [--time-grid uniform|nonuniform] [--periodic]
 //                    [--frequency-hz F | --reduced-frequency K] [--samples N] [--experiment E.toml]
-//                    [--score-from-s T] [--force]
+//                    [--score-from-s T] [--force] [--quiet]
 //
 // Several DATA files are one cycle whose quantities are at their own phases (digitized
 // histories: an experiment's runs entry `files = [...]`, phase_resample.hpp), resampled onto
@@ -52,6 +52,7 @@ struct PredictOptions {
   std::string experiment;          // read DATA with this experiment's [columns] and [csv]
   bool force = false;
   bool periodic = false;
+  bool quiet = false;              // --quiet: no input notes on stderr
   double frequency_hz = 0.0;       // for a phase column
   double reduced_frequency = 0.0;  // or k = 2 pi f l / V
 };
@@ -127,7 +128,7 @@ void run_predict(const PredictOptions& o) {
                                   CoefficientPresence::optional, read));
   }
   const Run& run = runs.front();
-  tools::print_notes(run.notes);
+  tools::print_notes(run.notes, o.quiet ? tools::Verbosity::quiet : tools::Verbosity::progress);
   tools::print_warnings(run.warnings);
   // A phase cycle carries no airspeed, and the airspeed sets its lags' and stall states' time
   // constants (l / V) and, with --reduced-frequency, its frequency: without --airspeed-mps it is
@@ -227,6 +228,9 @@ const indicial::tools::RegisterCommand register_predict([](CLI::App& app) {
       ->transform(CLI::CheckedTransformer(
           std::map<std::string, indicial::TimeGrid>{{"uniform", indicial::TimeGrid::uniform},
                                                     {"nonuniform", indicial::TimeGrid::nonuniform}}));
+  sub->add_flag("--quiet", opt->quiet,
+                "no notes on stderr on what the reader did (warnings and errors are still printed): for loops over "
+                "many cycles");
   sub->add_flag("--periodic", opt->periodic,
                 "DATA is one cycle of a periodic motion (an ensemble-averaged cycle): predict its periodic "
                 "steady state (the cycle closes on its last sample if it repeats the first angle, else "
