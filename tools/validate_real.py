@@ -24,13 +24,20 @@ import time
 
 import cycle_catalog
 
-CHOICES_ONLY = len(sys.argv) == 3 and sys.argv[1] == "--choices"
-if not CHOICES_ONLY and len(sys.argv) != 5:
-    sys.exit("usage: validate_real.py DIR INDICIAL SCRATCH OUT.md | validate_real.py --choices DIR")
-DATA = os.path.abspath(sys.argv[2] if CHOICES_ONLY else sys.argv[1])
-EXE = None if CHOICES_ONLY else os.path.abspath(sys.argv[2])
-SCRATCH = None if CHOICES_ONLY else os.path.abspath(sys.argv[3])
-OUT_MD = None if CHOICES_ONLY else sys.argv[4]
+# Set by parse_args() from the command line (main()), so that importing this module reads no argv.
+CHOICES_ONLY = False
+DATA = EXE = SCRATCH = OUT_MD = None
+
+
+def parse_args(argv):
+    global CHOICES_ONLY, DATA, EXE, SCRATCH, OUT_MD
+    CHOICES_ONLY = len(argv) == 3 and argv[1] == "--choices"
+    if not CHOICES_ONLY and len(argv) != 5:
+        sys.exit("usage: validate_real.py DIR INDICIAL SCRATCH OUT.md | validate_real.py --choices DIR")
+    DATA = os.path.abspath(argv[2] if CHOICES_ONLY else argv[1])
+    EXE = None if CHOICES_ONLY else os.path.abspath(argv[2])
+    SCRATCH = None if CHOICES_ONLY else os.path.abspath(argv[3])
+    OUT_MD = None if CHOICES_ONLY else argv[4]
 
 # The reference length in pitch: the chord's half (the development set's README: c = 0.55 m).
 # Another database in this layout with another chord: INDICIAL_CHORD_M.
@@ -238,6 +245,7 @@ def study(work, experiment_text, held, qs):
 
 
 def main():
+    parse_args(sys.argv)
     if CHOICES_ONLY:
         print_choices()
         return
