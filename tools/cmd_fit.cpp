@@ -179,9 +179,10 @@ indicial::ReportOptions report_options(const FitCliOptions& o, const indicial::E
 // Never write (or exit 0 with) a model the runtime refuses: throws (one line, nothing written);
 // returns the post-fit warnings (fit error far above the noise, a model only FitCapacity holds).
 std::vector<std::string> checked_fit(const indicial::FitResult& r, const indicial::Experiment& e,
-                                     const std::string& coef_path, indicial::tools::Verbosity verbosity) {
+                                     const std::string& coef_path) {
   using namespace indicial;
-  if (!r.stepwise_fallback.empty()) tools::print_notes({e.path + ": " + r.stepwise_fallback}, verbosity);
+  // Printed under --quiet too: it says how the model was chosen, not what a reader did.
+  if (!r.stepwise_fallback.empty()) tools::print_notes({e.path + ": " + r.stepwise_fallback});
   const RuntimeAcceptance accepted = require_runtime_accepts(r.model, coef_path, ModelFile::to_write);
   std::vector<std::string> after_fit = fit_warnings(r, e);
   if (accepted.capacity == RuntimeCapacity::fit_capacity_only) after_fit.push_back(coef_path + ": " + accepted.reason);
@@ -197,7 +198,7 @@ void run_fit_one(const FitCliOptions& o, const indicial::FitOptions& fo, const i
   { OutputDir probe(o.out, overwrite, experiment_input_paths(e)); }
   FitResult r;
   clock.stage("fitting (equation error, stepwise, output error)", [&] { r = fit_experiment(e, fo); });
-  const std::vector<std::string> after_fit = checked_fit(r, e, o.out + "/model.coef", clock.verbosity());
+  const std::vector<std::string> after_fit = checked_fit(r, e, o.out + "/model.coef");
   warnings.insert(warnings.end(), after_fit.begin(), after_fit.end());
   FitOutputs w;
   clock.stage("writing the outputs (runtime check, report, plots)",
@@ -244,7 +245,7 @@ void run_fit_several(const FitCliOptions& o, const indicial::FitOptions& fo,
   for (std::size_t i = 0; i < es.size(); ++i) {
     clock.stage("fitting " + es[i].coefficient + " (equation error, stepwise, output error)",
                 [&] { results.push_back(fit_experiment(es[i], fo)); });
-    after[i] = checked_fit(results[i], es[i], o.out + "/" + es[i].coefficient + "/model.coef", clock.verbosity());
+    after[i] = checked_fit(results[i], es[i], o.out + "/" + es[i].coefficient + "/model.coef");
   }
   OutputDir out(o.out, overwrite);
   std::vector<NamedModelSet> parts;
@@ -339,7 +340,7 @@ const indicial::tools::RegisterCommand register_fit([](CLI::App& app) {
   sub->add_option("--state-derivative", opt->state_derivative,
                   "equation error's y_E': smoothed (Savitzky-Golay, default) or modulating (ref. 12)");
   sub->add_flag("--no-plots", opt->no_plots, "do not run gnuplot");
-  sub->add_flag("--quiet", opt->quiet, "no progress lines or notes on stderr (warnings and errors are still printed; report.md lists the notes)");
+  sub->add_flag("--quiet", opt->quiet, "no progress lines or input-reader notes on stderr (warnings, errors and the stepwise fallback's note are still printed; report.md lists the notes)");
   sub->add_option("--gnuplot", opt->gnuplot, "gnuplot executable (default: gnuplot on PATH)");
   sub->callback([opt]() { run_fit(*opt); });
 });
