@@ -12,6 +12,7 @@
 #include <boost/numeric/odeint.hpp>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <vector>
 
 #include "indicial/model.hpp"
@@ -337,6 +338,43 @@ TEST_CASE_TEMPLATE("logistic saturates exactly where its exp is skipped", S, dou
       CHECK(full == S(1));
       CHECK(S(1) / (S(1) + exp(-su)) == S(1));
     }
+  }
+}
+
+// decay_exp (the families' decays, issue 22 item 6): its Taylor polynomial within 1 ulp of
+// the exact exp(-z) (long double) on [0, max_z] -- the bound model.hpp states --, exactly 1
+// at 0, step_exp's bits above max_z, and an autodiff type's value the double's bits with the
+// derivative within an ulp of -exp(-z).
+TEST_CASE_TEMPLATE("decay exp is within an ulp of exp and step exp beyond its range", S, double, float) {
+  using C = indicial::detail::decay_series<S>;
+  CHECK(indicial::decay_exp(S(0)) == S(1));
+  const int n = 200000;
+  double worst_ulp = 0.0;
+  for (int i = 0; i <= n; ++i) {
+    const S z = S(C::max_z * i / n);
+    const long double exact = std::exp(-static_cast<long double>(z));
+    int binade;
+    std::frexp(exact, &binade);
+    const long double ulp = std::ldexp(1.0L, binade - std::numeric_limits<S>::digits);
+    const double err = static_cast<double>(std::fabs(static_cast<long double>(indicial::decay_exp(z)) - exact) / ulp);
+    worst_ulp = err > worst_ulp ? err : worst_ulp;
+  }
+  MESSAGE("decay_exp worst error " << worst_ulp << " ulp");
+  CHECK(worst_ulp <= 1.0);
+  for (double z : {C::max_z * 1.0000001, 0.3, 1.0, 7.5, 40.0}) {
+    const S sz = S(z);
+    if (!(sz > S(C::max_z))) continue;
+    CHECK(indicial::decay_exp(sz) == indicial::detail::step_exp(S(-sz)));
+  }
+}
+
+TEST_CASE("decay exp of an autodiff type has the double's value and exp's derivative") {
+  using Jet = Eigen::AutoDiffScalar<Eigen::VectorXd>;
+  for (double z : {0.0, 1e-4, 0.016, 0.05, 0.2, 0.25, 0.3, 2.0}) {
+    const Jet j(z, 1, 0);
+    const Jet e = indicial::decay_exp(j);
+    CHECK(e.value() == indicial::decay_exp(z));
+    CHECK(e.derivatives()(0) == doctest::Approx(-std::exp(-z)).epsilon(1e-15));
   }
 }
 

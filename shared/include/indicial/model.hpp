@@ -818,6 +818,46 @@ inline Scalar phi1(const Scalar& z) {
 }
 
 namespace detail {
+// decay_exp's Taylor polynomial: its degree and the largest z it serves, per precision.
+template <class Scalar>
+struct decay_series { static constexpr int degree = 12; static constexpr double max_z = 0.25; };
+template <>
+struct decay_series<float> { static constexpr int degree = 7; static constexpr double max_z = 0.25; };
+}  // namespace detail
+
+// exp(-z) for the decay z >= 0 of one step of the dynamic-stall families (their f, clock and
+// vortex decays; model.hpp's stall stages), written once for the fitter (every Scalar, an
+// autodiff type included) and the runtime. Why not step_exp: at real-time rates a step's
+// decay is small (z = h / T, h = dt V / l: 0.016..0.05 in bench_step's stall2), where the
+// Taylor polynomial of exp(-z) in Horner form is a third of a call to glibc's exp, and a call
+// makes x86-64 spill every live floating-point register around it (issue 22 item 6:
+// state/stall2/double 2144 -> 1974 instructions, float 2189 -> 2022, bench_step's callgrind
+// count). Error bound (tests/test_stall_model.cpp): for 0 <= z <= max_z the truncation
+// error is z^(n+1) / (n+1)! <= 0.25^13 / 13! = 2.4e-18 (double, n = 12) and 0.25^8 / 8! =
+// 3.8e-10 (float, n = 7), and with Horner's roundings the result is within 1 ulp of the exact
+// exp(-z) (measured 0.78 ulp in double and 0.77 in float over 2e6 points; glibc's exp is
+// within 0.51): the families' results are not glibc's bits but differ from them by about an
+// ulp per step; the fitter and the runtime share this function, so they agree as before
+// (tests/test_runtime_families.cpp). Above max_z, or for a NaN:
+// step_exp. decay_exp(0) is exactly 1. The branch compares values only, so an autodiff type
+// takes the same side as a double at the same point (and the polynomial's derivative, within
+// an ulp of -exp(-z)).
+template <class Scalar>
+INDICIAL_HOT_INLINE Scalar decay_exp(const Scalar& z) {
+  using C = detail::decay_series<Scalar>;
+  if (!(z <= Scalar(C::max_z))) return detail::step_exp(Scalar(-z));
+  // The coefficients (-1)^k / k!, each rounded once (k! is exact in double up to 22!).
+  constexpr double c[13] = {1.0,         -1.0,           1.0 / 2.0,        -1.0 / 6.0,      1.0 / 24.0,
+                            -1.0 / 120.0, 1.0 / 720.0,    -1.0 / 5040.0,    1.0 / 40320.0,   -1.0 / 362880.0,
+                            1.0 / 3628800.0, -1.0 / 39916800.0, 1.0 / 479001600.0};
+  static_assert(C::degree < 13, "decay_series: more coefficients needed");
+  Scalar r = Scalar(c[C::degree]);
+#pragma GCC unroll 16
+  for (int k = C::degree - 1; k >= 0; --k) r = r * z + Scalar(c[k]);
+  return r;
+}
+
+namespace detail {
 // Below this angle step the mean of b over [x0, x1] is taken as b at the midpoint (see
 // interval_mean). Chosen per precision: the difference quotient (B(x1) - B(x0)) / dx loses
 // about eps |B| / dx to cancellation, the midpoint value errs by at most |jump of b'| dx / 8
@@ -1405,9 +1445,15 @@ inline void lag_derivatives(const CoefficientModel<Scalar, Cap>& m, const Scalar
 //          the feed integral taken exactly as the difference of C_v, the feed gate
 //          G = g s and the decay z_v = h (2 - s) / T_v at the mid clock (tau0 + tau1) / 2,
 //          s = S((T_vl - tau_mid) / w_t) (1 + S(-u) = 2 - S(u): one exponential).
+//   The decays exp(-z) above (f's e, the clock's exp(-z_c), the vortex's exp(-z_v)) are
+//          decay_exp(z): for z <= 1/4 (a real-time step) exp's Taylor polynomial, within 1 ulp
+//          of the exact exp(-z) (glibc's exp: 0.51 ulp); above, exp itself. Deviation from
+//          exp's bits (issue 22 item 6), not from the equations: about an ulp per step.
+//          The switches S(u) keep exp (their u is not small).
 // Local error O(h^3) (the forcing's curvature over the step, the midpoint gates), so global
 // order 2 (tests/test_stall_model.cpp measures it against Boost.Odeint of stall_derivatives).
-// Cost: 5 exp and 4 sqrt per coefficient and step (update and output); no sin / cos.
+// Cost: 5 exponentials (2 exp calls, 3 decay_exp polynomials) and 4 sqrt per coefficient and
+// step (update and output); no sin / cos.
 // Non-smooth points: the clipping of f0c, |C_N'| at C_N' = 0, the clamp in xi (C1 there) and
 // sqrt f at f = 0 (K is evaluated with sqrt f := 0 for f <= 0, so an autodiff type gets a
 // finite derivative there).
@@ -1659,7 +1705,7 @@ template <class Scalar, class Cap>
 inline void stall_decay(const SeparationParameters<Scalar, Cap>& p, const Scalar& h,
                         StallLookups<Scalar>* k) {
   const Scalar z = h / p.tau1_semichords;
-  k->decay = detail::step_exp(Scalar(-z));
+  k->decay = decay_exp(z);
   k->weight = phi1(z, k->decay);
 }
 
@@ -1692,7 +1738,7 @@ INDICIAL_HOT_INLINE void stall_separation_stage(const StallModel<Scalar, Cap>& m
   const Scalar f0 = s->separation_point;
   if (p.tau1_reattach_semichords > Scalar(0) && u0 + u1 > f0 + f0) {  // reattaching: T1r
     const Scalar z = h / p.tau1_reattach_semichords;
-    e = detail::step_exp(Scalar(-z));
+    e = decay_exp(z);
     w = phi1(z, e);
   }
   q->f0 = f0;
@@ -1717,7 +1763,7 @@ INDICIAL_HOT_INLINE void stall_clock_stage(const StallModel<Scalar, Cap>& m, con
   const Scalar zc = h * (Scalar(1) - gate) / Scalar(m.vortex.clock_reset_semichords);
   // Why the branch: while the shedding switch is saturated (gate == 1) zc is 0 and e^-0 is 1
   // exactly; a plain floating-point type skips the exp (same bits), an autodiff type keeps it.
-  const Scalar ec = std::is_floating_point<Scalar>::value && zc == Scalar(0) ? Scalar(1) : detail::step_exp(Scalar(-zc));
+  const Scalar ec = std::is_floating_point<Scalar>::value && zc == Scalar(0) ? Scalar(1) : decay_exp(zc);
   q->clock0 = clock0;
   s->vortex_clock_semichords = ec * clock0 + phi1(zc, ec) * h * gate;
   flush_below_normal<ScalarOps<Scalar>>(&s->vortex_clock_semichords);
@@ -1738,7 +1784,7 @@ INDICIAL_HOT_INLINE void stall_vortex_stage(const StallModel<Scalar, Cap>& m, co
                                             const StallProgress<Scalar>& q) {
   const Scalar feed_gate = q.gate * q.on_chord;
   const Scalar zv = h * (Scalar(2) - q.on_chord) / m.vortex.decay_semichords;
-  const Scalar ev = detail::step_exp(Scalar(-zv));
+  const Scalar ev = decay_exp(zv);
   const SeparationParameters<Scalar, Cap>& p = m.separation;
   const Scalar feed = vortex_feed_from_factor(p, g.x1_rad, q.kirchhoff1) -
                       vortex_feed_from_factor(p, g.x0_rad, q.kirchhoff0);
