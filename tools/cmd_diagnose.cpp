@@ -150,7 +150,9 @@ const indicial::tools::RegisterCommand register_diagnose([](CLI::App& app) {
                   "indicial fit's default: 18 starts of the time constants, the lowest cost kept; slower)")
       ->transform(indicial::tools::stall_start_search_words());
   sub->add_flag("--no-plots", opt->no_plots, "do not run gnuplot");
-  sub->add_flag("--quiet", opt->quiet, "no progress lines or input-reader notes on stderr (warnings and errors are still printed; report.md lists the notes)");
+  sub->add_flag("--quiet", opt->quiet,
+                "no progress lines or input-reader notes on stderr (warnings and errors are still printed; "
+                "report.md lists the notes)");
   sub->add_option("--coefficient", opt->coefficient,
                   "with an experiment listing several coefficients: the one to diagnose (e.g. Cm)");
   sub->add_option("--gnuplot", opt->gnuplot, "gnuplot executable (default: gnuplot on PATH)");

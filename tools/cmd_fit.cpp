@@ -92,7 +92,8 @@ indicial::FitOptions checked_fit_options(const FitCliOptions& o) {
 
 // Notes and warnings of the experiments, each line once (several coefficients share runs);
 // returns the warnings for fit.json.
-std::vector<std::string> input_messages(const std::vector<indicial::Experiment>& es, indicial::tools::Verbosity verbosity) {
+std::vector<std::string> input_messages(const std::vector<indicial::Experiment>& es,
+                                        indicial::tools::Verbosity verbosity) {
   std::set<std::string> seen;
   std::vector<std::string> notes, warnings;
   for (const auto& e : es) {
@@ -340,7 +341,9 @@ const indicial::tools::RegisterCommand register_fit([](CLI::App& app) {
   sub->add_option("--state-derivative", opt->state_derivative,
                   "equation error's y_E': smoothed (Savitzky-Golay, default) or modulating (ref. 12)");
   sub->add_flag("--no-plots", opt->no_plots, "do not run gnuplot");
-  sub->add_flag("--quiet", opt->quiet, "no progress lines or input-reader notes on stderr (warnings, errors and the stepwise fallback's note are still printed; report.md lists the notes)");
+  sub->add_flag("--quiet", opt->quiet,
+                "no progress lines or input-reader notes on stderr (warnings, errors and the stepwise "
+                "fallback's note are still printed; report.md lists the notes)");
   sub->add_option("--gnuplot", opt->gnuplot, "gnuplot executable (default: gnuplot on PATH)");
   sub->callback([opt]() { run_fit(*opt); });
 });

@@ -89,7 +89,6 @@ inline void print_warnings(const std::vector<std::string>& warnings) {
   std::fflush(stderr);
 }
 
-
 // Progress of a long command on stderr, one line per stage once the command has run longer
 // than `threshold` (2 s):
 //   fit: fitting ...                                 when a stage passes the threshold

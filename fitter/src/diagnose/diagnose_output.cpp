@@ -339,9 +339,9 @@ std::string report_markdown(const DiagnoseResult& d, const Experiment& e, const 
           "test when its white LR (the LR below with kappa = 1, a cost screen) passed chi^2(dp) at alpha / M. The "
           "LR / kappa, p-value and threshold columns are the likelihood-ratio rule's reading, for comparison (the "
           "rule fewer runs get): a step's p-value may exceed its threshold. ";
-  md += fmt::format("Likelihood-ratio test: LR = N ln(s0^2/s1^2) divided by kappa = (1 + r1) / (1 - r1), r1 the lag-1 "
-                    "autocorrelation of the extended fit's residuals (colored residuals inflate LR by about "
-                    "kappa), against chi^2(dp) (Boost.Math), N = {} samples. A first term enters when p < "
+  md += fmt::format("Likelihood-ratio test: LR = N ln(s0^2/s1^2) divided by kappa = (1 + r1) / (1 - r1), "
+                    "r1 the lag-1 autocorrelation of the extended fit's residuals (colored residuals inflate LR "
+                    "by about kappa), against chi^2(dp) (Boost.Math), N = {} samples. A first term enters when p < "
                     "alpha / M (Bonferroni, alpha = {}, M = every candidate of the round, knot positions "
                     "counted) and delta BIC (N_eff = N / kappa) < 0; the effect then grows terms of its own "
                     "kind while each passes alpha / (its scan) and lowers BIC, up to {} terms. Knot grid: "
