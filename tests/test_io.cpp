@@ -832,7 +832,13 @@ TEST_CASE("a 128-sample cycle with phase rounded to 0.01 rad is uniform, snapped
   // In the column's own unit (2 pi / 128 rad), seconds beside; the rounding is below 0.005 rad.
   CHECK(any_note_has(e.notes, "snapped to a step of 0.049087385212"));
   CHECK(any_note_has(e.notes, " rad (0.00390625"));
-  CHECK(any_note_has(e.notes, "(max deviation 0.00"));
+  CHECK(any_note_has(e.notes, "is uniform to its printed digits (max deviation 0.00"));
+  for (const std::string& n : e.notes) {
+    const std::size_t at = n.find("(max deviation ");
+    if (at == std::string::npos) continue;
+    const std::string deviation = n.substr(at, n.find("): snapped") - at);
+    CHECK_MESSAGE(deviation.find(" rad (") != std::string::npos, deviation);  // rad first, seconds beside
+  }
   // The writer writes the run keys back; the file reads back the same run.
   const std::string text = indicial::write_experiment_toml(e, {});
   CHECK(text.find("frequency_hz = 2}") != std::string::npos);

@@ -451,12 +451,13 @@ CsvTable read_csv_table(const std::string& path, const ColumnMap& columns, const
 // a name nearest "time_s" must not send that file to a time column).
 bool looks_like_phase_rad(const CsvTable& t, std::size_t col) {
   double previous = -1.0, first = 0.0;
+  bool comma = t.decimal_comma;
+  std::string problem;
   for (std::size_t r = 0; r < t.rows.size(); ++r) {
-    if (col >= t.rows[r].size()) return false;
-    const char* text = t.rows[r][col].c_str();
-    char* end = nullptr;
-    const double v = std::strtod(text, &end);
-    if (end == text || !std::isfinite(v) || v < previous) return false;
+    double v = 0.0;
+    if (col >= t.rows[r].size() || !parse_number(decimal_point(t.rows[r][col], t.delimiter, comma), v, problem) ||
+        v < previous)
+      return false;
     if (r == 0) first = v;
     previous = v;
   }
