@@ -388,6 +388,13 @@ TEST_CASE("experiment stall keys are read, refused without stall, and written ba
   CHECK(r_back.find("stall_T1r_start = 8.5") != std::string::npos);
   CHECK(known_back.find("stall_reattachment") == std::string::npos);  // the default is not written
   CHECK(known_back.find("stall_T1r_start") == std::string::npos);     // (it would be refused)
+  // stall_forcing_lag (model.hpp's ForcingLag): read, written back when not the default.
+  CHECK(r.model.stall.forcing_lag == ForcingLag::delay);
+  CHECK(r_back.find("stall_forcing_lag") == std::string::npos);
+  write_toml("stall = \"separation\"\nstall_forcing_lag = \"first_order\"\n");
+  const Experiment fo = load_experiment((dir / "e.toml").string());
+  CHECK(fo.model.stall.forcing_lag == ForcingLag::first_order);
+  CHECK(write_experiment_toml(fo, {}).find("stall_forcing_lag = \"first_order\"\n") != std::string::npos);
   write_toml("stall = \"separation\"\nstall_reattachment = \"estimated\"\nstall_known = { T1r = 9.0 }\n");
   CHECK(load_experiment((dir / "e.toml").string()).model.stall.known[0] == std::pair<std::string, double>("T1r", 9.0));
   const struct { const char* model; const char* message; } bad[] = {
@@ -400,7 +407,9 @@ TEST_CASE("experiment stall keys are read, refused without stall, and written ba
       {"stall = \"separation\"\nstall_known = { T1r = 9.0 }\n", "it needs model.stall_reattachment = \"estimated\""},
       {"stall = \"separation\"\nstall_T1r_start = 9.0\n", "'model.stall_T1r_start' is used only with"},
       {"stall = \"separation\"\nstall_reattachment = \"slow\"\n", "model.stall_reattachment"},
-      {"stall_reattachment = \"estimated\"\n", "is used only with model.stall"}};
+      {"stall_reattachment = \"estimated\"\n", "is used only with model.stall"},
+      {"stall = \"separation\"\nstall_forcing_lag = \"filter\"\n", "model.stall_forcing_lag"},
+      {"stall_forcing_lag = \"first_order\"\n", "is used only with model.stall"}};
   for (const auto& b : bad) {
     CAPTURE(b.model);
     write_toml(b.model);

@@ -82,12 +82,20 @@ LoadStatus parse(const std::string& text, indicial::ParseDiagnostic* diag) {
 
 }  // namespace
 
-TEST_CASE("family states cost only the models that have them: 168 / 248 bytes, float 88 / 128") {
+TEST_CASE("family states cost only the models that have them: 168 / 272 bytes, float 88 / 144") {
   // 168: 160 until the State kept the unclamped angle for indicial_evaluate (runtime.hpp).
   static_assert(sizeof(indicial::State<double, Cap>) == 168, "a State without families is unchanged");
   static_assert(sizeof(indicial::State<float, Cap>) == 88, "float: unchanged (issue 25)");
-  static_assert(sizeof(Families) <= 256, "issue 22: C_L + C_m with every family in <= 256 bytes");
-  static_assert(sizeof(indicial::FamilyState<float, Cap>) <= 128, "float with families <= 128 bytes");
+  // Four scalars per coefficient since the forcing angle's state (model.hpp ForcingLag): 248 ->
+  // 272 with DefaultCapacity's three coefficient slots, 128 -> 144 in float. A C_L + C_m
+  // instance in a two-coefficient capacity (codegen --capacity tight of such a model): 200, 112.
+  using Two = indicial::Capacity<8, 8, 2, 64, 2>;
+  static_assert(sizeof(indicial::FamilyState<double, Two>) <= 256, "issue 22: C_L + C_m with every family in <= 256 bytes");
+  static_assert(sizeof(indicial::FamilyState<float, Two>) <= 128, "float C_L + C_m with families <= 128 bytes");
+  static_assert(sizeof(Families) == 272, "DefaultCapacity (three coefficient slots)");
+  static_assert(sizeof(indicial::FamilyState<float, Cap>) == 144, "float, DefaultCapacity");
+  MESSAGE("C_L + C_m (two-coefficient capacity): ", sizeof(indicial::FamilyState<double, Two>), " bytes, float ",
+          sizeof(indicial::FamilyState<float, Two>));
   static_assert(std::is_trivially_copyable<Families>::value, "plain data");
   // No padding: the members add up to the size (bytewise comparison is meaningful).
   CHECK(sizeof(Families) == sizeof(indicial::State<double, Cap>) +
@@ -114,8 +122,10 @@ Set stall_model_sharing(Shared shared) {
 // Steps the runtime over the deep-stall cycle beside the direct loop -- what the fitter
 // evaluates (advance_lags, advance_stall, the outputs) -- and compares every output and family
 // state byte for byte. moment_f >= 0: coefficient 1's separation point set to it after the
-// reset, in both (no longer the bits of coefficient 0's).
-void check_step_equals_direct_loop(const Set& set, const Model& m, double moment_f = -1.0) {
+// reset, in both (no longer the bits of coefficient 0's); moment_forcing_shift_rad: the same
+// for coefficient 1's forcing angle (ForcingLag::first_order's state), moved by that much.
+void check_step_equals_direct_loop(const Set& set, const Model& m, double moment_f = -1.0,
+                                   double moment_forcing_shift_rad = 0.0) {
   const int n = set.n_coefficients;
   Families s;
   REQUIRE(indicial::reset(m, s, alpha_at(0), kAirspeed) == StepStatus::ok);
@@ -130,6 +140,8 @@ void check_step_equals_direct_loop(const Set& set, const Model& m, double moment
     s.stall[1].separation_point = moment_f;
     st[1].separation_point = moment_f;
   }
+  s.stall[1].forcing_angle_rad += moment_forcing_shift_rad;
+  st[1].forcing_angle_rad += moment_forcing_shift_rad;
   const indicial::AirspeedScaling<double> v = indicial::airspeed_scaling(30.0, 0.15, kAirspeed);
   double max_vortex = 0.0;
   double min_f = 1.0;
@@ -225,6 +237,36 @@ TEST_CASE("a coefficient repeating another's separation update: only from the sa
   both.coefficients[0].stall.separation.f0_correction = correction;
   CHECK(runtime_of(both).stall_sharing[1].separation == 0);
   check_step_equals_direct_loop(both, runtime_of(both));
+}
+
+// ForcingLag::first_order (model.hpp): the lagged angle is a state. C_m repeats C_L's lagged
+// angles (and with them its separation update) only while the two states' forcing angles are
+// the same bits, as they are from a reset on; moved apart, each computes its own; a coefficient
+// with the other form shares no lagged angles. The numbers are the direct loop's either way.
+TEST_CASE("first-order forcing lag: a direct loop's bits, repeated only from the same forcing angle") {
+  const auto first_order = [](Shared shared, int coefficients) {
+    Set set = stall_model_sharing(shared);
+    for (int c = 0; c < coefficients; ++c)
+      set.coefficients[c].stall.separation.forcing_lag = indicial::ForcingLag::first_order;
+    return set;
+  };
+  for (Shared shared : {Shared::everything, Shared::table_and_decay, Shared::table_and_forcing, Shared::decay_only}) {
+    CAPTURE(static_cast<int>(shared));
+    const Set set = first_order(shared, 2);
+    check_step_equals_direct_loop(set, runtime_of(set));
+  }
+  const Set both = first_order(Shared::everything, 2);
+  const Model m = runtime_of(both);
+  REQUIRE(m.stall_sharing[1].forcing == 0);
+  REQUIRE(m.stall_sharing[1].separation == 0);
+  check_step_equals_direct_loop(both, m, -1.0, 0.035);  // 2 deg
+  check_step_equals_direct_loop(both, m, 0.6, 0.035);
+  const Set mixed = first_order(Shared::everything, 1);  // C_L first_order, C_m delay
+  const Model mm = runtime_of(mixed);
+  CHECK(mm.stall_sharing[1].table == 0);
+  CHECK(mm.stall_sharing[1].forcing == indicial::StallSharing::no_sharing);
+  CHECK(mm.stall_sharing[1].separation == indicial::StallSharing::no_sharing);
+  check_step_equals_direct_loop(mixed, mm);
 }
 
 TEST_CASE("three coefficients sharing the forcing with one and the decay with another: a direct loop's bits") {
@@ -363,6 +405,19 @@ TEST_CASE("coefficient file: families round-trip byte for byte as version 2, ver
   CHECK(r_back.coefficients[1].stall.separation.tau1_reattach_semichords == 8.25);
   CHECK(r_back.coefficients[0].stall.separation.tau1_reattach_semichords == 0.0);
   CHECK(text_of(r_back) == r_text);
+  // The forcing lag's form (sep_forcing_lag): written only when first_order, read back; a file
+  // without the line is delay (what every file before the key meant).
+  CHECK(text.find("sep_forcing_lag") == std::string::npos);
+  CHECK(r_back.coefficients[0].stall.separation.forcing_lag == indicial::ForcingLag::delay);
+  Set filtered = set;
+  filtered.coefficients[1].stall.separation.forcing_lag = indicial::ForcingLag::first_order;
+  const std::string f_text = text_of(filtered);
+  CHECK(f_text.find("sep_forcing_lag first_order\n") != std::string::npos);
+  Set f_back{};
+  REQUIRE(indicial::parse_coef_file(f_text.data(), f_text.size(), &f_back, &diag) == LoadStatus::ok);
+  CHECK(f_back.coefficients[1].stall.separation.forcing_lag == indicial::ForcingLag::first_order);
+  CHECK(f_back.coefficients[0].stall.separation.forcing_lag == indicial::ForcingLag::delay);
+  CHECK(text_of(f_back) == f_text);
 }
 
 TEST_CASE("coefficient file: bad family values are refused with their line and reason") {
@@ -387,6 +442,11 @@ TEST_CASE("coefficient file: bad family values are refused with their line and r
       {"sep_cp 1 0 0\n", "sep_cp 1 0 0\nsep_cp 1 0 0\n", LoadStatus::syntax_error, "key given twice"},
       {"sep_cp 1 0 0\n", "sep_cp 1 0 0\nsep_reattachment 0\n", LoadStatus::invalid_value, "T1r must be > 0"},
       {"sep_cp 1 0 0\n", "sep_cp 1 0 0\nsep_reattachment 9 1\n", LoadStatus::syntax_error, ""},
+      {"sep_cp 1 0 0\n", "sep_cp 1 0 0\nsep_forcing_lag filtered\n", LoadStatus::invalid_value,
+       "sep_forcing_lag must be delay or first_order"},
+      {"sep_cp 1 0 0\n", "sep_cp 1 0 0\nsep_forcing_lag\n", LoadStatus::syntax_error, "needs one value"},
+      {"sep_cp 1 0 0\n", "sep_cp 1 0 0\nsep_forcing_lag first_order\nsep_forcing_lag delay\n",
+       LoadStatus::syntax_error, "key given twice"},
   };
   for (const Case& c : cases) {
     CAPTURE(c.to);

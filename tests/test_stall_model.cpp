@@ -75,22 +75,22 @@ struct Motion {
 std::vector<indicial::StallState<double>> reference(const indicial::StallModel<double, Cap>& m,
                                                     const Motion& mo, double l_over_v_s,
                                                     double dt_s, int n) {
-  using State = std::array<double, 3>;
+  using State = std::array<double, 4>;
   namespace odeint = boost::numeric::odeint;
   indicial::StallState<double> s0;
   indicial::stall_steady_state(m, mo.alpha(0.0), &s0);
-  State y{s0.separation_point, s0.vortex_lift, s0.vortex_clock_semichords};
+  State y{s0.separation_point, s0.vortex_lift, s0.vortex_clock_semichords, s0.forcing_angle_rad};
   std::vector<indicial::StallState<double>> out{s0};
   auto rhs = [&](const State& x, State& dxdt, double t) {
-    const indicial::StallState<double> s{x[0], x[1], x[2]};
+    const indicial::StallState<double> s{x[0], x[1], x[2], x[3]};
     indicial::StallState<double> d;
     indicial::stall_derivatives(m, mo.alpha(t), mo.alphadot(t), l_over_v_s, s, &d);
-    dxdt = {d.separation_point, d.vortex_lift, d.vortex_clock_semichords};
+    dxdt = {d.separation_point, d.vortex_lift, d.vortex_clock_semichords, d.forcing_angle_rad};
   };
   auto stepper = odeint::make_controlled(1e-12, 1e-12, odeint::runge_kutta_dopri5<State>());
   for (int k = 0; k < n; ++k) {
     odeint::integrate_adaptive(stepper, rhs, y, k * dt_s, (k + 1) * dt_s, dt_s / 4);
-    out.push_back({y[0], y[1], y[2]});
+    out.push_back({y[0], y[1], y[2], y[3]});
   }
   return out;
 }
@@ -198,14 +198,18 @@ TEST_CASE("advance stall is second order against an odeint integration") {
   mo.omega_radps = 0.1 / l_over_v;
   const double period = 2.0 * kPi / mo.omega_radps;
   // The third case: a reattachment time constant of its own (T1r = 3 T1, model.hpp): the update
-  // switches its decay at the step where the forcing crosses f, still order 2.
-  struct Case { indicial::StallFamilies fam; double t1r; };
-  for (const Case c : {Case{indicial::StallFamilies::separation, 0.0},
-                       Case{indicial::StallFamilies::separation_and_vortex, 0.0},
-                       Case{indicial::StallFamilies::separation_and_vortex, 9.0}}) {
+  // switches its decay at the step where the forcing crosses f, still order 2. The fourth: the
+  // forcing angle as a first-order filter (ForcingLag::first_order, a fourth state).
+  using indicial::ForcingLag;
+  struct Case { indicial::StallFamilies fam; double t1r; ForcingLag lag; };
+  for (const Case c : {Case{indicial::StallFamilies::separation, 0.0, ForcingLag::delay},
+                       Case{indicial::StallFamilies::separation_and_vortex, 0.0, ForcingLag::delay},
+                       Case{indicial::StallFamilies::separation_and_vortex, 9.0, ForcingLag::delay},
+                       Case{indicial::StallFamilies::separation_and_vortex, 9.0, ForcingLag::first_order}}) {
     const indicial::StallFamilies fam = c.fam;
     auto m = test_model<double>(fam);
     m.separation.tau1_reattach_semichords = c.t1r;
+    m.separation.forcing_lag = c.lag;
     // The vortex really is shed: the clock passes T_vl and the vortex lift is not small.
     if (fam == indicial::StallFamilies::separation_and_vortex) {
       const auto states = discrete(m, mo, l_over_v, period / 2000, 4000);
@@ -219,8 +223,8 @@ TEST_CASE("advance stall is second order against an odeint integration") {
     }
     std::vector<double> err;
     for (int n : {500, 1000, 2000, 4000}) err.push_back(max_output_error(m, mo, l_over_v, 2 * period / n, n));
-    for (std::size_t i = 0; i < err.size(); ++i) std::printf("stall %s T1r %g n=%d err %.3e\n",
-        indicial::stall_families_name(fam), c.t1r, 500 << i, err[i]);
+    for (std::size_t i = 0; i < err.size(); ++i) std::printf("stall %s T1r %g %s n=%d err %.3e\n",
+        indicial::stall_families_name(fam), c.t1r, indicial::forcing_lag_name(c.lag), 500 << i, err[i]);
     CHECK(err.back() < 2e-5);
     // The order over the three halvings: single halvings scatter (2.2 .. 1.5) because the
     // forcing has kinks (the linear f0 table's rows every 0.5 deg, the clipping), where one
@@ -229,6 +233,56 @@ TEST_CASE("advance stall is second order against an odeint integration") {
     std::printf("  measured order over three halvings %.2f\n", order);
     CHECK(order > 1.8);
   }
+}
+
+// ForcingLag::first_order: the lagged angle of a sinusoid of reduced frequency k (in l / V) is
+// the sinusoid filtered by 1 / (1 + i k T2): amplitude 1 / sqrt(1 + (k T2)^2), phase lag
+// atan(k T2); delay's x - T2 (l/V) x' has the phase lag atan(k T2) too but AMPLIFIES it,
+// sqrt(1 + (k T2)^2). Measured on the periodic
+// state of the discrete update (the runtime's and the fitter's), against the analytic value.
+TEST_CASE("first-order forcing lag filters a sinusoid's amplitude, delay amplifies it") {
+  const double l_over_v = 0.275 / 40.0;
+  for (const double k : {0.05, 0.15}) {
+    Motion mo;
+    mo.mean_rad = 8.0 * kDeg;
+    mo.omega_radps = k / l_over_v;
+    const double period = 2.0 * kPi / mo.omega_radps;
+    const int n = 512;
+    for (const indicial::ForcingLag lag : {indicial::ForcingLag::delay, indicial::ForcingLag::first_order}) {
+      auto m = test_model<double>(indicial::StallFamilies::separation);
+      m.separation.forcing_lag = lag;
+      indicial::StallState<double> s;
+      indicial::stall_steady_state(m, mo.alpha(0.0), &s);
+      double lo = 1e9, hi = -1e9;
+      for (int i = 0; i < 6 * n; ++i) {  // five cycles to settle (T2 = 1.7 semichords), the sixth measured
+        const double dt = period / n;
+        const indicial::StallStep<double> g{mo.alpha(i * dt), mo.alpha((i + 1) * dt), dt, l_over_v};
+        const double h = dt / l_over_v;
+        indicial::StallLookups<double> lk;
+        indicial::stall_lagged_angles(m.separation, g, h, s.forcing_angle_rad, &lk);
+        indicial::advance_stall(m, g, &s);
+        if (lag == indicial::ForcingLag::first_order) CHECK(s.forcing_angle_rad == lk.lagged_x1_rad);
+        if (i >= 5 * n) {
+          lo = std::min(lo, lk.lagged_x1_rad);
+          hi = std::max(hi, lk.lagged_x1_rad);
+        }
+      }
+      const double amplitude = (hi - lo) / 2 / mo.amplitude_rad;
+      const double kt = k * 1.7;
+      const double expected = lag == indicial::ForcingLag::delay ? std::sqrt(1.0 + kt * kt) : 1.0 / std::sqrt(1.0 + kt * kt);
+      INFO("k ", k, " ", indicial::forcing_lag_name(lag), ": amplitude ratio ", amplitude);
+      CHECK(amplitude == doctest::Approx(expected).epsilon(1e-3));
+      CHECK((hi + lo) / 2 == doctest::Approx(mo.mean_rad).epsilon(1e-6));
+    }
+  }
+  // T2 = 0: the angle itself, whatever the state held.
+  auto m = test_model<double>(indicial::StallFamilies::separation);
+  m.separation.forcing_lag = indicial::ForcingLag::first_order;
+  m.separation.tau2_semichords = 0.0;
+  indicial::StallLookups<double> lk;
+  indicial::stall_lagged_angles(m.separation, indicial::StallStep<double>{0.1, 0.2, 0.001, 0.01}, 0.1, 0.5, &lk);
+  CHECK(lk.lagged_x0_rad == 0.1);
+  CHECK(lk.lagged_x1_rad == 0.2);
 }
 
 TEST_CASE("stall update in float follows double") {

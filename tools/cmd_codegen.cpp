@@ -188,6 +188,8 @@ void emit_stall(std::string& o, const std::string& p, const indicial::StallModel
   emit_spline(o, sp + ".f0_correction", sep.f0_correction);
   o += "  " + sp + ".tau1_semichords = " + literal(sep.tau1_semichords) + ";\n";
   o += "  " + sp + ".tau2_semichords = " + literal(sep.tau2_semichords) + ";\n";
+  if (sep.forcing_lag != indicial::ForcingLag::delay)
+    o += "  " + sp + ".forcing_lag = indicial::ForcingLag::" + indicial::forcing_lag_name(sep.forcing_lag) + ";\n";
   if (sep.tau1_reattach_semichords > 0.0)
     o += "  " + sp + ".tau1_reattach_semichords = " + literal(sep.tau1_reattach_semichords) + ";\n";
   o += "  " + sp + ".cp_k0 = " + literal(sep.cp_k0) + ";\n";

@@ -192,6 +192,10 @@ const std::vector<KeyDoc>& key_docs() {
                                       "T1r (l / V) while the flow reattaches (the downstroke below stall);\n"
                                       "default \"as_separation\" (T1 both ways).",
        "stall_reattachment = \"estimated\""},
+      {"model", "stall_forcing_lag", "with stall: how T2 lags the forcing angle: \"delay\" (default, x - T2 (l/V) x')\n"
+                                     "or \"first_order\" (a filter: its amplitude falls with the frequency,\n"
+                                     "as Beddoes-Leishman's lagged normal force).",
+       "stall_forcing_lag = \"first_order\""},
       {"model", "stall_known", "with stall: parameters held at known values, not estimated (T1, T2, k0, k1,\n"
                                "k2; with the vortex CN1, Tv, Tvl, cv, xv; with stall_reattachment T1r), e.g.\n"
                                "a C_m fit taking T1 and T2 from the C_L fit's model.coef. No start value for\n"

@@ -14,6 +14,12 @@ what the study would train on.
 
 Columns are a list (`columns` in main(), one per model: the configured fit, then one per
 diagnose step): another study adds a column by appending (label, coefficient file).
+
+INDICIAL_VALIDATE_FORCING_LAG=first_order (environment) fits the Beddoes-Leishman start with
+`stall_forcing_lag = "first_order"` (model.hpp's ForcingLag; default "delay", what
+docs/validation-real.md is written with); docs/validation-real-first-order.md is that variant:
+    INDICIAL_VALIDATE_FORCING_LAG=first_order nice python3 tools/validate_real.py DIR \
+        build/tools/indicial SCRATCH docs/validation-real-first-order.md
 """
 import hashlib
 import json
@@ -125,10 +131,13 @@ estimate = false
 #   pitch-rate correction C_aq estimated (rotary_correction_powers = [0]), and the separation
 #   and leading-edge-vortex families with the static table as the lift polar.
 # docs/measured-cycles.md compares them (these tables and a user's trial) and recommends the second.
+FORCING_LAG = os.environ.get("INDICIAL_VALIDATE_FORCING_LAG", "delay")
+if FORCING_LAG not in ("delay", "first_order"):
+    sys.exit(f"INDICIAL_VALIDATE_FORCING_LAG: expected delay or first_order, found '{FORCING_LAG}'")
 CONFIGS = (
     ("report", "the report's model (a(x) of degree 2 with knots every 5 deg inside the training range, b1 constant)"),
     ("bl", "the Beddoes-Leishman structure (a and b1 constants, C_aq constant estimated, separation and vortex "
-           "families)"),
+           "families" + ("" if FORCING_LAG == "delay" else f", stall_forcing_lag = \"{FORCING_LAG}\"") + ")"),
 )
 
 
@@ -137,7 +146,8 @@ def model_keys(config, knots, static_csv):
         return (f"a_degree = 2\na_knots_deg = [{', '.join(str(k) for k in knots)}]\nb1_degree = 0\nbias = false\n"
                 'structure = "fixed"\n')
     return ("a_degree = 0\nb1_degree = 0\nbias = false\nstructure = \"fixed\"\nrotary_correction_powers = [0]\n"
-            f'stall = "separation_and_vortex"\nstall_polar = "{static_csv}"\nstall_polar_column = "CL"\n')
+            f'stall = "separation_and_vortex"\nstall_polar = "{static_csv}"\nstall_polar_column = "CL"\n' +
+            ("" if FORCING_LAG == "delay" else f'stall_forcing_lag = "{FORCING_LAG}"\n'))
 
 
 def run(cmd, ok=(0,)):

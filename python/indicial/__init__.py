@@ -167,6 +167,8 @@ class Experiment:
                            a fitted correction of f0(x): powers of x and (x - k)_+ knots, k in rad
       stall_reattachment   "as_separation" (default: T1 both ways) or "estimated": the separation
                            state's own time constant T1r while the flow reattaches
+      stall_forcing_lag    "delay" (default: x - T2 (l/V) x') or "first_order": the forcing angle
+                           as a first-order filter of time constant T2 (docs/formats.md)
       stall_T1_start, stall_T2_start, stall_Tv_start, stall_Tvl_start, stall_T1r_start
                            start values in semichords (units of l / V; default 3, 1.5, 6, 7 and for
                            T1r T1's start; T2 >= 0, the others > 0; stall_T1r_start needs
@@ -196,7 +198,8 @@ class Experiment:
                  stall_T1_start: Optional[float] = None, stall_T2_start: Optional[float] = None,
                  stall_CN1_start: Optional[float] = None, stall_Tv_start: Optional[float] = None,
                  stall_Tvl_start: Optional[float] = None, stall_known: Optional[Dict[str, float]] = None,
-                 stall_reattachment: Optional[str] = None, stall_T1r_start: Optional[float] = None):
+                 stall_reattachment: Optional[str] = None, stall_T1r_start: Optional[float] = None,
+                 stall_forcing_lag: Optional[str] = None):
         if axis not in _ANGLE:
             raise InputError(f"axis: expected one of 'pitch', 'roll', 'yaw', found '{axis}'")
         config = dict(coefficient=coefficient, reference_length_m=float(reference_length_m),
@@ -219,7 +222,7 @@ class Experiment:
                       stall_f0_correction_knots_rad=stall_f0_correction_knots_rad, stall_T1_start=stall_T1_start,
                       stall_T2_start=stall_T2_start, stall_CN1_start=stall_CN1_start, stall_Tv_start=stall_Tv_start,
                       stall_Tvl_start=stall_Tvl_start, stall_reattachment=stall_reattachment,
-                      stall_T1r_start=stall_T1r_start,
+                      stall_T1r_start=stall_T1r_start, stall_forcing_lag=stall_forcing_lag,
                       stall_known=None if stall_known is None else dict(stall_known))
         for i, r in enumerate(runs):
             if not isinstance(r, Run):

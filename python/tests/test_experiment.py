@@ -223,6 +223,14 @@ def test_each_stall_start_keyword_reaches_the_experiment_file(stall_experiment_k
         assert f"{key} = 2.25\n" in indicial.Experiment(**kw).toml_text()
 
 
+def test_stall_forcing_lag_keyword_reaches_the_experiment_file(stall_experiment_kwargs):
+    kw = dict(stall_experiment_kwargs, stall_forcing_lag="first_order")
+    assert 'stall_forcing_lag = "first_order"\n' in indicial.Experiment(**kw).toml_text()
+    assert "stall_forcing_lag" not in indicial.Experiment(**stall_experiment_kwargs).toml_text()
+    with pytest.raises(indicial.InputError, match="stall_forcing_lag"):
+        indicial.Experiment(**dict(stall_experiment_kwargs, stall_forcing_lag="filter"))
+
+
 def test_stall_keywords_fill_what_the_file_does(stall_experiment_kwargs):
     e = indicial.Experiment(**stall_experiment_kwargs)
     assert 'stall = "separation_and_vortex"' in e.toml_text() and "stall_known = { T2 = 1.5, Tvl = 7 }" in e.toml_text()

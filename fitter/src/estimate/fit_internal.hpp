@@ -59,6 +59,7 @@ struct StallStructure {
   SplineTerms f0_correction;
   double shedding_threshold_start = 1.0;  // N(x) where f0 first falls below 0.7 (above alpha_0)
   StallReattachment reattachment = StallReattachment::as_separation;  // T1r estimated or not (0)
+  ForcingLag forcing_lag = ForcingLag::delay;                         // StallConfig::forcing_lag
   std::vector<std::pair<ParamId, double>> known;  // StallConfig::known: held, not estimated
   bool is_known(const ParamId& id) const {
     for (const auto& k : known)
@@ -179,6 +180,7 @@ void shape_stall(const StallStructure& t, StallModel<S, Cap>& m) {
   SeparationParameters<S, Cap>& p = m.separation;
   p.normal_force_slope_per_rad = S(t.normal_force_slope_per_rad);
   p.zero_lift_angle_rad = S(t.zero_lift_angle_rad);
+  p.forcing_lag = t.forcing_lag;
   p.n_f0 = static_cast<int>(t.f0_x_rad.size());
   for (std::size_t i = 0; i < t.f0_x_rad.size(); ++i) {
     p.f0_x_rad[i] = t.f0_x_rad[i];

@@ -18,7 +18,8 @@ namespace {
 // (docs/formats.md's stall table).
 const char* const kStallKeys[] = {"stall_polar", "stall_polar_column", "stall_attached_max_deg",
                                   "stall_f0_correction_degree", "stall_f0_correction_powers",
-                                  "stall_f0_correction_knots_deg", "stall_known", "stall_reattachment"};
+                                  "stall_f0_correction_knots_deg", "stall_known", "stall_reattachment",
+                                  "stall_forcing_lag"};
 
 // The stall parameters stall_known may name, with the feasible set model.hpp's
 // check_stall_parameters enforces (a parameter with a start value: the start's bound, the same

@@ -547,7 +547,8 @@ std::set<std::string> model_keys() {
                                 // the dynamic-stall families (issue 22)
                                 "stall", "stall_polar", "stall_polar_column", "stall_attached_max_deg",
                                 "stall_f0_correction_degree", "stall_f0_correction_powers",
-                                "stall_f0_correction_knots_deg", "stall_known", "stall_reattachment"};
+                                "stall_f0_correction_knots_deg", "stall_known", "stall_reattachment",
+                                "stall_forcing_lag"};
   for (const StallStart& st : stall_starts()) keys.insert(st.key);
   for (int k = 1; k <= FitCapacity::max_lags; ++k)
     for (const std::string& key : lag_b_keys(k)) keys.insert(key);
@@ -674,6 +675,8 @@ void read_stall_keys(LoadContext& c, const toml::node* model_node, Experiment& e
   if (fam) s.families = r.choice<StallFamilies>(*fam, "model.stall");
   if (const toml::node* n = mt.get("stall_reattachment"))
     s.reattachment = r.choice<StallReattachment>(*n, "model.stall_reattachment");
+  if (const toml::node* n = mt.get("stall_forcing_lag"))
+    s.forcing_lag = r.choice<ForcingLag>(*n, "model.stall_forcing_lag");
   std::set<std::string> given;
   for (auto&& [key, value] : mt)
     if (key.str().rfind("stall_", 0) == 0) given.insert(std::string(key.str()));
@@ -1086,6 +1089,8 @@ std::string write_experiment_toml(const Experiment& e, const std::vector<std::st
     out += "stall_attached_max_deg = " + format_double(st.attached_max_deg) + "\n";
     if (st.reattachment != StallReattachment::as_separation)
       out += std::string("stall_reattachment = \"") + name_of(st.reattachment) + "\"\n";
+    if (st.forcing_lag != ForcingLag::delay)
+      out += std::string("stall_forcing_lag = \"") + name_of(st.forcing_lag) + "\"\n";
     if (!st.f0_correction.powers.empty()) out += power_terms("stall_f0_correction", st.f0_correction.powers);
     if (!st.f0_correction.knots_rad.empty())
       out += "stall_f0_correction_knots_deg = " + number_list(st.f0_correction.knots_rad, kRadToDeg) + "\n";

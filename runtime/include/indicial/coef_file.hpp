@@ -349,6 +349,7 @@ enum SeenBit : unsigned {
   seen_vortex_clock = 1u << 21,
   seen_vortex_output = 1u << 22,
   seen_sep_reattach = 1u << 23,
+  seen_sep_forcing = 1u << 28,
   seen_lag_poly0 = 1u << 16,  // + j for lag j (up to 4 lags)
   seen_lag_gain0 = 1u << 24,  // + j
 };
@@ -633,6 +634,20 @@ inline KeyRead read_sep_reattach(CoefficientModel<double, Cap>& cm, Tokens& t, i
   return read_ruled(t, rules, {&cm.stall.separation.tau1_reattach_semichords}, seen_sep_reattach);
 }
 
+// `sep_forcing_lag first_order` (optional; model.hpp's ForcingLag): how T2 lags the forcing
+// angle. Without the key, delay (x - T2 (l/V) x', what files before the key meant).
+template <class Cap>
+inline KeyRead read_sep_forcing(CoefficientModel<double, Cap>& cm, Tokens& t, int*) {
+  const char* vb = nullptr;
+  const char* ve = nullptr;
+  if (!t.next(&vb, &ve) || !t.at_end())
+    return key_read(LoadStatus::syntax_error, "sep_forcing_lag needs one value", seen_sep_forcing);
+  if (token_is(vb, ve, "delay")) cm.stall.separation.forcing_lag = ForcingLag::delay;
+  else if (token_is(vb, ve, "first_order")) cm.stall.separation.forcing_lag = ForcingLag::first_order;
+  else return key_read(LoadStatus::invalid_value, "sep_forcing_lag must be delay or first_order", seen_sep_forcing);
+  return key_read(LoadStatus::ok, "", seen_sep_forcing);
+}
+
 // `sep_cp k0 k1 k2`: the centre-of-pressure shape of the output.
 template <class Cap>
 inline KeyRead read_sep_cp(CoefficientModel<double, Cap>& cm, Tokens& t, int*) {
@@ -701,6 +716,7 @@ inline const BlockKey<Cap>* find_block_key(const char* b, const char* e) {
       {"sep_f0_corr_knot", &read_sep_f0_corr<Cap, SplineItem::knot>, coef_file_version_stall},
       {"sep_time_constants", &read_sep_time<Cap>, coef_file_version_stall},
       {"sep_reattachment", &read_sep_reattach<Cap>, coef_file_version_stall},
+      {"sep_forcing_lag", &read_sep_forcing<Cap>, coef_file_version_stall},
       {"sep_cp", &read_sep_cp<Cap>, coef_file_version_stall},
       {"vortex_shedding", &read_vortex<Cap, VortexItem::shedding>, coef_file_version_stall},
       {"vortex_time_constants", &read_vortex<Cap, VortexItem::time_constants>, coef_file_version_stall},
@@ -782,7 +798,7 @@ inline LoadStatus stall_families_of_block(unsigned seen, CoefficientModel<double
                                           std::size_t line, ParseDiagnostic* diag) {
   const unsigned sep_required = seen_sep_polar | seen_sep_time | seen_sep_cp;
   const unsigned vortex_all = seen_vortex_shedding | seen_vortex_time | seen_vortex_clock | seen_vortex_output;
-  const bool any_sep = (seen & (sep_required | seen_sep_corr_poly | seen_sep_reattach)) != 0 ||
+  const bool any_sep = (seen & (sep_required | seen_sep_corr_poly | seen_sep_reattach | seen_sep_forcing)) != 0 ||
                        cm->stall.separation.n_f0 > 0 || cm->stall.separation.f0_correction.n_knots > 0;
   const bool any_vortex = (seen & vortex_all) != 0;
   if (!any_sep && !any_vortex) return LoadStatus::ok;
@@ -1099,6 +1115,11 @@ inline void write_stall_families(Sink& s, const StallModel<double, Cap>& st) {
   write_spline(s, sep.f0_correction, "sep_f0_corr_poly", "sep_f0_corr_knot", 0);
   write_values(s, "sep_time_constants", {sep.tau1_semichords, sep.tau2_semichords});
   if (sep.tau1_reattach_semichords > 0.0) write_values(s, "sep_reattachment", {sep.tau1_reattach_semichords});
+  if (sep.forcing_lag != ForcingLag::delay) {
+    s.put("sep_forcing_lag ");
+    s.put(forcing_lag_name(sep.forcing_lag));
+    s.put_char('\n');
+  }
   write_values(s, "sep_cp", {sep.cp_k0, sep.cp_k1, sep.cp_k2});
   if (st.families != StallFamilies::separation_and_vortex) return;
   const auto& v = st.vortex;

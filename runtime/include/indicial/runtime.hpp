@@ -92,8 +92,9 @@
 // (CoefficientModel::stall; the equations, units and feasible set are model.hpp's essay
 // "Dynamic stall: equations"). The runtime steps them and adds nothing of its own:
 //   * the state: model.hpp's StallState per coefficient (separation point, vortex lift,
-//     vortex clock) in a FamilyState, a State plus those (248 bytes for double, 128 for float
-//     with DefaultCapacity). Why a state type of its own rather than room in every State or a
+//     vortex clock, forcing angle) in a FamilyState, a State plus those (272 bytes for double,
+//     144 for float with DefaultCapacity; 200 and 112 for C_L + C_m in a two-coefficient
+//     capacity). Why a state type of its own rather than room in every State or a
 //     Capacity parameter: a model without families pays nothing (its State stays 168 / 88
 //     bytes) under the same Capacity that codegen and the C API use, as the delay ring lives
 //     only in DelayedState -- which derives from FamilyState, so the Predictor's Snapshot
@@ -397,7 +398,9 @@ inline void derive_stall_sharing(const ModelSet<Scalar, Cap>& s, StallSharing* s
       if (b.families == StallFamilies::none) continue;
       const bool table = detail::same_f0_table(a.separation, b.separation);
       if (table) sharing[c].table = e;
-      if (table && detail::same_bits(a.separation.tau2_semichords, b.separation.tau2_semichords)) sharing[c].forcing = e;
+      if (table && a.separation.forcing_lag == b.separation.forcing_lag &&
+          detail::same_bits(a.separation.tau2_semichords, b.separation.tau2_semichords))
+        sharing[c].forcing = e;
       if (detail::same_bits(a.separation.tau1_semichords, b.separation.tau1_semichords)) sharing[c].decay = e;
       if (sharing[c].forcing == e && sharing[c].decay == e && a.families == b.families &&
           detail::same_bits(a.separation.tau1_reattach_semichords, b.separation.tau1_reattach_semichords) &&
@@ -474,6 +477,7 @@ inline bool convert_stall(const StallModel<double, Cap>& a, StallModel<Scalar, C
   ok = convert_spline(sa.f0_correction, &sb.f0_correction) && ok;
   sb.tau1_semichords = static_cast<Scalar>(sa.tau1_semichords);
   sb.tau2_semichords = static_cast<Scalar>(sa.tau2_semichords);
+  sb.forcing_lag = sa.forcing_lag;
   sb.tau1_reattach_semichords = static_cast<Scalar>(sa.tau1_reattach_semichords);
   sb.cp_k0 = static_cast<Scalar>(sa.cp_k0);
   sb.cp_k1 = static_cast<Scalar>(sa.cp_k1);
@@ -679,7 +683,8 @@ enum class HistoryOrigin : int {
 // (RuntimeModel::stall). Why a type of its own rather than room in every State: a model
 // without families pays nothing (State<double, DefaultCapacity> stays 168 bytes, the float
 // one 88), with the same Capacity (codegen and the C API keep DefaultCapacity), as the delay
-// ring lives only in DelayedState. 248 bytes for double and DefaultCapacity, 128 for float.
+// ring lives only in DelayedState. 272 bytes for double and DefaultCapacity, 144 for float
+// (248 and 128 until the forcing angle's state, model.hpp's ForcingLag).
 template <class Scalar, class Cap>
 struct FamilyState : State<Scalar, Cap> {
   StallState<Scalar> stall[Cap::max_coefficients] = {};
@@ -884,17 +889,22 @@ INDICIAL_HOT_INLINE T earlier_entry(const T* a, int c, int e) {
 // The families' lookups of one step (model.hpp's StallLookups), of each coefficient's own or
 // copied from the one it shares them with (RuntimeModel::stall_sharing): the lookups are of
 // the step's own angles and airspeed. Coefficients are looked up in order, 0 first.
+// With ForcingLag::first_order the lagged angles also depend on the state's forcing angle: a
+// coefficient takes them from the one it shares them with only when the two states' forcing
+// angles are the same bits before the step (as they are from a reset on).
 template <class Scalar, class Cap>
 INDICIAL_HOT_INLINE void look_up_families(const RuntimeModel<Scalar, Cap>& m, const StallStep<Scalar>& g,
-                                          const Scalar& h, StallLookups<Scalar>* k) {
+                                          const Scalar& h, const StallState<Scalar>* s, StallLookups<Scalar>* k) {
   for_each_coefficient<Cap>(m.set.n_coefficients, [&](int c) INDICIAL_HOT_LAMBDA {
     const StallModel<Scalar, Cap>& st = m.set.coefficients[c].stall;
     if (st.families == StallFamilies::none) return;
     const StallSharing& sh = m.stall_sharing[c];
-    if (sh.forcing != StallSharing::no_sharing) {
+    if (sh.forcing != StallSharing::no_sharing &&
+        (st.separation.forcing_lag == ForcingLag::delay ||
+         same_bits(s[c].forcing_angle_rad, earlier_entry(s, c, sh.forcing).forcing_angle_rad))) {
       k[c] = earlier_entry(k, c, sh.forcing);
     } else {
-      stall_lagged_angles(st.separation, g, h, &k[c]);
+      stall_lagged_angles(st.separation, g, h, s[c].forcing_angle_rad, &k[c]);
       stall_table_lookups(st.separation, &k[c]);
     }
     if (sh.decay != StallSharing::no_sharing) {
@@ -935,7 +945,7 @@ INDICIAL_HOT_INLINE Scalar advance_families(const RuntimeModel<Scalar, Cap>& m, 
   // not follow. q is cleared coefficient by coefficient in the first stage's loop, over the
   // whole capacity, instead: the same for the warning, and no block clear of 144 bytes.)
   StallLookups<Scalar> k[Cap::max_coefficients] = {};
-  look_up_families(m, g, h, k);
+  look_up_families(m, g, h, s, k);
   StallProgress<Scalar> q[Cap::max_coefficients];
   // same_f[c]: c repeats the separation update of e = stall_sharing[c].separation, whose
   // separation point was the same bits as c's before the step (then f1, K(f0) and K(f1) are).
@@ -949,6 +959,11 @@ INDICIAL_HOT_INLINE Scalar advance_families(const RuntimeModel<Scalar, Cap>& m, 
     if (c >= n || set.coefficients[c].stall.families == StallFamilies::none) continue;
     const int e = m.stall_sharing[c].separation;
     same_f[c] = e != StallSharing::no_sharing && same_bits(s[c].separation_point, earlier_entry(q, c, e).f0);
+    if (set.coefficients[c].stall.separation.forcing_lag == ForcingLag::first_order) {
+      // the forcing angle's state (model.hpp advance_stall_with); shared only from equal states
+      same_f[c] = same_f[c] && same_bits(k[c].lagged_x0_rad, earlier_entry(k, c, e).lagged_x0_rad);
+      s[c].forcing_angle_rad = k[c].lagged_x1_rad;
+    }
     if (same_f[c]) {
       q[c].f0 = earlier_entry(q, c, e).f0;
       s[c].separation_point = earlier_entry(s, c, e).separation_point;
@@ -997,7 +1012,7 @@ INDICIAL_HOT_INLINE Scalar advance_families(const RuntimeModel<Scalar, Cap>& m, 
                                                                  q[c].kirchhoff1, s[c]);
     value[c] = value[c] + (o.separation + o.vortex);
     test = test + (finite_test(s[c].separation_point) + finite_test(s[c].vortex_lift) +
-                   finite_test(s[c].vortex_clock_semichords));
+                   finite_test(s[c].vortex_clock_semichords) + finite_test(s[c].forcing_angle_rad));
   });
   return test;
 }

@@ -500,6 +500,27 @@ inline constexpr const char* stall_families_name(StallFamilies f) {
          : f == StallFamilies::separation ? "separation" : "separation_and_vortex";
 }
 
+// How T2 lags the angle that forces the separation point and the shedding criterion (x_e in
+// "Dynamic stall: equations" below):
+//   delay        x_e = x - T2 (l/V) x'               a time shift of the angle to first order;
+//                                                  on a sinusoid of reduced frequency k (in l/V)
+//                                                  the phase lag atan(k T2) and the amplitude
+//                                                  times sqrt(1 + (k T2)^2): it OVERSHOOTS
+//   first_order  T2 (l/V) x_e' + x_e = x             a first-order filter (a state): the same
+//                                                  phase lag, the amplitude times
+//                                                  1 / sqrt(1 + (k T2)^2), as the lagged normal
+//                                                  force C_N' of Beddoes-Leishman (their T_p);
+//                                                  on a ramp both give x - T2 (l/V) x'.
+// Why both: delay is what models fitted before this choice existed mean (the default; a
+// coefficient file without sep_forcing_lag). With delay a fast cycle's lagged angle peaks
+// above the angle's own peak (k = 0.15, T2 = 3: 10 deg of amplitude become 11), so a cycle
+// that stays attached in the tunnel separates in the model.
+enum class ForcingLag : int { delay = 0, first_order = 1 };
+
+inline constexpr const char* forcing_lag_name(ForcingLag l) {
+  return l == ForcingLag::delay ? "delay" : "first_order";
+}
+
 // The separation-point family (Goman-Khrabrov state, Kirchhoff output).
 //   parameter                       unit           fitter name   coefficient-file key
 //   normal_force_slope_per_rad      1/rad          (polar)       sep_polar C_Na alpha0_rad
@@ -508,6 +529,7 @@ inline constexpr const char* stall_families_name(StallFamilies f) {
 //   f0_correction spline            1, x in rad    f0c_{i}, f0cK{j}  sep_f0_corr_poly / _knot
 //   tau1_semichords  T1             l/V            T1            sep_time_constants T1 T2
 //   tau2_semichords  T2             l/V            T2            sep_time_constants
+//   forcing_lag                     (structure)    (structure)   sep_forcing_lag first_order (optional)
 //   tau1_reattach_semichords T1r    l/V            T1r           sep_reattachment T1r (optional)
 //   cp_k0, cp_k1, cp_k2             1              k0, k1, k2    sep_cp k0 k1 k2
 // The polar items are derived from the static lift polar (kirchhoff_separation, below) and
@@ -528,6 +550,7 @@ struct SeparationParameters {
   SplineT f0_correction;                          // fitted, ADDED to the table, then clipped
   Scalar tau1_semichords = Scalar(3);             // T1 > 0: relaxation of f
   Scalar tau2_semichords = Scalar(0);             // T2 >= 0: lag of the forcing angle
+  ForcingLag forcing_lag = ForcingLag::delay;     // how T2 lags it (structure, not fitted)
   // T1r >= 0: the relaxation of f while the flow REATTACHES (the forcing above f); 0: T1 both
   // ways (one time constant, the default; the coefficient file then has no sep_reattachment).
   Scalar tau1_reattach_semichords = Scalar(0);
@@ -1357,7 +1380,9 @@ inline void lag_derivatives(const CoefficientModel<Scalar, Cap>& m, const Scalar
 //        + C_v,lift (c_v - x_v xi(tau_v))                               (vortex family)
 //
 // Separation (Goman & Khrabrov 1994; the Kirchhoff output of Leishman & Beddoes 1989):
-//   T1 (l/V) f' + f = f0c(x - T2 (l/V) x')                              (state f in [0, 1])
+//   T1 (l/V) f' + f = f0c(x_e)                                          (state f in [0, 1])
+//   x_e = x - T2 (l/V) x'  (ForcingLag::delay, the default)  or  T2 (l/V) x_e' + x_e = x
+//   (ForcingLag::first_order: a fourth state; see ForcingLag above for the difference)
 //   with T1 replaced by T1r while f0c(x_e) > f (the flow reattaching), when T1r > 0: the slow
 //   reattachment of the downstroke (Beddoes-Leishman lengthen T_f there too). The right-hand
 //   side (f0c - f) / T stays continuous where the two meet (both are 0 at f = f0c). T1r = 0:
@@ -1398,7 +1423,7 @@ inline void lag_derivatives(const CoefficientModel<Scalar, Cap>& m, const Scalar
 // Spline; the sum is clipped to [0, 1] (zero derivative where clipped).
 //
 // Vortex (Beddoes & Leishman, with smooth switches):
-//   C_N'   = N(x - T2 (l/V) x')        the lagged attached normal force (T2 plays the role of
+//   C_N'   = N(x_e)                    the lagged attached normal force (T2 plays the role of
 //                                      Beddoes-Leishman's pressure lag T_p)
 //   g      = S((|C_N'| - C_N1) / w)    the SHEDDING CRITERION |C_N'| > C_N1, as a logistic
 //                                      switch S(u) = 1 / (1 + e^-u) of width w (C_N units)
@@ -1433,7 +1458,9 @@ inline void lag_derivatives(const CoefficientModel<Scalar, Cap>& m, const Scalar
 //
 // The discrete update (advance_stall), order 2, explicit, in this sequence:
 //   f:     EXACT for a forcing u = f0c(x_e) linear in time over the step (u0, u1 at its ends,
-//          x_e = x - T2 (x1 - x0) / h):  f1 = e f0 + (phi1(z) - e) u0 + (1 - phi1(z)) u1,
+//          x_e = x - T2 (x1 - x0) / h, or with first_order x_e0 the state and x_e1 its exact
+//          update for x linear over the step, stall_lagged_angles):
+//          f1 = e f0 + (phi1(z) - e) u0 + (1 - phi1(z)) u1,
 //          z = h / T1, e = exp(-z). The three weights are >= 0 and sum to 1: f1 is a convex
 //          combination of f0, u0, u1 and stays in [0, 1] without clipping. With T1r > 0, z =
 //          h / T1r when (u0 + u1) / 2 > f0 (reattaching over the step, decided at its start:
@@ -1452,14 +1479,15 @@ inline void lag_derivatives(const CoefficientModel<Scalar, Cap>& m, const Scalar
 //          The switches S(u) keep exp (their u is not small).
 // Local error O(h^3) (the forcing's curvature over the step, the midpoint gates), so global
 // order 2 (tests/test_stall_model.cpp measures it against Boost.Odeint of stall_derivatives).
-// Cost: 5 exponentials (2 exp calls, 3 decay_exp polynomials) and 4 sqrt per coefficient and
+// Cost: 5 exponentials (2 exp calls, 3 decay_exp polynomials; first_order a 6th, its filter's) and 4 sqrt per coefficient and
 // step (update and output); no sin / cos.
 // Non-smooth points: the clipping of f0c, |C_N'| at C_N' = 0, the clamp in xi (C1 there) and
 // sqrt f at f = 0 (K is evaluated with sqrt f := 0 for f <= 0, so an autodiff type gets a
 // finite derivative there).
 //
-// State: StallState, three Scalars per coefficient (f, v, tau_v). reset: stall_steady_state
-// (f = f0c(x), v = 0, tau_v = 0). Feasible set (check_stall_parameters): T1 > 0, T2 >= 0, T1r >= 0,
+// State: StallState, four Scalars per coefficient (f, v, tau_v and the forcing angle x_e, used
+// with ForcingLag::first_order only). reset: stall_steady_state (f = f0c(x), v = 0, tau_v = 0,
+// x_e = x). Feasible set (check_stall_parameters): T1 > 0, T2 >= 0, T1r >= 0,
 // T_v > 0, T_vl > 0, C_N1 > 0, the widths and T_r > 0, an f0 table of >= 2 strictly
 // increasing rows with values in [0, 1], everything finite.
 // The coefficient-file keys and fitter names are in the parameter structs' tables above.
@@ -1468,6 +1496,10 @@ struct StallState {
   Scalar separation_point = Scalar(1);         // f, in [0, 1] (1 attached, 0 separated)
   Scalar vortex_lift = Scalar(0);              // v = C_N,v, dimensionless normal force
   Scalar vortex_clock_semichords = Scalar(0);  // tau_v, in l / V
+  // x_e, rad, with ForcingLag::first_order (the filtered forcing angle); delay computes x_e from
+  // the step and leaves this at the reset angle. Costs FamilyState<double, DefaultCapacity> 24
+  // bytes (248 -> 272; runtime.hpp).
+  Scalar forcing_angle_rad = Scalar(0);
 };
 
 // The two outputs apart (diagnose's signatures, plots); stall_output is their sum.
@@ -1647,6 +1679,7 @@ inline void stall_steady_state(const StallModel<Scalar, Cap>& m, const Scalar& x
   s->separation_point = static_separation(m.separation, x_rad);
   s->vortex_lift = Scalar(0);
   s->vortex_clock_semichords = Scalar(0);
+  s->forcing_angle_rad = x_rad;
 }
 
 // One step of the stall states. l_over_v_s = l / V at the step's airspeed (airspeed_scaling).
@@ -1682,10 +1715,26 @@ inline Scalar stall_step_semichords(const StallStep<Scalar>& g) {
   return g.dt_s / g.l_over_v_s;
 }
 
-// x_e0 and x_e1 into *k (they depend on T2 and the step only).
+// x_e0 and x_e1 into *k: with ForcingLag::delay they depend on T2 and the step only; with
+// first_order x_e0 is the state's forcing_angle_rad (forcing0) and x_e1 its exact update for
+// an angle linear in time over the step (as f's: x_e1 = e x_e0 + (phi1(z) - e) x0 + (1 -
+// phi1(z)) x1, z = h / T2, a convex combination), T2 = 0 the angle itself.
 template <class Scalar, class Cap>
 inline void stall_lagged_angles(const SeparationParameters<Scalar, Cap>& p, const StallStep<Scalar>& g,
-                                const Scalar& h, StallLookups<Scalar>* k) {
+                                const Scalar& h, const Scalar& forcing0, StallLookups<Scalar>* k) {
+  if (p.forcing_lag == ForcingLag::first_order) {
+    if (!(p.tau2_semichords > Scalar(0))) {
+      k->lagged_x0_rad = g.x0_rad;
+      k->lagged_x1_rad = g.x1_rad;
+      return;
+    }
+    const Scalar z = h / p.tau2_semichords;
+    const Scalar e = decay_exp(z);
+    const Scalar w = phi1(z, e);
+    k->lagged_x0_rad = forcing0;
+    k->lagged_x1_rad = e * forcing0 + (w - e) * g.x0_rad + (Scalar(1) - w) * g.x1_rad;
+    return;
+  }
   const Scalar lag = p.tau2_semichords * (g.x1_rad - g.x0_rad) / h;
   k->lagged_x0_rad = g.x0_rad - lag;
   k->lagged_x1_rad = g.x1_rad - lag;
@@ -1805,6 +1854,7 @@ template <class Scalar, class Cap>
 INDICIAL_HOT_INLINE void advance_stall_with(const StallModel<Scalar, Cap>& m, const StallStep<Scalar>& g,
                                const Scalar& h, const StallLookups<Scalar>& k, StallState<Scalar>* s) {
   if (m.families == StallFamilies::none) return;
+  if (m.separation.forcing_lag == ForcingLag::first_order) s->forcing_angle_rad = k.lagged_x1_rad;
   StallProgress<Scalar> q;
   stall_separation_stage(m, h, k, s, &q);
   if (m.families != StallFamilies::separation_and_vortex) return;
@@ -1822,7 +1872,7 @@ inline void advance_stall(const StallModel<Scalar, Cap>& m, const StallStep<Scal
   if (m.families == StallFamilies::none) return;
   const Scalar h = stall_step_semichords(g);
   StallLookups<Scalar> k;
-  stall_lagged_angles(m.separation, g, h, &k);
+  stall_lagged_angles(m.separation, g, h, s->forcing_angle_rad, &k);
   stall_table_lookups(m.separation, &k);
   stall_decay(m.separation, h, &k);
   advance_stall_with(m, g, h, k, s);
@@ -1894,13 +1944,18 @@ inline void stall_derivatives(const StallModel<Scalar, Cap>& m, const Scalar& x_
                               const StallState<Scalar>& s, StallState<Scalar>* ds) {
   const SeparationParameters<Scalar, Cap>& p = m.separation;
   const Scalar per_s = Scalar(1) / l_over_v_s;  // V / l
-  const Scalar xe = x_rad - p.tau2_semichords * l_over_v_s * xdot_radps;
+  const bool filtered = p.forcing_lag == ForcingLag::first_order && p.tau2_semichords > Scalar(0);
+  const Scalar xe = p.forcing_lag == ForcingLag::first_order
+                        ? (filtered ? s.forcing_angle_rad : x_rad)
+                        : Scalar(x_rad - p.tau2_semichords * l_over_v_s * xdot_radps);
   const Scalar f = s.separation_point;
   const Scalar u = static_separation(p, xe);
   const bool reattaching = p.tau1_reattach_semichords > Scalar(0) && u > f;
   const Scalar fdot = (u - f) * per_s / (reattaching ? p.tau1_reattach_semichords : p.tau1_semichords);
-  *ds = StallState<Scalar>{Scalar(0), Scalar(0), Scalar(0)};
+  *ds = StallState<Scalar>{Scalar(0), Scalar(0), Scalar(0), Scalar(0)};
   if (m.families == StallFamilies::none) return;
+  if (p.forcing_lag == ForcingLag::first_order)
+    ds->forcing_angle_rad = filtered ? Scalar((x_rad - xe) * per_s / p.tau2_semichords) : xdot_radps;
   ds->separation_point = fdot;
   if (m.families != StallFamilies::separation_and_vortex) return;
   const VortexParameters<Scalar>& v = m.vortex;

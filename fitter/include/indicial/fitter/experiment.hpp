@@ -130,6 +130,9 @@ struct StallConfig {
   double tau2_start = 1.5;
   double tau1_reattach_start = 0.0;       // T1r (with reattachment = estimated); 0: T1's start
   StallReattachment reattachment = StallReattachment::as_separation;
+  // [model] stall_forcing_lag: how T2 lags the forcing angle (model.hpp's ForcingLag; structure,
+  // not fitted). "delay" (default) or "first_order".
+  ForcingLag forcing_lag = ForcingLag::delay;
   double shedding_threshold_start = 0.0;  // 0: from the polar (stall_polar.cpp)
   double decay_start = 6.0;
   double travel_start = 7.0;

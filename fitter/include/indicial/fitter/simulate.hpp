@@ -137,6 +137,7 @@ TruthModel to_truth_model(const ModelSet<double, Cap>& in) {
     copy_spline(sp.f0_correction, dp.f0_correction);
     dp.tau1_semichords = sp.tau1_semichords;
     dp.tau2_semichords = sp.tau2_semichords;
+    dp.forcing_lag = sp.forcing_lag;
     dp.tau1_reattach_semichords = sp.tau1_reattach_semichords;
     dp.cp_k0 = sp.cp_k0;
     dp.cp_k1 = sp.cp_k1;
