@@ -239,11 +239,11 @@ TEST_CASE("a coefficient repeating another's separation update: only from the sa
   check_step_equals_direct_loop(both, runtime_of(both));
 }
 
-// ForcingLag::first_order (model.hpp): the lagged angle is a state. C_m repeats C_L's lagged
-// angles (and with them its separation update) only while the two states' forcing angles are
-// the same bits, as they are from a reset on; moved apart, each computes its own; a coefficient
-// with the other form shares no lagged angles. The numbers are the direct loop's either way.
-TEST_CASE("first-order forcing lag: a direct loop's bits, repeated only from the same forcing angle") {
+// ForcingLag::first_order (model.hpp): the lagged angle is each coefficient's own state, so a
+// first_order coefficient shares no lagged angles (nor its separation update) with another,
+// whatever their parameters; the numbers are the direct loop's, also with the two states'
+// forcing angles moved apart.
+TEST_CASE("first-order forcing lag: a direct loop's bits, the lagged angles never shared") {
   const auto first_order = [](Shared shared, int coefficients) {
     Set set = stall_model_sharing(shared);
     for (int c = 0; c < coefficients; ++c)
@@ -257,8 +257,10 @@ TEST_CASE("first-order forcing lag: a direct loop's bits, repeated only from the
   }
   const Set both = first_order(Shared::everything, 2);
   const Model m = runtime_of(both);
-  REQUIRE(m.stall_sharing[1].forcing == 0);
-  REQUIRE(m.stall_sharing[1].separation == 0);
+  CHECK(m.stall_sharing[1].table == 0);
+  CHECK(m.stall_sharing[1].decay == 0);
+  CHECK(m.stall_sharing[1].forcing == indicial::StallSharing::no_sharing);
+  CHECK(m.stall_sharing[1].separation == indicial::StallSharing::no_sharing);
   check_step_equals_direct_loop(both, m, -1.0, 0.035);  // 2 deg
   check_step_equals_direct_loop(both, m, 0.6, 0.035);
   const Set mixed = first_order(Shared::everything, 1);  // C_L first_order, C_m delay

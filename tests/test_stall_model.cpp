@@ -259,9 +259,10 @@ TEST_CASE("first-order forcing lag filters a sinusoid's amplitude, delay amplifi
         const indicial::StallStep<double> g{mo.alpha(i * dt), mo.alpha((i + 1) * dt), dt, l_over_v};
         const double h = dt / l_over_v;
         indicial::StallLookups<double> lk;
-        indicial::stall_lagged_angles(m.separation, g, h, s.forcing_angle_rad, &lk);
+        double forcing = s.forcing_angle_rad;
+        indicial::stall_lagged_angles(m.separation, g, h, &forcing, &lk);
         indicial::advance_stall(m, g, &s);
-        if (lag == indicial::ForcingLag::first_order) CHECK(s.forcing_angle_rad == lk.lagged_x1_rad);
+        CHECK(s.forcing_angle_rad == forcing);  // first_order: x_e1; delay: untouched
         if (i >= 5 * n) {
           lo = std::min(lo, lk.lagged_x1_rad);
           hi = std::max(hi, lk.lagged_x1_rad);
@@ -280,9 +281,11 @@ TEST_CASE("first-order forcing lag filters a sinusoid's amplitude, delay amplifi
   m.separation.forcing_lag = indicial::ForcingLag::first_order;
   m.separation.tau2_semichords = 0.0;
   indicial::StallLookups<double> lk;
-  indicial::stall_lagged_angles(m.separation, indicial::StallStep<double>{0.1, 0.2, 0.001, 0.01}, 0.1, 0.5, &lk);
+  double forcing = 0.5;
+  indicial::stall_lagged_angles(m.separation, indicial::StallStep<double>{0.1, 0.2, 0.001, 0.01}, 0.1, &forcing, &lk);
   CHECK(lk.lagged_x0_rad == 0.1);
   CHECK(lk.lagged_x1_rad == 0.2);
+  CHECK(forcing == 0.2);
 }
 
 TEST_CASE("stall update in float follows double") {

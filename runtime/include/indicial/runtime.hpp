@@ -398,7 +398,8 @@ inline void derive_stall_sharing(const ModelSet<Scalar, Cap>& s, StallSharing* s
       if (b.families == StallFamilies::none) continue;
       const bool table = detail::same_f0_table(a.separation, b.separation);
       if (table) sharing[c].table = e;
-      if (table && a.separation.forcing_lag == b.separation.forcing_lag &&
+      // first_order: the lagged angles are each coefficient's own state's (look_up_families)
+      if (table && a.separation.forcing_lag == ForcingLag::delay && b.separation.forcing_lag == ForcingLag::delay &&
           detail::same_bits(a.separation.tau2_semichords, b.separation.tau2_semichords))
         sharing[c].forcing = e;
       if (detail::same_bits(a.separation.tau1_semichords, b.separation.tau1_semichords)) sharing[c].decay = e;
@@ -889,22 +890,20 @@ INDICIAL_HOT_INLINE T earlier_entry(const T* a, int c, int e) {
 // The families' lookups of one step (model.hpp's StallLookups), of each coefficient's own or
 // copied from the one it shares them with (RuntimeModel::stall_sharing): the lookups are of
 // the step's own angles and airspeed. Coefficients are looked up in order, 0 first.
-// With ForcingLag::first_order the lagged angles also depend on the state's forcing angle: a
-// coefficient takes them from the one it shares them with only when the two states' forcing
-// angles are the same bits before the step (as they are from a reset on).
+// With ForcingLag::first_order the lagged angles come from the coefficient's own state's
+// forcing angle, which stall_lagged_angles advances (such a coefficient shares no forcing:
+// derive_stall_sharing).
 template <class Scalar, class Cap>
 INDICIAL_HOT_INLINE void look_up_families(const RuntimeModel<Scalar, Cap>& m, const StallStep<Scalar>& g,
-                                          const Scalar& h, const StallState<Scalar>* s, StallLookups<Scalar>* k) {
+                                          const Scalar& h, StallState<Scalar>* s, StallLookups<Scalar>* k) {
   for_each_coefficient<Cap>(m.set.n_coefficients, [&](int c) INDICIAL_HOT_LAMBDA {
     const StallModel<Scalar, Cap>& st = m.set.coefficients[c].stall;
     if (st.families == StallFamilies::none) return;
     const StallSharing& sh = m.stall_sharing[c];
-    if (sh.forcing != StallSharing::no_sharing &&
-        (st.separation.forcing_lag == ForcingLag::delay ||
-         same_bits(s[c].forcing_angle_rad, earlier_entry(s, c, sh.forcing).forcing_angle_rad))) {
+    if (sh.forcing != StallSharing::no_sharing) {
       k[c] = earlier_entry(k, c, sh.forcing);
     } else {
-      stall_lagged_angles(st.separation, g, h, s[c].forcing_angle_rad, &k[c]);
+      stall_lagged_angles(st.separation, g, h, &s[c].forcing_angle_rad, &k[c]);
       stall_table_lookups(st.separation, &k[c]);
     }
     if (sh.decay != StallSharing::no_sharing) {
@@ -959,11 +958,6 @@ INDICIAL_HOT_INLINE Scalar advance_families(const RuntimeModel<Scalar, Cap>& m, 
     if (c >= n || set.coefficients[c].stall.families == StallFamilies::none) continue;
     const int e = m.stall_sharing[c].separation;
     same_f[c] = e != StallSharing::no_sharing && same_bits(s[c].separation_point, earlier_entry(q, c, e).f0);
-    if (set.coefficients[c].stall.separation.forcing_lag == ForcingLag::first_order) {
-      // the forcing angle's state (model.hpp advance_stall_with); shared only from equal states
-      same_f[c] = same_f[c] && same_bits(k[c].lagged_x0_rad, earlier_entry(k, c, e).lagged_x0_rad);
-      s[c].forcing_angle_rad = k[c].lagged_x1_rad;
-    }
     if (same_f[c]) {
       q[c].f0 = earlier_entry(q, c, e).f0;
       s[c].separation_point = earlier_entry(s, c, e).separation_point;
@@ -1011,8 +1005,9 @@ INDICIAL_HOT_INLINE Scalar advance_families(const RuntimeModel<Scalar, Cap>& m, 
     const StallOutput<Scalar> o = stall_output_parts_from_static(st, g.x1_rad, f_static[c], kirchhoff_static[c],
                                                                  q[c].kirchhoff1, s[c]);
     value[c] = value[c] + (o.separation + o.vortex);
+    // (The forcing angle is not tested: a convex combination of the finite angles and itself.)
     test = test + (finite_test(s[c].separation_point) + finite_test(s[c].vortex_lift) +
-                   finite_test(s[c].vortex_clock_semichords) + finite_test(s[c].forcing_angle_rad));
+                   finite_test(s[c].vortex_clock_semichords));
   });
   return test;
 }

@@ -176,11 +176,16 @@ inline Scalar int_power(const Scalar& u, int p) {
 // Every call in the function's body inlined, recursively (GCC's and Clang's `flatten`): for the
 // one step a real-time loop calls (runtime.hpp's State step), see there.
 #define INDICIAL_FLATTEN __attribute__((flatten))
+// Kept out of line, also under INDICIAL_FLATTEN: a branch a model takes or never takes, whose
+// body would otherwise weigh on the register allocation of every step (model.hpp's
+// stall_filtered_angles).
+#define INDICIAL_NOINLINE __attribute__((noinline))
 #else
 #define INDICIAL_HOT_INLINE inline
 #define INDICIAL_HOT_LAMBDA
 #define INDICIAL_LIKELY(c) (c)
 #define INDICIAL_FLATTEN
+#define INDICIAL_NOINLINE
 #endif
 
 // ------------------------------------------------------------------------------------------
@@ -1716,23 +1721,41 @@ inline Scalar stall_step_semichords(const StallStep<Scalar>& g) {
 }
 
 // x_e0 and x_e1 into *k: with ForcingLag::delay they depend on T2 and the step only; with
-// first_order x_e0 is the state's forcing_angle_rad (forcing0) and x_e1 its exact update for
-// an angle linear in time over the step (as f's: x_e1 = e x_e0 + (phi1(z) - e) x0 + (1 -
-// phi1(z)) x1, z = h / T2, a convex combination), T2 = 0 the angle itself.
+// first_order x_e0 is the state's forcing angle (*forcing, the StallState's forcing_angle_rad)
+// and x_e1 its exact update for an angle linear in time over the step (as f's: x_e1 = e x_e0 +
+// (phi1(z) - e) x0 + (1 - phi1(z)) x1, z = h / T2, a convex combination), T2 = 0 the angle
+// itself; x_e1 is written back to *forcing (delay leaves it alone). A step refused after this
+// restores it with the other family states (the runtime's FamilyBackup).
+template <class Scalar>
+struct FilteredAngles {
+  Scalar x0_rad;  // x_e at the step's start and end
+  Scalar x1_rad;
+};
+
+// first_order's x_e0, x_e1 from the state's x_e0 (stall_lagged_angles). Why out of line and
+// by value: inlined into the runtime's flattened step, or given pointers into the step's
+// lookups, this branch that a delay model never takes cost its stall step about 50
+// instructions (callgrind, state/stall2/double 1974 -> 2024-2040: the lookups kept in memory
+// and values spilled around the exp); a call costs a first_order step a few.
+template <class Scalar, class Cap>
+INDICIAL_NOINLINE FilteredAngles<Scalar> stall_filtered_angles(const SeparationParameters<Scalar, Cap>& p,
+                                                               Scalar x0_rad, Scalar x1_rad, Scalar h,
+                                                               Scalar forcing0_rad) {
+  if (!(p.tau2_semichords > Scalar(0))) return {x0_rad, x1_rad};
+  const Scalar z = h / p.tau2_semichords;
+  const Scalar e = decay_exp(z);
+  const Scalar w = phi1(z, e);
+  return {forcing0_rad, Scalar(e * forcing0_rad + (w - e) * x0_rad + (Scalar(1) - w) * x1_rad)};
+}
+
 template <class Scalar, class Cap>
 inline void stall_lagged_angles(const SeparationParameters<Scalar, Cap>& p, const StallStep<Scalar>& g,
-                                const Scalar& h, const Scalar& forcing0, StallLookups<Scalar>* k) {
+                                const Scalar& h, Scalar* forcing, StallLookups<Scalar>* k) {
   if (p.forcing_lag == ForcingLag::first_order) {
-    if (!(p.tau2_semichords > Scalar(0))) {
-      k->lagged_x0_rad = g.x0_rad;
-      k->lagged_x1_rad = g.x1_rad;
-      return;
-    }
-    const Scalar z = h / p.tau2_semichords;
-    const Scalar e = decay_exp(z);
-    const Scalar w = phi1(z, e);
-    k->lagged_x0_rad = forcing0;
-    k->lagged_x1_rad = e * forcing0 + (w - e) * g.x0_rad + (Scalar(1) - w) * g.x1_rad;
+    const FilteredAngles<Scalar> a = stall_filtered_angles(p, g.x0_rad, g.x1_rad, h, *forcing);
+    k->lagged_x0_rad = a.x0_rad;
+    k->lagged_x1_rad = a.x1_rad;
+    *forcing = a.x1_rad;
     return;
   }
   const Scalar lag = p.tau2_semichords * (g.x1_rad - g.x0_rad) / h;
@@ -1854,7 +1877,6 @@ template <class Scalar, class Cap>
 INDICIAL_HOT_INLINE void advance_stall_with(const StallModel<Scalar, Cap>& m, const StallStep<Scalar>& g,
                                const Scalar& h, const StallLookups<Scalar>& k, StallState<Scalar>* s) {
   if (m.families == StallFamilies::none) return;
-  if (m.separation.forcing_lag == ForcingLag::first_order) s->forcing_angle_rad = k.lagged_x1_rad;
   StallProgress<Scalar> q;
   stall_separation_stage(m, h, k, s, &q);
   if (m.families != StallFamilies::separation_and_vortex) return;
@@ -1872,7 +1894,7 @@ inline void advance_stall(const StallModel<Scalar, Cap>& m, const StallStep<Scal
   if (m.families == StallFamilies::none) return;
   const Scalar h = stall_step_semichords(g);
   StallLookups<Scalar> k;
-  stall_lagged_angles(m.separation, g, h, s->forcing_angle_rad, &k);
+  stall_lagged_angles(m.separation, g, h, &s->forcing_angle_rad, &k);
   stall_table_lookups(m.separation, &k);
   stall_decay(m.separation, h, &k);
   advance_stall_with(m, g, h, k, s);
