@@ -90,7 +90,8 @@ TEST_CASE("family states cost only the models that have them: 168 / 272 bytes, f
   // 272 with DefaultCapacity's three coefficient slots, 128 -> 144 in float. A C_L + C_m
   // instance in a two-coefficient capacity (codegen --capacity tight of such a model): 200, 112.
   using Two = indicial::Capacity<8, 8, 2, 64, 2>;
-  static_assert(sizeof(indicial::FamilyState<double, Two>) <= 256, "issue 22: C_L + C_m with every family in <= 256 bytes");
+  static_assert(sizeof(indicial::FamilyState<double, Two>) <= 256,
+                "issue 22: C_L + C_m with every family in <= 256 bytes");
   static_assert(sizeof(indicial::FamilyState<float, Two>) <= 128, "float C_L + C_m with families <= 128 bytes");
   static_assert(sizeof(Families) == 272, "DefaultCapacity (three coefficient slots)");
   static_assert(sizeof(indicial::FamilyState<float, Cap>) == 144, "float, DefaultCapacity");

@@ -76,7 +76,8 @@ def main():
     speeds = sorted(c['v'] for c in fit)
     vref = 5.0 * round(speeds[len(speeds) // 2] / 5.0)
     knots = (stall_deg - 3.0, stall_deg + 1.0)
-    models = {(coef, form): fit_model(exe, work, coef, form, runs, vref, knots) for coef in ('CL', 'Cm') for form in FORMS}
+    models = {(coef, form): fit_model(exe, work, coef, form, runs, vref, knots)
+              for coef in ('CL', 'Cm') for form in FORMS}
     results = []
     for c in held:
         rows = vs.read_cycle(cycle_catalog.cycle_path(data, c))
@@ -113,8 +114,9 @@ def report(results, source, stall_deg, fit, held, models):
                 p(f'| {coef} | {form} | FAILED | | | | | |')
                 continue
             par = {q['name']: q['value'] for q in fj.get('parameters', [])}
-            p(f"| {coef} | {form} | {fj['fit_error']:.5f} | {fj.get('termination')} | {par.get('T1', float('nan')):.3f} | "
-              f"{par.get('T2', float('nan')):.3f} | {par.get('CN1', float('nan')):.3f} | {fj['wall_s']:.0f} |")
+            t1, t2, cn1 = (par.get(n, float('nan')) for n in ('T1', 'T2', 'CN1'))
+            p(f"| {coef} | {form} | {fj['fit_error']:.5f} | {fj.get('termination')} | {t1:.3f} | {t2:.3f} | "
+              f"{cn1:.3f} | {fj['wall_s']:.0f} |")
     p('')
     p(f'Mean held-out RMS per regime ({cycle_catalog.regime_rule(stall_deg)}), and over the Beddoes-Leishman '
       'peer\'s:\n')

@@ -642,10 +642,12 @@ inline KeyRead read_sep_forcing(CoefficientModel<double, Cap>& cm, Tokens& t, in
   const char* ve = nullptr;
   if (!t.next(&vb, &ve) || !t.at_end())
     return key_read(LoadStatus::syntax_error, "sep_forcing_lag needs one value", seen_sep_forcing);
-  if (token_is(vb, ve, "delay")) cm.stall.separation.forcing_lag = ForcingLag::delay;
-  else if (token_is(vb, ve, "first_order")) cm.stall.separation.forcing_lag = ForcingLag::first_order;
-  else return key_read(LoadStatus::invalid_value, "sep_forcing_lag must be delay or first_order", seen_sep_forcing);
-  return key_read(LoadStatus::ok, "", seen_sep_forcing);
+  for (const ForcingLag l : {ForcingLag::delay, ForcingLag::first_order}) {  // model.hpp's spelling
+    if (!token_is(vb, ve, forcing_lag_name(l))) continue;
+    cm.stall.separation.forcing_lag = l;
+    return key_read(LoadStatus::ok, "", seen_sep_forcing);
+  }
+  return key_read(LoadStatus::invalid_value, "sep_forcing_lag must be delay or first_order", seen_sep_forcing);
 }
 
 // `sep_cp k0 k1 k2`: the centre-of-pressure shape of the output.

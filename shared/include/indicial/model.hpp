@@ -1484,8 +1484,8 @@ inline void lag_derivatives(const CoefficientModel<Scalar, Cap>& m, const Scalar
 //          The switches S(u) keep exp (their u is not small).
 // Local error O(h^3) (the forcing's curvature over the step, the midpoint gates), so global
 // order 2 (tests/test_stall_model.cpp measures it against Boost.Odeint of stall_derivatives).
-// Cost: 5 exponentials (2 exp calls, 3 decay_exp polynomials; first_order a 6th, its filter's) and 4 sqrt per coefficient and
-// step (update and output); no sin / cos.
+// Cost: 5 exponentials (2 exp calls, 3 decay_exp polynomials; first_order a 6th, its filter's)
+// and 4 sqrt per coefficient and step (update and output); no sin / cos.
 // Non-smooth points: the clipping of f0c, |C_N'| at C_N' = 0, the clamp in xi (C1 there) and
 // sqrt f at f = 0 (K is evaluated with sqrt f := 0 for f <= 0, so an autodiff type gets a
 // finite derivative there).
