@@ -236,8 +236,9 @@ inline std::vector<MatrixCase> diagnose_matrix(bool quick) {
   for (const auto& coef : coefs)
     for (const EffectDescription& ef : effect_descriptions())
       // The dynamic-stall effects have no injection into this matrix's tailless truths (they
-      // need a lift polar through stall): tests/test_fit_stall.cpp, docs/validation-stall.md.
-      if (ef.effect != Effect::separation_lag && ef.effect != Effect::vortex_shedding)
+      // need a lift polar through stall; slow_reattachment and pressure_lag also a model with the
+      // families): tests/test_fit_stall_recovery.cpp, test_diagnose_stall.cpp, docs/validation-stall.md.
+      if (ef.effect < Effect::separation_lag)
       for (MatrixMotion mo : motions)
         for (double mag : mags)
           for (MatrixNoise no : noises)

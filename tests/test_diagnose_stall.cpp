@@ -5,6 +5,8 @@
 // leave-one-run-out rule decides. A dynamic-stall family must be named first (the report's
 // model cannot bend the lift past the stall), and it must lower the error of every run left
 // out of its fit. Measured when this test was written: separation_lag first (bench/diagnose-cv.md).
+// Also pressure_lag (the separation forcing's form), on a truth of our equations integrated by
+// odeint (stall_truth_data.hpp): a first-order lag in one truth, the delay form in the other.
 // ctest: skipped under sanitizers -- a whole diagnosis with stall candidates (about 90 fits), minutes under ASan; test_diagnose_starts covers the stall candidates' starts there
 #include <doctest/doctest.h>
 
@@ -17,6 +19,7 @@
 #include "indicial/fitter/dynamic_stall.hpp"
 #include "indicial/fitter/io.hpp"
 #include "indicial/fitter/report.hpp"
+#include "stall_truth_data.hpp"
 
 TEST_SUITE_BEGIN("statistical");  // the ctest label (tests/CMakeLists.txt)
 
@@ -107,4 +110,58 @@ TEST_CASE("diagnose refits a stall candidate from the start grid when its config
     CHECK(cs.fit_error == doctest::Approx(grid).epsilon(1e-3));
   }
   CHECK(retried >= 1);
+}
+
+// pressure_lag end to end on the seeded odeint truth of the stall fit tests
+// (stall_truth_data.hpp), its separation forced through a first-order lag of T2 = 4 (l/V) in
+// one truth and by the delay form in the other, three cycles through stall at k = 0.05, 0.1
+// and 0.2 (k T2 up to 0.8, where the forms part), each left out in turn. The base model is the
+// truth's families in the delay form: with the lag in the truth diagnose names pressure_lag
+// first and it lowers every left-out cycle's error; with the delay form in the truth it does not
+// name it.
+TEST_CASE("diagnose names pressure_lag on a lagged-forcing truth, and not on a delay-form truth") {
+  using namespace indicial::testing;
+  TruthDesign three;
+  three.airspeeds_mps = {30.0};
+  three.means_deg = {14.0};
+  three.reduced_frequencies = {0.05, 0.1, 0.2};
+  for (ForcingLag truth_form : {ForcingLag::first_order, ForcingLag::delay}) {
+    const std::string form = forcing_lag_name(truth_form);
+    CAPTURE(form);
+    const TruthExperiment te = truth_experiment(
+        [&](StallModel<double, FitCapacity>& m) {
+          m.separation.forcing_lag = truth_form;
+          m.separation.tau2_semichords = 4.0;
+        },
+        three);
+    REQUIRE(te.e.model.stall.forcing_lag == ForcingLag::delay);
+    DiagnoseOptions o;
+    o.threads = 2;
+    o.max_steps = 1;
+    const DiagnoseResult d = diagnose_experiment(te.e, o);
+    std::string named;
+    for (const auto& s : d.effects_added) named += s + " ";
+    MESSAGE(form, " truth: effects ", named, "fit error ", d.initial_fit_error, " -> ",
+            d.final_fit_error, ", ", d.fits_run, " fits, ", d.elapsed_s, " s");
+    REQUIRE(!d.rounds.empty());
+    for (const CandidateScore& cs : d.rounds[0].candidates)
+      if (cs.effect == Effect::pressure_lag)
+        MESSAGE("pressure_lag candidate: fit error ", cs.fit_error, " (base ", d.rounds[0].base_fit_error, ") ", cs.message);
+    if (truth_form == ForcingLag::delay) {  // the base is the truth's model class: nothing to name
+      CHECK(d.steps.empty());
+      continue;
+    }
+    REQUIRE(!d.steps.empty());
+    const DiagnoseStep& first = d.steps.front();
+    CHECK(first.rule == DecisionRule::leave_one_run_out);
+    CHECK(first.effect == Effect::pressure_lag);
+    CHECK(first.added_parameters == 0);
+    REQUIRE(first.held_out_rms_after.size() == 3);
+    for (std::size_t r = 0; r < 3; ++r) {
+      MESSAGE("run ", r, " held-out RMS ", first.held_out_rms_before[r], " -> ", first.held_out_rms_after[r]);
+      CHECK(first.held_out_rms_after[r] < first.held_out_rms_before[r]);
+    }
+    CHECK(d.fits.back().model.coefficients[0].stall.separation.forcing_lag == ForcingLag::first_order);
+    CHECK(d.final_fit_error < 1.1 * kNoiseSigma);  // at the noise, as the truth's model class
+  }
 }

@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -34,15 +35,22 @@ FitResult made_up_fit(double fit_error) {
   return r;
 }
 
+// A model with a lift polar, -0.3..0.3 rad, a thin-airfoil line that saturates: the stall
+// candidates are offered.
+ModelConfig model_with_polar() {
+  ModelConfig model;
+  for (int i = -6; i <= 6; ++i) {
+    model.stall.polar_x_rad.push_back(0.05 * i);
+    model.stall.polar_lift.push_back(2.0 * M_PI * 0.05 * i / (1.0 + 4.0 * 0.0025 * i * i));
+  }
+  return model;
+}
+
 }  // namespace
 
 TEST_CASE("diagnose starts: stall candidates from the current estimates and the own start, others from the current") {
   // A model with a lift polar (stall candidates are offered) and a knot grid (knot candidates).
-  ModelConfig model;
-  for (int i = -6; i <= 6; ++i) {  // -0.3..0.3 rad, a thin-airfoil line that saturates
-    model.stall.polar_x_rad.push_back(0.05 * i);
-    model.stall.polar_lift.push_back(2.0 * M_PI * 0.05 * i / (1.0 + 4.0 * 0.0025 * i * i));
-  }
+  ModelConfig model = model_with_polar();
   const Experiment e;
   const FitResult base;
   const std::vector<double> grid = {0.1, 0.2};
@@ -98,11 +106,7 @@ TEST_CASE("diagnose starts: the usable fit of lowest error is kept, whichever st
 }
 
 TEST_CASE("diagnose starts: slow_reattachment on a model with the families, started at T1r = T1") {
-  ModelConfig model;
-  for (int i = -6; i <= 6; ++i) {
-    model.stall.polar_x_rad.push_back(0.05 * i);
-    model.stall.polar_lift.push_back(2.0 * M_PI * 0.05 * i / (1.0 + 4.0 * 0.0025 * i * i));
-  }
+  ModelConfig model = model_with_polar();
   const Experiment e;
   FitResult base;
   ParameterEstimate t1;
@@ -167,4 +171,40 @@ TEST_CASE("diagnose starts: a stall candidate not below its base is refitted fro
   CHECK(stall_grid_retry_needed(Effect::vortex_shedding, equal, base, configured));
   for (Effect effect : {Effect::b1_alpha, Effect::time_delay, Effect::slow_reattachment})
     CHECK_FALSE(stall_grid_retry_needed(effect, above, base, configured));
+}
+
+// pressure_lag swaps the delay form of the separation forcing for the first-order lag
+// (model.hpp ForcingLag): offered only on a model with the families in the delay form, the
+// configuration otherwise the model's own, started from the current estimates (T2 included:
+// it adds no parameter).
+TEST_CASE("diagnose starts: pressure_lag on a model with the families in the delay form, from the current T2") {
+  ModelConfig model = model_with_polar();
+  const Experiment e;
+  const FitResult base;
+  const std::vector<double> grid = {0.1, 0.2};
+  auto pressure_lag = [&](const ModelConfig& m) {
+    const std::vector<CandidateSpec> specs = all_candidates(CandidateContext{e, m, base, grid, 0.1});
+    const auto it = std::find_if(specs.begin(), specs.end(),
+                                 [](const CandidateSpec& c) { return c.effect == Effect::pressure_lag; });
+    return it == specs.end() ? std::optional<CandidateSpec>{} : std::optional<CandidateSpec>{*it};
+  };
+  CHECK_FALSE(pressure_lag(model).has_value());  // no families: nothing is forced
+  for (StallFamilies f : {StallFamilies::separation, StallFamilies::separation_and_vortex}) {
+    model.stall.families = f;
+    model.stall.reattachment = StallReattachment::estimated;
+    const std::optional<CandidateSpec> c = pressure_lag(model);
+    REQUIRE(c.has_value());
+    CHECK(c->config.stall.forcing_lag == ForcingLag::first_order);
+    ModelConfig same = c->config;  // nothing else changed
+    same.stall.forcing_lag = ForcingLag::delay;
+    CHECK(same.stall.polar_lift == model.stall.polar_lift);
+    CHECK(same.stall.families == f);
+    CHECK(same.stall.reattachment == StallReattachment::estimated);
+    const ParamId t2 = param_id(ParamKind::stall_tau2);
+    const std::vector<StartValues> starts = candidate_starts(*c, {{t2, 1.75}}, 1);
+    REQUIRE(starts.size() == 1);
+    CHECK(std::find(starts[0].begin(), starts[0].end(), std::make_pair(t2, 1.75)) != starts[0].end());
+  }
+  model.stall.forcing_lag = ForcingLag::first_order;  // already the lag: not offered
+  CHECK_FALSE(pressure_lag(model).has_value());
 }

@@ -14,8 +14,9 @@
 # ASan would see frees of memory it never allocated, and the allocation count is not a
 # question for a sanitizer run anyway (the normal build runs it). It also leaves out the test
 # files marked "// ctest: skipped under sanitizers -- why" (tests/CMakeLists.txt): the slowest
-# statistical diagnose loops, each with a representative that runs here (test_diagnose_effects_a,
-# test_cmd_diagnose, test_diagnose_crossval); INDICIAL_SANITIZE_ALL=1 builds and runs them too.
+# statistical diagnose loops and the dynamic-stall recovery fits, each with a representative that
+# runs here (test_diagnose_effects_a, test_cmd_diagnose, test_diagnose_crossval, test_fit_stall's
+# four-cycle grid fit); INDICIAL_SANITIZE_ALL=1 builds and runs them too.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build_dir=${INDICIAL_ASAN_BUILD_DIR:-build-asan}

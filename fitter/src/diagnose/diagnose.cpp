@@ -229,6 +229,10 @@ void describe_estimates(Scored& s, Effect effect) {
                                    estimate_of(f, param_id(ParamKind::stall_tau1_reattach), nan),
                                    estimate_of(f, param_id(ParamKind::stall_tau1), nan));
       break;
+    case Effect::pressure_lag:
+      s.score.detail = fmt::format("T2 = {:.4g} (l/V) as a first-order lag",
+                                   estimate_of(f, param_id(ParamKind::stall_tau2), nan));
+      break;
     case Effect::vortex_shedding:
       s.score.detail = fmt::format("CN1 = {:.4g}, Tv = {:.4g}, Tvl = {:.4g} (l/V)",
                                    estimate_of(f, param_id(ParamKind::shedding_threshold), nan),

@@ -230,6 +230,23 @@ void gen_slow_reattachment(const CandidateContext& ctx, std::vector<CandidateSpe
   out.push_back(c);
 }
 
+// The separation state forced through a first-order lag of the angle (model.hpp ForcingLag::
+// first_order, Beddoes-Leishman's leading-edge pressure lag) instead of the angle extrapolated
+// back by T2 (the delay form), on a model that has the families in the delay form. It adds no
+// parameter (T2 is the filter's time constant): started from the current estimates, T2 as it
+// is (the two forms have the same phase lag k T2 at low reduced frequency k).
+void gen_pressure_lag(const CandidateContext& ctx, std::vector<CandidateSpec>& out) {
+  const StallConfig& have = ctx.model.stall;
+  if (have.families == StallFamilies::none || have.forcing_lag != ForcingLag::delay) return;
+  CandidateSpec c;
+  c.effect = Effect::pressure_lag;
+  c.config = ctx.model;
+  c.config.stall.forcing_lag = ForcingLag::first_order;
+  c.term = "T2 as a first-order lag";
+  c.detail = "forcing through a first-order lag";
+  out.push_back(c);
+}
+
 // ---- parameter identity -------------------------------------------------------------------
 // Every structural and output parameter of a configuration, with the knot numbers of THAT
 // configuration (what its fit names them).
@@ -328,6 +345,18 @@ const std::vector<EffectEntry>& effect_registry() {
         "oscillations through stall at several reduced frequencies and mean angles: the separation "
         "(upstroke) and the reattachment (downstroke) lags are then told apart"},
        SplineFamily::none, gen_slow_reattachment},
+      {{Effect::pressure_lag, "pressure_lag",
+        "the separation point follows the angle through a lag, not the angle extrapolated back",
+        "the separation state forced by x_e with T2 (l/V) x_e' + x_e = x (Beddoes-Leishman's "
+        "leading-edge pressure lag) instead of x - T2 (l/V) x'; no parameter added "
+        "(model.stall_forcing_lag = \"first_order\"; coefficient-file sep_forcing_lag first_order)",
+        "on fast cycles the model separates and reattaches at angles the flow does not: the delay "
+        "form's lagged angle swings sqrt(1 + (k T2)^2) times the motion's amplitude, a filter's "
+        "1 / sqrt(1 + (k T2)^2) times, so the residual sits at the stall break and grows with the "
+        "reduced frequency k",
+        "oscillations through stall at several reduced frequencies up to k T2 ~ 1: the two forms "
+        "agree at low frequency and part as k T2 grows"},
+       SplineFamily::none, gen_pressure_lag},
   };
   // Why: Effect values index this table (effect_entry); a missing or misplaced entry is a bug.
   static const bool checked = [] {

@@ -89,10 +89,11 @@ namespace indicial {
 // The effects diagnose can name. Each has ONE entry in the registry (fitter/src/diagnose/
 // diagnose_effects.cpp: name, description, how it is written to the model, its residual
 // signature, the experiment that separates it, its candidate generator); the count, --help
-// list and report descriptions come from there.
+// list and report descriptions come from there. The dynamic-stall effects come last, from
+// separation_lag on (they need a lift polar through stall; the test matrix relies on the order).
 enum class Effect { b1_alpha, a_alpha, rotary_alpha, bias, time_delay, second_lag, static_error,
-                    separation_lag, vortex_shedding, slow_reattachment };
-inline constexpr int effect_count = 10;  // the registry checks it has exactly this many entries
+                    separation_lag, vortex_shedding, slow_reattachment, pressure_lag };
+inline constexpr int effect_count = 11;  // the registry checks it has exactly this many entries
 
 struct EffectDescription {
   Effect effect = Effect::bias;

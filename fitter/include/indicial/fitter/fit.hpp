@@ -135,7 +135,7 @@ enum class StepwiseFallback {
 // misses the data the cost is flat in T_v and T_vl, and the fit converges where it began.
 // Measured on the Glasgow C_m fit cycles of tools/validate_stall.py (the extended model with a
 // constant C_mq): from the 18 starts of the grid below the fit ended at s(v) between 0.031 and
-// 0.088, from the configured start alone at 0.068; tests/test_fit_stall.cpp has a synthetic
+// 0.088, from the configured start alone at 0.068; tests/test_fit_stall_recovery.cpp has a synthetic
 // truth the configured start misses (8.9 sigma) and the grid reaches (0.99 sigma).
 enum class StallStartSearch {
   grid,       // the configured starts and 17 more: T1 x {1/2, 1, 2}, T_v x {1/2, 1, 2},
