@@ -163,5 +163,15 @@ TEST_CASE("diagnose names pressure_lag on a lagged-forcing truth, and not on a d
     }
     CHECK(d.fits.back().model.coefficients[0].stall.separation.forcing_lag == ForcingLag::first_order);
     CHECK(d.final_fit_error < 1.1 * kNoiseSigma);  // at the noise, as the truth's model class
+    // What diagnose writes carries the form: the runtime replays model.coef as the fitter, and
+    // the written experiment refits the lagged form.
+    const FitResult& final_fit = d.fits.back();
+    const std::string coef = model_coef_text(final_fit, "diagnosed.coef");
+    CHECK(coef.find("sep_forcing_lag first_order") != std::string::npos);
+    const RuntimeCheck rc = replay_in_runtime(final_fit, d.experiment, coef);
+    CHECK(rc.load_status == LoadStatus::ok);
+    CHECK(rc.steps_not_ok == 0);
+    CHECK(rc.max_abs_difference < 1e-9);
+    CHECK(diagnosed_experiment_toml(d).find("stall_forcing_lag = \"first_order\"") != std::string::npos);
   }
 }
