@@ -8,15 +8,11 @@
 #include <doctest/doctest.h>
 
 #include <cmath>
-#include <filesystem>
-#include <fstream>
 #include <string>
 #include <vector>
 
-#include "estimate/fit_internal.hpp"
 #include "indicial/fitter/diagnose.hpp"
 #include "indicial/fitter/error.hpp"
-#include "indicial/fitter/experiment_toml.hpp"
 #include "indicial/fitter/fit.hpp"
 #include "indicial/fitter/model_merge.hpp"
 #include "indicial/fitter/report.hpp"
