@@ -16,6 +16,8 @@
 
 static_assert(sizeof(indicial::State<double, indicial::DefaultCapacity>) <= 256,
               "issue 15: a per-instance state without delay ring of at most 256 bytes");
+static_assert(sizeof(indicial::FamilyState<double, indicial::DefaultCapacity>) <= 256,
+              "issue 22: C_L + C_m with every dynamic-stall family in at most 256 bytes");
 
 namespace codegen_only {
 

@@ -46,18 +46,18 @@ std::string text_of(const Set& m) {
 
 // Sum of the member sizes of a Snapshot (a DelayedState): the State's Scalars (lag states,
 // cached step ends, previous angle, airspeed terms) and ints, the FamilyState's dynamic-stall
-// states and their pad, then the ring's doubles (time,
+// states, then the ring's doubles (time,
 // delay cache, history times), Scalars (history angles) and ints.
 template <class Pred, class Cap>
 std::size_t snapshot_member_bytes() {
   using S = typename Pred::Snapshot;
-  using Scalar = decltype(S{}.x_prev_rad);
+  using Scalar = decltype(S{}.model_x_prev_rad);
   const std::size_t state_scalars = Cap::max_coefficients * Cap::max_lags +
-                                    Cap::max_coefficients * (1 + Cap::max_lags) + 5;  // x, x itself, V, V/V_ref, l/V
+                                    Cap::max_coefficients * (1 + Cap::max_lags) + 4;  // x, V, V/V_ref, l/V
   const std::size_t doubles = 2 + Cap::max_coefficients + Cap::max_delay_samples;
   const std::size_t family_scalars = Cap::max_coefficients * (sizeof(indicial::StallState<Scalar>) / sizeof(Scalar));
   return state_scalars * sizeof(Scalar) + sizeof(int) + sizeof(S{}.reserved) +
-         family_scalars * sizeof(Scalar) + sizeof(S{}.stall_reserved) +
+         family_scalars * sizeof(Scalar) +
          doubles * sizeof(double) + Cap::max_delay_samples * sizeof(Scalar) + 3 * sizeof(int) +
          sizeof(S{}.history_reserved);
 }
@@ -182,7 +182,8 @@ TEST_CASE("reset sets the steady state, holding the angle keeps it") {
   CHECK(s.y[0][0] == doctest::Approx(0.125 / (4.0 - 1.5 * alpha)).epsilon(1e-15));
   CHECK(s.y[0][1] == 0.0);
   CHECK(s.y[1][0] == 0.0);  // Cm has no bias
-  CHECK(s.x_prev_rad == alpha);
+  CHECK(s.model_x_prev_rad == alpha);
+  CHECK(indicial::detail::previous_x_rad(p.runtime(), s) == alpha);
   // At rest (same angle, zero rate) the state stays at its steady value and the output is
   // static + steady lag state, at any airspeed.
   P::Outputs out;
@@ -310,7 +311,9 @@ TEST_CASE("angles outside the envelope are clamped and flagged, outputs still pr
   REQUIRE(p.load(indicial::test_models::table_one_model_two()) == LoadStatus::ok);
   const double x_max = p.model().x_max_rad;
   CHECK(p.reset(x_max + 0.2, 17.667762) == StepStatus::angle_clamped);
-  CHECK(p.snapshot().x_prev_rad == x_max);
+  // The state keeps the angle itself; the splines' angle is its clamp (detail::previous_x_rad).
+  CHECK(p.snapshot().model_x_prev_rad == x_max + 0.2);
+  CHECK(indicial::detail::previous_x_rad(p.runtime(), p.snapshot()) == x_max);
   P::Outputs out;
   CHECK(p.step({x_max + 0.3, 0.5, 17.667762}, 0.01, &out) == StepStatus::angle_clamped);
   P q;
@@ -320,7 +323,8 @@ TEST_CASE("angles outside the envelope are clamped and flagged, outputs still pr
   CHECK(q.step({x_max, 0.5, 17.667762}, 0.01, &at_edge) == StepStatus::ok);
   CHECK(out.value[0] == at_edge.value[0]);  // same as the clamped angle with the same rate
   CHECK(p.step({-0.5, 0.0, 17.667762}, 0.01, &out) == StepStatus::angle_clamped);
-  CHECK(p.snapshot().x_prev_rad == 0.0);
+  CHECK(p.snapshot().model_x_prev_rad == -0.5);
+  CHECK(indicial::detail::previous_x_rad(p.runtime(), p.snapshot()) == 0.0);
   CHECK(std::isfinite(out.value[0]));
   CHECK(p.step({0.5, 0.0, 17.667762}, 0.01, &out) == StepStatus::ok);
 }
@@ -449,12 +453,12 @@ TEST_CASE("roll and yaw use the model angle transforms") {
   REQUIRE(p.load(m) == LoadStatus::ok);
   const double phi = 0.4;
   REQUIRE(p.reset(phi, 20.0) == StepStatus::ok);
-  CHECK(p.snapshot().x_prev_rad == std::asin(std::sin(phi) * std::sin(m.alpha0_rad)));
+  CHECK(p.snapshot().model_x_prev_rad == std::asin(std::sin(phi) * std::sin(m.alpha0_rad)));
   m.axis = indicial::Axis::yaw;
   REQUIRE(p.load(m) == LoadStatus::ok);
   const double psi = 0.3;
   REQUIRE(p.reset(psi, 20.0) == StepStatus::ok);
-  CHECK(p.snapshot().x_prev_rad == std::asin(-std::sin(psi) * std::cos(m.alpha0_rad)));
+  CHECK(p.snapshot().model_x_prev_rad == std::asin(-std::sin(psi) * std::cos(m.alpha0_rad)));
 }
 
 TEST_CASE("to_string names every status") {

@@ -226,7 +226,7 @@ double compare_batch_with_single(const indicial::RuntimeModel<Scalar, Cap>& mode
         worst = std::fmax(worst, std::fabs(ya - yb) / std::fmax(std::fabs(yb), 1e-2));
       }
     }
-    CHECK(batch[i].x_prev_rad == single[i].x_prev_rad);
+    CHECK(batch[i].model_x_prev_rad == single[i].model_x_prev_rad);
     CHECK(batch[i].time_scale == single[i].time_scale);
     CHECK(batch[i].l_over_v_s == single[i].l_over_v_s);
   }

@@ -438,7 +438,7 @@ struct BlockLanes {
   bool active[W];       // ok / angle_clamped after the input checks
   bool all_active;
   // Not initialised here (a block is built for every 8 instances): load_lanes fills them.
-  V x0_rad;             // the state's x_prev_rad
+  V x0_rad;             // the state's previous angle, clamped (detail::previous_x_rad)
   V x1_rad;             // the new model angle (clamped to the envelope)
   V x1_model_rad;       // the new model angle itself (a static table's, runtime.hpp warning 3)
   V rate;
@@ -492,7 +492,10 @@ template <class Scalar, class Cap, int R, class St>
 INDICIAL_LANE_INLINE void load_lanes(const RuntimeModel<Scalar, Cap>& m, const St* s,
                                      Scalar dt_s, BlockLanes<Scalar, Cap, R>* b) {
   using V = LaneArray<Scalar, R>;
-  gather_lanes(&b->x0_rad, [&](int i) { return s[i].x_prev_rad; });
+  V model_x0;
+  gather_lanes(&model_x0, [&](int i) { return s[i].model_x_prev_rad; });
+  b->x0_rad = lane_select(model_x0 < m.x_min_rad, lane_constant<Scalar, R>(m.x_min_rad),
+                          lane_select(model_x0 > m.x_max_rad, lane_constant<Scalar, R>(m.x_max_rad), model_x0));
   V old_airspeed, old_time_scale, old_l_over_v;
   gather_lanes(&old_airspeed, [&](int i) { return s[i].airspeed_mps; });
   gather_lanes(&old_time_scale, [&](int i) { return s[i].time_scale; });
@@ -559,7 +562,6 @@ INDICIAL_LANE_INLINE void scatter_lane(const RuntimeModel<Scalar, Cap>& m, const
     }
     out[c] = b.value[c][i];
   }
-  s->x_prev_rad = b.x1_rad[i];
   s->model_x_prev_rad = b.x1_model_rad[i];
   s->airspeed_mps = b.airspeed_mps[i];
   s->time_scale = b.time_scale[i];

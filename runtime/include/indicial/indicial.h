@@ -33,7 +33,7 @@
  *    states and threads once loaded (it is read-only after the load).
  * 2. indicial_state_bytes depends on the model: a model with a delay needs the delay history
  *    (about 4.4 KB); one with dynamic-stall families (a version-2 coefficient file with sep_*
- *    / vortex_* keys) their states (272 bytes); otherwise 168 bytes. Size states after loading
+ *    / vortex_* keys) their states (256 bytes); otherwise 160 bytes. Size states after loading
  *    the model.
  * 3. A state must be written by indicial_reset before its first step (a zeroed state answers
  *    INDICIAL_ERROR_NOT_RESET; uninitialised memory is undefined), and belongs to the model it

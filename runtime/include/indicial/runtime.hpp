@@ -14,7 +14,7 @@
 //     per-model constants). Constexpr-constructible -- `indicial codegen` emits one that lives
 //     in read-only memory (flash) and is used in place -- and shared by any number of states.
 //   * State<Scalar, Cap>: per instance, only what changes (lag states, the previous sample's
-//     cached spline ends, the last airspeed's terms): 168 bytes for double and
+//     cached spline ends, the last airspeed's terms): 160 bytes for double and
 //     DefaultCapacity (up to 3 coefficients, 2 lags). FamilyState adds the dynamic-stall
 //     family states (below), DelayedState the history ring that a model with a delay needs
 //     (about 4 KB with DefaultCapacity).
@@ -92,10 +92,10 @@
 // (CoefficientModel::stall; the equations, units and feasible set are model.hpp's essay
 // "Dynamic stall: equations"). The runtime steps them and adds nothing of its own:
 //   * the state: model.hpp's StallState per coefficient (separation point, vortex lift,
-//     vortex clock, forcing angle) in a FamilyState, a State plus those (272 bytes for double,
-//     144 for float with DefaultCapacity; 200 and 112 for C_L + C_m in a two-coefficient
+//     vortex clock, forcing angle) in a FamilyState, a State plus those (256 bytes for double,
+//     136 for float with DefaultCapacity; 184 and 96 for C_L + C_m in a two-coefficient
 //     capacity). Why a state type of its own rather than room in every State or a
-//     Capacity parameter: a model without families pays nothing (its State stays 168 / 88
+//     Capacity parameter: a model without families pays nothing (its State stays 160 / 88
 //     bytes) under the same Capacity that codegen and the C API use, as the delay ring lives
 //     only in DelayedState -- which derives from FamilyState, so the Predictor's Snapshot
 //     carries the family states too (Snapshot::stall[c]).
@@ -650,18 +650,19 @@ constexpr int pad_ints(int scalar_count, int int_count) {
 template <class Scalar, class Cap>
 struct State {
   static constexpr int scalar_count = Cap::max_coefficients * Cap::max_lags +
-                                      Cap::max_coefficients * (1 + Cap::max_lags) + 5;
+                                      Cap::max_coefficients * (1 + Cap::max_lags) + 4;
   Scalar y[Cap::max_coefficients][Cap::max_lags] = {};  // lag states
   // The spline quantities at the previous sample, per coefficient (model.hpp's StepEnd): a
-  // pure function of x_prev_rad and the model, kept so that a step evaluates only its new end.
+  // pure function of the previous angle and the model, kept so that a step evaluates only its new end.
   StepEnd<Scalar, Cap> end[Cap::max_coefficients] = {};
-  Scalar x_prev_rad = Scalar(0);  // the (clamped) model angle of the previous sample
-  // The model angle of the previous sample itself, not clamped: a static table's angle
-  // (warning 3), for indicial_evaluate. Why in the state: the C API's evaluate had only the
-  // clamped angle, so its output at a reset outside the envelope held a static table at the
-  // envelope's edge where a step and predict evaluate it at the angle (a user's trial,
-  // 2026-11-27: 0.6708 against 0.9259). Costs the double State 8 bytes (160 -> 168); the float
-  // State stays 88 (its padding int goes).
+  // The model angle of the previous sample, not clamped: a static table's angle (warning 3).
+  // The clamped angle the splines and lags use is derived from it (detail::previous_x_rad: the
+  // envelope's clamp, the same two comparisons as the step's, hence the same bits). Why only
+  // this one: the C API's evaluate needs the angle itself (a reset outside the envelope held a
+  // static table at the envelope's edge where a step and predict evaluate it at the angle: a
+  // user's trial, 2026-11-27, 0.6708 against 0.9259), and keeping the clamped one as well cost
+  // every instance 8 bytes (FamilyState<double, DefaultCapacity> 264 -> 256 without it: issue
+  // 22 item 4's limit) for two comparisons a step.
   Scalar model_x_prev_rad = Scalar(0);
   // The airspeed terms of the last step (recomputed only when the airspeed changes).
   Scalar airspeed_mps = Scalar(0);  // 0: none cached (steps accept only airspeeds > 0)
@@ -682,16 +683,16 @@ enum class HistoryOrigin : int {
 // A State plus the dynamic-stall family states of every coefficient (model.hpp's StallState:
 // separation point, vortex lift, vortex clock), for a model whose coefficients carry families
 // (RuntimeModel::stall). Why a type of its own rather than room in every State: a model
-// without families pays nothing (State<double, DefaultCapacity> stays 168 bytes, the float
+// without families pays nothing (State<double, DefaultCapacity> stays 160 bytes, the float
 // one 88), with the same Capacity (codegen and the C API keep DefaultCapacity), as the delay
-// ring lives only in DelayedState. 272 bytes for double and DefaultCapacity, 144 for float
-// (248 and 128 until the forcing angle's state, model.hpp's ForcingLag).
+// ring lives only in DelayedState. 256 bytes for double and DefaultCapacity, 136 for float
+// (issue 22 item 4: at most 256 for C_L + C_m with every family; 272 and 144 until the State
+// stopped keeping the clamped angle beside the angle and the padding word went).
 template <class Scalar, class Cap>
 struct FamilyState : State<Scalar, Cap> {
+  // No padding word: a StallState is four Scalars, whole 8-byte units for double and float.
+  static_assert(sizeof(StallState<Scalar>) == 4 * sizeof(Scalar), "StallState: four Scalars, no padding");
   StallState<Scalar> stall[Cap::max_coefficients] = {};
-  static constexpr int stall_pad_count = detail::pad_ints<Scalar>(
-      static_cast<int>(sizeof(StallState<Scalar>) / sizeof(Scalar)) * Cap::max_coefficients, 0);
-  int stall_reserved[stall_pad_count] = {};  // keeps it free of padding
 };
 
 // A FamilyState plus the delay ring of the last Cap::max_delay_samples (time, clamped model
@@ -744,6 +745,17 @@ inline Clamped<Scalar> clamp_model_angle(const RuntimeModel<Scalar, Cap>& m, dou
   if (x < m.x_min_rad) return {m.x_min_rad, StepStatus::angle_clamped, x};
   if (x > m.x_max_rad) return {m.x_max_rad, StepStatus::angle_clamped, x};
   return {x, StepStatus::ok, x};
+}
+
+// The clamped model angle of the previous sample (State::model_x_prev_rad): what
+// clamp_model_angle gave that sample's step or reset, bit for bit. Only for a state that has
+// been reset (the step and evaluate check the phase first).
+template <class Scalar, class Cap>
+inline Scalar previous_x_rad(const RuntimeModel<Scalar, Cap>& m, const State<Scalar, Cap>& s) {
+  const Scalar x = s.model_x_prev_rad;
+  if (x < m.x_min_rad) return m.x_min_rad;
+  if (x > m.x_max_rad) return m.x_max_rad;
+  return x;
 }
 
 template <class Scalar>
@@ -1053,7 +1065,8 @@ INDICIAL_HOT_INLINE Scalar advance_coefficients(const RuntimeModel<Scalar, Cap>&
                                                 const AirspeedTerms<Scalar>& v,
                                                 const DelayedForcing<Scalar, Cap>* forcing,
                                                 StallState<Scalar>* stall, Scalar* value) {
-  const StepGeometry<Scalar> g{s.x_prev_rad, x1, s.x_prev_rad, x1, dt_s, v.time_scale};
+  const Scalar x0 = previous_x_rad(m, s);
+  const StepGeometry<Scalar> g{x0, x1, x0, x1, dt_s, v.time_scale};
   const auto coefficient = [&](int c) INDICIAL_HOT_LAMBDA -> Scalar {
     const CoefficientModel<Scalar, Cap>& cm = m.set.coefficients[c];
     Scalar test;
@@ -1094,13 +1107,11 @@ INDICIAL_HOT_INLINE Scalar advance_coefficients(const RuntimeModel<Scalar, Cap>&
 
 // The rest of a step whose numbers are all finite: the angle, the airspeed terms, the outputs.
 template <class Scalar, class Cap>
-INDICIAL_HOT_INLINE void commit(const RuntimeModel<Scalar, Cap>& m, const Scalar* value, Scalar x1,
-                                Scalar model_x1, const AirspeedTerms<Scalar>& v, State<Scalar, Cap>* s,
-                                Scalar* out) {
+INDICIAL_HOT_INLINE void commit(const RuntimeModel<Scalar, Cap>& m, const Scalar* value, Scalar model_x1,
+                                const AirspeedTerms<Scalar>& v, State<Scalar, Cap>* s, Scalar* out) {
   // (Over the capacity, not n_coefficients: GCC makes the shorter loop a memcpy call.)
   for (int c = 0; c < Cap::max_coefficients; ++c)
     if (c < m.set.n_coefficients) out[c] = value[c];
-  s->x_prev_rad = x1;
   s->model_x_prev_rad = model_x1;
   s->airspeed_mps = v.airspeed_mps;
   s->time_scale = v.time_scale;
@@ -1148,7 +1159,6 @@ inline StepStatus reset(const RuntimeModel<Scalar, Cap>& m, State<Scalar, Cap>& 
     // At rest the forcing angle is the model angle, delay or not.
     evaluate_step_end(cm, clamp.x_rad, clamp.x_rad, &n.end[c]);
   }
-  n.x_prev_rad = clamp.x_rad;
   n.model_x_prev_rad = clamp.model_x_rad;
   const detail::AirspeedTerms<Scalar> v = detail::airspeed_terms(m, n, airspeed_mps);
   n.airspeed_mps = v.airspeed_mps;
@@ -1171,7 +1181,7 @@ inline StepStatus reset(const RuntimeModel<Scalar, Cap>& m, FamilyState<Scalar, 
   if (st != StepStatus::ok && st != StepStatus::angle_clamped) return st;
   StallState<Scalar> rest[Cap::max_coefficients] = {};
   for (int c = 0; c < m.set.n_coefficients; ++c) {
-    stall_steady_state(m.set.coefficients[c].stall, s.x_prev_rad, &rest[c]);
+    stall_steady_state(m.set.coefficients[c].stall, detail::previous_x_rad(m, s), &rest[c]);
     if (!std::isfinite(rest[c].separation_point)) {
       base = before;
       return StepStatus::non_finite_result;
@@ -1195,7 +1205,7 @@ inline StepStatus reset(const RuntimeModel<Scalar, Cap>& m, DelayedState<Scalar,
   s.time_s = 0.0;
   s.delay_airspeed_mps = 0.0;
   for (int c = 0; c < Cap::max_coefficients; ++c) s.delay_at_airspeed_s[c] = 0.0;
-  s.history_x_rad[0] = s.x_prev_rad;
+  s.history_x_rad[0] = detail::previous_x_rad(m, s);
   s.history_newest = 0;
   s.history_count = 1;
   s.history_origin = static_cast<int>(HistoryOrigin::rest_before_oldest);
@@ -1252,7 +1262,7 @@ inline StepStatus step_undelayed(const RuntimeModel<Scalar, Cap>& m, State<Scala
     stall_before.restore(families);
     return StepStatus::non_finite_result;
   }
-  commit(m, value, clamp.x_rad, clamp.model_x_rad, v, &s, out);
+  commit(m, value, clamp.model_x_rad, v, &s, out);
   return clamp.status;
 }
 
@@ -1295,11 +1305,12 @@ inline StepStatus evaluate_state(const RuntimeModel<Scalar, Cap>& m, const State
   if (stall == nullptr && m.stall != StallUse::none) return StepStatus::families_need_state;
   const AirspeedTerms<Scalar> v = airspeed_terms(m, s, airspeed_mps);
   Scalar value[Cap::max_coefficients] = {};
+  const Scalar x0 = previous_x_rad(m, s);
   for (int c = 0; c < m.set.n_coefficients; ++c) {
     const CoefficientModel<Scalar, Cap>& cm = m.set.coefficients[c];
-    value[c] = coefficient_output(cm, s.x_prev_rad, s.model_x_prev_rad, Scalar(rate_radps), v.l_over_v_s, s.y[c]);
+    value[c] = coefficient_output(cm, x0, s.model_x_prev_rad, Scalar(rate_radps), v.l_over_v_s, s.y[c]);
     if (stall != nullptr && cm.stall.families != StallFamilies::none)
-      value[c] = value[c] + stall_output(cm.stall, s.x_prev_rad, stall[c]);
+      value[c] = value[c] + stall_output(cm.stall, x0, stall[c]);
     if (!std::isfinite(value[c])) return StepStatus::non_finite_result;
   }
   for (int c = 0; c < m.set.n_coefficients; ++c) out[c] = value[c];
@@ -1414,7 +1425,7 @@ inline StepStatus step(const RuntimeModel<Scalar, Cap>& m, DelayedState<Scalar, 
     std::memcpy(s.stall, stall_before, sizeof stall_before);
     return StepStatus::non_finite_result;
   }
-  detail::commit(m, value, clamp.x_rad, clamp.model_x_rad, v, &s, out);
+  detail::commit(m, value, clamp.model_x_rad, v, &s, out);
   detail::commit_history(t1_s, clamp.x_rad, ring_full, &s);
   s.delay_airspeed_mps = in.airspeed_mps;
   for (int c = 0; c < Cap::max_coefficients; ++c) s.delay_at_airspeed_s[c] = d_s[c];

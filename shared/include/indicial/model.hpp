@@ -1503,7 +1503,7 @@ struct StallState {
   Scalar vortex_clock_semichords = Scalar(0);  // tau_v, in l / V
   // x_e, rad, with ForcingLag::first_order (the filtered forcing angle); delay computes x_e from
   // the step and leaves this at the reset angle. Costs FamilyState<double, DefaultCapacity> 24
-  // bytes (248 -> 272; runtime.hpp).
+  // bytes (runtime.hpp: 256 bytes in all).
   Scalar forcing_angle_rad = Scalar(0);
 };
 
