@@ -7,7 +7,9 @@
 #   INDICIAL_ASAN_BUILD_DIR=/tmp/x INDICIAL_JOBS=2 tools/run-sanitizers.sh
 #
 # RelWithDebInfo at -O1 (with line tables only, -g1): fast enough to run the suite, still
-# precise stack traces. Benchmarks are not built, nor the Python module (an extension loaded
+# precise stack traces. INDICIAL_PLAIN_INLINING: the step's forced inlining (always_inline,
+# flatten; model.hpp) off, which the instrumented compile pays for most (a third of a runtime
+# test's compile time) and which only the benchmarks need. Benchmarks are not built, nor the Python module (an extension loaded
 # into an uninstrumented interpreter would need the ASan runtime preloaded).
 # -DINDICIAL_SANITIZE=ON leaves out tests/test_alloc.cpp, which replaces malloc/free
 # (forwarding to glibc's __libc_malloc) and operator new: that bypasses ASan's allocator, so
@@ -25,7 +27,7 @@ san="-fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-poin
 
 start=$(date +%s)
 cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-  -DCMAKE_CXX_FLAGS="$san" -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1" \
+  -DCMAKE_CXX_FLAGS="$san -DINDICIAL_PLAIN_INLINING" -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1" \
   -DCMAKE_EXE_LINKER_FLAGS="$san" -DINDICIAL_BUILD_BENCH=OFF -DINDICIAL_SANITIZE=ON \
   -DINDICIAL_BUILD_PYTHON=OFF -DINDICIAL_SANITIZE_ALL_TESTS=$([ "${INDICIAL_SANITIZE_ALL:-0}" = 1 ] && echo ON || echo OFF)
 cmake --build "$build_dir" -j"$jobs"

@@ -78,8 +78,13 @@
 
 #if defined(__GNUC__) || defined(__clang__)
 #define INDICIAL_LANE_VECTORS 1
+#if !defined(INDICIAL_PLAIN_INLINING)  // (model.hpp's INDICIAL_HOT_INLINE says why)
 #define INDICIAL_LANE_INLINE inline __attribute__((always_inline))
 #define INDICIAL_LANE_FLATTEN __attribute__((flatten))
+#else
+#define INDICIAL_LANE_INLINE inline
+#define INDICIAL_LANE_FLATTEN
+#endif
 #else
 #define INDICIAL_LANE_VECTORS 0
 #define INDICIAL_LANE_INLINE inline

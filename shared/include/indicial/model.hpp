@@ -168,7 +168,12 @@ inline Scalar int_power(const Scalar& u, int p) {
 // The step's hottest bodies are inlined whatever GCC's size heuristics decide: written once on
 // a policy they are one call level deeper than the scalar code was, and an out-of-line call per
 // coefficient costs the scalar step instructions (bench_step's callgrind count).
-#if defined(__GNUC__) || defined(__clang__)
+// INDICIAL_PLAIN_INLINING leaves every inlining decision to the compiler (plain `inline`, no
+// `flatten`; the same results): tools/run-sanitizers.sh defines it, where the forced inlining
+// of every step into every caller made the instrumented build compile a third longer
+// (tests/test_runtime_families.cpp 58 -> 39 s under ASan + UBSan at -O1) for speed nobody
+// measures there.
+#if (defined(__GNUC__) || defined(__clang__)) && !defined(INDICIAL_PLAIN_INLINING)
 #define INDICIAL_HOT_INLINE inline __attribute__((always_inline))
 #define INDICIAL_HOT_LAMBDA __attribute__((always_inline))
 // The usual outcome of a branch, for the code's layout only (the other side out of line).
