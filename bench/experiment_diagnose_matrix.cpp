@@ -79,6 +79,9 @@ int effect_sizes() {
   o.max_steps = 0;
   for (const char* coef : {"Cm", "CL"})
     for (const EffectDescription& ef : effect_descriptions())
+      // (No injection of the dynamic-stall effects into the matrix's tailless truths: their
+      // cases would inject nothing.)
+      if (ef.extends == EffectExtends::report_model)
       for (MatrixMotion mo : {MatrixMotion::sine_from_rest, MatrixMotion::sine_from_mean, MatrixMotion::ramps}) {
         const MatrixRow r = run_matrix_case({coef, ef.name, ef.name, 1.0, mo, MatrixNoise::white, 7}, o);
         const std::string line = std::string(coef) + " " + ef.name + " " + matrix_motion_name(mo) +

@@ -238,7 +238,7 @@ inline std::vector<MatrixCase> diagnose_matrix(bool quick) {
       // The dynamic-stall effects have no injection into this matrix's tailless truths (they
       // need a lift polar through stall; slow_reattachment and pressure_lag also a model with the
       // families): tests/test_fit_stall_recovery.cpp, test_diagnose_stall.cpp, docs/validation-stall.md.
-      if (ef.effect < Effect::separation_lag)
+      if (ef.extends == EffectExtends::report_model)
       for (MatrixMotion mo : motions)
         for (double mag : mags)
           for (MatrixNoise no : noises)

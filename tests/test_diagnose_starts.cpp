@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "diagnose/diagnose_internal.hpp"
+#include "diagnose_polar_model.hpp"
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/predict.hpp"
 
@@ -20,6 +21,7 @@ TEST_SUITE_BEGIN("unit");  // the ctest label (tests/CMakeLists.txt)
 
 using namespace indicial;
 using namespace indicial::diagnose_detail;
+using indicial::testing::model_with_polar;
 
 namespace {
 
@@ -33,17 +35,6 @@ FitResult made_up_fit(double fit_error) {
   r.model = model;
   r.fit_error = fit_error;
   return r;
-}
-
-// A model with a lift polar, -0.3..0.3 rad, a thin-airfoil line that saturates: the stall
-// candidates are offered.
-ModelConfig model_with_polar() {
-  ModelConfig model;
-  for (int i = -6; i <= 6; ++i) {
-    model.stall.polar_x_rad.push_back(0.05 * i);
-    model.stall.polar_lift.push_back(2.0 * M_PI * 0.05 * i / (1.0 + 4.0 * 0.0025 * i * i));
-  }
-  return model;
 }
 
 }  // namespace

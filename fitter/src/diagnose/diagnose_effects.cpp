@@ -263,20 +263,20 @@ std::vector<ParamId> model_terms(const ModelConfig& m) {
 // The table. Order = the Effect enum's.
 const std::vector<EffectEntry>& effect_registry() {
   static const std::vector<EffectEntry> table = {
-      {{Effect::b1_alpha, "b1_alpha",
+      {{Effect::b1_alpha, EffectExtends::report_model, "b1_alpha",
         "the lag's decay rate b1 varies with the angle",
         "b1(x) power or plus-function knot term (x - k)_+ (lag_poly / lag_knot 1)",
         "hysteresis whose width and phase change along the angle range, at every frequency",
         "oscillations about several mean angles at small amplitude (b1 then shows as a "
         "different time constant at each mean)"},
        SplineFamily::b1, gen_b1_alpha},
-      {{Effect::a_alpha, "a_alpha",
+      {{Effect::a_alpha, EffectExtends::report_model, "a_alpha",
         "the unsteady forcing a(x) lacks a term",
         "a(x) power or knot term (x - k)_+^2 (a_poly / a_knot)",
         "hysteresis growing with the rate, concentrated in part of the angle range",
         "ramps at several rates through the suspected angle range"},
        SplineFamily::a, gen_a_alpha},
-      {{Effect::rotary_alpha, "rotary_alpha",
+      {{Effect::rotary_alpha, EffectExtends::report_model, "rotary_alpha",
         "the rotary derivative C_aq(x) is wrong",
         "a C_aq(x) correction, power or knot (x - k)_+, added to the a priori C_aq (rotary_poly / "
         "rotary_knot)",
@@ -284,21 +284,21 @@ const std::vector<EffectEntry>& effect_registry() {
         "oscillations at several frequencies: the rotary term grows with frequency, the lag's "
         "contribution saturates"},
        SplineFamily::rotary, gen_rotary_alpha},
-      {{Effect::bias, "bias",
+      {{Effect::bias, EffectExtends::report_model, "bias",
         "a constant in the state equation (con)",
         "con (state-equation constant)",
         "a constant offset in every run",
         "with constant b1, con / b1 equals a constant static offset: runs over an angle range where "
         "b1 varies, or transients from a long hold (y known to be 0), separate them"},
        SplineFamily::none, gen_bias},
-      {{Effect::time_delay, "time_delay",
+      {{Effect::time_delay, EffectExtends::report_model, "time_delay",
         "a pure delay of the unsteady forcing, x_f = x(t - delay)",
         "delay_s",
         "a phase lag growing with the frequency",
         "oscillations at several frequencies or fast ramps: a delay's phase lag grows linearly "
         "with frequency, a lower b1's saturates"},
        SplineFamily::none, gen_time_delay},
-      {{Effect::second_lag, "second_lag",
+      {{Effect::second_lag, EffectExtends::report_model, "second_lag",
         "a second lag state with its own time constant",
         "lag 2: lag_poly 2 b2_0, lag_gain 2 c2 (starting at rest)",
         "a residual transient after every change of rate, with a time constant unlike b1's",
@@ -306,7 +306,7 @@ const std::vector<EffectEntry>& effect_registry() {
         "the ramp stops, decaying with its own time constant (a rotary term's stops with the rate); "
         "or oscillations up to b2 / (2 pi) Hz, above which its contribution saturates"},
        SplineFamily::none, gen_second_lag},
-      {{Effect::static_error, "static_error",
+      {{Effect::static_error, EffectExtends::report_model, "static_error",
         "the static curve C_a(x) is wrong",
         "a static correction dC_a(x), powers x^1..x^3 or knots (x - k)_+^2 (static_corr_poly / "
         "static_corr_knot)",
@@ -315,7 +315,7 @@ const std::vector<EffectEntry>& effect_registry() {
         "slow (quasi-static) sweeps or held angles: a static error remains, an unsteady one "
         "vanishes"},
        SplineFamily::static_correction, gen_static_error},
-      {{Effect::separation_lag, "separation_lag",
+      {{Effect::separation_lag, EffectExtends::stall_families, "separation_lag",
         "the trailing-edge separation point lags the angle (dynamic stall without a vortex)",
         "the separation family: state f, T1 (l/V) f' + f = f0(x - T2 (l/V) x'), Kirchhoff output "
         "(model.stall = \"separation\"; coefficient-file sep_* keys)",
@@ -325,7 +325,7 @@ const std::vector<EffectEntry>& effect_registry() {
         "oscillations at several mean angles through the static stall angle and at several reduced "
         "frequencies: below stall it is silent, a lag's hysteresis is not"},
        SplineFamily::none, gen_separation_lag},
-      {{Effect::vortex_shedding, "vortex_shedding",
+      {{Effect::vortex_shedding, EffectExtends::stall_families, "vortex_shedding",
         "a leading-edge vortex is shed past a criterion and convected over the chord",
         "the vortex family on the separation family: vortex lift fed by N(x) (1 - K(f)), shed past "
         "|C_N'| > CN1, decaying with Tv, convected in Tvl (model.stall = \"separation_and_vortex\"; "
@@ -335,7 +335,7 @@ const std::vector<EffectEntry>& effect_registry() {
         "deep-stall oscillations at several reduced frequencies: the overshoot and the moment break "
         "move with the convection time Tvl, a separation lag's hysteresis has neither"},
        SplineFamily::none, gen_vortex_shedding},
-      {{Effect::slow_reattachment, "slow_reattachment",
+      {{Effect::slow_reattachment, EffectExtends::stall_families, "slow_reattachment",
         "the flow reattaches more slowly than it separates",
         "the separation state's own time constant T1r while f rises toward f0 (model.stall_reattachment "
         "= \"estimated\"; coefficient-file sep_reattachment)",
@@ -345,7 +345,7 @@ const std::vector<EffectEntry>& effect_registry() {
         "oscillations through stall at several reduced frequencies and mean angles: the separation "
         "(upstroke) and the reattachment (downstroke) lags are then told apart"},
        SplineFamily::none, gen_slow_reattachment},
-      {{Effect::pressure_lag, "pressure_lag",
+      {{Effect::pressure_lag, EffectExtends::stall_families, "pressure_lag",
         "the separation point follows the angle through a lag, not the angle extrapolated back",
         "the separation state forced by x_e with T2 (l/V) x_e' + x_e = x (Beddoes-Leishman's "
         "leading-edge pressure lag) instead of x - T2 (l/V) x'; no parameter added "

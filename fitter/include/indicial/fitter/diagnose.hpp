@@ -90,13 +90,22 @@ namespace indicial {
 // diagnose_effects.cpp: name, description, how it is written to the model, its residual
 // signature, the experiment that separates it, its candidate generator); the count, --help
 // list and report descriptions come from there. The dynamic-stall effects come last, from
-// separation_lag on (they need a lift polar through stall; the test matrix relies on the order).
+// separation_lag on (EffectDescription::extends says which those are).
 enum class Effect { b1_alpha, a_alpha, rotary_alpha, bias, time_delay, second_lag, static_error,
                     separation_lag, vortex_shedding, slow_reattachment, pressure_lag };
 inline constexpr int effect_count = 11;  // the registry checks it has exactly this many entries
 
+// The part of the model an effect extends (EffectDescription::extends).
+enum class EffectExtends {
+  report_model,    // the report's model: its splines, lags, delay, bias, static curve
+  stall_families   // model.hpp's separation and vortex families: offered only where a lift polar
+                   // runs through stall (slow_reattachment and pressure_lag: on a model that has
+                   // the families already)
+};
+
 struct EffectDescription {
   Effect effect = Effect::bias;
+  EffectExtends extends = EffectExtends::report_model;
   const char* name = "";          // the contract's name: "b1_alpha", ...
   const char* description = "";   // the disagreement it explains
   const char* written_as = "";    // how it is written to the model (coefficient-file keys)

@@ -1,0 +1,87 @@
+// The diagnose effect registry (fitter/src/diagnose/diagnose_effects.cpp): one entry per Effect
+// in the enum's order, each named and described, and its `extends` (EffectDescription) true to
+// what the effect's candidates change: a report-model effect leaves the dynamic-stall families'
+// configuration alone, a stall-family effect changes it and is offered only where a lift polar
+// runs through stall (tests/diagnose_test_matrix.hpp leaves the stall-family effects out by it).
+#include <doctest/doctest.h>
+
+#include <set>
+#include <string>
+#include <vector>
+
+#include "diagnose/diagnose_internal.hpp"
+#include "diagnose_polar_model.hpp"
+
+TEST_SUITE_BEGIN("unit");  // the ctest label (tests/CMakeLists.txt)
+
+using namespace indicial;
+using namespace indicial::diagnose_detail;
+
+namespace {
+
+bool same_families(const StallConfig& a, const StallConfig& b) {
+  return a.families == b.families && a.reattachment == b.reattachment && a.forcing_lag == b.forcing_lag;
+}
+
+// The effects of every candidate offered against `model`, each checked against its entry.
+std::set<Effect> offered(const ModelConfig& model) {
+  const Experiment e;
+  const FitResult base;
+  const std::vector<double> grid = {0.1, 0.2};
+  std::set<Effect> effects;
+  for (const CandidateSpec& c : all_candidates(CandidateContext{e, model, base, grid, 0.1})) {
+    const EffectDescription& d = effect_descriptions()[static_cast<std::size_t>(c.effect)];
+    INFO(d.name, ": ", c.term);
+    CHECK(same_families(c.config.stall, model.stall) == (d.extends == EffectExtends::report_model));
+    effects.insert(c.effect);
+  }
+  return effects;
+}
+
+std::set<Effect> extending(EffectExtends x) {
+  std::set<Effect> out;
+  for (const EffectDescription& d : effect_descriptions())
+    if (d.extends == x) out.insert(d.effect);
+  return out;
+}
+
+}  // namespace
+
+TEST_CASE("diagnose registry: one described entry per effect, in the enum's order") {
+  REQUIRE(effect_descriptions().size() == static_cast<std::size_t>(effect_count));
+  std::set<std::string> names;
+  for (std::size_t i = 0; i < effect_descriptions().size(); ++i) {
+    const EffectDescription& d = effect_descriptions()[i];
+    CHECK(static_cast<std::size_t>(d.effect) == i);
+    CHECK(std::string(effect_name(d.effect)) == d.name);
+    for (const char* text : {d.description, d.written_as, d.signature, d.separated_by})
+      CHECK_FALSE(std::string(text).empty());
+    names.insert(d.name);
+  }
+  CHECK(names.size() == effect_descriptions().size());
+  // The stall-family effects come last (the enum's comment).
+  bool stall_seen = false;
+  for (const EffectDescription& d : effect_descriptions()) {
+    if (d.extends == EffectExtends::stall_families) stall_seen = true;
+    CHECK((d.extends == EffectExtends::stall_families) == stall_seen);
+  }
+}
+
+TEST_CASE("diagnose registry: an effect's extends says what its candidates change and where they are offered") {
+  const std::set<Effect> report = extending(EffectExtends::report_model);
+  const std::set<Effect> stall = extending(EffectExtends::stall_families);
+  CHECK(stall == std::set<Effect>{Effect::separation_lag, Effect::vortex_shedding, Effect::slow_reattachment,
+                                  Effect::pressure_lag});
+  // No polar: only report-model effects (every one of them has a candidate here).
+  CHECK(offered(ModelConfig{}) == report);
+  // A polar through stall: the families are offered too.
+  ModelConfig model = testing::model_with_polar();
+  std::set<Effect> with_polar = offered(model);
+  CHECK(with_polar.count(Effect::separation_lag) == 1);
+  CHECK(with_polar.count(Effect::vortex_shedding) == 1);
+  // With the separation family: its refinements (slower reattachment, the lagged forcing).
+  model.stall.families = StallFamilies::separation;
+  const std::set<Effect> with_families = offered(model);
+  CHECK(with_families.count(Effect::slow_reattachment) == 1);
+  CHECK(with_families.count(Effect::pressure_lag) == 1);
+}
