@@ -12,7 +12,7 @@
 //   lockstep/  time-major: every predictor advances one step before any advances again (a
 //              simulation of 1024 aircraft in one world; each Predictor carries its own copy of
 //              the model, 1024 x 13.7 KB = 14 MB, beyond the private L2)
-// and, for 1024 instances sharing ONE model (a 168-byte State each: 168 KB in all), lockstep:
+// and, for 1024 instances sharing ONE model (a 160-byte State each: 160 KB in all), lockstep:
 //   shared/    indicial::step per instance; stepbatch/ indicial::step_batch (the automatic
 //              kernel: AVX2 on a CPU that has it); stepbatch_portable/ the same with the
 //              portable kernel (SSE2 in the default build); cbatch/ the C interface's
@@ -140,7 +140,7 @@ int range_begin(int t, int threads) {
   return t * blocks / threads * indicial::batch_block;
 }
 
-// 1024 instances sharing ONE model: a State (168 bytes for double) each, the RuntimeModel once
+// 1024 instances sharing ONE model: a State (160 bytes for double) each, the RuntimeModel once
 // (it stays in cache). Time-major (lockstep) like a simulation of many aircraft, stepped by
 //   shared/    indicial::step per instance
 //   stepbatch/ indicial::step_batch over each thread's range, automatic kernel

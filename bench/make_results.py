@@ -115,7 +115,7 @@ for m in ("model1", "model2", "twolag"):
           f"{fmt(r(mo))} | {fmt(t_wall(f'step/{m}/{s}'))} | {fmt(allocs)} |")
 w("")
 w("The stateless core and the C interface on the same chain (`state` is `indicial::step` on a")
-w("shared RuntimeModel and a 168-byte State; `c` is `indicial_step` through indicial.h):")
+w("shared RuntimeModel and a 160-byte State; `c` is `indicial_step` through indicial.h):")
 w("")
 w("| model | state ns (double) | state/floor | c ns (double) | c / state | state ns (float) | state/floor (float) |")
 w("|---|---|---|---|---|---|---|")

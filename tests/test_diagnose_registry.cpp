@@ -19,8 +19,11 @@ using namespace indicial::diagnose_detail;
 
 namespace {
 
+// The dynamic-stall configuration a candidate could change: the families and their structure,
+// the polar they stand on, the parameters held known.
 bool same_families(const StallConfig& a, const StallConfig& b) {
-  return a.families == b.families && a.reattachment == b.reattachment && a.forcing_lag == b.forcing_lag;
+  return a.families == b.families && a.reattachment == b.reattachment && a.forcing_lag == b.forcing_lag &&
+         a.polar_x_rad == b.polar_x_rad && a.polar_lift == b.polar_lift && a.known == b.known;
 }
 
 // The effects of every candidate offered against `model`, each checked against its entry.

@@ -183,7 +183,7 @@ TEST_CASE("reset sets the steady state, holding the angle keeps it") {
   CHECK(s.y[0][1] == 0.0);
   CHECK(s.y[1][0] == 0.0);  // Cm has no bias
   CHECK(s.model_x_prev_rad == alpha);
-  CHECK(indicial::detail::previous_x_rad(p.runtime(), s) == alpha);
+  CHECK(indicial::clamped_previous_angle_rad(p.runtime(), s) == alpha);
   // At rest (same angle, zero rate) the state stays at its steady value and the output is
   // static + steady lag state, at any airspeed.
   P::Outputs out;
@@ -313,7 +313,7 @@ TEST_CASE("angles outside the envelope are clamped and flagged, outputs still pr
   CHECK(p.reset(x_max + 0.2, 17.667762) == StepStatus::angle_clamped);
   // The state keeps the angle itself; the splines' angle is its clamp (detail::previous_x_rad).
   CHECK(p.snapshot().model_x_prev_rad == x_max + 0.2);
-  CHECK(indicial::detail::previous_x_rad(p.runtime(), p.snapshot()) == x_max);
+  CHECK(indicial::clamped_previous_angle_rad(p.runtime(), p.snapshot()) == x_max);
   P::Outputs out;
   CHECK(p.step({x_max + 0.3, 0.5, 17.667762}, 0.01, &out) == StepStatus::angle_clamped);
   P q;
@@ -324,7 +324,7 @@ TEST_CASE("angles outside the envelope are clamped and flagged, outputs still pr
   CHECK(out.value[0] == at_edge.value[0]);  // same as the clamped angle with the same rate
   CHECK(p.step({-0.5, 0.0, 17.667762}, 0.01, &out) == StepStatus::angle_clamped);
   CHECK(p.snapshot().model_x_prev_rad == -0.5);
-  CHECK(indicial::detail::previous_x_rad(p.runtime(), p.snapshot()) == 0.0);
+  CHECK(indicial::clamped_previous_angle_rad(p.runtime(), p.snapshot()) == 0.0);
   CHECK(std::isfinite(out.value[0]));
   CHECK(p.step({0.5, 0.0, 17.667762}, 0.01, &out) == StepStatus::ok);
 }
@@ -447,6 +447,37 @@ TEST_CASE("float instantiation runs and stays close to double") {
   CHECK(max_diff > 0.0);  // really computed in float
 }
 
+// The state keeps the angle itself; the angle its splines and lags were evaluated at is
+// derived (clamped_previous_angle_rad): after every reset and step it must be the step's own
+// clamp, bit for bit, inside, at and beyond the envelope's edges, -0 and huge angles included.
+template <class Scalar>
+void check_clamped_previous_angle() {
+  indicial::Predictor<Scalar> p;
+  REQUIRE(p.load(indicial::test_models::table_one_model_two()) == LoadStatus::ok);
+  const double lo = double(p.runtime().x_min_rad), hi = double(p.runtime().x_max_rad);
+  const double angles[] = {0.5 * (lo + hi), lo, hi, -0.0, lo - 0.3, hi + 0.3, 1e300, -1e300,
+                           std::nextafter(hi, 10.0), std::nextafter(lo, -10.0), 0.1};
+  REQUIRE(p.reset(angles[0], 20.0) == StepStatus::ok);
+  typename indicial::Predictor<Scalar>::Outputs out;
+  for (double a : angles) {
+    INFO("angle ", a);
+    const StepStatus st = p.step({a, 0.0, 20.0}, 0.01, &out);
+    REQUIRE((st == StepStatus::ok || st == StepStatus::angle_clamped));
+    const auto clamp = indicial::detail::clamp_model_angle(p.runtime(), a);
+    CHECK(indicial::clamped_previous_angle_rad(p.runtime(), p.snapshot()) == clamp.x_rad);
+    CHECK(std::signbit(indicial::clamped_previous_angle_rad(p.runtime(), p.snapshot())) == std::signbit(clamp.x_rad));
+    CHECK(p.snapshot().model_x_prev_rad == clamp.model_x_rad);
+    CHECK((st == StepStatus::angle_clamped) == (clamp.status == StepStatus::angle_clamped));
+    REQUIRE(p.reset(a, 20.0) == clamp.status);
+    CHECK(indicial::clamped_previous_angle_rad(p.runtime(), p.snapshot()) == clamp.x_rad);
+  }
+}
+
+TEST_CASE("the clamped previous angle is the step's clamp, bit for bit, in double and float") {
+  check_clamped_previous_angle<double>();
+  check_clamped_previous_angle<float>();
+}
+
 TEST_CASE("roll and yaw use the model angle transforms") {
   P p;
   Set m = indicial::test_models::roll_three();
@@ -454,11 +485,15 @@ TEST_CASE("roll and yaw use the model angle transforms") {
   const double phi = 0.4;
   REQUIRE(p.reset(phi, 20.0) == StepStatus::ok);
   CHECK(p.snapshot().model_x_prev_rad == std::asin(std::sin(phi) * std::sin(m.alpha0_rad)));
+  CHECK(indicial::clamped_previous_angle_rad(p.runtime(), p.snapshot()) ==
+        indicial::detail::clamp_model_angle(p.runtime(), phi).x_rad);
   m.axis = indicial::Axis::yaw;
   REQUIRE(p.load(m) == LoadStatus::ok);
   const double psi = 0.3;
   REQUIRE(p.reset(psi, 20.0) == StepStatus::ok);
   CHECK(p.snapshot().model_x_prev_rad == std::asin(-std::sin(psi) * std::cos(m.alpha0_rad)));
+  CHECK(indicial::clamped_previous_angle_rad(p.runtime(), p.snapshot()) ==
+        indicial::detail::clamp_model_angle(p.runtime(), psi).x_rad);
 }
 
 TEST_CASE("to_string names every status") {

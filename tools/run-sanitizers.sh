@@ -9,7 +9,7 @@
 # RelWithDebInfo at -O1 (with line tables only, -g1): fast enough to run the suite, still
 # precise stack traces. INDICIAL_PLAIN_INLINING: the step's forced inlining (always_inline,
 # flatten; model.hpp) off, which the instrumented compile pays for most (a third of a runtime
-# test's compile time) and which only the benchmarks need. Benchmarks are not built, nor the Python module (an extension loaded
+# test's compile time) and which buys the step's speed, not what this build checks. Benchmarks are not built, nor the Python module (an extension loaded
 # into an uninstrumented interpreter would need the ASan runtime preloaded).
 # -DINDICIAL_SANITIZE=ON leaves out tests/test_alloc.cpp, which replaces malloc/free
 # (forwarding to glibc's __libc_malloc) and operator new: that bypasses ASan's allocator, so

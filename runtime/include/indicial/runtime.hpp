@@ -1335,6 +1335,15 @@ inline StepStatus evaluate(const RuntimeModel<Scalar, Cap>& m, const FamilyState
   return detail::evaluate_state(m, s, m.stall != StallUse::none ? s.stall : nullptr, rate_radps, airspeed_mps, out);
 }
 
+// The model angle of a state's last sample, clamped to the envelope: the angle its splines and
+// lags were evaluated at (the unsteady term's, warning 3; State::model_x_prev_rad is the angle
+// itself). What State::x_prev_rad held until it was derived (CHANGELOG). Only meaningful after
+// a reset (a never-reset state reads 0 clamped).
+template <class Scalar, class Cap>
+inline Scalar clamped_previous_angle_rad(const RuntimeModel<Scalar, Cap>& m, const State<Scalar, Cap>& s) {
+  return detail::previous_x_rad(m, s);
+}
+
 // Advances the lag states from the previous sample to this one (dt_s later) and writes the
 // m.set.n_coefficients coefficients at this sample to out[0..]. Anything but ok or
 // angle_clamped changes neither s nor out. A model with a delay needs a DelayedState, one

@@ -168,11 +168,15 @@ inline Scalar int_power(const Scalar& u, int p) {
 // The step's hottest bodies are inlined whatever GCC's size heuristics decide: written once on
 // a policy they are one call level deeper than the scalar code was, and an out-of-line call per
 // coefficient costs the scalar step instructions (bench_step's callgrind count).
-// INDICIAL_PLAIN_INLINING leaves every inlining decision to the compiler (plain `inline`, no
-// `flatten`; the same results): tools/run-sanitizers.sh defines it, where the forced inlining
-// of every step into every caller made the instrumented build compile a third longer
-// (tests/test_runtime_families.cpp 58 -> 39 s under ASan + UBSan at -O1) for speed nobody
-// measures there.
+// INDICIAL_PLAIN_INLINING leaves every inlining and layout decision to the compiler: these four
+// macros become plain `inline` / nothing (no always_inline, flatten, noinline or branch hint;
+// batch.hpp's INDICIAL_LANE_INLINE / _FLATTEN too, though its AVX2 kernel keeps its own
+// flatten). tools/run-sanitizers.sh defines it: the forced inlining of every step into every
+// caller made the instrumented build compile a third longer (tests/test_runtime_families.cpp
+// 58 -> 39 s under ASan + UBSan at -O1), and the step's speed is not what that build checks.
+// Define it for every translation unit of a program or for none (the inline functions must be
+// the same everywhere); the results are the same bits where the compiler does not contract
+// a * b + c into a fused multiply-add (x86-64 without -mfma; elsewhere -ffp-contract=off).
 #if (defined(__GNUC__) || defined(__clang__)) && !defined(INDICIAL_PLAIN_INLINING)
 #define INDICIAL_HOT_INLINE inline __attribute__((always_inline))
 #define INDICIAL_HOT_LAMBDA __attribute__((always_inline))
