@@ -49,6 +49,11 @@ TEST_CASE("indicial diagnose: contract outputs, model.coef in the runtime, direc
   for (const char* k : {"initial_fit_error", "noise_estimate", "steps", "final_fit_error", "verdict"})
     CHECK(j.contains(k));
   CHECK(j["verdict"] == "time_delay");
+  // The search's limits at their defaults (docs/formats.md).
+  CHECK(j["max_steps"] == 6);
+  CHECK(j["knot_spacing_deg"].get<double>() == 5.0);
+  CHECK(j["max_family_terms"] == 4);
+  CHECK(j["stall_start_search"] == "configured");
   REQUIRE(j["steps"].size() >= 1);
   for (const char* k : {"effect", "detail", "statistic", "p_value", "fit_error_before", "fit_error_after"})
     CHECK(j["steps"][0].contains(k));
@@ -99,7 +104,8 @@ TEST_CASE("indicial diagnose: contract outputs, model.coef in the runtime, direc
   // so a floor of 95 % names nothing. With --force the outputs are replaced.
   CHECK(j["cv_min_in_sample_gain"].get<double>() == doctest::Approx(0.04));
   const Cmd forced = run("diagnose " + (data / "experiment.toml").string() + " --out " + out.string() +
-                         " --force --alpha 0.001 --min-in-sample-gain 0.95");
+                         " --force --alpha 0.001 --min-in-sample-gain 0.95 --no-plots --max-steps 1"
+                         " --knot-spacing-deg 20 --max-family-terms 1");
   INFO(forced.out, forced.err);
   CHECK(forced.exit_code == 0);
   const nlohmann::json jf = nlohmann::json::parse(slurp(out / "diagnosis.json"));
@@ -172,11 +178,13 @@ TEST_CASE("indicial diagnose: the rule's options reach diagnosis.json, a bad one
   write_simulation_case(c, data.string(), 40.0, 7, Overwrite::refuse);
   const std::string experiment = (data / "experiment.toml").string();
   // Every option away from its default (--min-gain 0.2 and --min-in-sample-gain 0.05: the
-  // delay gains ~88 % in sample, far more held out, so it still enters).
+  // delay gains ~88 % in sample, far more held out, so it still enters; a coarse knot grid and
+  // one term per effect: fewer candidate fits, the delay is no knot).
   const fs::path cv = scratch() / "options-cv";
   const Cmd d = run("diagnose " + experiment + " --out " + cv.string() +
                     " --no-plots --quiet --max-steps 1 --rule cv --max-folds 2 --min-gain 0.2"
-                    " --min-in-sample-gain 0.05 --threads 1");
+                    " --min-in-sample-gain 0.05 --threads 1 --knot-spacing-deg 20 --max-family-terms 1"
+                    " --stall-start-search grid");
   INFO(d.out, d.err);
   REQUIRE(d.exit_code != 1);
   const nlohmann::json j = nlohmann::json::parse(slurp(cv / "diagnosis.json"));
@@ -185,6 +193,10 @@ TEST_CASE("indicial diagnose: the rule's options reach diagnosis.json, a bad one
   CHECK(j["cv_min_gain"].get<double>() == 0.2);
   CHECK(j["cv_min_in_sample_gain"].get<double>() == 0.05);
   CHECK(j["threads"] == 1);
+  CHECK(j["max_steps"] == 1);
+  CHECK(j["knot_spacing_deg"].get<double>() == 20.0);
+  CHECK(j["max_family_terms"] == 1);
+  CHECK(j["stall_start_search"] == "grid");
   CHECK(j["test"].get<std::string>().find("ln(1 - 0.2)") != std::string::npos);
   CHECK(j["verdict"] == "time_delay");
   // report.md says the LR columns did not decide a held-out step (their p-value may exceed its
@@ -194,7 +206,8 @@ TEST_CASE("indicial diagnose: the rule's options reach diagnosis.json, a bad one
   CHECK(report_cv.find("they did not decide it)") != std::string::npos);
   // --rule lr: the likelihood ratio decides even with three runs; no cross-validation keys.
   const fs::path lr = scratch() / "options-lr";
-  const Cmd l = run("diagnose " + experiment + " --out " + lr.string() + " --no-plots --quiet --max-steps 1 --rule lr");
+  const Cmd l = run("diagnose " + experiment + " --out " + lr.string() +
+                    " --no-plots --quiet --max-steps 1 --rule lr --knot-spacing-deg 20 --max-family-terms 1");
   INFO(l.out, l.err);
   REQUIRE(l.exit_code != 1);
   const nlohmann::json jl = nlohmann::json::parse(slurp(lr / "diagnosis.json"));
@@ -202,6 +215,7 @@ TEST_CASE("indicial diagnose: the rule's options reach diagnosis.json, a bad one
   CHECK(!jl.contains("cv_folds"));
   CHECK(!jl.contains("cv_min_gain"));
   CHECK(jl["threads"] == 2);
+  CHECK(jl["stall_start_search"] == "configured");  // diagnose's default
   CHECK(slurp(lr / "report.md").find("did not decide") == std::string::npos);
   // A bad value: DiagnoseOptions::IsValid's line, exit 1, nothing written.
   for (const char* bad : {"--min-gain 1", "--max-folds 1", "--threads 0"}) {

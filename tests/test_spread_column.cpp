@@ -135,7 +135,9 @@ TEST_CASE("spread column: diagnose decides with it (lr_replication_noise), names
   const MatrixCase hidden{"Cm", "b1_alpha", "b1_alpha", 1.0, MatrixMotion::sine_from_rest, MatrixNoise::white, 31};
   Experiment plain = matrix_experiment(hidden, &sigma);
   plain.runs.resize(2);
-  CHECK(diagnose_experiment(plain, DiagnoseOptions{}).rule == DecisionRule::lr_residual);
+  DiagnoseOptions rule_only;  // the rule is decided before any step: no step needed to read it
+  rule_only.max_steps = 0;
+  CHECK(diagnose_experiment(plain, rule_only).rule == DecisionRule::lr_residual);
   const Experiment hidden_e = matrix_experiment(hidden, &sigma);
   const DiagnoseResult d = diagnose_experiment(with_spread(hidden_e, sigma), DiagnoseOptions{});
   MESSAGE("hidden b1_alpha, spread column: verdict ", d.verdict, ", rule ", std::string(decision_rule_name(d.rule)),

@@ -528,6 +528,12 @@ nlohmann::json diagnosis_json(const DiagnoseResult& d, const Experiment& e, cons
   if (d.stopped == DiagnoseStop::max_steps) j["still_significant"] = d.still_significant;
   j["ill_conditioned_parameters"] = d.ill_conditioned;
   j["alpha"] = o.alpha;
+  // The search's limits, so that a diagnosis can be rerun as it was made (--max-steps,
+  // --knot-spacing-deg, --max-family-terms, --stall-start-search).
+  j["max_steps"] = o.max_steps;
+  j["knot_spacing_deg"] = o.knot_spacing_deg;
+  j["max_family_terms"] = o.max_family_terms;
+  j["stall_start_search"] = o.fit.stall_start_search == StallStartSearch::grid ? "grid" : "configured";
   j["test"] = d.rule == DecisionRule::leave_one_run_out
                   ? fmt::format("leave-one-run-out: a first or next term enters when mean_r ln(MSE_with / MSE_without) "
                                 "of runs left out of both fits + its standard error < 0, the mean < ln(1 - {}), it "

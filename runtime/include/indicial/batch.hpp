@@ -458,6 +458,15 @@ struct BlockLanes {
   V finite_test;                // 0 where every result of the lane is finite, else NaN
 };
 
+// runtime.hpp's detail::clamp_to_envelope on every lane (the same two comparisons, hence the same
+// bits).
+template <class Scalar, class Cap, int R>
+INDICIAL_LANE_INLINE LaneArray<Scalar, R> clamp_lanes_to_envelope(const RuntimeModel<Scalar, Cap>& m,
+                                                                  const LaneArray<Scalar, R>& x_rad) {
+  return lane_select(x_rad < m.x_min_rad, lane_constant<Scalar, R>(m.x_min_rad),
+                     lane_select(x_rad > m.x_max_rad, lane_constant<Scalar, R>(m.x_max_rad), x_rad));
+}
+
 // The input checks of indicial::step for each lane of a full block, and the model angle with
 // its clamp status. A refused lane gets finite substitutes (angle 0, rate 0, its cached
 // airspeed): it is computed with its block and dropped.
@@ -482,8 +491,7 @@ INDICIAL_LANE_INLINE void check_lanes(const RuntimeModel<Scalar, Cap>& m, const 
   using V = LaneArray<Scalar, R>;
   const V motion = [&] { V v; gather_lanes(&v, [&](int i) { return x[i]; }); return v; }();
   b->x1_model_rad = motion;
-  b->x1_rad = lane_select(motion < m.x_min_rad, lane_constant<Scalar, R>(m.x_min_rad),
-                          lane_select(motion > m.x_max_rad, lane_constant<Scalar, R>(m.x_max_rad), motion));
+  b->x1_rad = clamp_lanes_to_envelope(m, motion);
   gather_lanes(&b->rate, [&](int i) { return Scalar(b->active[i] ? rate_radps[i] : 0.0); });
   gather_lanes(&b->airspeed_mps, [&](int i) {
     return b->active[i] ? Scalar(airspeed_mps[i]) : s[i].airspeed_mps;
@@ -499,8 +507,7 @@ INDICIAL_LANE_INLINE void load_lanes(const RuntimeModel<Scalar, Cap>& m, const S
   using V = LaneArray<Scalar, R>;
   V model_x0;
   gather_lanes(&model_x0, [&](int i) { return s[i].model_x_prev_rad; });
-  b->x0_rad = lane_select(model_x0 < m.x_min_rad, lane_constant<Scalar, R>(m.x_min_rad),
-                          lane_select(model_x0 > m.x_max_rad, lane_constant<Scalar, R>(m.x_max_rad), model_x0));
+  b->x0_rad = clamp_lanes_to_envelope(m, model_x0);
   V old_airspeed, old_time_scale, old_l_over_v;
   gather_lanes(&old_airspeed, [&](int i) { return s[i].airspeed_mps; });
   gather_lanes(&old_time_scale, [&](int i) { return s[i].time_scale; });

@@ -736,15 +736,23 @@ inline Scalar model_angle_of(const RuntimeModel<Scalar, Cap>& m, double motion_a
              : Scalar(model_angle<double>(m.set.axis, m.set.alpha0_rad, motion_angle_rad));
 }
 
+// A model angle clamped to the envelope of the fitted unsteady term: the one rule of the step,
+// the reset and the previous angle (batch.hpp's clamp_lanes_to_envelope is its lane form).
+// Why the clamp: the splines are fitted inside the envelope only; outside it a polynomial
+// extrapolates without data behind it. An angle inside comes back as it is (its sign of zero too).
+template <class Scalar, class Cap>
+inline Scalar clamp_to_envelope(const RuntimeModel<Scalar, Cap>& m, Scalar x_rad) {
+  if (x_rad < m.x_min_rad) return m.x_min_rad;
+  if (x_rad > m.x_max_rad) return m.x_max_rad;
+  return x_rad;
+}
+
 // Model angle from the motion angle, clamped to the envelope, all in Scalar.
 template <class Scalar, class Cap>
 inline Clamped<Scalar> clamp_model_angle(const RuntimeModel<Scalar, Cap>& m, double motion_angle_rad) {
   const Scalar x = model_angle_of(m, motion_angle_rad);
-  // Why the clamp: the splines are fitted inside the envelope only; outside it a polynomial
-  // extrapolates without data behind it.
-  if (x < m.x_min_rad) return {m.x_min_rad, StepStatus::angle_clamped, x};
-  if (x > m.x_max_rad) return {m.x_max_rad, StepStatus::angle_clamped, x};
-  return {x, StepStatus::ok, x};
+  const bool inside = !(x < m.x_min_rad) && !(x > m.x_max_rad);
+  return {clamp_to_envelope(m, x), inside ? StepStatus::ok : StepStatus::angle_clamped, x};
 }
 
 // The clamped model angle of the previous sample (State::model_x_prev_rad): what
@@ -752,10 +760,7 @@ inline Clamped<Scalar> clamp_model_angle(const RuntimeModel<Scalar, Cap>& m, dou
 // been reset (the step and evaluate check the phase first).
 template <class Scalar, class Cap>
 inline Scalar previous_x_rad(const RuntimeModel<Scalar, Cap>& m, const State<Scalar, Cap>& s) {
-  const Scalar x = s.model_x_prev_rad;
-  if (x < m.x_min_rad) return m.x_min_rad;
-  if (x > m.x_max_rad) return m.x_max_rad;
-  return x;
+  return clamp_to_envelope(m, s.model_x_prev_rad);
 }
 
 template <class Scalar>
