@@ -11,6 +11,12 @@
 # flatten; model.hpp) off, which the instrumented compile pays for most (a third of a runtime
 # test's compile time) and which buys the step's speed, not what this build checks. Benchmarks are not built, nor the Python module (an extension loaded
 # into an uninstrumented interpreter would need the ASan runtime preloaded).
+# Where the time goes (measured 2026-11-28, `indicial diagnose` of the Model I case, SNR 40):
+# the instrumented fitter is ~20x slower than Release, in the autodiff model evaluation (every
+# memory access checked); -O2 for this build cut that diagnose only from 24.0 to 18.3 s while
+# its compile took about twice as long, so -O1 stays; detect_stack_use_after_return=1 (below)
+# doubles it (11.1 s without), kept: it is the check for returned views of locals.
+# Slow tests that search (diagnose) therefore use the coarsest search that still tests them.
 # -DINDICIAL_SANITIZE=ON leaves out tests/test_alloc.cpp, which replaces malloc/free
 # (forwarding to glibc's __libc_malloc) and operator new: that bypasses ASan's allocator, so
 # ASan would see frees of memory it never allocated, and the allocation count is not a
