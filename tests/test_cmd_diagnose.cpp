@@ -179,7 +179,8 @@ TEST_CASE("indicial diagnose: the rule's options reach diagnosis.json, a bad one
   const std::string experiment = (data / "experiment.toml").string();
   // Every option away from its default (--min-gain 0.2 and --min-in-sample-gain 0.05: the
   // delay gains ~88 % in sample, far more held out, so it still enters; a coarse knot grid and
-  // one term per effect: fewer candidate fits, the delay is no knot).
+  // one term per effect: fewer candidate fits, the delay is no knot; --stall-start-search grid:
+  // this model has no stall family, so it is only recorded).
   const fs::path cv = scratch() / "options-cv";
   const Cmd d = run("diagnose " + experiment + " --out " + cv.string() +
                     " --no-plots --quiet --max-steps 1 --rule cv --max-folds 2 --min-gain 0.2"
