@@ -14,9 +14,10 @@
 # Where the time goes (measured 2026-11-28, `indicial diagnose` of the Model I case, SNR 40):
 # the instrumented fitter is ~20x slower than Release, in the autodiff model evaluation (every
 # memory access checked); -O2 for this build cut that diagnose only from 24.0 to 18.3 s while
-# its compile took about twice as long, so -O1 stays; detect_stack_use_after_return=1 (below)
-# doubles it (11.1 s without), kept: it is the check for returned views of locals.
-# Slow tests that search (diagnose) therefore use the coarsest search that still tests them.
+# its compile took about twice as long (both builds beside other work), so -O1 stays;
+# detect_stack_use_after_return=1 (below) doubles it (11.1 s without), kept: it is the check for
+# returned views of locals. So the slow diagnose tests that check options or outputs rather than
+# the search search less (tests/test_cmd_diagnose.cpp, tests/test_spread_column.cpp).
 # -DINDICIAL_SANITIZE=ON leaves out tests/test_alloc.cpp, which replaces malloc/free
 # (forwarding to glibc's __libc_malloc) and operator new: that bypasses ASan's allocator, so
 # ASan would see frees of memory it never allocated, and the allocation count is not a
