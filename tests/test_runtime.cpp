@@ -311,7 +311,7 @@ TEST_CASE("angles outside the envelope are clamped and flagged, outputs still pr
   REQUIRE(p.load(indicial::test_models::table_one_model_two()) == LoadStatus::ok);
   const double x_max = p.model().x_max_rad;
   CHECK(p.reset(x_max + 0.2, 17.667762) == StepStatus::angle_clamped);
-  // The state keeps the angle itself; the splines' angle is its clamp (detail::previous_x_rad).
+  // The state keeps the angle itself; the splines' angle is its clamp (clamped_previous_angle_rad).
   CHECK(p.snapshot().model_x_prev_rad == x_max + 0.2);
   CHECK(indicial::clamped_previous_angle_rad(p.runtime(), p.snapshot()) == x_max);
   P::Outputs out;
@@ -450,6 +450,8 @@ TEST_CASE("float instantiation runs and stays close to double") {
 // The state keeps the angle itself; the angle its splines and lags were evaluated at is
 // derived (clamped_previous_angle_rad): after every reset and step it must be the step's own
 // clamp, bit for bit, inside, at and beyond the envelope's edges, -0 and huge angles included.
+// Both clamps are detail::clamp_to_envelope; what can go wrong is the angle the state keeps
+// (model_x_prev_rad against the step's model angle) and the status of the edges.
 template <class Scalar>
 void check_clamped_previous_angle() {
   indicial::Predictor<Scalar> p;

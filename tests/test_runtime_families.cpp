@@ -84,7 +84,7 @@ LoadStatus parse(const std::string& text, indicial::ParseDiagnostic* diag) {
 
 TEST_CASE("family states cost only the models that have them: 160 / 256 bytes, float 88 / 136") {
   // 160: the State keeps the model angle only, its clamp is derived (runtime.hpp
-  // detail::previous_x_rad); 168 while it kept both.
+  // clamped_previous_angle_rad); 168 while it kept both.
   static_assert(sizeof(indicial::State<double, Cap>) == 160, "a State without families");
   static_assert(sizeof(indicial::State<float, Cap>) == 88, "float: unchanged (issue 25)");
   // Four scalars per coefficient (model.hpp StallState), no padding word: issue 22 item 4's

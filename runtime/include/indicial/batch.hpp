@@ -443,7 +443,7 @@ struct BlockLanes {
   bool active[W];       // ok / angle_clamped after the input checks
   bool all_active;
   // Not initialised here (a block is built for every 8 instances): load_lanes fills them.
-  V x0_rad;             // the state's previous angle, clamped (detail::previous_x_rad)
+  V x0_rad;             // the state's previous angle, clamped (detail::clamp_to_envelope of model_x_prev_rad)
   V x1_rad;             // the new model angle (clamped to the envelope)
   V x1_model_rad;       // the new model angle itself (a static table's, runtime.hpp warning 3)
   V rate;

@@ -656,8 +656,8 @@ struct State {
   // pure function of the previous angle and the model, kept so that a step evaluates only its new end.
   StepEnd<Scalar, Cap> end[Cap::max_coefficients] = {};
   // The model angle of the previous sample, not clamped: a static table's angle (warning 3).
-  // The clamped angle the splines and lags use is derived from it (detail::previous_x_rad: the
-  // envelope's clamp, the same two comparisons as the step's, hence the same bits). Why only
+  // The clamped angle the splines and lags use is derived from it (detail::clamp_to_envelope, the
+  // envelope's clamp: the same two comparisons as the step's, hence the same bits). Why only
   // this one: the C API's evaluate needs the angle itself (a reset outside the envelope held a
   // static table at the envelope's edge where a step and predict evaluate it at the angle: a
   // user's trial, 2026-11-27, 0.6708 against 0.9259), and keeping the clamped one as well cost
@@ -753,14 +753,6 @@ inline Clamped<Scalar> clamp_model_angle(const RuntimeModel<Scalar, Cap>& m, dou
   const Scalar x = model_angle_of(m, motion_angle_rad);
   const bool inside = !(x < m.x_min_rad) && !(x > m.x_max_rad);
   return {clamp_to_envelope(m, x), inside ? StepStatus::ok : StepStatus::angle_clamped, x};
-}
-
-// The clamped model angle of the previous sample (State::model_x_prev_rad): what
-// clamp_model_angle gave that sample's step or reset, bit for bit. Only for a state that has
-// been reset (the step and evaluate check the phase first).
-template <class Scalar, class Cap>
-inline Scalar previous_x_rad(const RuntimeModel<Scalar, Cap>& m, const State<Scalar, Cap>& s) {
-  return clamp_to_envelope(m, s.model_x_prev_rad);
 }
 
 template <class Scalar>
@@ -1070,7 +1062,7 @@ INDICIAL_HOT_INLINE Scalar advance_coefficients(const RuntimeModel<Scalar, Cap>&
                                                 const AirspeedTerms<Scalar>& v,
                                                 const DelayedForcing<Scalar, Cap>* forcing,
                                                 StallState<Scalar>* stall, Scalar* value) {
-  const Scalar x0 = previous_x_rad(m, s);
+  const Scalar x0 = clamp_to_envelope(m, s.model_x_prev_rad);
   const StepGeometry<Scalar> g{x0, x1, x0, x1, dt_s, v.time_scale};
   const auto coefficient = [&](int c) INDICIAL_HOT_LAMBDA -> Scalar {
     const CoefficientModel<Scalar, Cap>& cm = m.set.coefficients[c];
@@ -1186,7 +1178,7 @@ inline StepStatus reset(const RuntimeModel<Scalar, Cap>& m, FamilyState<Scalar, 
   if (st != StepStatus::ok && st != StepStatus::angle_clamped) return st;
   StallState<Scalar> rest[Cap::max_coefficients] = {};
   for (int c = 0; c < m.set.n_coefficients; ++c) {
-    stall_steady_state(m.set.coefficients[c].stall, detail::previous_x_rad(m, s), &rest[c]);
+    stall_steady_state(m.set.coefficients[c].stall, detail::clamp_to_envelope(m, s.model_x_prev_rad), &rest[c]);
     if (!std::isfinite(rest[c].separation_point)) {
       base = before;
       return StepStatus::non_finite_result;
@@ -1210,7 +1202,7 @@ inline StepStatus reset(const RuntimeModel<Scalar, Cap>& m, DelayedState<Scalar,
   s.time_s = 0.0;
   s.delay_airspeed_mps = 0.0;
   for (int c = 0; c < Cap::max_coefficients; ++c) s.delay_at_airspeed_s[c] = 0.0;
-  s.history_x_rad[0] = detail::previous_x_rad(m, s);
+  s.history_x_rad[0] = detail::clamp_to_envelope(m, s.model_x_prev_rad);
   s.history_newest = 0;
   s.history_count = 1;
   s.history_origin = static_cast<int>(HistoryOrigin::rest_before_oldest);
@@ -1310,7 +1302,7 @@ inline StepStatus evaluate_state(const RuntimeModel<Scalar, Cap>& m, const State
   if (stall == nullptr && m.stall != StallUse::none) return StepStatus::families_need_state;
   const AirspeedTerms<Scalar> v = airspeed_terms(m, s, airspeed_mps);
   Scalar value[Cap::max_coefficients] = {};
-  const Scalar x0 = previous_x_rad(m, s);
+  const Scalar x0 = clamp_to_envelope(m, s.model_x_prev_rad);
   for (int c = 0; c < m.set.n_coefficients; ++c) {
     const CoefficientModel<Scalar, Cap>& cm = m.set.coefficients[c];
     value[c] = coefficient_output(cm, x0, s.model_x_prev_rad, Scalar(rate_radps), v.l_over_v_s, s.y[c]);
@@ -1346,7 +1338,7 @@ inline StepStatus evaluate(const RuntimeModel<Scalar, Cap>& m, const FamilyState
 // a reset (a never-reset state reads 0 clamped).
 template <class Scalar, class Cap>
 inline Scalar clamped_previous_angle_rad(const RuntimeModel<Scalar, Cap>& m, const State<Scalar, Cap>& s) {
-  return detail::previous_x_rad(m, s);
+  return detail::clamp_to_envelope(m, s.model_x_prev_rad);
 }
 
 // Advances the lag states from the previous sample to this one (dt_s later) and writes the
