@@ -34,6 +34,15 @@ inline std::vector<std::uint64_t> test_seeds(std::vector<std::uint64_t> seeds,
   return seeds;
 }
 
+// True in the ASan/UBSan build, for `TEST_CASE("..." * doctest::skip(kSanitizedBuild))`: a case
+// whose code paths another case of the same file already runs there, at the same cost (the
+// normal build runs it).
+#ifdef INDICIAL_SANITIZED_BUILD
+inline constexpr bool kSanitizedBuild = true;
+#else
+inline constexpr bool kSanitizedBuild = false;
+#endif
+
 inline const std::vector<SimulatedRun>& reference_runs(const std::string& case_name) {
   static std::map<std::string, std::vector<SimulatedRun>> cache;
   auto it = cache.find(case_name);
