@@ -20,21 +20,8 @@
 
 namespace indicial::testing {
 
-// The seeds a statistical loop runs. Under ASan/UBSan (tools/run-sanitizers.sh defines
-// INDICIAL_SANITIZED_BUILD) every fit is 10-20x slower; that run checks memory safety and
-// undefined behaviour, not statistics, so it runs the first `sanitized_count` seeds only. The
-// normal build (tools/run-tests.sh, the acceptance run) runs them all.
-inline std::vector<std::uint64_t> test_seeds(std::vector<std::uint64_t> seeds,
-                                             std::size_t sanitized_count = 1) {
-#ifdef INDICIAL_SANITIZED_BUILD
-  if (seeds.size() > sanitized_count) seeds.resize(sanitized_count);
-#else
-  (void)sanitized_count;
-#endif
-  return seeds;
-}
-
-// True in the ASan/UBSan build, for `TEST_CASE("..." * doctest::skip(kSanitizedBuild))`: a case
+// True in the ASan/UBSan build (tools/run-sanitizers.sh defines INDICIAL_SANITIZED_BUILD): for
+// test_seeds below, and for `TEST_CASE("..." * doctest::skip(kSanitizedBuild))`: a case
 // whose code paths another case of the same file already runs there, at the same cost (the
 // normal build runs it).
 #ifdef INDICIAL_SANITIZED_BUILD
@@ -42,6 +29,16 @@ inline constexpr bool kSanitizedBuild = true;
 #else
 inline constexpr bool kSanitizedBuild = false;
 #endif
+
+// The seeds a statistical loop runs. Under ASan/UBSan (tools/run-sanitizers.sh defines
+// INDICIAL_SANITIZED_BUILD) every fit is 10-20x slower; that run checks memory safety and
+// undefined behaviour, not statistics, so it runs the first `sanitized_count` seeds only. The
+// normal build (tools/run-tests.sh, the acceptance run) runs them all.
+inline std::vector<std::uint64_t> test_seeds(std::vector<std::uint64_t> seeds,
+                                             std::size_t sanitized_count = 1) {
+  if (kSanitizedBuild && seeds.size() > sanitized_count) seeds.resize(sanitized_count);
+  return seeds;
+}
 
 inline const std::vector<SimulatedRun>& reference_runs(const std::string& case_name) {
   static std::map<std::string, std::vector<SimulatedRun>> cache;
