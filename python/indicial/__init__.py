@@ -544,6 +544,7 @@ class Diagnosis:
     noise = property(lambda self: self._d.noise)
     final_noise = property(lambda self: self._d.final_noise)
     ill_conditioned = property(lambda self: list(self._d.ill_conditioned))
+    unconverged_models = property(lambda self: list(self._d.unconverged_models))
     elapsed_s = property(lambda self: self._d.elapsed_s)
     warnings = property(lambda self: list(self._d.warnings))
 

@@ -136,6 +136,7 @@ void bind_diagnose(py::module_& m) {
       })
       .def_property_readonly("final_noise", [](const DiagnoseHolder& h) { return noise_dict(h.result->final_noise); })
       .def_property_readonly("ill_conditioned", [](const DiagnoseHolder& h) { return h.result->ill_conditioned; })
+      .def_property_readonly("unconverged_models", [](const DiagnoseHolder& h) { return h.result->unconverged_models; })
       .def_property_readonly("fits_run", [](const DiagnoseHolder& h) { return h.result->fits_run; })
       .def_property_readonly("elapsed_s", [](const DiagnoseHolder& h) { return h.result->elapsed_s; })
       .def_readonly("fits", &DiagnoseHolder::fits)

@@ -152,6 +152,14 @@ std::string names_of(const std::vector<Effect>& v) {
   return s;
 }
 
+// "the configured model, the model after step 2": DiagnoseResult::unconverged_models in words.
+std::string unconverged_models_text(const DiagnoseResult& d) {
+  std::string l;
+  for (int k : d.unconverged_models)
+    l += (l.empty() ? "" : ", ") + (k == 0 ? std::string("the configured model") : fmt::format("the model after step {}", k));
+  return l;
+}
+
 std::string verdict_markdown(const DiagnoseResult& d) {
   std::string md = fmt::format("**Verdict: `{}`**", d.verdict);
   if (d.effects_added.size() > 1) {
@@ -175,6 +183,10 @@ std::string verdict_markdown(const DiagnoseResult& d) {
     md += fmt::format("**Stopped at --max-steps ({} steps) with `{}` still significant**: the model is "
                       "not complete; the final fit error is not the noise level.\n\n",
                       d.steps.size(), d.still_significant);
+  if (!d.unconverged_models.empty())
+    md += fmt::format("**Not converged**: {} still ended at the iteration limit after being fitted on from its "
+                      "estimates to four times the limit; the candidates were compared against it.\n\n",
+                      unconverged_models_text(d));
   if (!d.ill_conditioned.empty()) {
     std::string l;
     for (const auto& s : d.ill_conditioned) l += (l.empty() ? "" : ", ") + s;
@@ -491,6 +503,9 @@ std::vector<std::string> diagnose_warnings(const DiagnoseResult& d) {
   if (d.stopped == DiagnoseStop::max_steps)
     w.push_back(at + fmt::format("stopped at --max-steps {} with {} still significant; the model is not complete",
                                  d.steps.size(), d.still_significant));
+  if (!d.unconverged_models.empty())
+    w.push_back(at + unconverged_models_text(d) + " still at the iteration limit after being fitted on to four "
+                "times the limit: the candidates were compared against a model that had not converged");
   if (!d.ill_conditioned.empty()) {
     std::string l;
     for (const auto& n : d.ill_conditioned) l += (l.empty() ? "" : ", ") + n;
@@ -527,6 +542,7 @@ nlohmann::json diagnosis_json(const DiagnoseResult& d, const Experiment& e, cons
   j["stopped"] = diagnose_stop_name(d.stopped);
   if (d.stopped == DiagnoseStop::max_steps) j["still_significant"] = d.still_significant;
   j["ill_conditioned_parameters"] = d.ill_conditioned;
+  j["unconverged_models"] = d.unconverged_models;
   j["alpha"] = o.alpha;
   // The search's limits, so that a diagnosis can be rerun as it was made (--max-steps,
   // --knot-spacing-deg, --max-family-terms, --stall-start-search).

@@ -328,6 +328,10 @@ struct DiagnoseResult {
   int fits_run = 0;                    // fit_experiment calls
   std::string still_significant;       // stopped == max_steps: the effect still significant
   std::vector<std::string> ill_conditioned;  // final parameters whose bound exceeds |value|
+  // The models the rounds compared against whose fit still ended at the iteration limit after
+  // being fitted on from their estimates (4 times FitOptions::max_iterations in all): 0 the
+  // configured model, k the model after step k. Empty: every one converged.
+  std::vector<int> unconverged_models;
 };
 
 // The whole workflow (see the essay). Throws InputError for bad input (as fit_experiment).
