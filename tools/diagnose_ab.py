@@ -1,0 +1,78 @@
+#!/usr/bin/env python3
+"""A/B of two `indicial` builds' diagnose on many three-cycle training choices of a measured
+pitching-cycle database in the Glasgow layout (tools/cycle_catalog.py).
+
+Usage: AB_DATA=DIR python3 tools/diagnose_ab.py OLD_INDICIAL NEW_INDICIAL SCRATCH
+(DIR: a database in the Glasgow layout, default ../shared/data/glasgow-naca0012 beside the
+repository; AB_N: about how many training triples, default 12)
+
+Training triples: every (campaign, mean, amplitude) frequency sweep with three or more reduced
+frequencies (cycle_catalog.spread_pick) and every (campaign, amplitude, k) set of three or more
+mean angles (ends_and_middle), inside the polar's rows, thinned to about AB_N of them. For each
+triple, coefficient (CL, Cm) and starting model (validate_real.py's `report` and `bl`), both
+builds run `indicial diagnose`; where their final models differ (effects or fit error), both
+predict every cycle that is neither trained on nor the polar's, at its periodic steady state,
+and the line gives the median and mean of RMS / quasi-steady RMS over those cycles and how many
+are at <= 0.5x. One line per case on stdout. Written for the change of commit 4b48f3c (diagnose
+fits the models it compares against to convergence): docs/diagnose.md cites its output.
+"""
+import json, os, sys, statistics, time
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import cycle_catalog, validate_real as vr
+vr.DATA = os.path.abspath(os.environ.get('AB_DATA', os.path.join(os.path.dirname(__file__), '..', '..', 'shared', 'data', 'glasgow-naca0012')))
+EXES = {'old': sys.argv[1], 'new': sys.argv[2]}
+vr.SCRATCH = sys.argv[3]
+os.makedirs(vr.SCRATCH, exist_ok=True)
+cat = cycle_catalog.read_catalog(vr.DATA)
+static_csv = os.path.join(vr.SCRATCH, 'static.dat')
+info = vr.static_table(cat, static_csv)
+lo, hi, _, _, stall, polar_ids = info
+# training triples: every sweep group (campaign, mean, amp) with >= 3 k, and every means group
+sweeps, means = {}, {}
+for c in cat:
+    if c['id'] in polar_ids or cycle_catalog.is_quasi_static(c) or not cycle_catalog.within(vr.DATA, c, lo, hi): continue
+    sweeps.setdefault((c['campaign'], c['mean'], c['amp']), {}).setdefault(cycle_catalog.k_key(c), c)
+    means.setdefault((c['campaign'], c['amp'], cycle_catalog.k_key(c)), {}).setdefault(c['mean'], c)
+triples = []
+for g, ks in sorted(sweeps.items()):
+    if len(ks) >= 3:
+        by_k = {c['k']: c for c in ks.values()}
+        triples.append((f"sweep {g}", [by_k[k] for k in cycle_catalog.spread_pick(list(by_k))]))
+for g, ms in sorted(means.items()):
+    if len(ms) >= 3:
+        triples.append((f"means {g}", [ms[m] for m in cycle_catalog.ends_and_middle(list(ms))]))
+step = max(1, len(triples) // int(os.environ.get('AB_N', '12')))
+triples = triples[::step]
+print(len(triples), 'training triples', flush=True)
+for name, train in triples:
+    ids = {c['id'] for c in train}
+    held = [c for c in cat if c['id'] not in ids and c['id'] not in polar_ids]
+    v_ref = round(sum(c['v'] for c in train) / len(train), 3)
+    a_lo = min(cycle_catalog.measured_range_deg(vr.DATA, c)[0] for c in train)
+    a_hi = max(cycle_catalog.measured_range_deg(vr.DATA, c)[1] for c in train)
+    knots = [k for k in range(0, 40, 5) if a_lo + 2.0 < k < a_hi - 2.0]
+    for coef in ('CL', 'Cm'):
+        for config in ('report', 'bl'):
+            work = os.path.join(vr.SCRATCH, f"{name.replace(' ', '_').replace(',', '').replace('(', '').replace(')', '')}-{coef}-{config}")
+            os.makedirs(work, exist_ok=True)
+            exp = os.path.join(work, 'experiment.toml')
+            with open(exp, 'w') as f: f.write(vr.experiment_toml(coef, train, static_csv, v_ref, vr.model_keys(config, knots, static_csv)))
+            res = {}
+            for v, exe in EXES.items():
+                t0 = time.time()
+                vr.run([exe, 'diagnose', exp, '--out', os.path.join(work, v), '--force', '--no-plots', '--quiet'], ok=(0, 6))
+                dj = json.load(open(os.path.join(work, v, 'diagnosis.json')))
+                res[v] = (dj['effects_added'], dj['final_fit_error'], time.time() - t0)
+            same = res['old'][0] == res['new'][0] and abs(res['old'][1] / res['new'][1] - 1) < 1e-6
+            line = f"{name:28s} {coef} {config:6s} old {res['old'][0]} {res['old'][1]:.5f} {res['old'][2]:5.1f}s | new {res['new'][0]} {res['new'][1]:.5f} {res['new'][2]:5.1f}s"
+            if not same:
+                stats = {}
+                for v in EXES:
+                    vr.EXE = EXES[v]
+                    ratios = []
+                    for c in held:
+                        m, q = vr.predict_rms(os.path.join(work, v, 'model.coef'), c, exp, work)
+                        ratios.append(m / q)
+                    stats[v] = (statistics.median(ratios), sum(r <= 0.5 for r in ratios), statistics.mean(ratios))
+                line += f" || held-out median/QS old {stats['old'][0]:.3f} ({stats['old'][1]}) new {stats['new'][0]:.3f} ({stats['new'][1]}); mean old {stats['old'][2]:.3f} new {stats['new'][2]:.3f}"
+            print(line, flush=True)
