@@ -32,6 +32,7 @@ def test_diagnose_equals_cli(model1_config_on_model2_data, cli, tmp_path):
     assert abs(d.final_fit_error - expected["final_fit_error"]) <= 1e-12 * expected["final_fit_error"]
     assert d.final_fit_error < d.initial_fit_error
     assert d.model.lags() == 1 and d.fit.termination == "converged"
+    assert d.unconverged_models == expected["unconverged_models"] == []
     assert "b1_knots_deg" in d.experiment_toml()
 
 
