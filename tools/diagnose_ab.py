@@ -2,9 +2,9 @@
 """A/B of two `indicial` builds' diagnose on many three-cycle training choices of a measured
 pitching-cycle database in the Glasgow layout (tools/cycle_catalog.py).
 
-Usage: AB_DATA=DIR python3 tools/diagnose_ab.py OLD_INDICIAL NEW_INDICIAL SCRATCH
-(DIR: a database in the Glasgow layout, default ../shared/data/glasgow-naca0012 beside the
-repository; AB_N: about how many training triples, default 12)
+Usage: python3 tools/diagnose_ab.py DIR OLD_INDICIAL NEW_INDICIAL SCRATCH
+(DIR: a database in the Glasgow layout, as tools/validate-real.sh takes it; nothing of it is
+in this repository. AB_N in the environment: about how many training triples, default 12)
 
 Training triples: every (campaign, mean, amplitude) frequency sweep with three or more reduced
 frequencies (cycle_catalog.spread_pick) and every (campaign, amplitude, k) set of three or more
@@ -19,9 +19,11 @@ fits the models it compares against to convergence): docs/diagnose.md cites its 
 import json, os, sys, statistics, time
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import cycle_catalog, validate_real as vr
-vr.DATA = os.path.abspath(os.environ.get('AB_DATA', os.path.join(os.path.dirname(__file__), '..', '..', 'shared', 'data', 'glasgow-naca0012')))
-EXES = {'old': sys.argv[1], 'new': sys.argv[2]}
-vr.SCRATCH = sys.argv[3]
+if len(sys.argv) != 5:
+    sys.exit('usage: diagnose_ab.py DIR OLD_INDICIAL NEW_INDICIAL SCRATCH')
+vr.DATA = os.path.abspath(sys.argv[1])
+EXES = {'old': sys.argv[2], 'new': sys.argv[3]}
+vr.SCRATCH = sys.argv[4]
 os.makedirs(vr.SCRATCH, exist_ok=True)
 cat = cycle_catalog.read_catalog(vr.DATA)
 static_csv = os.path.join(vr.SCRATCH, 'static.dat')
