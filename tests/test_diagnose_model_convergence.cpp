@@ -1,6 +1,6 @@
 // Diagnose fits every model its rounds compare against to convergence (diagnose.cpp,
-// kModelIterationFactor): a fit that ends at the iteration limit is fitted on from its own
-// estimates, up to four times the limit; one still at the limit is listed in
+// Diagnoser::converged): a fit that ends at the iteration limit is fitted on from its own
+// estimates, up to model_iteration_factor times the limit; one still at the limit is listed in
 // DiagnoseResult::unconverged_models with a warning. Why: a candidate starts from the current
 // model's estimates, so against an unconverged model its own iterations read as the effect's
 // gain (docs/diagnose.md, step 6: measured cycles where two effects entered only so).
@@ -30,6 +30,14 @@ bool warns_unconverged(const DiagnoseResult& d) {
   return false;
 }
 
+// The warning says how far the model was fitted on: the factor, as the code applies it.
+bool warning_names_factor(const DiagnoseResult& d) {
+  const std::string says = "fitted on to " + std::to_string(model_iteration_factor) + " times the limit";
+  for (const std::string& w : diagnose_warnings(d))
+    if (w.find(says) != std::string::npos) return true;
+  return false;
+}
+
 }  // namespace
 
 TEST_CASE("diagnose model convergence: a model stopped at the iteration limit is fitted on, and listed if still there") {
@@ -42,7 +50,8 @@ TEST_CASE("diagnose model convergence: a model stopped at the iteration limit is
   const DiagnoseResult d = diagnose_experiment(e, o);
   // Fitted on from the one-iteration estimates: lower than one iteration from the start.
   CHECK(d.initial_fit_error < one.fit_error);
-  CHECK(d.fits_run >= 4);  // the configured model's fit and its three continuations at least
+  // The configured model's fit and its continuations, model_iteration_factor fits at least.
+  CHECK(d.fits_run >= model_iteration_factor);
   // Four one-iteration fits do not converge Model I from its start: the configured model is
   // listed, and so is every step's model exactly when its fit still ended at the limit.
   REQUIRE(d.fits.front().output_error.termination == Termination::iteration_limit);
@@ -50,6 +59,7 @@ TEST_CASE("diagnose model convergence: a model stopped at the iteration limit is
   for (std::size_t k = 0; k < d.fits.size(); ++k)
     CHECK(listed(d, static_cast<int>(k)) == (d.fits[k].output_error.termination == Termination::iteration_limit));
   CHECK(warns_unconverged(d));
+  CHECK(warning_names_factor(d));
 }
 
 TEST_CASE("diagnose model convergence: a converged configured model is the fit as fitted" *

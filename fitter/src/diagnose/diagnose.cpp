@@ -252,11 +252,11 @@ void describe_estimates(Scored& s, Effect effect) {
 // and against that model neither lowered the held-out runs' error (b1_alpha's and a_alpha's
 // mean held-out log MSE ratio +0.23 and +0.12: worse) and nothing entered. So the configured
 // model and each step's model are fitted on from their own estimates until converged, up to
-// this many times the iteration limit in all; one still at the limit then is reported
-// (DiagnoseResult::unconverged_models, a warning). Not always the better predictor: on the
-// same cycles' C_m an effect that had entered against the unconverged model and helped other
-// cycles no longer enters (docs/diagnose.md, step 6, with 64 more cases: docs/diagnose-ab.md).
-constexpr int kModelIterationFactor = 4;
+// model_iteration_factor (diagnose.hpp) times the iteration limit in all; one still at the
+// limit then is reported (DiagnoseResult::unconverged_models, a warning). Not always the better
+// predictor: on the same cycles' C_m an effect that had entered against the unconverged model
+// and helped other cycles no longer enters (docs/diagnose.md, step 6, with 64 more cases:
+// docs/diagnose-ab.md).
 
 class Diagnoser {
  public:
@@ -283,11 +283,11 @@ class Diagnoser {
   }
 
   // f (a fit of model m to e) fitted on from its own estimates while it ends at the iteration
-  // limit, up to kModelIterationFactor times the limit in all (see there).
+  // limit, up to model_iteration_factor times the limit in all (see there).
   // A continuation is kept only as a candidate's fit is (best_usable_fit: finite, identifiable,
   // accepted by the runtime, not thrown) and not above f.
   FitResult converged(const Experiment& e, const ModelConfig& m, FitResult f) {
-    for (int k = 1; k < kModelIterationFactor && f.output_error.termination == Termination::iteration_limit; ++k) {
+    for (int k = 1; k < model_iteration_factor && f.output_error.termination == Termination::iteration_limit; ++k) {
       CandidateFit next = diagnose_detail::best_usable_fit(
           {start_values_for(m, estimates_by_id(f), e.runs.size(), {})},
           [&](const StartValues& sv) { return fit(e, m, sv); });

@@ -185,8 +185,8 @@ std::string verdict_markdown(const DiagnoseResult& d) {
                       d.steps.size(), d.still_significant);
   if (!d.unconverged_models.empty())
     md += fmt::format("**Not converged**: {} still ended at the iteration limit after being fitted on from its "
-                      "estimates to four times the limit; the candidates were compared against it.\n\n",
-                      unconverged_models_text(d));
+                      "estimates to {} times the limit; the candidates were compared against it.\n\n",
+                      unconverged_models_text(d), model_iteration_factor);
   if (!d.ill_conditioned.empty()) {
     std::string l;
     for (const auto& s : d.ill_conditioned) l += (l.empty() ? "" : ", ") + s;
@@ -504,8 +504,10 @@ std::vector<std::string> diagnose_warnings(const DiagnoseResult& d) {
     w.push_back(at + fmt::format("stopped at --max-steps {} with {} still significant; the model is not complete",
                                  d.steps.size(), d.still_significant));
   if (!d.unconverged_models.empty())
-    w.push_back(at + unconverged_models_text(d) + " still at the iteration limit after being fitted on to four "
-                "times the limit: the candidates were compared against a model that had not converged");
+    w.push_back(at + unconverged_models_text(d) +
+                fmt::format(" still at the iteration limit after being fitted on to {} times the limit: the "
+                            "candidates were compared against a model that had not converged",
+                            model_iteration_factor));
   if (!d.ill_conditioned.empty()) {
     std::string l;
     for (const auto& n : d.ill_conditioned) l += (l.empty() ? "" : ", ") + n;

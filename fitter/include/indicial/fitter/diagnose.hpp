@@ -95,6 +95,12 @@ enum class Effect { b1_alpha, a_alpha, rotary_alpha, bias, time_delay, second_la
                     separation_lag, vortex_shedding, slow_reattachment, pressure_lag };
 inline constexpr int effect_count = 11;  // the registry checks it has exactly this many entries
 
+// How far diagnose fits on the models its rounds compare against (the configured model, the
+// model after each step) when their fit ends at the iteration limit: from their own estimates,
+// up to this many times FitOptions::max_iterations in all (diagnose.cpp, Diagnoser::converged,
+// says why). A model still at the limit then is listed in DiagnoseResult::unconverged_models.
+inline constexpr int model_iteration_factor = 4;
+
 // The part of the model an effect extends (EffectDescription::extends).
 enum class EffectExtends {
   report_model,    // the report's model: its splines, lags, delay, bias, static curve
@@ -329,8 +335,8 @@ struct DiagnoseResult {
   std::string still_significant;       // stopped == max_steps: the effect still significant
   std::vector<std::string> ill_conditioned;  // final parameters whose bound exceeds |value|
   // The models the rounds compared against whose fit still ended at the iteration limit after
-  // being fitted on from their estimates (4 times FitOptions::max_iterations in all): 0 the
-  // configured model, k the model after step k. Empty: every one converged.
+  // being fitted on from their estimates (model_iteration_factor times FitOptions::max_iterations
+  // in all): 0 the configured model, k the model after step k. Empty: every one converged.
   std::vector<int> unconverged_models;
 };
 
