@@ -17,7 +17,8 @@ constants are), one that stays the same as a fraction of the period is not.
 
 What a break is (moment_breaks): a local minimum of C_m smoothed over SMOOTH_SAMPLES samples
 (circularly), the lowest within +-WINDOW_SAMPLES samples, at least MIN_DEPTH below the highest
-smoothed value in that window. The two deepest breaks of a cycle are the first and second
+smoothed value in that window (the sample counts are for a 128-sample cycle and scale with the
+cycle's samples, which the layout has equally spaced in phase). The two deepest breaks of a cycle are the first and second
 vortex; the gap is their phase difference over k. On the development set's 128-sample cycles
 the window is +-17 deg of phase.
 """
@@ -29,20 +30,29 @@ import sys
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import cycle_catalog  # noqa: E402
 
-SMOOTH_SAMPLES = 5     # centred moving average (the ensemble averages keep some noise)
-WINDOW_SAMPLES = 6     # a break is the lowest value within this many samples either side
+# In samples of a 128-sample cycle (the development set's); other sample counts scale them to
+# the same phase (samples_for).
+SMOOTH_SAMPLES = 5     # centred moving average (the ensemble averages keep some noise): 14 deg
+WINDOW_SAMPLES = 6     # a break is the lowest value within this many samples either side: 17 deg
 MIN_DEPTH = 0.05       # ... and this far (C_m units) below the window's highest value
+REFERENCE_SAMPLES = 128
+
+
+def samples_for(count_at_128, n):
+    """The same phase span in a cycle of n samples (at least 1)."""
+    return max(1, round(count_at_128 * n / REFERENCE_SAMPLES))
 
 
 def smooth(values, n=SMOOTH_SAMPLES):
-    """Centred moving average over n samples (odd), wrapping around the cycle."""
+    """Centred moving average over n samples (odd: an even n is raised by one), wrapping around."""
     h, m = n // 2, len(values)
-    return [sum(values[(i + j) % m] for j in range(-h, h + 1)) / n for i in range(m)]
+    return [sum(values[(i + j) % m] for j in range(-h, h + 1)) / (2 * h + 1) for i in range(m)]
 
 
-def moment_breaks(cm, window=WINDOW_SAMPLES, min_depth=MIN_DEPTH):
+def moment_breaks(cm, window=None, min_depth=MIN_DEPTH):
     """Indices of the breaks of a periodic C_m series (already smoothed), deepest first."""
     m = len(cm)
+    window = samples_for(WINDOW_SAMPLES, m) if window is None else window
     found = []
     for i in range(m):
         around = [cm[(i + j) % m] for j in range(-window, window + 1)]
@@ -57,7 +67,7 @@ def cycle_breaks(rows, k):
     """(breaks as (phase_rad, alpha_deg, cm, rising)), gap in semichords between the two deepest
     (None with fewer than two)) for one cycle's rows (cycle_catalog.read_cycle)."""
     n = len(rows)
-    cm = smooth([r[4] for r in rows])
+    cm = smooth([r[4] for r in rows], samples_for(SMOOTH_SAMPLES, n))
     idx = moment_breaks(cm)
     out = []
     for i in idx:
