@@ -372,6 +372,15 @@ struct OutputErrorData {
 // Empty: every model is.
 using FeasibilityPredicate = std::function<bool(const CoefficientModel<double, Cap>&)>;
 
+// The output-error problem's residuals v = C - C_model at theta (ParameterLayout order), and
+// with them its Jacobian dv/dtheta (forward autodiff, the lag and stall chains apart), as the
+// fit's solver sees them (fit_output_error.cpp; tests compare the two by finite differences).
+// False when the model cannot be propagated or gives non-finite values.
+bool output_error_residuals(const ParameterLayout& L, const OutputErrorData& d,
+                            const Eigen::VectorXd& theta, Eigen::VectorXd& v);
+bool output_error_jacobian(const ParameterLayout& L, const OutputErrorData& d,
+                           const Eigen::VectorXd& theta, Eigen::VectorXd& v, Eigen::MatrixXd& J);
+
 struct MLResult {
   UnsteadyStructure structure;
   std::vector<ParamId> ids;           // ParameterLayout order: structural, output, y0
@@ -400,6 +409,12 @@ MLResult fit_output_error(const UnsteadyStructure& s, const OutputErrorData& d,
 MLResult refine_structure_output_error(const UnsteadyStructure& pool, const OutputErrorData& d,
                                        MLResult ml, const FitOptions& o,
                                        OutputErrorStepwiseResult* log);
+
+// Whether a parameter belongs to the dynamic-stall families (model.hpp "Dynamic stall": T1,
+// T2, T1r, the f0 correction, k0..k2, C_N1, T_v, T_vl, c_v, x_v). The stall states depend on
+// these and the angle only, the lags on none of them (fit_output_error.cpp's Jacobian relies
+// on it).
+bool is_stall_parameter(const ParamId& id);
 
 // The stall start grid (FitOptions::stall_start_search; fit_stall_starts.cpp): whether it runs
 // for layout L under options o, and its points, the configured start theta0 first (`varied`:
