@@ -331,6 +331,7 @@ void OutputErrorProblem::stall_sensitivities(const Eigen::VectorXd& theta, const
                                              Eigen::MatrixXd& D) const {
   const int n = static_cast<int>(stall_params_.size());
   if (n <= 8) return stall_sensitivities_n<8>(theta, r, D);
+  if (n <= 12) return stall_sensitivities_n<12>(theta, r, D);  // separation and vortex: 10-12
   if (n <= 16) return stall_sensitivities_n<16>(theta, r, D);
   return stall_sensitivities_n<kMaxDerivatives>(theta, r, D);
 }
