@@ -1,11 +1,13 @@
 // The output-error fit's sensitivities (fit_output_error.cpp): the Jacobian its solver and its
-// Cramer-Rao bounds use, computed by forward autodiff in two chains (the lags' parameters with
-// each run's y0; the stall families' parameters), against central finite differences of the
-// residuals, on models that mix every kind of structural parameter: a(x) with a knot, two
-// lags (gain, y0 per run), con, a delay, the separation and vortex families with T1r, a
-// first-order forcing lag and an f0 correction, and output terms; one periodic and one
-// non-periodic run. Both derivative-vector sizes of each chain are reached (lags 16 and 8,
-// stall 16 and 64), and a held stall parameter (model.stall_known) leaves the vector.
+// Cramer-Rao bounds use, computed by forward autodiff in chains of their own (the lags'
+// parameters with each run's y0; the stall states' parameters; the stall output's), against
+// central finite differences of the residuals, on models that mix every kind of structural
+// parameter: a(x) with a knot, two lags (gain, y0 per run), con, a delay, the separation and
+// vortex families with T1r, a first-order forcing lag and an f0 correction, and output terms;
+// one periodic and one non-periodic run. A parameter put in the wrong chain (is_stall_parameter,
+// is_stall_output_parameter) loses part of its column and fails here. Two sizes of each chain
+// are reached (lags 16 and 8; stall states 8 and 16; stall output 16 and 64), and a held stall
+// parameter (model.stall_known) leaves the vector.
 #include <doctest/doctest.h>
 
 #include <Eigen/Core>

@@ -94,6 +94,13 @@ struct UnsteadyStructure {
 // order. Structural (they drive the states): a powers, a knots, b1 powers, b1 knots, con, then
 // per further lag: b powers, b knots, gain; then delay.
 std::vector<ParamId> structural_terms(const UnsteadyStructure& s);
+// Whether a parameter belongs to the dynamic-stall families (model.hpp "Dynamic stall": T1,
+// T2, T1r, the f0 correction, k0..k2, C_N1, T_v, T_vl, c_v, x_v). The stall states depend on
+// these and the angle only, the lags on none of them (fit_output_error.cpp's Jacobian relies
+// on it).
+bool is_stall_parameter(const ParamId& id);
+// Of those, the ones that enter the stall output only, not the states (k0..k2, c_v, x_v).
+bool is_stall_output_parameter(const ParamId& id);
 // The stall part of a structure from the experiment's configuration: the attached line and
 // the Kirchhoff table from the lift polar (stall_polar.cpp). Throws InputError (naming the
 // polar file, or context_file) for a polar without an attached part.
@@ -409,12 +416,6 @@ MLResult fit_output_error(const UnsteadyStructure& s, const OutputErrorData& d,
 MLResult refine_structure_output_error(const UnsteadyStructure& pool, const OutputErrorData& d,
                                        MLResult ml, const FitOptions& o,
                                        OutputErrorStepwiseResult* log);
-
-// Whether a parameter belongs to the dynamic-stall families (model.hpp "Dynamic stall": T1,
-// T2, T1r, the f0 correction, k0..k2, C_N1, T_v, T_vl, c_v, x_v). The stall states depend on
-// these and the angle only, the lags on none of them (fit_output_error.cpp's Jacobian relies
-// on it).
-bool is_stall_parameter(const ParamId& id);
 
 // The stall start grid (FitOptions::stall_start_search; fit_stall_starts.cpp): whether it runs
 // for layout L under options o, and its points, the configured start theta0 first (`varied`:

@@ -222,6 +222,10 @@ class OutputErrorProblem final : public numerics::LeastSquaresProblem {
       if (is_stall_parameter(L.ids()[static_cast<std::size_t>(k)])) stall_params_.push_back(k);
       else lag_slot_[static_cast<std::size_t>(k)] = n_lag_params_++;
     }
+    for (std::size_t j = 0; j < stall_params_.size(); ++j)
+      if (!is_stall_output_parameter(L.ids()[static_cast<std::size_t>(stall_params_[j])]))
+        stall_state_slots_.push_back(static_cast<int>(j));
+    for (std::size_t j = 0; j < stall_params_.size(); ++j) all_stall_slots_.push_back(static_cast<int>(j));
   }
   int num_parameters() const override { return L_.size(); }
   int num_residuals() const override { return static_cast<int>(starts_.back()); }
@@ -251,10 +255,19 @@ class OutputErrorProblem final : public numerics::LeastSquaresProblem {
  private:
   template <int N>
   bool jacobian_n(const Eigen::VectorXd& theta, Eigen::VectorXd& v, Eigen::MatrixXd& J) const;
-  // The stall output's derivatives on run r, D(i, j) = d stall_output_i / d theta(stall_params_[j]).
+  // The stall output's derivatives on run r, D(i, j) = d stall_output_i / d theta(stall_params_[j]),
+  // in two steps: the states' derivatives with respect to the parameters that drive them
+  // (stall_state_slots_), then the output's with respect to every stall parameter.
   void stall_sensitivities(const Eigen::VectorXd& theta, const PreparedRun& r, Eigen::MatrixXd& D) const;
   template <int N>
-  void stall_sensitivities_n(const Eigen::VectorXd& theta, const PreparedRun& r, Eigen::MatrixXd& D) const;
+  void stall_state_sensitivities_n(const Eigen::VectorXd& theta, const PreparedRun& r, Eigen::MatrixXd& S) const;
+  template <int N>
+  void stall_output_sensitivities_n(const Eigen::VectorXd& theta, const PreparedRun& r, const Eigen::MatrixXd& S,
+                                    Eigen::MatrixXd& D) const;
+  // A model whose parameters in `slots` (slots of stall_params_) carry derivatives 0, 1, ...
+  template <class ADN>
+  void stall_model_seeded(const Eigen::VectorXd& theta, const std::vector<int>& slots,
+                          CoefficientModel<ADN, Cap>& m) const;
 
   const ParameterLayout& L_;
   const OutputErrorData& d_;
@@ -263,6 +276,8 @@ class OutputErrorProblem final : public numerics::LeastSquaresProblem {
   std::vector<CoefficientModel<double, Cap>> unit_models_;
   std::vector<int> lag_slot_;      // per structural parameter: its lag-chain slot, or -1 (stall)
   std::vector<int> stall_params_;  // the stall parameters' indices in theta, in slot order
+  std::vector<int> all_stall_slots_;    // 0, 1, ..., stall_params_.size() - 1
+  std::vector<int> stall_state_slots_;  // the slots of the parameters the stall states depend on
   int n_lag_params_ = 0;
 };
 
@@ -327,33 +342,80 @@ AutoDiffN<N> seeded(double value, int index) {
   return a;
 }
 
+// The stall chain's derivative sizes: the states' (T1, T2, T1r, the f0 correction, C_N1, T_v,
+// T_vl: 5-8 in the usual models) and the output's (those and k0..k2, c_v, x_v: 10-13), each
+// the smallest of 8, 12, 16 or 64 that holds them. The states are propagated over the
+// warm-up cycles and the run; the output only at the samples.
 void OutputErrorProblem::stall_sensitivities(const Eigen::VectorXd& theta, const PreparedRun& r,
                                              Eigen::MatrixXd& D) const {
-  const int n = static_cast<int>(stall_params_.size());
-  if (n <= 8) return stall_sensitivities_n<8>(theta, r, D);
-  if (n <= 12) return stall_sensitivities_n<12>(theta, r, D);  // separation and vortex: 10-12
-  if (n <= 16) return stall_sensitivities_n<16>(theta, r, D);
-  return stall_sensitivities_n<kMaxDerivatives>(theta, r, D);
+  Eigen::MatrixXd S;
+  const std::size_t ns = stall_state_slots_.size(), n = stall_params_.size();
+  if (ns <= 8) stall_state_sensitivities_n<8>(theta, r, S);
+  else if (ns <= 16) stall_state_sensitivities_n<16>(theta, r, S);
+  else stall_state_sensitivities_n<kMaxDerivatives>(theta, r, S);
+  if (n <= 8) return stall_output_sensitivities_n<8>(theta, r, S, D);
+  if (n <= 12) return stall_output_sensitivities_n<12>(theta, r, S, D);
+  if (n <= 16) return stall_output_sensitivities_n<16>(theta, r, S, D);
+  return stall_output_sensitivities_n<kMaxDerivatives>(theta, r, S, D);
 }
 
-template <int N>
-void OutputErrorProblem::stall_sensitivities_n(const Eigen::VectorXd& theta, const PreparedRun& r,
-                                               Eigen::MatrixXd& D) const {
-  using ADN = AutoDiffN<N>;
+template <class ADN>
+void OutputErrorProblem::stall_model_seeded(const Eigen::VectorXd& theta, const std::vector<int>& slots,
+                                            CoefficientModel<ADN, Cap>& m) const {
   const int ns = L_.structural().size();
   std::vector<ADN> th(static_cast<std::size_t>(ns));
   for (int k = 0; k < ns; ++k) th[static_cast<std::size_t>(k)] = ADN(theta(k));  // derivative 0
-  for (std::size_t j = 0; j < stall_params_.size(); ++j)
-    th[static_cast<std::size_t>(stall_params_[j])] =
-        seeded<N>(theta(stall_params_[j]), static_cast<int>(j));
-  CoefficientModel<ADN, Cap> m;
+  for (std::size_t j = 0; j < slots.size(); ++j) {
+    const int k = stall_params_[static_cast<std::size_t>(slots[j])];
+    th[static_cast<std::size_t>(k)].derivatives()(static_cast<Eigen::Index>(j)) = 1.0;
+  }
   L_.build_unsteady(th.data(), m);
-  const auto n_stall = static_cast<Eigen::Index>(stall_params_.size());
-  D.resize(static_cast<Eigen::Index>(r.x.size()), n_stall);
+}
+
+// S: per sample i and state c (f, v, tau_v, x_e), row kStates i + c: the value, then the
+// derivatives with respect to stall_state_slots_'s parameters.
+constexpr int kStallStates = 4;
+
+template <int N>
+void OutputErrorProblem::stall_state_sensitivities_n(const Eigen::VectorXd& theta, const PreparedRun& r,
+                                                     Eigen::MatrixXd& S) const {
+  using ADN = AutoDiffN<N>;
+  CoefficientModel<ADN, Cap> m;
+  stall_model_seeded(theta, stall_state_slots_, m);
+  const auto n = static_cast<Eigen::Index>(stall_state_slots_.size());
+  S.resize(static_cast<Eigen::Index>(r.x.size()) * kStallStates, 1 + n);
   propagate_stall(m.stall, r, [&](std::size_t i, const StallState<ADN>& s) {
-    const ADN out = stall_output(m.stall, ADN(r.x[i]), s);
-    D.row(static_cast<Eigen::Index>(i)) = out.derivatives().head(n_stall).transpose();
+    const ADN* states[kStallStates] = {&s.separation_point, &s.vortex_lift, &s.vortex_clock_semichords,
+                                       &s.forcing_angle_rad};
+    for (int c = 0; c < kStallStates; ++c) {
+      const Eigen::Index row = static_cast<Eigen::Index>(i) * kStallStates + c;
+      S(row, 0) = states[c]->value();
+      S.row(row).tail(n) = states[c]->derivatives().head(n).transpose();
+    }
   });
+}
+
+template <int N>
+void OutputErrorProblem::stall_output_sensitivities_n(const Eigen::VectorXd& theta, const PreparedRun& r,
+                                                      const Eigen::MatrixXd& S, Eigen::MatrixXd& D) const {
+  using ADN = AutoDiffN<N>;
+  CoefficientModel<ADN, Cap> m;
+  stall_model_seeded(theta, all_stall_slots_, m);
+  const auto n = static_cast<Eigen::Index>(stall_params_.size());
+  D.resize(static_cast<Eigen::Index>(r.x.size()), n);
+  for (std::size_t i = 0; i < r.x.size(); ++i) {
+    StallState<ADN> s;
+    ADN* states[kStallStates] = {&s.separation_point, &s.vortex_lift, &s.vortex_clock_semichords,
+                                 &s.forcing_angle_rad};
+    for (int c = 0; c < kStallStates; ++c) {
+      const Eigen::Index row = static_cast<Eigen::Index>(i) * kStallStates + c;
+      *states[c] = ADN(S(row, 0));
+      for (std::size_t j = 0; j < stall_state_slots_.size(); ++j)
+        states[c]->derivatives()(stall_state_slots_[j]) = S(row, 1 + static_cast<Eigen::Index>(j));
+    }
+    const ADN out = stall_output(m.stall, ADN(r.x[i]), s);
+    D.row(static_cast<Eigen::Index>(i)) = out.derivatives().head(n).transpose();
+  }
 }
 
 template <int N>

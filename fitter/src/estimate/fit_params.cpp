@@ -234,6 +234,40 @@ std::vector<ParamId> structural_terms(const UnsteadyStructure& s) {
   return t;
 }
 
+bool is_stall_parameter(const ParamId& id) {
+  switch (id.kind) {
+    case ParamKind::stall_tau1:
+    case ParamKind::stall_tau2:
+    case ParamKind::stall_tau1_reattach:
+    case ParamKind::f0_power:
+    case ParamKind::f0_knot:
+    case ParamKind::stall_cp:
+    case ParamKind::shedding_threshold:
+    case ParamKind::vortex_decay:
+    case ParamKind::vortex_travel:
+    case ParamKind::vortex_lift:
+    case ParamKind::vortex_cp: return true;
+    // Every kind named (no default): a new kind must be placed here (-Wswitch).
+    case ParamKind::a_power:
+    case ParamKind::a_knot:
+    case ParamKind::b_power:
+    case ParamKind::b_knot:
+    case ParamKind::con:
+    case ParamKind::gain:
+    case ParamKind::delay:
+    case ParamKind::rotary_power:
+    case ParamKind::rotary_knot:
+    case ParamKind::static_power:
+    case ParamKind::static_knot:
+    case ParamKind::initial_state: return false;
+  }
+  return false;
+}
+
+bool is_stall_output_parameter(const ParamId& id) {
+  return id.kind == ParamKind::stall_cp || id.kind == ParamKind::vortex_lift || id.kind == ParamKind::vortex_cp;
+}
+
 std::vector<ParamId> rotary_terms(const SplineTerms& pool) {
   std::vector<ParamId> t;
   add_spline_terms(t, pool, ParamKind::rotary_power, ParamKind::rotary_knot, 0);

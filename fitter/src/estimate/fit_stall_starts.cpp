@@ -18,36 +18,6 @@
 
 namespace indicial::fit_detail {
 
-bool is_stall_parameter(const ParamId& id) {
-  switch (id.kind) {
-    case ParamKind::stall_tau1:
-    case ParamKind::stall_tau2:
-    case ParamKind::stall_tau1_reattach:
-    case ParamKind::f0_power:
-    case ParamKind::f0_knot:
-    case ParamKind::stall_cp:
-    case ParamKind::shedding_threshold:
-    case ParamKind::vortex_decay:
-    case ParamKind::vortex_travel:
-    case ParamKind::vortex_lift:
-    case ParamKind::vortex_cp: return true;
-    // Every kind named (no default): a new kind must be placed here (-Wswitch).
-    case ParamKind::a_power:
-    case ParamKind::a_knot:
-    case ParamKind::b_power:
-    case ParamKind::b_knot:
-    case ParamKind::con:
-    case ParamKind::gain:
-    case ParamKind::delay:
-    case ParamKind::rotary_power:
-    case ParamKind::rotary_knot:
-    case ParamKind::static_power:
-    case ParamKind::static_knot:
-    case ParamKind::initial_state: return false;
-  }
-  return false;
-}
-
 bool stall_start_search_runs(const ParameterLayout& L, const FitOptions& o) {
   if (o.stall_start_search != StallStartSearch::grid) return false;
   if (L.structure().stall.families == StallFamilies::none) return false;
