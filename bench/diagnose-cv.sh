@@ -10,6 +10,8 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 build=${1:-build}
 data=${2:-}
+# Absolute: the experiment files name the runs from $tmp (a relative DIR would not resolve there).
+[ -z "$data" ] || data=$(cd "$data" && pwd)
 exe="$build/tools/indicial"
 cmake --build "$build" --target indicial >/dev/null
 tmp=$(mktemp -d)
@@ -71,7 +73,15 @@ median() { sort -g | awk '{a[NR]=$1} END{print a[int((NR+1)/2)]}'; }
       times=()
       for rep in 1 2 3; do
         s=$(date +%s.%N)
-        "$exe" diagnose "${cases[$i]}" --out "$tmp/out" --force --no-plots --quiet --threads "$th" >/dev/null 2>&1 || true
+        rm -rf "$tmp/out"
+        rc=0
+        "$exe" diagnose "${cases[$i]}" --out "$tmp/out" --force --no-plots --quiet --threads "$th" >"$tmp/log" 2>&1 || rc=$?
+        # 6: stopped at --max-steps with an effect still significant (a complete output).
+        if [ "$rc" -ne 0 ] && [ "$rc" -ne 6 ]; then
+          echo "bench/diagnose-cv.sh: diagnose exited $rc on ${labels[$i]}:" >&2
+          cat "$tmp/log" >&2
+          exit 1
+        fi
         e=$(date +%s.%N)
         times+=("$(echo "$e - $s" | bc)")
       done
