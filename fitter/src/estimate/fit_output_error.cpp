@@ -236,10 +236,10 @@ class OutputErrorProblem final : public numerics::LeastSquaresProblem {
   bool feasible(const Eigen::VectorXd& theta) const override {
     return !feasible_ || feasible_(model_at(L_, theta, d_.known));
   }
-  // The derivative vector's size: the smallest of 8, 16, 32 or 64 that holds the chain's
-  // parameters (the lag chain: its structural parameters and one run's y0; the stall chain:
-  // the stall parameters). A fixed size costs its full width in every operation, whatever the
-  // parameters (64 for 17 parameters: 2.5x the time of 24 on a diagnose of measured cycles).
+  // The lag chain's derivative size: the smallest of 8, 16, 32 or 64 that holds its structural
+  // parameters and one run's y0 (the stall chains' sizes: stall_sensitivities). A fixed size
+  // costs its full width in every operation, whatever the parameters (64 for 17 parameters:
+  // 2.5x the time of 24 on a diagnose of measured cycles; docs/diagnose-speed.md).
   bool jacobian(const Eigen::VectorXd& theta, Eigen::VectorXd& v, Eigen::MatrixXd& J) const override {
     const int nd = n_lag_params_ + L_.y0_per_run();
     if (nd <= 8) return jacobian_n<8>(theta, v, J);
@@ -315,10 +315,11 @@ bool OutputErrorProblem::evaluate(const Eigen::VectorXd& theta, Eigen::VectorXd&
   return v.allFinite();
 }
 
-// Residuals and Jacobian dv/dtheta with forward autodiff, in two chains: the lags (driven by
-// a(x), b(x), con, the gains, the delay and a run's y0) and the stall families (driven by their
-// own parameters and the angle only: model.hpp "Dynamic stall"; is_stall_parameter), each with
-// a derivative vector of its own parameters. Per run the lag chain's vector holds its structural
+// Residuals and Jacobian dv/dtheta with forward autodiff, in chains of their own: the lags
+// (driven by a(x), b(x), con, the gains, the delay and a run's y0) and the stall families
+// (driven by their own parameters and the angle only: model.hpp "Dynamic stall";
+// is_stall_parameter; their states and output apart, stall_sensitivities), each with a
+// derivative vector of its own parameters. Per run the lag chain's vector holds its structural
 // parameters and that run's own y0 (n_lag_params_ + y0_per_run entries), mapped into the global
 // columns afterwards, so the derivative size does not grow with the number of runs. The
 // columns are those of one chain over every parameter (the other chain's derivative there is
@@ -372,7 +373,7 @@ void OutputErrorProblem::stall_model_seeded(const Eigen::VectorXd& theta, const 
   L_.build_unsteady(th.data(), m);
 }
 
-// S: per sample i and state c (f, v, tau_v, x_e), row kStates i + c: the value, then the
+// S: per sample i and state c (f, v, tau_v, x_e), row kStallStates i + c: the value, then the
 // derivatives with respect to stall_state_slots_'s parameters.
 constexpr int kStallStates = 4;
 
