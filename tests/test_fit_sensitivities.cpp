@@ -157,7 +157,7 @@ TEST_CASE("output-error sensitivities match finite differences (lags, delay, sta
   int n_stall = 0, n_lag = 0;
   for (int k = 0; k < L.structural().size(); ++k)
     (is_stall_parameter(L.ids()[static_cast<std::size_t>(k)]) ? n_stall : n_lag) += 1;
-  CHECK(n_stall == 13);                             // the stall chain's 16
+  CHECK(n_stall == 13);                             // the stall output's 16 (its states: 8)
   CHECK(n_lag + c.structure.y0_per_run() == 11);    // the lag chain's 16
   check_against_finite_differences(c);
 }
@@ -175,6 +175,6 @@ TEST_CASE("output-error sensitivities match finite differences (many stall param
   CHECK(L.find(held) < 0);  // held: not in the vector
   int n_stall = 0;
   for (int k = 0; k < L.structural().size(); ++k) n_stall += is_stall_parameter(L.ids()[static_cast<std::size_t>(k)]);
-  CHECK(n_stall == 19);  // the stall chain's 64; the lags' 2 + 1 y0: 8
+  CHECK(n_stall == 19);  // the stall output's 64 (its states, 15: 16); the lags' 2 + 1 y0: 8
   check_against_finite_differences(c);
 }
