@@ -72,8 +72,8 @@ median() { sort -g | awk '{a[NR]=$1} END{print a[int((NR+1)/2)]}'; }
     for th in 1 2; do
       times=()
       for rep in 1 2 3; do
-        s=$(date +%s.%N)
         rm -rf "$tmp/out"
+        s=$(date +%s.%N)
         rc=0
         "$exe" diagnose "${cases[$i]}" --out "$tmp/out" --force --no-plots --quiet --threads "$th" >"$tmp/log" 2>&1 || rc=$?
         # 6: stopped at --max-steps with an effect still significant (a complete output).
