@@ -114,7 +114,7 @@ def main():
                         stats[v] = (statistics.median(ratios), sum(r <= 0.5 for r in ratios), statistics.mean(ratios))
                     line += f" || held-out median/QS old {stats['old'][0]:.3f} ({stats['old'][1]}) new {stats['new'][0]:.3f} ({stats['new'][1]}); mean old {stats['old'][2]:.3f} new {stats['new'][2]:.3f}"
                 print(line, flush=True)
-            printed.append(line)
+                printed.append(line)
     print('\n'.join(summarize(printed)))
 
 
