@@ -59,12 +59,26 @@ TOML
   done
 fi
 median() { sort -g | awk '{a[NR]=$1} END{print a[int((NR+1)/2)]}'; }
+# The machine's speed in the same run: the report's model step (bench_step, one thread), when
+# the benchmarks are built (tools/install-deps.sh bench). Why: this VM's speed has varied
+# threefold between days at the same code (bench/diagnose-cv.md); a row is comparable with
+# another run's only beside this figure.
+reference() {
+  local b="$build/bench/bench_step"
+  [ -x "$b" ] || { echo "not measured (bench_step not built)"; return; }
+  "$b" --benchmark_filter='^state/model2/double$' --benchmark_repetitions=5 \
+       --benchmark_report_aggregates_only=true --benchmark_format=json 2>/dev/null |
+    python3 -c "import json,sys; d=json.load(sys.stdin); print('%.1f ns' % next(b['real_time'] for b in d['benchmarks'] if b.get('aggregate_name') == 'median'))"
+}
+ref_start=$(reference)
 {
   echo "# diagnose with leave-one-run-out on a three-cycle experiment (issue 21, item 6)"
   echo
   echo "Written by \`bench/diagnose-cv.sh\` at commit $(git rev-parse --short HEAD), $(date -u +%Y-%m-%dT%H:%MZ),"
   echo "load average $(cut -d' ' -f1-3 /proc/loadavg) at the start (shared 2-core machine). Wall time of"
   echo "\`indicial diagnose E --out D --no-plots\`, median of 3; target <= 10 s with 2 threads."
+  echo "Machine reference (bench_step \`state/model2/double\`, median of 5, one thread): $ref_start before the"
+  echo "table, REF_END after it."
   echo
   echo "| experiment | threads | wall (s), median of 3 | verdict | fits |"
   echo "|---|---|---|---|---|"
@@ -93,5 +107,7 @@ median() { sort -g | awk '{a[NR]=$1} END{print a[int((NR+1)/2)]}'; }
   echo
   echo "Load average at the end: $(cut -d' ' -f1-3 /proc/loadavg)."
 } > "$tmp/diagnose-cv.md"
+ref_end=$(reference)
+sed -i "s/REF_END/$ref_end/" "$tmp/diagnose-cv.md"
 mv "$tmp/diagnose-cv.md" bench/diagnose-cv.md
 cat bench/diagnose-cv.md
