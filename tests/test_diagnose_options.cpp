@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "diagnose/diagnose_internal.hpp"
 #include "indicial/fitter/diagnose.hpp"
 #include "indicial/fitter/error.hpp"
 #include "options_test_support.hpp"
@@ -79,10 +80,20 @@ TEST_CASE("diagnose options: a stall candidate's own start is the configured one
   // three-run studies of docs/validation-real.md up to 10 times slower and chose no better).
   CHECK(FitOptions{}.stall_start_search == StallStartSearch::grid);
   CHECK(DiagnoseOptions{}.fit.stall_start_search == StallStartSearch::configured);
-  CHECK(DiagnoseOptions{}.fit.threads == 1);  // diagnose runs its fits in parallel itself
   DiagnoseOptions grid;
   grid.fit.stall_start_search = StallStartSearch::grid;
   CHECK(grid.IsValid(nullptr));
+}
+
+TEST_CASE("diagnose options: the fits diagnose runs take its threads for their stall start grid") {
+  // fit.threads (the library's FitOptions default, 1) is replaced in every fit diagnose runs,
+  // so that a fit's grid uses the cores diagnose was given (diagnose_internal.hpp).
+  DiagnoseOptions o;
+  CHECK(o.fit.threads == 1);
+  CHECK(diagnose_detail::diagnose_fit_threads(o) == 2);
+  o.threads = 1;
+  o.fit.threads = 3;
+  CHECK(diagnose_detail::diagnose_fit_threads(o) == 1);
 }
 
 TEST_CASE("diagnose options: each bad option is refused by IsValid with its own one-line message") {

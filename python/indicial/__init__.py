@@ -576,7 +576,8 @@ def diagnose(experiment: Experiment, *, alpha: float = 0.01, max_steps: int = 6,
     leave-one-run-out needs; ``max_folds`` (>= 2) the folds runs are dealt
     into; ``min_gain`` and ``min_in_sample_gain`` (each in [0, 1)) the cross-validation rule's
     held-out and in-sample gains, fractions of the mean square error; ``threads`` (>= 1) fits run
-    in parallel. A bad value is an ``InputError`` (a ValueError). ``fit_options`` as ``fit``'s.
+    in parallel (a scan's candidates, the held-out folds, each fit's stall start grid; the
+    results do not depend on it). A bad value is an ``InputError`` (a ValueError). ``fit_options`` as ``fit``'s.
     The GIL is released meanwhile."""
     opts = dict(alpha=alpha, max_steps=max_steps, knot_spacing_deg=knot_spacing_deg,
                 knot_margin_fraction=knot_margin_fraction, max_scan_knots=max_scan_knots,

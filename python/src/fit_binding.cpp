@@ -106,8 +106,8 @@ FitOptions parse_fit_options(const py::dict& kw) {
 
 FitOptions fit_options_from(const py::dict& kw) {
   FitOptions fo = parse_fit_options(kw);
-  // fit's default threads are `indicial fit --threads`'s, 2 (the library's and diagnose's fits
-  // are 1: diagnose runs its fits in parallel already).
+  // fit's default threads are `indicial fit --threads`'s, 2 (the library's are 1; diagnose's
+  // fits take diagnose's own `threads`).
   if (!kw.contains("threads")) fo.threads = 2;
   if (std::string bad; !fo.IsValid(&bad)) throw InputError(bad);  // FitOptions' own message, as the CLI's
   return fo;

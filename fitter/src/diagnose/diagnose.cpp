@@ -149,6 +149,8 @@ bool runtime_accepts(const FitResult& r, std::string& why) {
 
 namespace diagnose_detail {
 
+int diagnose_fit_threads(const DiagnoseOptions& o) { return o.threads; }
+
 bool stall_grid_retry_needed(Effect effect, const CandidateFit& best, const FitResult& base, StallStartSearch search) {
   const bool stall_family = effect == Effect::separation_lag || effect == Effect::vortex_shedding;
   if (!stall_family || search == StallStartSearch::grid) return false;
@@ -274,6 +276,7 @@ class Diagnoser {
     x.model = m;
     FitOptions fo = o_.fit;
     fo.stall_start_search = search;
+    fo.threads = diagnose_fit_threads(o_);
     // Why names here: FitOptions takes start values by contract name; each is made from the
     // id of this configuration's term (its knot number in this model), never parsed back.
     fo.start_values.clear();

@@ -148,7 +148,9 @@ struct DiagnoseOptions {
                                      // docs/diagnose.md, "Which rule decides")
   int cv_max_folds = 10;             // more runs than this: runs dealt into this many folds (run r
                                      // into fold r mod cv_max_folds), each fold left out at once
-  int threads = 2;                   // fits run in parallel (candidates of a scan, held-out folds)
+  int threads = 2;                   // fits run in parallel (candidates of a scan, held-out
+                                     // folds, and each fit's stall start grid: fit.threads is
+                                     // replaced by this in every fit diagnose runs)
   int max_steps = 6;                 // effects added at most
   double knot_spacing_deg = 5.0;     // scan grid of knot positions (model angle x)
   double knot_margin_fraction = 0.1; // the grid stays this fraction of the range inside it

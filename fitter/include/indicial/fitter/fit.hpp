@@ -215,7 +215,8 @@ struct FitOptions {
   // (e.g. {"b1_0", 3.0}, {"y0_2", 0.0}); names not in the model are an InputError.
   std::vector<std::pair<std::string, double>> start_values;
   StallStartSearch stall_start_search = StallStartSearch::grid;
-  // Threads for independent fits inside one fit (the stall start grid); >= 1.
+  // Threads for independent fits inside one fit (the stall start grid); >= 1. (In diagnose
+  // DiagnoseOptions::threads replaces it: diagnose.hpp.)
   int threads = 1;
 
   // Every range above in one place (Ceres' Solver::Options::IsValid, as
