@@ -87,13 +87,24 @@ TEST_CASE("diagnose options: a stall candidate's own start is the configured one
 
 TEST_CASE("diagnose options: the fits diagnose runs take its threads for their stall start grid") {
   // fit.threads (the library's FitOptions default, 1) is replaced in every fit diagnose runs,
-  // so that a fit's grid uses the cores diagnose was given (diagnose_internal.hpp).
+  // so that a fit's grid uses the cores diagnose was given (diagnose_internal.hpp); the rest of
+  // o.fit is kept, the search and the start values are the call's.
+  using diagnose_detail::diagnose_fit_options;
   DiagnoseOptions o;
+  o.fit.max_iterations = 77;
   CHECK(o.fit.threads == 1);
-  CHECK(diagnose_detail::diagnose_fit_threads(o) == 2);
+  const diagnose_detail::StartValues sv{{param_id(ParamKind::b_power), 2.5}};
+  const FitOptions fo = diagnose_fit_options(o, StallStartSearch::grid, sv);
+  CHECK(fo.threads == 2);
+  CHECK(fo.max_iterations == 77);
+  CHECK(fo.stall_start_search == StallStartSearch::grid);
+  REQUIRE(fo.start_values.size() == 1);
+  CHECK(fo.start_values[0].first == "b1_0");
+  CHECK(fo.start_values[0].second == 2.5);
   o.threads = 1;
   o.fit.threads = 3;
-  CHECK(diagnose_detail::diagnose_fit_threads(o) == 1);
+  CHECK(diagnose_fit_options(o, StallStartSearch::configured, {}).threads == 1);
+  CHECK(diagnose_fit_options(o, StallStartSearch::configured, {}).start_values.empty());
 }
 
 TEST_CASE("diagnose options: each bad option is refused by IsValid with its own one-line message") {

@@ -149,7 +149,16 @@ bool runtime_accepts(const FitResult& r, std::string& why) {
 
 namespace diagnose_detail {
 
-int diagnose_fit_threads(const DiagnoseOptions& o) { return o.threads; }
+FitOptions diagnose_fit_options(const DiagnoseOptions& o, StallStartSearch search, const StartValues& sv) {
+  FitOptions fo = o.fit;
+  fo.stall_start_search = search;
+  fo.threads = o.threads;
+  // Why names here: FitOptions takes start values by contract name; each is made from the
+  // id of this configuration's term (its knot number in this model), never parsed back.
+  fo.start_values.clear();
+  for (const auto& [id, value] : sv) fo.start_values.emplace_back(parameter_name(id), value);
+  return fo;
+}
 
 bool stall_grid_retry_needed(Effect effect, const CandidateFit& best, const FitResult& base, StallStartSearch search) {
   const bool stall_family = effect == Effect::separation_lag || effect == Effect::vortex_shedding;
@@ -274,15 +283,8 @@ class Diagnoser {
   FitResult fit_with(const Experiment& e, const ModelConfig& m, const StartValues& sv, StallStartSearch search) {
     Experiment x = e;
     x.model = m;
-    FitOptions fo = o_.fit;
-    fo.stall_start_search = search;
-    fo.threads = diagnose_fit_threads(o_);
-    // Why names here: FitOptions takes start values by contract name; each is made from the
-    // id of this configuration's term (its knot number in this model), never parsed back.
-    fo.start_values.clear();
-    for (const auto& [id, value] : sv) fo.start_values.emplace_back(parameter_name(id), value);
     ++fits_;
-    return fit_experiment(x, fo);
+    return fit_experiment(x, diagnose_fit_options(o_, search, sv));
   }
 
   // f (a fit of model m to e) fitted on from its own estimates while it ends at the iteration

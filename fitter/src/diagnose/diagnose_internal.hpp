@@ -103,8 +103,10 @@ struct CandidateFit {
 };
 using StartFit = std::function<FitResult(const StartValues&)>;
 CandidateFit best_usable_fit(const std::vector<StartValues>& starts, const StartFit& fit);
-// The threads of the stall start grid inside each fit diagnose runs (FitOptions::threads):
-// DiagnoseOptions::threads, whatever o.fit.threads says. Why: the grid of a fit with stall
+// The options of each fit diagnose runs (Diagnoser::fit_with): o.fit with the stall start
+// search `search`, the start values sv (by contract name) and, for the stall start grid inside
+// the fit (FitOptions::threads), DiagnoseOptions::threads whatever o.fit.threads says. Why the
+// threads: the grid of a fit with stall
 // families (the configured model's, or a candidate's retry: stall_grid_retry_needed) is most
 // of a diagnose's time, and on one thread it ran alone while the other idled: the simulated
 // dynamic-stall C_L of bench/diagnose-cv.sh kept 1.33 of 2 cores busy on average (a sampled
@@ -112,7 +114,7 @@ CandidateFit best_usable_fit(const std::vector<StartValues>& starts, const Start
 // cores and 3.15 s. Where diagnose's own candidates or folds already run in parallel the
 // grids nest (up to threads^2 threads, time-shared); the results do not depend on it (each
 // start is fitted alone: parallel_for).
-int diagnose_fit_threads(const DiagnoseOptions& o);
+FitOptions diagnose_fit_options(const DiagnoseOptions& o, StallStartSearch search, const StartValues& sv);
 // Whether a stall family's candidate (separation_lag, vortex_shedding) fitted from its
 // configured starts (`search` == configured) is fitted again from the start grid: when its best
 // fit is not below the base's error, which a candidate that nests the base reaches only at a
