@@ -1,6 +1,7 @@
 // The warnings about a finished fit (fitter/src/report/fit_warnings.cpp): here the lag that
 // does not decay over the runs, which a fit reaches when the data show no lag of the model's
-// structure (the Glasgow NACA 0012 C_m cycles: b1 = 8e-5 1/s against runs of 0.43 s), an
+// structure (the Glasgow NACA 0012 C_m cycles: b1 = 8e-5 1/s against runs of 0.43 s), a
+// dynamic-stall state that keeps its start through the periodic warm-up, an
 // estimate on the feasible set's boundary, and ill-conditioned estimates with replicated runs.
 #include <doctest/doctest.h>
 
@@ -66,6 +67,57 @@ TEST_CASE("fit warnings: a lag that does not decay over the runs is named, with 
   FitResult no_runs = lag_fit(8e-5, 0.0, 0.43);
   no_runs.runs.clear();
   CHECK(undamped_warnings(fit_warnings(no_runs, e)) == 0);
+}
+
+TEST_CASE("fit warnings: a dynamic-stall state that keeps its start through the warm-up is named") {
+  // One periodic run: a 2 Hz cycle at 30 m/s with l = 0.15 m, 0.5 s = 100 l/V; a vortex lift
+  // with T_v of 1e4 l/V keeps exp(-3 x 100 / 1e4) = 0.97 of its start (the development set's
+  // Beddoes-Leishman fits reached 1e4-1e6); T_v = 6, the Beddoes-Leishman constant, keeps 1e-22.
+  Experiment e;
+  e.path = "exp.toml";
+  e.airspeed_mps = 30.0;
+  e.reference_length_m = 0.15;
+  Run run;
+  run.periodic = true;
+  run.frequency_hz = 2.0;
+  for (int i = 0; i < 100; ++i) run.time_s.push_back(i * 0.005);
+  e.runs.push_back(run);
+  auto slow_warnings = [](const std::vector<std::string>& w) {
+    int n = 0;
+    for (const std::string& s : w) n += s.find("is long against the shortest periodic run's cycle") != std::string::npos;
+    return n;
+  };
+  FitResult r = lag_fit(13.0, 0.0, 0.5);
+  auto& st = r.model.coefficients[0].stall;
+  st.families = StallFamilies::separation_and_vortex;
+  st.separation.tau1_semichords = 3.0;
+  st.vortex.decay_semichords = 1e4;
+  std::vector<std::string> w = fit_warnings(r, e);
+  REQUIRE(slow_warnings(w) == 1);
+  std::string msg;
+  for (const std::string& s : w)
+    if (s.find("is long against") != std::string::npos) msg = s;
+  CHECK(msg.rfind("exp.toml: the dynamic-stall time constant T_v (the vortex lift's) = 1e+04 l/V", 0) == 0);
+  CHECK(msg.find("cycle of 100 l/V") != std::string::npos);
+  CHECK(msg.find("after the 3 warm-up cycles") != std::string::npos);
+  CHECK(msg.find("0.97 of that start") != std::string::npos);
+  st.vortex.decay_semichords = 6.0;
+  CHECK(slow_warnings(fit_warnings(r, e)) == 0);
+  // The floor, 1e-3 of the start: T = 300 / ln(1000) = 43.4 l/V. The separation point's T1 on
+  // either side of it, and T1r beside it.
+  st.separation.tau1_semichords = 44.0;
+  CHECK(slow_warnings(fit_warnings(r, e)) == 1);
+  st.separation.tau1_semichords = 43.0;
+  CHECK(slow_warnings(fit_warnings(r, e)) == 0);
+  st.separation.tau1_reattach_semichords = 500.0;
+  CHECK(slow_warnings(fit_warnings(r, e)) == 1);
+  // A run that is not periodic has no warm-up: nothing to say.
+  e.runs[0].periodic = false;
+  CHECK(slow_warnings(fit_warnings(r, e)) == 0);
+  // Without the families, nothing either.
+  e.runs[0].periodic = true;
+  st.families = StallFamilies::none;
+  CHECK(slow_warnings(fit_warnings(r, e)) == 0);
 }
 
 TEST_CASE("fit warnings: an estimate on the feasible set's boundary is named with its infeasible trials") {

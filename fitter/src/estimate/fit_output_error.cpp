@@ -155,14 +155,14 @@ void propagate(const CoefficientModel<S, Cap>& m, const PreparedRun& r, DelayTer
 
 // The dynamic-stall states of run r (model.hpp "Dynamic stall"), sample by sample: emit(i, s)
 // with the state at sample i. They start at stall_steady_state of the first sample. A periodic
-// run first goes through kStallWarmupCycles cycles from there, so its sample-0 state is the
-// periodic state to the warm-up's accuracy (the stall states are nonlinear in the motion, so
-// the lags' affine closure does not apply; each cycle shrinks the start's trace by
-// exp(-cycle / T) with cycle >= 37 semichord times at k <= 0.17: three cycles leave < 1e-6 of
-// it for T <= 6, the Beddoes-Leishman constants). The stall states do not depend on the lags
+// run first goes through kPeriodicStallWarmupCycles cycles (experiment.hpp) from there, so its
+// sample-0 state is the periodic state to the warm-up's accuracy (the stall states are
+// nonlinear in the motion, so the lags' affine closure does not apply; each cycle shrinks the
+// start's trace by exp(-cycle / T) with cycle >= 37 semichord times at k <= 0.17: three cycles
+// leave < 1e-6 of it for T <= 6, the Beddoes-Leishman constants; a fit with T_v of 1e4-1e6
+// keeps nearly all of it, and fit_warnings says so). The stall states do not depend on the lags
 // (both are driven by the angle only), so they are propagated apart and their output added:
 // C = coefficient_output(lags) + stall_output, the runtime's sum (runtime.hpp), bit for bit.
-constexpr int kStallWarmupCycles = 3;
 
 template <class S, class Emit>
 void propagate_stall(const StallModel<S, Cap>& m, const PreparedRun& r, Emit&& emit) {
@@ -174,7 +174,7 @@ void propagate_stall(const StallModel<S, Cap>& m, const PreparedRun& r, Emit&& e
   };
   if (r.periodic) {
     const bool closed = closes_on_last_sample(r);
-    for (int c = 0; c < kStallWarmupCycles; ++c) {
+    for (int c = 0; c < kPeriodicStallWarmupCycles; ++c) {
       for (std::size_t k = 0; k + 1 < n; ++k) step(k, k + 1, r.step_s(k));
       if (!closed) step(n - 1, 0, r.wrap_step_s());
     }

@@ -11,6 +11,7 @@
 
 #include "indicial/coef_file.hpp"
 #include "indicial/fitter/error.hpp"
+#include "indicial/fitter/experiment.hpp"
 #include "indicial/fitter/io.hpp"
 #include "indicial/fitter/output.hpp"
 #include "indicial/runtime.hpp"
@@ -158,14 +159,14 @@ Prediction predict_periodic(const ModelSet<double, FitCapacity>& model, const st
   auto ignore = [](std::size_t, const PeriodicPredictor::Outputs&) {};
   predictor->reset(motion_angle_rad[0], airspeed_mps);
   // Warm-up cycle: fills a delayed coefficient's history with the cycle's own angles. With
-  // dynamic-stall families, 3 cycles: their states are nonlinear in the motion (no affine
-  // closure as for the lags), and the fitter takes a periodic run's stall state after 3 cycles
-  // from the steady state at the first sample (fit_output_error.cpp, kStallWarmupCycles);
+  // dynamic-stall families, kPeriodicStallWarmupCycles (experiment.hpp): their states are nonlinear in
+  // the motion (no affine closure as for the lags), and the fitter takes a periodic run's stall
+  // state after as many cycles from the steady state at the first sample;
   // the lag fixed point below does not depend on how many cycles came before.
   bool families = false;
   for (int c = 0; c < model.n_coefficients; ++c)
     families = families || model.coefficients[c].stall.families != StallFamilies::none;
-  for (int w = 0; w < (families ? 3 : 1); ++w)
+  for (int w = 0; w < (families ? kPeriodicStallWarmupCycles : 1); ++w)
     step_cycle(*predictor, time_s, motion_angle_rad, rate_radps, airspeed_mps, closed, wrap_dt_s, model_label, ignore);
   const PeriodicPredictor::Snapshot start = predictor->snapshot();
   auto cycle_end_from = [&](double y_start) {

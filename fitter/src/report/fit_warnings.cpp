@@ -1,6 +1,7 @@
 // The warnings about a finished fit (see report.hpp, fit_warnings): the fit error against the
 // noise (replicates' spread, or the residual's short-lag level), lags that do not decay over the
-// runs, an estimate on the feasible set's boundary, and ill-conditioned estimates.
+// runs, dynamic-stall states that keep their start through the warm-up, an estimate on the
+// feasible set's boundary, and ill-conditioned estimates.
 #include <algorithm>
 #include <cmath>
 #include <fmt/format.h>
@@ -48,6 +49,66 @@ void warn_undamped_lags(const FitResult& r, const Experiment& e, std::vector<std
         e.path, j + 1, j + 1, b_max, 1.0 / b_max, longest_s, j + 1));
   }
 }
+
+// A dynamic-stall state whose time constant is long against the shortest periodic run's
+// cycle: after the kPeriodicStallWarmupCycles (experiment.hpp) from the steady state at the
+// run's first sample more than kStallStartLeftFloor of that start is still in it
+// (exp(-cycles x cycle / T)), so the fitted and predicted "periodic" cycles are a transient
+// whose size depends on the warm-up's length, and the estimates lean on it. Why a warning: of
+// the 139 final models with the vortex family among the development set's 184 three-cycle
+// diagnoses (docs/diagnose-speed.md), 18, all from the Beddoes-Leishman start, had T_v of
+// 276-2.5e6 l/V and output gains up to |c_v| = 6e4, |x_v| = 4.6e5: a vortex lift that barely
+// decays, whose drift over the warm-up was fitted; nothing said so.
+constexpr double kStallStartLeftFloor = 1e-3;
+
+}  // namespace
+
+std::vector<std::string> slow_stall_state_warnings(const FitResult& r, const Experiment& e) {
+  std::vector<std::string> out;
+  if (r.model.n_coefficients < 1) return out;
+  const StallModel<double, FitCapacity>& st = r.model.coefficients[0].stall;
+  if (st.families == StallFamilies::none) return out;
+  double cycle = std::numeric_limits<double>::infinity();  // the shortest periodic cycle, l/V units
+  for (const Run& run : e.runs) {
+    if (!run.periodic || run.time_s.size() < 2) continue;
+    const double v_mps = run.airspeed_mps > 0.0 ? run.airspeed_mps : e.airspeed_mps;
+    const double l_over_v_s = airspeed_scaling(e.airspeed_mps, e.reference_length_m, v_mps).l_over_v_s;
+    const std::size_t n = run.time_s.size();
+    // The cycle: 1 / frequency when given, else the samples' span and one more step (a cycle
+    // that does not repeat its first sample; one that does is a step shorter: the warning errs
+    // toward saying so).
+    const double span_s = run.time_s.back() - run.time_s.front();
+    const double period_s = run.frequency_hz > 0.0 ? 1.0 / run.frequency_hz : span_s * static_cast<double>(n) / static_cast<double>(n - 1);
+    if (period_s > 0.0 && l_over_v_s > 0.0) cycle = std::min(cycle, period_s / l_over_v_s);
+  }
+  if (!std::isfinite(cycle)) return out;
+  struct Constant {
+    const char* name;
+    double semichords;
+  };
+  std::vector<Constant> constants{{"T1 (the separation point's)", st.separation.tau1_semichords}};
+  if (st.separation.tau1_reattach_semichords > 0.0)
+    constants.push_back({"T1r (the separation point's while reattaching)", st.separation.tau1_reattach_semichords});
+  if (st.separation.forcing_lag == ForcingLag::first_order && st.separation.tau2_semichords > 0.0)
+    constants.push_back({"T2 (the forcing angle's)", st.separation.tau2_semichords});
+  if (st.families == StallFamilies::separation_and_vortex)
+    constants.push_back({"T_v (the vortex lift's)", st.vortex.decay_semichords});
+  for (const Constant& c : constants) {
+    const double left = std::exp(-kPeriodicStallWarmupCycles * cycle / c.semichords);
+    if (!(left > kStallStartLeftFloor)) continue;
+    out.push_back(fmt::format(
+        "{}: the dynamic-stall time constant {} = {:.4g} l/V is long against the shortest periodic run's "
+        "cycle of {:.4g} l/V: after the {} warm-up cycles from the steady state at the run's first sample "
+        "{:.3g} of that start is still in the state, so the fitted and predicted (`predict --periodic`) cycles "
+        "are a transient of the warm-up, not the periodic state, and the estimates lean on it. The data may "
+        "not support this family (`indicial diagnose` decides), or hold the constant at a physical value "
+        "(`model.stall_known`)",
+        e.path, c.name, c.semichords, cycle, kPeriodicStallWarmupCycles, left));
+  }
+  return out;
+}
+
+namespace {
 
 // The fit error against the noise: replicates' spread when the data have replication,
 // otherwise the residual's short-lag level (worded as such: not a measurement of the noise).
@@ -101,6 +162,8 @@ void warn_feasibility_boundary(const FitResult& r, const Experiment& e, std::vec
 std::vector<std::string> fit_warnings(const FitResult& r, const Experiment& e) {
   std::vector<std::string> w;
   warn_undamped_lags(r, e, &w);
+  const std::vector<std::string> slow = slow_stall_state_warnings(r, e);
+  w.insert(w.end(), slow.begin(), slow.end());
   warn_fit_error_against_noise(r, e, &w);
   warn_feasibility_boundary(r, e, &w);
   // Every fit, replicated or not (issue 21 item 8: an estimate whose bound exceeds its value was

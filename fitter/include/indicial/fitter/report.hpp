@@ -132,6 +132,8 @@ nlohmann::json with_provenance_and_warnings(nlohmann::json j, const ReportOption
 //    means a missing effect or wrong input (units, columns), not noise.
 //  * a lag that does not decay over the runs (b_j(x) times the longest run under 0.05
 //    everywhere in the envelope): it only integrates a(x) x', a static correction, not a lag;
+//  * a dynamic-stall time constant long against the shortest periodic run's cycle
+//    (slow_stall_state_warnings);
 //  * an output-error estimate on the feasible set's boundary (OutputErrorSummary::boundary
 //    active: the steps tried from it went to inadmissible models; the solver may still report
 //    "converged", stopped by a step it could not take);
@@ -140,6 +142,14 @@ nlohmann::json with_provenance_and_warnings(nlohmann::json j, const ReportOption
 //    replicated or not.
 inline constexpr double kFitErrorNoiseRatio = 3.0;
 std::vector<std::string> fit_warnings(const FitResult& r, const Experiment& e);
+
+// One line per dynamic-stall time constant (T1, T1r, a first-order T2, T_v) of r's model that
+// leaves more than 1e-3 of the start in its state after the kPeriodicStallWarmupCycles
+// (experiment.hpp) of the shortest periodic run of e: exp(-cycles x cycle / T) > 1e-3, cycle in
+// l / V units at the run's airspeed (1 / frequency_hz when given). The fitted and predicted
+// periodic cycles are then a transient of the warm-up. In fit_warnings and in diagnose's
+// warnings about its final model.
+std::vector<std::string> slow_stall_state_warnings(const FitResult& r, const Experiment& e);
 
 // What one gnuplot run made.
 struct PlotSet {
