@@ -159,9 +159,9 @@ Prediction predict_periodic(const ModelSet<double, FitCapacity>& model, const st
   auto ignore = [](std::size_t, const PeriodicPredictor::Outputs&) {};
   predictor->reset(motion_angle_rad[0], airspeed_mps);
   // Warm-up cycle: fills a delayed coefficient's history with the cycle's own angles. With
-  // dynamic-stall families, kPeriodicStallWarmupCycles (experiment.hpp): their states are nonlinear in
-  // the motion (no affine closure as for the lags), and the fitter takes a periodic run's stall
-  // state after as many cycles from the steady state at the first sample;
+  // dynamic-stall families, kPeriodicStallWarmupCycles (experiment.hpp): their states are
+  // nonlinear in the motion (no affine closure as for the lags), and the fitter takes a periodic
+  // run's stall state after as many cycles from the steady state at the first sample;
   // the lag fixed point below does not depend on how many cycles came before.
   bool families = false;
   for (int c = 0; c < model.n_coefficients; ++c)

@@ -78,7 +78,8 @@ std::vector<std::string> slow_stall_state_warnings(const FitResult& r, const Exp
     // that does not repeat its first sample; one that does is a step shorter: the warning errs
     // toward saying so).
     const double span_s = run.time_s.back() - run.time_s.front();
-    const double period_s = run.frequency_hz > 0.0 ? 1.0 / run.frequency_hz : span_s * static_cast<double>(n) / static_cast<double>(n - 1);
+    const double period_s =
+        run.frequency_hz > 0.0 ? 1.0 / run.frequency_hz : span_s * static_cast<double>(n) / static_cast<double>(n - 1);
     if (period_s > 0.0 && l_over_v_s > 0.0) cycle = std::min(cycle, period_s / l_over_v_s);
   }
   if (!std::isfinite(cycle)) return out;
