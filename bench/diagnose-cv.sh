@@ -63,6 +63,11 @@ median() { sort -g | awk '{a[NR]=$1} END{print a[int((NR+1)/2)]}'; }
 # the benchmarks are built (tools/install-deps.sh bench). Why: this VM's speed has varied
 # threefold between days at the same code (bench/diagnose-cv.md); a row is comparable with
 # another run's only beside this figure.
+# Built here like the CLI, so that the reference is this commit's step (no target when the
+# benchmarks are not configured: then "not measured").
+if cmake --build "$build" --target help 2>/dev/null | grep -q '^bench_step\b'; then
+  cmake --build "$build" --target bench_step >/dev/null
+fi
 reference() {
   local b="$build/bench/bench_step"
   [ -x "$b" ] || { echo "not measured (bench_step not built)"; return; }
