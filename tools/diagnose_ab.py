@@ -49,6 +49,34 @@ def summarize(lines, limit_s=10.0):
     r = [float(c[5]) / float(c[2]) for c in cases]
     q1, q2, q3 = quartiles(r)
     out.append(f'new / old per case: median {q2:.2f} (quartiles {q1:.2f}-{q3:.2f}, range {min(r):.2f}-{max(r):.2f})')
+    return out + heldout_summary(lines)
+
+
+HELD = re.compile(r"^\S+ \(.*?\)\s+(\S+) (\S+)\s+old .* \|\| held-out median/QS old ([0-9.]+) \((\d+)\) "
+                  r"new ([0-9.]+) \((\d+)\)")
+
+
+def heldout_summary(lines, tie=0.005):
+    """Over the cases whose final models differ (the lines with held-out predictions): per
+    group (all, each coefficient, each starting model) how many predict their held-out cycles
+    better / worse by the median ratio to quasi-steady (a change above `tie`), the held-out
+    cycles at <= 0.5x quasi-steady summed over those cases, and the median of the per-case
+    medians."""
+    rows = [m.groups() for m in map(HELD.search, lines) if m]
+    if not rows:
+        return []
+    out = []
+    for group in ('all', 'CL', 'Cm', 'report', 'bl'):
+        sel = [r for r in rows if group in ('all', r[0], r[1])]
+        if not sel:
+            continue
+        old = [float(r[2]) for r in sel]
+        new = [float(r[4]) for r in sel]
+        better = sum(b < a - tie for a, b in zip(old, new))
+        worse = sum(b > a + tie for a, b in zip(old, new))
+        out.append(f'held-out, {group}: {len(sel)} changed models, {better} better, {worse} worse (median ratio); '
+                   f'cycles at <= 0.5x {sum(int(r[3]) for r in sel)} -> {sum(int(r[5]) for r in sel)}; '
+                   f'median of the medians {statistics.median(old):.3f} -> {statistics.median(new):.3f}')
     return out
 
 

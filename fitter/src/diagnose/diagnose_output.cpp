@@ -514,7 +514,7 @@ std::vector<std::string> diagnose_warnings(const DiagnoseResult& d) {
     for (const auto& n : d.ill_conditioned) l += (l.empty() ? "" : ", ") + n;
     w.push_back(at + "ill-conditioned final estimates (Cramer-Rao bound larger than the value): " + l);
   }
-  // The final model's stall states against the periodic runs' warm-up (report.hpp).
+  // The final model's stall states against the periodic runs' cycle (report.hpp).
   if (!d.fits.empty()) {
     const std::vector<std::string> slow = slow_stall_state_warnings(d.fits.back(), d.experiment);
     w.insert(w.end(), slow.begin(), slow.end());

@@ -29,6 +29,7 @@
 #include "numerics/levenberg_marquardt.hpp"
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/runtime_limits.hpp"
+#include "indicial/periodic_stall.hpp"
 
 namespace indicial::fit_detail {
 
@@ -154,34 +155,38 @@ void propagate(const CoefficientModel<S, Cap>& m, const PreparedRun& r, DelayTer
 }
 
 // The dynamic-stall states of run r (model.hpp "Dynamic stall"), sample by sample: emit(i, s)
-// with the state at sample i. They start at stall_steady_state of the first sample. A periodic
-// run first goes through kPeriodicStallWarmupCycles cycles (experiment.hpp) from there, so its
-// sample-0 state is the periodic state to the warm-up's accuracy (the stall states are
-// nonlinear in the motion, so the lags' affine closure does not apply; each cycle shrinks the
-// start's trace by exp(-cycle / T) with cycle >= 37 semichord times at k <= 0.17: three cycles
-// leave < 1e-6 of it for T <= 6, the Beddoes-Leishman constants; a fit with T_v of 1e4-1e6
-// keeps nearly all of it, and fit_warnings says so). The stall states do not depend on the lags
-// (both are driven by the angle only), so they are propagated apart and their output added:
-// C = coefficient_output(lags) + stall_output, the runtime's sum (runtime.hpp), bit for bit.
+// with the state at sample i. A run starts at stall_steady_state of its first sample; a
+// periodic run at its periodic state instead (periodic_stall.hpp: exact for any time constant,
+// with derivatives for an autodiff S; predict --periodic takes the same). The stall states do
+// not depend on the lags (both are driven by the angle only), so they are propagated apart and
+// their output added: C = coefficient_output(lags) + stall_output, the runtime's sum
+// (runtime.hpp), bit for bit.
+
+template <class S>
+void advance_stall_cycle(const StallModel<S, Cap>& m, const PreparedRun& r, StallState<S>* s) {
+  const std::size_t n = r.x.size();
+  auto step = [&](std::size_t k0, std::size_t k1, double dt_s) {
+    advance_stall(m, StallStep<S>{S(r.x[k0]), S(r.x[k1]), S(dt_s), S(r.l_over_v_s)}, s);
+  };
+  for (std::size_t k = 0; k + 1 < n; ++k) step(k, k + 1, r.step_s(k));
+  if (!closes_on_last_sample(r)) step(n - 1, 0, r.wrap_step_s());
+}
 
 template <class S, class Emit>
 void propagate_stall(const StallModel<S, Cap>& m, const PreparedRun& r, Emit&& emit) {
   StallState<S> s;
   stall_steady_state(m, S(r.x[0]), &s);
-  const std::size_t n = r.x.size();
-  auto step = [&](std::size_t k0, std::size_t k1, double dt_s) {
-    advance_stall(m, StallStep<S>{S(r.x[k0]), S(r.x[k1]), S(dt_s), S(r.l_over_v_s)}, &s);
-  };
   if (r.periodic) {
-    const bool closed = closes_on_last_sample(r);
-    for (int c = 0; c < kPeriodicStallWarmupCycles; ++c) {
-      for (std::size_t k = 0; k + 1 < n; ++k) step(k, k + 1, r.step_s(k));
-      if (!closed) step(n - 1, 0, r.wrap_step_s());
-    }
+    const StallPeriodicStates live = stall_periodic_states(m);
+    periodic_stall_state<1>(&live, 1, &s, [&](const StallState<S>* start, StallState<S>* end) {
+      *end = *start;
+      advance_stall_cycle(m, r, end);
+    });
   }
+  const std::size_t n = r.x.size();
   emit(std::size_t{0}, static_cast<const StallState<S>&>(s));
   for (std::size_t k = 0; k + 1 < n; ++k) {
-    step(k, k + 1, r.step_s(k));
+    advance_stall(m, StallStep<S>{S(r.x[k]), S(r.x[k + 1]), S(r.step_s(k)), S(r.l_over_v_s)}, &s);
     emit(k + 1, static_cast<const StallState<S>&>(s));
   }
 }
@@ -199,14 +204,49 @@ std::vector<double> stall_output_series(const CoefficientModel<double, Cap>& m, 
   return out;
 }
 
+// The longest dynamic-stall time constant a fit of periodic runs may reach (l / V units):
+// the shortest periodic cycle / ln 10, where a state keeps 0.1 of its value over that cycle
+// (fit_warnings' slow-state floor). +inf without periodic runs.
+double stall_time_constant_limit(const std::vector<PreparedRun>& runs) {
+  double cycle = std::numeric_limits<double>::infinity();
+  for (const PreparedRun& r : runs) {
+    if (!r.periodic || r.t.size() < 2 || !(r.l_over_v_s > 0.0)) continue;
+    const double period_s = r.t.back() - r.t.front() + (closes_on_last_sample(r) ? 0.0 : r.wrap_step_s());
+    cycle = std::min(cycle, period_s / r.l_over_v_s);
+  }
+  return cycle / std::log(10.0);
+}
+
+// Whether parameter kind k of layout L is a decay time constant the limit applies to (T2 only
+// as a first-order lag's; a delay T2 is not a decay).
+bool is_limited_time_constant(const ParameterLayout& L, ParamKind k) {
+  return k == ParamKind::stall_tau1 || k == ParamKind::stall_tau1_reattach || k == ParamKind::vortex_decay ||
+         (k == ParamKind::stall_tau2 && L.structure().stall.forcing_lag == ForcingLag::first_order);
+}
+
+// The estimated time constants of theta within the limit (held ones are the user's).
+bool stall_time_constants_within(const ParameterLayout& L, double limit, const Eigen::VectorXd& theta) {
+  for (int i = 0; i < L.size(); ++i)
+    if (is_limited_time_constant(L, L.ids()[static_cast<std::size_t>(i)].kind) && theta(i) > limit) return false;
+  return true;
+}
+
+// A start beyond the limit at 0.9 of it (what the solver's feasible set refuses).
+void project_stall_time_constants(const ParameterLayout& L, double limit, Eigen::VectorXd& theta) {
+  for (int i = 0; i < L.size(); ++i)
+    if (is_limited_time_constant(L, L.ids()[static_cast<std::size_t>(i)].kind) && theta(i) > limit)
+      theta(i) = 0.9 * limit;
+}
+
 // The output-error problem for the Levenberg-Marquardt solver: theta in ParameterLayout order,
 // residual v = C - C_model with C_model from model.hpp's coefficient_output of the model at
 // theta (model_at), the lag states propagated by the runtime's update.
 class OutputErrorProblem final : public numerics::LeastSquaresProblem {
  public:
-  OutputErrorProblem(const ParameterLayout& L, const OutputErrorData& d,
-                     const FeasibilityPredicate& feasible)
-      : L_(L), d_(d), feasible_(feasible) {
+  // stall_limit: the longest estimated stall time constant (stall_time_constant_limit).
+  OutputErrorProblem(const ParameterLayout& L, const OutputErrorData& d, const FeasibilityPredicate& feasible,
+                     double stall_limit = std::numeric_limits<double>::infinity())
+      : L_(L), d_(d), feasible_(feasible), stall_limit_(stall_limit) {
     starts_.push_back(0);
     for (const PreparedRun& r : d.runs) starts_.push_back(starts_.back() + r.x.size());
     // The output terms' regressors come from coefficient_output itself: the output is linear
@@ -234,6 +274,7 @@ class OutputErrorProblem final : public numerics::LeastSquaresProblem {
     return evaluate(theta, v, nullptr);
   }
   bool feasible(const Eigen::VectorXd& theta) const override {
+    if (!stall_time_constants_within(L_, stall_limit_, theta)) return false;
     return !feasible_ || feasible_(model_at(L_, theta, d_.known));
   }
   // The lag chain's derivative size: the smallest of 8, 16, 32 or 64 that holds its structural
@@ -272,6 +313,7 @@ class OutputErrorProblem final : public numerics::LeastSquaresProblem {
   const ParameterLayout& L_;
   const OutputErrorData& d_;
   const FeasibilityPredicate& feasible_;
+  double stall_limit_;
   std::vector<std::size_t> starts_;  // first sample of each run, then the total
   std::vector<CoefficientModel<double, Cap>> unit_models_;
   std::vector<int> lag_slot_;      // per structural parameter: its lag-chain slot, or -1 (stall)
@@ -345,8 +387,9 @@ AutoDiffN<N> seeded(double value, int index) {
 
 // The stall chain's derivative sizes: the states' (T1, T2, T1r, the f0 correction, C_N1, T_v,
 // T_vl: 5-8 in the usual models) and the output's (those and k0..k2, c_v, x_v: 10-13), each
-// the smallest of 8, 12, 16 or 64 that holds them. The states are propagated over the
-// warm-up cycles and the run; the output only at the samples.
+// the smallest of 8, 12, 16 or 64 that holds them. The states are propagated through a
+// periodic run's periodic state (its secant cycles, periodic_stall.hpp) and the run; the
+// output only at the samples.
 void OutputErrorProblem::stall_sensitivities(const Eigen::VectorXd& theta, const PreparedRun& r,
                                              Eigen::MatrixXd& D) const {
   Eigen::MatrixXd S;
@@ -756,6 +799,7 @@ MLResult fit_output_error(const UnsteadyStructure& s, const OutputErrorData& d,
   // anywhere on the envelope (the runtime's own validation grid: runtime_limits.hpp
   // min_lag_decay) is rejected like a cost increase; an infeasible start is projected first.
   const double lo = d.envelope.min_rad, hi = d.envelope.max_rad;
+  const double stall_limit = stall_time_constant_limit(d.runs);
   const FeasibilityPredicate decaying = [&](const CoefficientModel<double, Cap>& m) {
     // The runtime's feasible set of the stall families (positive time constants, f0 in [0, 1])
     // and of the delay (model_check.hpp: a delay >= 0, not a prediction; a negative one would
@@ -763,13 +807,14 @@ MLResult fit_output_error(const UnsteadyStructure& s, const OutputErrorData& d,
     return lag_decay_positive(m, lo, hi) && check_stall_parameters(m.stall) == StallCheck::valid &&
            m.delay_s >= 0.0 && (!feasible || feasible(m));
   };
-  OutputErrorProblem problem(L, d, decaying);
+  OutputErrorProblem problem(L, d, decaying, stall_limit);
   check_sizes(L, theta0, static_cast<std::size_t>(problem.num_residuals()), d.context_file);
   MLResult res;
   res.structure = s;
   res.ids = L.ids();
   res.names = L.names();
   res.theta = theta0;
+  project_stall_time_constants(L, stall_limit, res.theta);
   std::string projected = project_start(L, d, lo, hi, DecayFloor::relative, res.theta);
   const Eigen::VectorXd first_start = res.theta;  // (Solve moves res.theta to the estimate)
   const numerics::LevenbergMarquardt::Options lm_options = solver_options(o);
@@ -779,6 +824,7 @@ MLResult fit_output_error(const UnsteadyStructure& s, const OutputErrorData& d,
   Eigen::VectorXd other = theta0;
   const std::string other_projected = projected.empty() ? std::string()
                                                         : project_start(L, d, lo, hi, DecayFloor::ten_run_decays, other);
+  project_stall_time_constants(L, stall_limit, other);
   if (!other_projected.empty() && other != first_start) {
     numerics::LevenbergMarquardt other_solver(problem);
     const numerics::LevenbergMarquardt::Summary other_lm = other_solver.Solve(lm_options, other);

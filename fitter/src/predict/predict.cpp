@@ -11,9 +11,9 @@
 
 #include "indicial/coef_file.hpp"
 #include "indicial/fitter/error.hpp"
-#include "indicial/fitter/experiment.hpp"
 #include "indicial/fitter/io.hpp"
 #include "indicial/fitter/output.hpp"
+#include "indicial/periodic_stall.hpp"
 #include "indicial/runtime.hpp"
 
 namespace indicial {
@@ -158,17 +158,29 @@ Prediction predict_periodic(const ModelSet<double, FitCapacity>& model, const st
   const double wrap_dt_s = (time_s.back() - time_s.front()) / static_cast<double>(n - 1);
   auto ignore = [](std::size_t, const PeriodicPredictor::Outputs&) {};
   predictor->reset(motion_angle_rad[0], airspeed_mps);
-  // Warm-up cycle: fills a delayed coefficient's history with the cycle's own angles. With
-  // dynamic-stall families, kPeriodicStallWarmupCycles (experiment.hpp): their states are
-  // nonlinear in the motion (no affine closure as for the lags), and the fitter takes a periodic
-  // run's stall state after as many cycles from the steady state at the first sample;
-  // the lag fixed point below does not depend on how many cycles came before.
+  // Warm-up cycle: fills a delayed coefficient's history with the cycle's own angles.
+  step_cycle(*predictor, time_s, motion_angle_rad, rate_radps, airspeed_mps, closed, wrap_dt_s, model_label, ignore);
+  PeriodicPredictor::Snapshot start = predictor->snapshot();
+  // The dynamic-stall states at their periodic state (periodic_stall.hpp, as the fitter takes
+  // a periodic run's), from the runtime's own cycle; the lags' fixed point below does not
+  // depend on them (both are driven by the angle only).
+  StallPeriodicStates live[FitCapacity::max_coefficients];
   bool families = false;
-  for (int c = 0; c < model.n_coefficients; ++c)
-    families = families || model.coefficients[c].stall.families != StallFamilies::none;
-  for (int w = 0; w < (families ? kPeriodicStallWarmupCycles : 1); ++w)
-    step_cycle(*predictor, time_s, motion_angle_rad, rate_radps, airspeed_mps, closed, wrap_dt_s, model_label, ignore);
-  const PeriodicPredictor::Snapshot start = predictor->snapshot();
+  for (int c = 0; c < m.n_coefficients; ++c) {
+    live[c] = stall_periodic_states(m.coefficients[c].stall);
+    families = families || live[c].separation;
+  }
+  if (families)
+    periodic_stall_state<FitCapacity::max_coefficients>(
+        live, m.n_coefficients, start.stall, [&](const StallState<double>* a, StallState<double>* e) {
+          PeriodicPredictor::Snapshot s = start;
+          for (int c = 0; c < m.n_coefficients; ++c) s.stall[c] = a[c];
+          predictor->restore(s);
+          step_cycle(*predictor, time_s, motion_angle_rad, rate_radps, airspeed_mps, closed, wrap_dt_s, model_label,
+                     ignore);
+          const PeriodicPredictor::Snapshot t = predictor->snapshot();
+          for (int c = 0; c < m.n_coefficients; ++c) e[c] = t.stall[c];
+        });
   auto cycle_end_from = [&](double y_start) {
     PeriodicPredictor::Snapshot s = start;
     for (int c = 0; c < m.n_coefficients; ++c)

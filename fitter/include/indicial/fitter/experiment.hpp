@@ -29,15 +29,6 @@ enum class TimeGrid { uniform, nonuniform };
 // one ensemble-averaged cycle) and the cycle's frequency: t = phase / (2 pi f).
 enum class TimeSource { time_column, phase_column };
 
-// The cycles a periodic run's dynamic-stall states are stepped through from their steady state
-// at the run's first sample before its samples are taken: by the output-error fit
-// (fit_output_error.cpp), by `indicial predict --periodic` (predict.cpp) and hence the runtime
-// replay (which starts from the fit's sample-0 state). Why cycles and not the lags' exact
-// periodic closure: the stall states are nonlinear in the motion. What is left of the start is
-// about exp(-cycles x cycle / T) for a state of time constant T (l / V units); fit_warnings
-// names a state for which that exceeds 1e-3 (then the "periodic" cycles are a transient).
-inline constexpr int kPeriodicStallWarmupCycles = 3;
-
 // One run: the time grid, the motion angle (alpha, phi or psi), its body rate, and the
 // measured coefficient. All angles in rad, rates in rad/s.
 struct Run {

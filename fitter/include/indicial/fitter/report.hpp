@@ -144,11 +144,11 @@ inline constexpr double kFitErrorNoiseRatio = 3.0;
 std::vector<std::string> fit_warnings(const FitResult& r, const Experiment& e);
 
 // One line per dynamic-stall time constant (T1, T1r, a first-order T2, T_v) of r's model that
-// leaves more than 1e-3 of the start in its state after the kPeriodicStallWarmupCycles
-// (experiment.hpp) of the shortest periodic run of e: exp(-cycles x cycle / T) > 1e-3, cycle in
-// l / V units at the run's airspeed (1 / frequency_hz when given). The fitted and predicted
-// periodic cycles are then a transient of the warm-up. In fit_warnings and in diagnose's
-// warnings about its final model.
+// keeps more than 0.1 of its state's value over the shortest periodic run's cycle of e:
+// exp(-cycle / T) > 0.1, cycle in l / V units at the run's airspeed (1 / frequency_hz when
+// given). Such a state hardly moves within a cycle: its periodic value is set by the cycle's
+// average forcing, an offset the output gains scale. In fit_warnings and in diagnose's warnings
+// about its final model.
 std::vector<std::string> slow_stall_state_warnings(const FitResult& r, const Experiment& e);
 
 // What one gnuplot run made.
