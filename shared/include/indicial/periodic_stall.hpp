@@ -11,7 +11,11 @@
 // of 184 diagnosed models kept more than 1e-3 of the start after three cycles, 18 with a vortex
 // decay T_v of 276 to 2.5e6 semichords (docs/diagnose-speed.md's matrix). Their "periodic" runs
 // then carried the slow transient from the steady state, which the output gains could use
-// (|c_v| up to 6e4), and a held-out cycle replayed that transient from its own start.
+// (|c_v| up to 6e4), and a held-out cycle replayed that transient from its own start. The
+// exact periodic state alone does not make such a fit sensible (a state with T >> cycle has a
+// periodic value of about T / cycle times its feed: an offset), so the output-error fit also
+// limits the time constants of periodic runs (fit_output_error.cpp,
+// stall_time_constant_limit; measured in docs/periodic-stall.md).
 //
 // How, exactly and cheaply. Each stall state is AFFINE in its own start value once the states
 // it depends on are given over the cycle (model.hpp's update: x_e1 = e x_e0 + ..., f1 = e f0 +

@@ -112,8 +112,9 @@ Prediction predict_motion(const ModelSet<double, FitCapacity>& model,
 // from y = 0 and from y = 1 (Predictor snapshot/restore; after one warm-up cycle that fills
 // a delay's history), Phi = y_b - y_a, y0 = y_a / (1 - Phi); then it steps the cycle from y0
 // and reports every sample. Dynamic-stall states start at their own periodic state
-// (periodic_stall.hpp, from the runtime's cycle; the fitter's for a periodic run). Throws InputError(model_label, ...) when some lag has no periodic
-// steady state (Phi >= 1) or the runtime refuses the model or a step.
+// (periodic_stall.hpp, from the runtime's cycle; the fitter's for a periodic run). Throws
+// InputError(model_label, ...) when some lag has no periodic steady state (Phi >= 1) or the
+// runtime refuses the model or a step.
 Prediction predict_periodic(const ModelSet<double, FitCapacity>& model,
                             const std::vector<double>& time_s,
                             const std::vector<double>& motion_angle_rad,
