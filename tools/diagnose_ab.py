@@ -4,7 +4,9 @@ pitching-cycle database in the Glasgow layout (tools/cycle_catalog.py).
 
 Usage: python3 tools/diagnose_ab.py DIR OLD_INDICIAL NEW_INDICIAL SCRATCH
 (DIR: a database in the Glasgow layout, as tools/validate-real.sh takes it; nothing of it is
-in this repository. AB_N in the environment: about how many training triples, default 12)
+in this repository. AB_N in the environment: about how many training triples, default 12;
+AB_ONLY: a regular expression, the triples whose name matches it instead, e.g.
+AB_ONLY="sweep \\('5', 15.0")
 
 Training triples: every (campaign, mean, amplitude) frequency sweep with three or more reduced
 frequencies (cycle_catalog.spread_pick) and every (campaign, amplitude, k) set of three or more
@@ -106,8 +108,11 @@ def main():
     for g, ms in sorted(means.items()):
         if len(ms) >= 3:
             triples.append((f"means {g}", [ms[m] for m in cycle_catalog.ends_and_middle(list(ms))]))
-    step = max(1, len(triples) // int(os.environ.get('AB_N', '12')))
-    triples = triples[::step]
+    if os.environ.get('AB_ONLY'):  # the triples whose name matches, unthinned
+        triples = [t for t in triples if re.search(os.environ['AB_ONLY'], t[0])]
+    else:
+        step = max(1, len(triples) // int(os.environ.get('AB_N', '12')))
+        triples = triples[::step]
     print(len(triples), 'training triples', flush=True)
     printed = []
     for name, train in triples:

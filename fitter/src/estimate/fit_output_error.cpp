@@ -217,6 +217,36 @@ double stall_time_constant_limit(const std::vector<PreparedRun>& runs) {
   return cycle / std::log(10.0);
 }
 
+// The slowest decay a lag of a fit of periodic runs may have anywhere on the envelope (1/s at
+// V_ref): one e-fold over the longest periodic cycle (b acts at V / V_ref on a run at V; the
+// cycle counts its closing step). 0 without periodic runs (the runtime's b_j(x) > 0 alone).
+// Why: a lag that hardly decays over any cycle of the data is an integrator there; its periodic
+// state is about (its forcing's cycle mean) / b, an offset of a size the data cannot tell from
+// b, which a cycle that stays where b is small predicts with no bound. Measured on the
+// development set's three-cycle diagnoses (docs/periodic-stall.md, "lag floor"): report-start
+// fits with b1(x) = 1.6e-5 1/s below a knot at 21 deg and con = 0.0096 1/s predicted held-out
+// cycles below the knot at 4.7e3 and 1.5e4 times the quasi-steady RMS. The floor is loose on
+// purpose: the report's Model II reaches b1 = 1.5 1/s on cycles of 1-4 s (floor 0.25 1/s); a
+// floor of ln 10 per SHORTEST cycle (the stall time constants' limit) refused it.
+double lag_decay_floor(const std::vector<PreparedRun>& runs) {
+  double longest = 0.0;
+  for (const PreparedRun& r : runs) {
+    if (!r.periodic || r.t.size() < 2) continue;
+    const double period_s = r.t.back() - r.t.front() + (closes_on_last_sample(r) ? 0.0 : r.wrap_step_s());
+    longest = std::max(longest, period_s * r.time_scale);
+  }
+  return longest > 0.0 ? 1.0 / longest : 0.0;
+}
+
+// Whether every lag of m decays at least at `floor` everywhere on the envelope [lo, hi]
+// (floor 0: the runtime's b_j(x) > 0).
+bool lag_decay_above(const CoefficientModel<double, Cap>& m, double lo, double hi, double floor) {
+  if (!(floor > 0.0)) return lag_decay_positive(m, lo, hi);
+  for (int j = 0; j < m.n_lags; ++j)
+    if (!(min_lag_decay(m, j, lo, hi) >= floor)) return false;
+  return true;
+}
+
 // Whether parameter kind k of layout L is a decay time constant the limit applies to (T2 only
 // as a first-order lag's; a delay T2 is not a decay).
 bool is_limited_time_constant(const ParameterLayout& L, ParamKind k) {
@@ -707,19 +737,20 @@ double ten_decays_over_longest_run(const OutputErrorData& d) {
 enum class DecayFloor { relative, ten_run_decays };
 
 // Projects an infeasible start onto the feasible set: for every lag whose b_j(x) is not
-// positive everywhere on the envelope, its constant term b_j_0 is raised until the minimum is
-// the floor above. Why the constant term: it moves b_j(x) uniformly, the smallest change that
+// positive everywhere on the envelope, or below decay_floor (lag_decay_floor) somewhere, its
+// constant term b_j_0 is raised until the minimum is the floor above (at least twice
+// decay_floor, inside the feasible set). Why the constant term: it moves b_j(x) uniformly, the smallest change that
 // restores b_j > 0 without reshaping the spline.
 // A negative delay_s (a --start-value) is projected to 0, the runtime's limit.
 // Returns what was done (empty when nothing), or why a lag could not be projected (no
 // constant term in the structure).
 std::string project_start(const ParameterLayout& L, const OutputErrorData& d, double lo, double hi,
-                          DecayFloor choice, Eigen::VectorXd& theta) {
+                          DecayFloor choice, double decay_floor, Eigen::VectorXd& theta) {
   std::string said;
   const CoefficientModel<double, Cap> m = model_at(L, theta, d.known);
   for (int j = 0; j < m.n_lags; ++j) {
     const double lowest = min_lag_decay(m, j, lo, hi);
-    if (lowest > 0.0) continue;
+    if (lowest > 0.0 && lowest >= decay_floor) continue;
     ParamId c0;
     c0.kind = ParamKind::b_power;
     c0.lag = j;
@@ -733,13 +764,16 @@ std::string project_start(const ParameterLayout& L, const OutputErrorData& d, do
     double largest = 0.0;
     for (int i = 0; i <= 64; ++i) largest = std::max(largest, std::fabs(spline_value(m.lags[j].b, lo + (hi - lo) * i / 64.0)));
     const double relative = largest > 0.0 ? 0.1 * largest : 1.0;
-    const double floor =
-        choice == DecayFloor::relative ? relative : std::max(relative, ten_decays_over_longest_run(d));
+    const double floor = std::max(
+        2.0 * decay_floor,
+        choice == DecayFloor::relative ? relative : std::max(relative, ten_decays_over_longest_run(d)));
     const double before = theta(k);
     theta(k) += floor - lowest;
     said += fmt::format("{}start projected: b{}_0 raised from {:.6g} to {:.6g} (the equation-error start had "
-                        "min b{}(x) = {:.6g} <= 0 on the envelope)",
-                        said.empty() ? "" : "; ", j + 1, before, theta(k), j + 1, lowest);
+                        "min b{}(x) = {:.6g} {} on the envelope{})",
+                        said.empty() ? "" : "; ", j + 1, before, theta(k), j + 1, lowest, lowest > 0.0 ? "<" : "<=",
+                        lowest > 0.0 ? fmt::format(" {:.6g} 1/s, one decay over the longest cycle", decay_floor)
+                                     : std::string(" 0"));
   }
   // A negative delay (a --start-value) is not a delay: projected to 0.
   const int kd = L.find(param_id(ParamKind::delay));
@@ -797,14 +831,16 @@ MLResult fit_output_error(const UnsteadyStructure& s, const OutputErrorData& d,
   const ParameterLayout L(s, d.runs);
   // Positive decay rates by construction (issue 12): a trial step to a model with b_j(x) <= 0
   // anywhere on the envelope (the runtime's own validation grid: runtime_limits.hpp
-  // min_lag_decay) is rejected like a cost increase; an infeasible start is projected first.
+  // min_lag_decay), or below lag_decay_floor with periodic runs, is rejected like a cost
+  // increase; an infeasible start is projected first.
   const double lo = d.envelope.min_rad, hi = d.envelope.max_rad;
   const double stall_limit = stall_time_constant_limit(d.runs);
+  const double decay_floor = lag_decay_floor(d.runs);
   const FeasibilityPredicate decaying = [&](const CoefficientModel<double, Cap>& m) {
     // The runtime's feasible set of the stall families (positive time constants, f0 in [0, 1])
     // and of the delay (model_check.hpp: a delay >= 0, not a prediction; a negative one would
     // be estimated and then refused when model.coef is written).
-    return lag_decay_positive(m, lo, hi) && check_stall_parameters(m.stall) == StallCheck::valid &&
+    return lag_decay_above(m, lo, hi, decay_floor) && check_stall_parameters(m.stall) == StallCheck::valid &&
            m.delay_s >= 0.0 && (!feasible || feasible(m));
   };
   OutputErrorProblem problem(L, d, decaying, stall_limit);
@@ -815,7 +851,7 @@ MLResult fit_output_error(const UnsteadyStructure& s, const OutputErrorData& d,
   res.names = L.names();
   res.theta = theta0;
   project_stall_time_constants(L, stall_limit, res.theta);
-  std::string projected = project_start(L, d, lo, hi, DecayFloor::relative, res.theta);
+  std::string projected = project_start(L, d, lo, hi, DecayFloor::relative, decay_floor, res.theta);
   const Eigen::VectorXd first_start = res.theta;  // (Solve moves res.theta to the estimate)
   const numerics::LevenbergMarquardt::Options lm_options = solver_options(o);
   numerics::LevenbergMarquardt solver(problem);
@@ -823,7 +859,7 @@ MLResult fit_output_error(const UnsteadyStructure& s, const OutputErrorData& d,
   // A projected start is a guess: the other projection too, when it differs (DecayFloor).
   Eigen::VectorXd other = theta0;
   const std::string other_projected = projected.empty() ? std::string()
-                                                        : project_start(L, d, lo, hi, DecayFloor::ten_run_decays, other);
+                                                        : project_start(L, d, lo, hi, DecayFloor::ten_run_decays, decay_floor, other);
   project_stall_time_constants(L, stall_limit, other);
   if (!other_projected.empty() && other != first_start) {
     numerics::LevenbergMarquardt other_solver(problem);

@@ -152,8 +152,9 @@ void warn_feasibility_boundary(const FitResult& r, const Experiment& e, std::vec
   if (oe.boundary != FeasibilityBoundary::active) return;
   w->push_back(fmt::format(
       "{}: the output-error estimate sits on the boundary of the admissible models ({} trial steps over the "
-      "solve went to inadmissible ones: a lag with b(x) <= 0 somewhere in the data's angle range, a "
-      "negative delay, or a dynamic-stall time constant <= 0): a constrained optimum, so its Cramer-Rao "
+      "solve went to inadmissible ones: a lag with b(x) <= 0 somewhere in the data's angle range (with periodic "
+      "runs: below one decay per longest cycle), a negative delay, or a dynamic-stall time constant <= 0 (with "
+      "periodic runs: beyond the shortest cycle / ln 10)): a constrained optimum, so its Cramer-Rao "
       "bounds describe an unconstrained minimum it is not. The data may want a term the structure cannot "
       "give (`indicial diagnose`), or another start (`--start-value`)",
       e.path, oe.infeasible_trials));
