@@ -769,11 +769,12 @@ std::string project_start(const ParameterLayout& L, const OutputErrorData& d, do
         choice == DecayFloor::relative ? relative : std::max(relative, ten_decays_over_longest_run(d)));
     const double before = theta(k);
     theta(k) += floor - lowest;
+    const std::string why = lowest > 0.0 ? fmt::format("{:.6g} on the envelope, below {:.6g} 1/s (one decay over "
+                                                       "the longest cycle)", lowest, decay_floor)
+                                         : fmt::format("{:.6g} <= 0 on the envelope", lowest);
     said += fmt::format("{}start projected: b{}_0 raised from {:.6g} to {:.6g} (the equation-error start had "
-                        "min b{}(x) = {:.6g} {} on the envelope{})",
-                        said.empty() ? "" : "; ", j + 1, before, theta(k), j + 1, lowest, lowest > 0.0 ? "<" : "<=",
-                        lowest > 0.0 ? fmt::format(" {:.6g} 1/s, one decay over the longest cycle", decay_floor)
-                                     : std::string(" 0"));
+                        "min b{}(x) = {})",
+                        said.empty() ? "" : "; ", j + 1, before, theta(k), j + 1, why);
   }
   // A negative delay (a --start-value) is not a delay: projected to 0.
   const int kd = L.find(param_id(ParamKind::delay));
