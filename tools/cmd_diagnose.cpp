@@ -3,6 +3,7 @@
 //   indicial diagnose EXPERIMENT.toml --out DIR [--force] [--alpha 0.01] [--max-steps N]
 //                     [--knot-spacing-deg D] [--rule auto|cv|lr] [--cv-min-runs N] [--max-folds K] [--min-gain G]
 //                     [--min-in-sample-gain G] [--threads N] [--stall-start-search configured|grid]
+//                     [--stall-prior beddoes_leishman|none]
 //                     [--no-plots] [--gnuplot EXE] [--quiet]
 //
 // The options' ranges are DiagnoseOptions::IsValid's (docs/diagnose.md, "Options").
@@ -149,6 +150,9 @@ const indicial::tools::RegisterCommand register_diagnose([](CLI::App& app) {
                   "a stall candidate's own start: configured (default: the stall_*_start keys) or grid (as "
                   "indicial fit's default: 18 starts of the time constants, the lowest cost kept; slower)")
       ->transform(indicial::tools::stall_start_search_words());
+  sub->add_option("--stall-prior", opt->diag.fit.stall_prior,
+                  "every fit's a priori stall values: beddoes_leishman (default, docs/formats.md) or none")
+      ->transform(indicial::tools::stall_prior_words());
   sub->add_flag("--no-plots", opt->no_plots, "do not run gnuplot");
   sub->add_flag("--quiet", opt->quiet,
                 "no progress lines or input-reader notes on stderr (warnings and errors are still printed; "

@@ -2,7 +2,8 @@
 // report.md and plots.
 //
 //   indicial fit EXPERIMENT.toml --out DIR [--force] [--f-to-enter F] [--f-to-remove F]
-//                [--max-iterations N] [--stall-start-search grid|configured] [--threads N]
+//                [--max-iterations N] [--stall-start-search grid|configured]
+//                [--stall-prior beddoes_leishman|none] [--threads N]
 //                [--state-derivative smoothed|modulating] [--no-plots] [--quiet]
 //
 // Warnings (input warnings of the experiment, and a fit error far above the data's noise
@@ -337,6 +338,10 @@ const indicial::tools::RegisterCommand register_fit([](CLI::App& app) {
                   "Tv x {1/2,1,2}, T2 x {1/3,1}, the lowest cost kept; fit.json's stall_start_search lists them) "
                   "or configured (the stall_*_start keys only)")
       ->transform(indicial::tools::stall_start_search_words());
+  sub->add_option("--stall-prior", opt->fit.stall_prior,
+                  "with model.stall: beddoes_leishman (default: each stall parameter a priori at its default "
+                  "start, docs/formats.md) or none (maximum likelihood alone)")
+      ->transform(indicial::tools::stall_prior_words());
   sub->add_option("--threads", opt->fit.threads, "fits run in parallel (the stall start grid; default 2)");
   sub->add_option("--state-derivative", opt->state_derivative,
                   "equation error's y_E': smoothed (Savitzky-Golay, default) or modulating (ref. 12)");

@@ -163,4 +163,10 @@ inline CLI::CheckedTransformer stall_start_search_words() {
                                                                          {"configured", StallStartSearch::configured}});
 }
 
+// The words of FitOptions::stall_prior (fit's and diagnose's --stall-prior).
+inline CLI::CheckedTransformer stall_prior_words() {
+  return CLI::CheckedTransformer(
+      std::map<std::string, StallPrior>{{"beddoes_leishman", StallPrior::beddoes_leishman}, {"none", StallPrior::none}});
+}
+
 }  // namespace indicial::tools

@@ -96,6 +96,9 @@ FitOptions parse_fit_options(const py::dict& kw) {
     else if (key == "stall_start_search")
       fo.stall_start_search = pick<StallStartSearch>(key, v.cast<std::string>(),
           {{"grid", StallStartSearch::grid}, {"configured", StallStartSearch::configured}});
+    else if (key == "stall_prior")
+      fo.stall_prior = pick<StallPrior>(key, v.cast<std::string>(),
+          {{"beddoes_leishman", StallPrior::beddoes_leishman}, {"none", StallPrior::none}});
     else if (key == "threads") fo.threads = v.cast<int>();
     else if (key == "start_values")
       for (const auto& sv : v.cast<std::map<std::string, double>>()) fo.start_values.emplace_back(sv.first, sv.second);

@@ -367,12 +367,25 @@ EquationErrorResult run_equation_error(const std::vector<PreparedRun>& runs,
 // static curve, its known correction and the current C_aq: the model y_E was computed with)
 // and the envelope the fitted model is written with (base_model_set's x_min_rad / x_max_rad,
 // the data's model-angle range), on which every b_j(x) must stay positive.
+// A priori value of one parameter (FitOptions::stall_prior): the fit's cost gains
+// 0.5 (s_ref (theta - mean) / sigma)^2, s_ref = stall_prior_scale(runs).
+struct PriorTerm {
+  ParamId id;
+  double mean = 0.0;
+  double sigma = 1.0;
+};
+
 struct OutputErrorData {
   const std::vector<PreparedRun>& runs;
   const CoefficientModel<double, Cap>& known;
   const std::string& context_file;
   AngleRange envelope;
+  const std::vector<PriorTerm>* prior = nullptr;  // none: maximum likelihood alone
 };
+
+// The prior's residual scale: a tenth of the quasi-steady model's RMS error (y_E, eq. 12) over
+// the runs. 0 without samples.
+double stall_prior_scale(const std::vector<PreparedRun>& runs);
 
 // Whether a model is admissible for the output-error fit (e.g. every b_j(x) > 0 on the
 // envelope). A trial step to an inadmissible model is rejected like a cost increase.

@@ -24,6 +24,7 @@
 #include <cmath>
 #include <fmt/format.h>
 #include <limits>
+#include <memory>
 
 #include "estimate/fit_internal.hpp"
 #include "numerics/levenberg_marquardt.hpp"
@@ -552,6 +553,107 @@ bool OutputErrorProblem::jacobian_n(const Eigen::VectorXd& theta, Eigen::VectorX
   return v.allFinite() && J.allFinite();
 }
 
+// The output-error problem with a priori values (FitOptions::stall_prior): the residuals v of
+// `base`, then one row per prior term, w_i (theta_i - mean_i) with w_i = s_ref / sigma_i
+// (OutputErrorData::prior, stall_prior_scale), so that the solver minimises
+// 0.5 |v|^2 + 0.5 sum w_i^2 (theta_i - mean_i)^2: maximum a posteriori for Gaussian noise of
+// the fit's variance s^2 and a prior of spread sigma_i s / s_ref. The feasible set is base's.
+class PriorProblem final : public numerics::LeastSquaresProblem {
+ public:
+  PriorProblem(const OutputErrorProblem& base, std::vector<int> index, std::vector<double> mean,
+               std::vector<double> weight)
+      : base_(base), index_(std::move(index)), mean_(std::move(mean)), weight_(std::move(weight)) {}
+  int num_parameters() const override { return base_.num_parameters(); }
+  int num_residuals() const override { return base_.num_residuals() + static_cast<int>(index_.size()); }
+  bool residuals(const Eigen::VectorXd& theta, Eigen::VectorXd& r) const override {
+    Eigen::VectorXd v;
+    if (!base_.residuals(theta, v)) return false;
+    r.resize(num_residuals());
+    r.head(v.size()) = v;
+    for (std::size_t k = 0; k < index_.size(); ++k)
+      r(v.size() + static_cast<Eigen::Index>(k)) = weight_[k] * (theta(index_[k]) - mean_[k]);
+    return true;
+  }
+  bool jacobian(const Eigen::VectorXd& theta, Eigen::VectorXd& r, Eigen::MatrixXd& J) const override {
+    Eigen::VectorXd v;
+    Eigen::MatrixXd Jv;
+    if (!base_.jacobian(theta, v, Jv)) return false;
+    const Eigen::Index n = v.size();
+    r.resize(num_residuals());
+    J.setZero(num_residuals(), num_parameters());
+    r.head(n) = v;
+    J.topRows(n) = Jv;
+    for (std::size_t k = 0; k < index_.size(); ++k) {
+      const Eigen::Index row = n + static_cast<Eigen::Index>(k);
+      r(row) = weight_[k] * (theta(index_[k]) - mean_[k]);
+      J(row, index_[k]) = weight_[k];
+    }
+    return true;
+  }
+  bool feasible(const Eigen::VectorXd& theta) const override { return base_.feasible(theta); }
+  // The prior's information, diag(w_i^2) in theta's order (added to J'J for the bounds).
+  Eigen::VectorXd information() const {
+    Eigen::VectorXd d = Eigen::VectorXd::Zero(base_.num_parameters());
+    for (std::size_t k = 0; k < index_.size(); ++k) d(index_[k]) = weight_[k] * weight_[k];
+    return d;
+  }
+
+ private:
+  const OutputErrorProblem& base_;
+  std::vector<int> index_;     // the prior terms' indices in theta
+  std::vector<double> mean_;   // their a priori values
+  std::vector<double> weight_;  // s_ref / sigma
+};
+
+// The prior problem of d.prior's terms that L estimates (a held or absent parameter has none),
+// weighted with residual scale `scale`; nullptr when none applies or the scale is not > 0.
+std::unique_ptr<PriorProblem> prior_problem(const OutputErrorProblem& base, const ParameterLayout& L,
+                                            const OutputErrorData& d, double scale) {
+  if (!d.prior || !(scale > 0.0) || !std::isfinite(scale)) return nullptr;
+  std::vector<int> index;
+  std::vector<double> mean, weight;
+  for (const PriorTerm& t : *d.prior) {
+    const int k = L.find(t.id);
+    if (k < 0 || !(t.sigma > 0.0)) continue;
+    index.push_back(k);
+    mean.push_back(t.mean);
+    weight.push_back(scale / t.sigma);
+  }
+  if (index.empty()) return nullptr;
+  return std::make_unique<PriorProblem>(base, std::move(index), std::move(mean), std::move(weight));
+}
+
+// The prior at the fit's own residual level: the first solve weights the prior with a tenth of
+// the quasi-steady RMS error (stall_prior_scale: no fit yet); when the estimate's s(v) differs
+// from it by more than a factor 1.5 the prior is reweighted with s(v) and the fit solved again
+// from the estimate, once, so that the final cost is the posterior's for noise of the fit's
+// own level and the prior's spreads are the stated ones (PriorTerm::sigma). Why once: a bounded
+// cost (one more solve, from a converged point); the second solve's own s(v) is not fed back.
+// On success *prior, *lm and theta are the second solve's (iterations, log and infeasible
+// trials summed over both).
+void rescale_prior(const OutputErrorProblem& problem, const ParameterLayout& L, const OutputErrorData& d,
+                   const numerics::LevenbergMarquardt::Options& options, std::unique_ptr<PriorProblem>& prior,
+                   numerics::LevenbergMarquardt::Summary& lm, Eigen::VectorXd& theta) {
+  Eigen::VectorXd v;
+  if (!std::isfinite(lm.cost) || !problem.evaluate(theta, v, nullptr) || v.size() == 0) return;
+  const double s_fit = std::sqrt(v.squaredNorm() / static_cast<double>(v.size()));
+  const double s0 = stall_prior_scale(d.runs);
+  if (!(s_fit > 0.0) || (s_fit <= 1.5 * s0 && s_fit >= s0 / 1.5)) return;
+  std::unique_ptr<PriorProblem> again = prior_problem(problem, L, d, s_fit);
+  if (!again) return;
+  Eigen::VectorXd t = theta;
+  numerics::LevenbergMarquardt solver(*again);
+  numerics::LevenbergMarquardt::Summary second = solver.Solve(options, t);
+  if (!std::isfinite(second.cost)) return;
+  for (numerics::LevenbergMarquardt::Step& st : second.log) st.iteration += lm.iterations;
+  second.log.insert(second.log.begin(), lm.log.begin(), lm.log.end());
+  second.iterations += lm.iterations;
+  second.infeasible_trials += lm.infeasible_trials;
+  lm = std::move(second);
+  theta = t;
+  prior = std::move(again);
+}
+
 void check_sizes(const ParameterLayout& L, const Eigen::VectorXd& theta0, std::size_t n_samples,
                  const std::string& file) {
   const int nd = L.structural().size() + L.y0_per_run();
@@ -610,7 +712,10 @@ std::string solver_message(const numerics::LevenbergMarquardt::Summary& s,
 
 // Cramer-Rao bounds (white and colored) at the estimate, identifiability and the final
 // message. res.theta is the estimate; cov are NaN where the information is missing.
-void estimate_covariance(const OutputErrorProblem& problem, const FitOptions& o, MLResult& res) {
+// prior_information: diag(w_i^2) of the a priori values (PriorProblem::information), empty
+// without; it is added to J'J (the posterior's information), and sum.cost is the data's part.
+void estimate_covariance(const OutputErrorProblem& problem, const FitOptions& o, MLResult& res,
+                         const Eigen::VectorXd& prior_information = {}) {
   OutputErrorSummary& sum = res.summary;
   Eigen::VectorXd v;
   Eigen::MatrixXd J;
@@ -625,7 +730,12 @@ void estimate_covariance(const OutputErrorProblem& problem, const FitOptions& o,
   const double s2 = v.squaredNorm() / static_cast<double>(v.size());
   sum.fit_error = std::sqrt(s2);
   numerics::Covariance info(static_cast<int>(J.cols()), numerics::Covariance::Options{o.sv_cutoff, 0.01});
-  info.Compute(J.transpose() * J);
+  Eigen::MatrixXd information = J.transpose() * J;
+  if (prior_information.size() == information.rows()) {
+    information.diagonal() += prior_information;
+    sum.cost = 0.5 * v.squaredNorm();
+  }
+  info.Compute(information);
   sum.rank = info.rank();
   // Cramer-Rao: M = J'J / s^2, bounds sqrt(diag(M^-1)).
   Eigen::MatrixXd cw = info.white(s2);
@@ -788,6 +898,17 @@ std::string project_start(const ParameterLayout& L, const OutputErrorData& d, do
 
 }  // namespace
 
+double stall_prior_scale(const std::vector<PreparedRun>& runs) {
+  double sum = 0.0;
+  std::size_t n = 0;
+  for (const PreparedRun& r : runs)
+    for (double y : r.y_e) {
+      sum += y * y;
+      ++n;
+    }
+  return n > 0 ? 0.1 * std::sqrt(sum / static_cast<double>(n)) : 0.0;
+}
+
 CoefficientModel<double, Cap> model_at(const ParameterLayout& L, const Eigen::VectorXd& theta,
                                        const CoefficientModel<double, Cap>& known) {
   CoefficientModel<double, Cap> m = known;
@@ -846,6 +967,9 @@ MLResult fit_output_error(const UnsteadyStructure& s, const OutputErrorData& d,
   };
   OutputErrorProblem problem(L, d, decaying, stall_limit);
   check_sizes(L, theta0, static_cast<std::size_t>(problem.num_residuals()), d.context_file);
+  std::unique_ptr<PriorProblem> with_prior = prior_problem(problem, L, d, stall_prior_scale(d.runs));
+  const numerics::LeastSquaresProblem& solved =
+      with_prior ? static_cast<const numerics::LeastSquaresProblem&>(*with_prior) : problem;
   MLResult res;
   res.structure = s;
   res.ids = L.ids();
@@ -855,7 +979,7 @@ MLResult fit_output_error(const UnsteadyStructure& s, const OutputErrorData& d,
   std::string projected = project_start(L, d, lo, hi, DecayFloor::relative, decay_floor, res.theta);
   const Eigen::VectorXd first_start = res.theta;  // (Solve moves res.theta to the estimate)
   const numerics::LevenbergMarquardt::Options lm_options = solver_options(o);
-  numerics::LevenbergMarquardt solver(problem);
+  numerics::LevenbergMarquardt solver(solved);
   numerics::LevenbergMarquardt::Summary lm = solver.Solve(lm_options, res.theta);
   // A projected start is a guess: the other projection too, when it differs (DecayFloor).
   Eigen::VectorXd other = theta0;
@@ -863,7 +987,7 @@ MLResult fit_output_error(const UnsteadyStructure& s, const OutputErrorData& d,
                                                         : project_start(L, d, lo, hi, DecayFloor::ten_run_decays, decay_floor, other);
   project_stall_time_constants(L, stall_limit, other);
   if (!other_projected.empty() && other != first_start) {
-    numerics::LevenbergMarquardt other_solver(problem);
+    numerics::LevenbergMarquardt other_solver(solved);
     const numerics::LevenbergMarquardt::Summary other_lm = other_solver.Solve(lm_options, other);
     if (std::isfinite(other_lm.cost) && !(lm.cost <= other_lm.cost)) {
       lm = other_lm;
@@ -873,6 +997,7 @@ MLResult fit_output_error(const UnsteadyStructure& s, const OutputErrorData& d,
     projected += " (the other projected start, a tenth of max |b| or ten decays over the longest run, ended "
                  "at a higher cost)";
   }
+  if (with_prior) rescale_prior(problem, L, d, lm_options, with_prior, lm, res.theta);
   if (lm.status == numerics::LevenbergMarquardt::Status::invalid_options)
     throw InputError(d.context_file, 0, "output-error solver options: " + lm.options_error);
   OutputErrorSummary& sum = res.summary;
@@ -900,7 +1025,7 @@ MLResult fit_output_error(const UnsteadyStructure& s, const OutputErrorData& d,
     for (auto& id : res.identifiability) id = Identifiability::not_identifiable;
     return res;
   }
-  estimate_covariance(problem, o, res);
+  estimate_covariance(problem, o, res, with_prior ? with_prior->information() : Eigen::VectorXd());
   // The covariance step words the final message; a projected start must stay in it.
   if (!projected.empty() && res.summary.message.find(projected) == std::string::npos)
     res.summary.message = projected + "; " + res.summary.message;

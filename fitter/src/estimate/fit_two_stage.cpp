@@ -77,6 +77,29 @@ double default_start(const ParamId& id, double b1_0, const std::vector<PreparedR
   }
 }
 
+// The a priori values of the dynamic-stall parameters (FitOptions::stall_prior; docs/formats.md,
+// "A priori values of the dynamic-stall parameters"): each at its default start (above), with
+// the spread sigma: a time constant its own default (at least 1 l/V), C_N1 0.5, the output
+// terms k0, k1, k2, c_v, x_v 1 (coefficient units per unit of the family's state: a lift's
+// k0 ~ 1, a moment's centre-of-pressure terms within a chord). The f0 correction has none.
+// Empty without families or with StallPrior::none.
+std::vector<PriorTerm> stall_prior_terms(const Experiment& e, const FitOptions& o, const UnsteadyStructure& s,
+                                         const std::vector<PreparedRun>& runs) {
+  std::vector<PriorTerm> prior;
+  if (o.stall_prior == StallPrior::none || s.stall.families == StallFamilies::none) return prior;
+  auto add = [&](const ParamId& id, double sigma) { prior.push_back({id, default_start(id, 1.0, runs, e, s.stall), sigma}); };
+  for (ParamKind k : {ParamKind::stall_tau1, ParamKind::stall_tau2, ParamKind::stall_tau1_reattach,
+                      ParamKind::vortex_decay, ParamKind::vortex_travel}) {
+    const ParamId id = param_id(k);
+    add(id, std::max(1.0, default_start(id, 1.0, runs, e, s.stall)));
+  }
+  add(param_id(ParamKind::shedding_threshold), 0.5);
+  for (int k = 0; k < 3; ++k) add(param_id(ParamKind::stall_cp, 0, k), 1.0);
+  add(param_id(ParamKind::vortex_lift), 1.0);
+  add(param_id(ParamKind::vortex_cp), 1.0);
+  return prior;
+}
+
 // Start vector for the ML step: the equation-error estimates by identity, defaults for the
 // rest, then FitOptions::start_values (by name: converted here, once; an unknown name is an
 // InputError).
@@ -233,7 +256,8 @@ struct FitContext {
                const SplineD& rotary, const Eigen::VectorXd& theta0) const {
     CoefficientModel<double, Cap> known = base;
     known.rotary = rotary;
-    return fit_output_error(s, OutputErrorData{runs, known, e.path, envelope}, theta0, o);
+    const std::vector<PriorTerm> prior = stall_prior_terms(e, o, s, runs);
+    return fit_output_error(s, OutputErrorData{runs, known, e.path, envelope, &prior}, theta0, o);
   }
 };
 
@@ -608,7 +632,8 @@ FitResult fit_experiment(const Experiment& e, const FitOptions& o) {
                       (o.stepwise_refinement == StepwiseRefinement::output_error || !res.stepwise_fallback.empty());
   if (refine && !std::isfinite(est.ml.summary.cost)) restart_simply(c, pool, est, res.stepwise_fallback);
   if (refine && std::isfinite(est.ml.summary.cost)) {
-    const OutputErrorData d{est.runs, c.base, e.path, c.envelope};
+    const std::vector<PriorTerm> prior = stall_prior_terms(e, o, pool, est.runs);
+    const OutputErrorData d{est.runs, c.base, e.path, c.envelope, &prior};
     est.ml = refine_structure_output_error(pool, d, std::move(est.ml), o, &res.output_error_stepwise);
     est.s = est.ml.structure;
   }

@@ -229,6 +229,7 @@ nlohmann::json fit_json(const FitResult& r, const Experiment& e, const FitOption
                   {"state_derivative", state_derivative_name(o.state_derivative)},
                   {"max_two_stage_iterations", o.max_two_stage_iterations},
                   {"stall_start_search", o.stall_start_search == StallStartSearch::grid ? "grid" : "configured"},
+                  {"stall_prior", o.stall_prior == StallPrior::none ? "none" : "beddoes_leishman"},
                   {"threads", o.threads}};
   if (runtime != nullptr) {
     j["runtime_check"] = {{"loads_with", runtime_fit_name(runtime->fit)},

@@ -146,6 +146,22 @@ enum class StallStartSearch {
   configured  // the configured starts only (the experiment's stall_*_start keys)
 };
 
+// A priori information on the dynamic-stall parameters in the output-error fit (docs/formats.md,
+// "A priori values of the dynamic-stall parameters"). Why: a family the data do not excite
+// (cycles that never stall, a vortex that never sheds) leaves its parameters undetermined; the
+// fit then moved them anywhere (a vortex output gain c_v = 768 on C_m cycles of -5 to 11 deg)
+// and the model predicted stall cycles elsewhere at 10-70 times the quasi-steady error. With a
+// weak prior such a parameter stays near its Beddoes-Leishman value and its bound says the data
+// did not determine it; a parameter the data determine moves by a small part of its bound.
+enum class StallPrior {
+  beddoes_leishman,  // each estimated stall parameter (not the f0 correction) gets a Gaussian
+                     // prior at its default start (Beddoes-Leishman's NACA 0012 constants, the
+                     // polar's C_N1; the experiment's stall_*_start keys move it) with the
+                     // spreads of docs/formats.md, weighted as if the data's noise were a tenth
+                     // of the quasi-steady model's RMS error (maximum a posteriori)
+  none               // maximum likelihood alone (the fit before 2026-11-30)
+};
+
 // One step of the output-error refinement.
 struct OutputErrorStepwiseStep {
   enum class Action { entered, removed };
@@ -215,6 +231,7 @@ struct FitOptions {
   // (e.g. {"b1_0", 3.0}, {"y0_2", 0.0}); names not in the model are an InputError.
   std::vector<std::pair<std::string, double>> start_values;
   StallStartSearch stall_start_search = StallStartSearch::grid;
+  StallPrior stall_prior = StallPrior::beddoes_leishman;
   // Threads for independent fits inside one fit (the stall start grid); >= 1. (In diagnose
   // DiagnoseOptions::threads replaces it: diagnose.hpp.)
   int threads = 1;
