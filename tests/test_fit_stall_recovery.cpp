@@ -153,19 +153,13 @@ TEST_CASE("fit stall families from the start grid reaches a truth the configured
     m.vortex.decay_semichords = 14.0;
     m.separation.tau1_semichords = 8.0;
   });
-  // The configured start alone by maximum likelihood alone (StallPrior::none): the local
-  // minimum the grid is for. With the a priori values (the default) the same start reaches
-  // s(v) = 1.06 sigma (measured): the prior keeps the vortex out of the flat region it stops
-  // in otherwise.
+  // The configured start alone, by maximum likelihood alone (StallPrior::none; with the default
+  // prior it stops in the same minimum, 9.69 sigma against 9.67, measured): the local minimum
+  // the grid is for.
   FitOptions configured;
   configured.stall_start_search = StallStartSearch::configured;
   configured.stall_prior = StallPrior::none;
   const FitResult one = fit_experiment(te.e, configured);
-  FitOptions configured_prior = configured;
-  configured_prior.stall_prior = StallPrior::beddoes_leishman;
-  const FitResult one_prior = fit_experiment(te.e, configured_prior);
-  MESSAGE("configured start with the prior: s(v) / sigma " << one_prior.fit_error / kNoiseSigma);
-  CHECK(one_prior.fit_error < one.fit_error);
   FitOptions grid;
   grid.threads = 2;
   const FitResult best = fit_experiment(te.e, grid);
