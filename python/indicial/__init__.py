@@ -502,16 +502,19 @@ def _fit_options(**options):
 def fit(experiment: Experiment, *, f_to_enter: float = 4.0, f_to_remove: float = 4.0, max_iterations: int = 50,
         state_derivative: str = "smoothed", stepwise_refinement: str = "none", stepwise_significance: str = "colored",
         stepwise_fallback: str = "automatic", fallback_r_squared: float = 0.9,
-        start_values: Optional[Dict[str, float]] = None, warn: bool = True) -> FitResult:
+        start_values: Optional[Dict[str, float]] = None, stall_start_search: str = "grid",
+        stall_prior: str = "beddoes_leishman", threads: int = 2, warn: bool = True) -> FitResult:
     """Identifies the model of an experiment (``indicial fit``): equation error, stepwise
     regression, ML output error with Cramer-Rao bounds, the two-stage C_aq(x) loop. Options as
-    the command line's (--f-to-enter ...). Raises InputError for bad input or a fitted model
-    the runtime refuses; a diverged or rank-deficient fit is returned, with ``termination``
-    saying so. The GIL is released while fitting."""
+    the command line's (--f-to-enter ...; ``stall_start_search`` "grid" or "configured",
+    ``stall_prior`` "beddoes_leishman" or "none": docs/formats.md). Raises InputError for bad
+    input or a fitted model the runtime refuses; a diverged or rank-deficient fit is returned,
+    with ``termination`` saying so. The GIL is released while fitting."""
     opts = _fit_options(f_to_enter=f_to_enter, f_to_remove=f_to_remove, max_iterations=max_iterations,
                         state_derivative=state_derivative, stepwise_refinement=stepwise_refinement,
                         stepwise_significance=stepwise_significance, stepwise_fallback=stepwise_fallback,
-                        fallback_r_squared=fallback_r_squared, start_values=start_values)
+                        fallback_r_squared=fallback_r_squared, start_values=start_values,
+                        stall_start_search=stall_start_search, stall_prior=stall_prior, threads=threads)
     r = FitResult(_indicial._fit(experiment._e, opts))
     if warn:
         _warn(r.warnings)

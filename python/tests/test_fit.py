@@ -138,6 +138,24 @@ def test_stall_experiment_from_arrays_equals_its_toml(tmp_path, cli, stall_exper
     assert_same_as_cli(r, tmp_path / "out" / "fit.json")
 
 
+def test_stall_prior_keyword_is_the_clis_flag(tmp_path, cli, stall_experiment_kwargs):
+    """stall_prior="none" (maximum likelihood alone) is `indicial fit --stall-prior none`: the
+    same fit, recorded in fit.json's options, and not the default's (the a priori values move
+    the stall estimates); an unknown word is refused with the choices."""
+    e = indicial.Experiment(**stall_experiment_kwargs)
+    default = indicial.fit(e, warn=False)
+    alone = indicial.fit(e, stall_prior="none", warn=False)
+    assert json.loads(default.fit_json())["options"]["stall_prior"] == "beddoes_leishman"
+    assert json.loads(alone.fit_json())["options"]["stall_prior"] == "none"
+    assert any(not close(p.value, q.value) for p, q in zip(default.parameters, alone.parameters))
+    e.write_files(str(tmp_path / "exp"))
+    cli("fit", tmp_path / "exp" / "experiment.toml", "--out", tmp_path / "out", "--no-plots", "--quiet",
+        "--stall-prior", "none")
+    assert_same_as_cli(alone, tmp_path / "out" / "fit.json")
+    with pytest.raises(indicial.InputError, match="stall_prior"):
+        indicial.fit(e, stall_prior="flat")
+
+
 def test_stall_polar_of_its_own_from_arrays_equals_its_toml(tmp_path, stall_experiment_kwargs):
     """A lift polar of its own (written as stall_polar.csv), the f0 correction, the attached
     range and a start value written and read back: the same fit."""
