@@ -633,10 +633,10 @@ std::unique_ptr<PriorProblem> prior_problem(const OutputErrorProblem& base, cons
 // prior at s(v) both ways (every spread exactly as stated) 108 of the development set's
 // three-cycle diagnoses predicted their held-out cycles worse in 33 changed models and better
 // in 23, and took 1.37 times as long (docs/periodic-stall.md, run 5).
-// On success *prior, *lm and theta are the second solve's (iterations, log and infeasible
-// trials summed over both).
+// On success *rescaled is the reweighted problem and *lm and theta are its solve's
+// (iterations, log and infeasible trials summed over both); otherwise *rescaled stays empty.
 void rescale_prior(const OutputErrorProblem& problem, const ParameterLayout& L, const OutputErrorData& d,
-                   const numerics::LevenbergMarquardt::Options& options, std::unique_ptr<PriorProblem>& prior,
+                   const numerics::LevenbergMarquardt::Options& options, std::unique_ptr<PriorProblem>* rescaled,
                    numerics::LevenbergMarquardt::Summary& lm, Eigen::VectorXd& theta) {
   Eigen::VectorXd v;
   if (!std::isfinite(lm.cost) || !problem.evaluate(theta, v, nullptr) || v.size() == 0) return;
@@ -655,7 +655,7 @@ void rescale_prior(const OutputErrorProblem& problem, const ParameterLayout& L, 
   second.infeasible_trials += lm.infeasible_trials;
   lm = std::move(second);
   theta = t;
-  prior = std::move(again);
+  *rescaled = std::move(again);
 }
 
 void check_sizes(const ParameterLayout& L, const Eigen::VectorXd& theta0, std::size_t n_samples,
@@ -971,7 +971,7 @@ MLResult fit_output_error(const UnsteadyStructure& s, const OutputErrorData& d,
   };
   OutputErrorProblem problem(L, d, decaying, stall_limit);
   check_sizes(L, theta0, static_cast<std::size_t>(problem.num_residuals()), d.context_file);
-  std::unique_ptr<PriorProblem> with_prior = prior_problem(problem, L, d, stall_prior_scale(d.runs));
+  const std::unique_ptr<PriorProblem> with_prior = prior_problem(problem, L, d, stall_prior_scale(d.runs));
   const numerics::LeastSquaresProblem& solved =
       with_prior ? static_cast<const numerics::LeastSquaresProblem&>(*with_prior) : problem;
   MLResult res;
@@ -1001,7 +1001,9 @@ MLResult fit_output_error(const UnsteadyStructure& s, const OutputErrorData& d,
     projected += " (the other projected start, a tenth of max |b| or ten decays over the longest run, ended "
                  "at a higher cost)";
   }
-  if (with_prior) rescale_prior(problem, L, d, lm_options, with_prior, lm, res.theta);
+  std::unique_ptr<PriorProblem> rescaled;  // (the first stays alive: the solvers above refer to it)
+  if (with_prior) rescale_prior(problem, L, d, lm_options, &rescaled, lm, res.theta);
+  const PriorProblem* final_prior = rescaled ? rescaled.get() : with_prior.get();
   if (lm.status == numerics::LevenbergMarquardt::Status::invalid_options)
     throw InputError(d.context_file, 0, "output-error solver options: " + lm.options_error);
   OutputErrorSummary& sum = res.summary;
@@ -1029,7 +1031,7 @@ MLResult fit_output_error(const UnsteadyStructure& s, const OutputErrorData& d,
     for (auto& id : res.identifiability) id = Identifiability::not_identifiable;
     return res;
   }
-  estimate_covariance(problem, o, res, with_prior ? with_prior->information() : Eigen::VectorXd());
+  estimate_covariance(problem, o, res, final_prior ? final_prior->information() : Eigen::VectorXd());
   // The covariance step words the final message; a projected start must stay in it.
   if (!projected.empty() && res.summary.message.find(projected) == std::string::npos)
     res.summary.message = projected + "; " + res.summary.message;
