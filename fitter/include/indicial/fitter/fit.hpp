@@ -158,7 +158,9 @@ enum class StallPrior {
                      // prior at its default start (Beddoes-Leishman's NACA 0012 constants, the
                      // polar's C_N1; the experiment's stall_*_start keys move it) with the
                      // spreads of docs/formats.md, weighted as if the data's noise were a tenth
-                     // of the quasi-steady model's RMS error (maximum a posteriori)
+                     // of the quasi-steady model's RMS error, or the fit's own s(v) when it
+                     // ends below that (maximum a posteriori; never stronger than the stated
+                     // spreads at the fit's residual level)
   none               // maximum likelihood alone (the fit before 2026-11-30)
 };
 
