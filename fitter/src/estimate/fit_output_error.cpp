@@ -208,12 +208,16 @@ std::vector<double> stall_output_series(const CoefficientModel<double, Cap>& m, 
 // The longest dynamic-stall time constant a fit of periodic runs may reach (l / V units):
 // the shortest periodic cycle / ln 10, where a state keeps 0.1 of its value over that cycle
 // (fit_warnings' slow-state floor). +inf without periodic runs.
+// A periodic run's cycle in s: its span, plus the wrap step unless the last sample closes it.
+double cycle_s(const PreparedRun& r) {
+  return r.t.back() - r.t.front() + (closes_on_last_sample(r) ? 0.0 : r.wrap_step_s());
+}
+
 double stall_time_constant_limit(const std::vector<PreparedRun>& runs) {
   double cycle = std::numeric_limits<double>::infinity();
   for (const PreparedRun& r : runs) {
     if (!r.periodic || r.t.size() < 2 || !(r.l_over_v_s > 0.0)) continue;
-    const double period_s = r.t.back() - r.t.front() + (closes_on_last_sample(r) ? 0.0 : r.wrap_step_s());
-    cycle = std::min(cycle, period_s / r.l_over_v_s);
+    cycle = std::min(cycle, cycle_s(r) / r.l_over_v_s);
   }
   return cycle / std::log(10.0);
 }
@@ -233,8 +237,7 @@ double lag_decay_floor(const std::vector<PreparedRun>& runs) {
   double longest = 0.0;
   for (const PreparedRun& r : runs) {
     if (!r.periodic || r.t.size() < 2) continue;
-    const double period_s = r.t.back() - r.t.front() + (closes_on_last_sample(r) ? 0.0 : r.wrap_step_s());
-    longest = std::max(longest, period_s * r.time_scale);
+    longest = std::max(longest, cycle_s(r) * r.time_scale);
   }
   return longest > 0.0 ? 1.0 / longest : 0.0;
 }
