@@ -108,6 +108,31 @@ inline TruthModel polynomial_pitch_truth(const PolynomialTruth& s) {
   return t;
 }
 
+// A pitch experiment of coefficient `coefficient` on a tabulated static curve, one row per
+// degree from lo_deg to hi_deg (static_value of the angle in rad), with the report's lag of
+// constant a and b1: the set-up of the tests whose truth is integrated by Boost.Odeint
+// (test_fit_lag_floor.cpp, stall_truth_data.hpp), which add their runs and families to it.
+template <class StaticValue>
+inline Experiment pitch_table_experiment(const std::string& path, const std::string& coefficient,
+                                         double reference_length_m, double airspeed_mps, double lo_deg,
+                                         double hi_deg, StaticValue static_value) {
+  constexpr double deg = 3.14159265358979323846 / 180.0;
+  Experiment e;
+  e.path = path;
+  e.axis = Axis::pitch;
+  e.coefficient = coefficient;
+  e.reference_length_m = reference_length_m;
+  e.airspeed_mps = airspeed_mps;
+  e.static_curve.kind = StaticKind::table;
+  for (double a = lo_deg; a <= hi_deg + 1e-9; a += 1.0) {
+    e.static_curve.table_x_rad.push_back(a * deg);
+    e.static_curve.table_value.push_back(static_value(a * deg));
+  }
+  e.model.a.powers = {0};
+  e.model.b1.powers = {0};
+  return e;
+}
+
 // The estimate named `name` in a fit's parameters, or null.
 inline const ParameterEstimate* find_estimate(const FitResult& r, const std::string& name) {
   for (const auto& p : r.parameters)

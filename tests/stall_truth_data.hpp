@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "estimate/fit_internal.hpp"
+#include "fit_test_data.hpp"
 #include "indicial/fitter/fit.hpp"
 #include "indicial/model.hpp"
 
@@ -99,18 +100,7 @@ inline TruthExperiment truth_experiment(const std::function<void(StallModel<doub
   TruthExperiment te;
   Experiment& e = te.e;
   Truth& t = te.t;
-  e.path = "stall.toml";
-  e.axis = Axis::pitch;
-  e.coefficient = "CL";
-  e.reference_length_m = kLength;
-  e.airspeed_mps = kVref;
-  e.static_curve.kind = StaticKind::table;
-  for (double a = -12.0; a <= 36.0 + 1e-9; a += 1.0) {
-    e.static_curve.table_x_rad.push_back(a * kDeg);
-    e.static_curve.table_value.push_back(polar_lift(a * kDeg));
-  }
-  e.model.a.powers = {0};
-  e.model.b1.powers = {0};
+  e = testing::pitch_table_experiment("stall.toml", "CL", kLength, kVref, -12.0, 36.0, polar_lift);
   StallConfig& sc = e.model.stall;
   sc.families = StallFamilies::separation_and_vortex;
   sc.polar_x_rad = e.static_curve.table_x_rad;

@@ -34,19 +34,7 @@ double static_lift(double x_rad) { return 6.0 * x_rad; }
 // Periodic cycles x = mean - 8 deg cos(omega t) of the truth y' = -b1 y - a0 x' (a lift
 // coefficient C = 6 x + y), one settled cycle each of 128 samples (the wrap step closes it).
 Experiment experiment(double a0, double b1_per_s, const std::vector<double>& frequencies_hz) {
-  Experiment e;
-  e.path = "lag.toml";
-  e.axis = Axis::pitch;
-  e.coefficient = "CL";
-  e.reference_length_m = kLength;
-  e.airspeed_mps = kAirspeed;
-  e.static_curve.kind = StaticKind::table;
-  for (double a = -20.0; a <= 30.0 + 1e-9; a += 1.0) {
-    e.static_curve.table_x_rad.push_back(a * kDeg);
-    e.static_curve.table_value.push_back(static_lift(a * kDeg));
-  }
-  e.model.a.powers = {0};
-  e.model.b1.powers = {0};
+  Experiment e = testing::pitch_table_experiment("lag.toml", "CL", kLength, kAirspeed, -20.0, 30.0, static_lift);
   CoefficientModel<double, FitCapacity> truth;
   truth.n_lags = 1;
   truth.a.n_powers = 1;
