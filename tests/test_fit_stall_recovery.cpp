@@ -245,3 +245,35 @@ TEST_CASE("fit stall families with T1r never ends above the symmetric fit") {
   CHECK(j["stall_start_search"]["trials"].back()["origin"].get<std::string>() == trials.back().origin);
   CHECK(!j["stall_start_search"]["trials"][0].contains("origin"));
 }
+
+// With a(x) (or b1(x)) of several terms the grid has one more start: the constant-coefficient
+// model's best fit (a(x), b1(x) cut to their first term, its own grid) with the cut terms at 0
+// (fit_two_stage.cpp, nested_constant_trial). The model nests that one, so the kept fit cannot
+// end above it; on the Glasgow C_m fit cycles of tools/validate_stall.py the grid alone did
+// (0.0368 against 0.0317). Here a(x) of degree 2 with a knot on the constant-a truth.
+TEST_CASE("fit stall families with a spline a(x) never ends above the constant-coefficient fit") {
+  const TruthExperiment te = truth_experiment();
+  FitOptions grid;
+  grid.threads = 2;
+  const FitResult constant = fit_experiment(te.e, grid);
+  for (const StallStartTrial& t : constant.stall_start_search.trials)  // one term each: no such start
+    CHECK(t.origin.find("constant-coefficient") == std::string::npos);
+  Experiment e = te.e;
+  e.model.a.powers = {0, 1, 2};
+  e.model.a.knots_rad = {14.0 * kDeg};
+  const FitResult nested = fit_experiment(e, grid);
+  const auto& trials = nested.stall_start_search.trials;
+  REQUIRE(trials.size() == constant.stall_start_search.trials.size() + 1);
+  const std::string& origin = trials.back().origin;
+  REQUIRE(origin.find("constant-coefficient model's best fit") != std::string::npos);
+  // The sub-model's s(v), as the origin states it ("s(v) = X)").
+  const std::size_t at = origin.find("s(v) = ");
+  REQUIRE(at != std::string::npos);
+  const double sub = std::stod(origin.substr(at + 7));
+  MESSAGE("s(v): constant-a fit " << constant.fit_error << ", its fit inside the spline's search " << sub
+                                  << ", nested start " << trials.back().fit_error << ", kept " << nested.fit_error
+                                  << " (start " << nested.stall_start_search.chosen << ")");
+  CHECK(sub < 1.5 * kNoiseSigma);  // the sub-model is the truth's structure: it reaches the noise
+  CHECK(trials.back().fit_error <= sub * (1.0 + 1e-6));  // (the origin prints 6 digits)
+  CHECK(nested.fit_error <= sub * (1.0 + 1e-6));
+}

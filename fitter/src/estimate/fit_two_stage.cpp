@@ -416,10 +416,66 @@ StallStartTrial nested_symmetric_trial(const FitContext& c, const Estimate& est,
   return trial;
 }
 
+// The constant-coefficient sub-model of s: a(x) and b1(x) cut to their first term (a0, b1_0
+// as configured); everything else (the stall families, con, the rotary and static corrections,
+// further lags, the delay) as in s. Nested: s with the cut terms at 0 is this model. False when
+// nothing is cut (a and b1 have one term each).
+bool constant_submodel(const UnsteadyStructure& s, UnsteadyStructure* sub) {
+  auto cut = [](const SplineTerms& t) {
+    SplineTerms one{{}, {}, t.knot_power};
+    if (!t.powers.empty()) one.powers.push_back(t.powers.front());
+    else if (!t.knots_rad.empty()) one.knots_rad.push_back(t.knots_rad.front());
+    return one;
+  };
+  const auto terms = [](const SplineTerms& t) { return t.powers.size() + t.knots_rad.size(); };
+  if (terms(s.a) <= 1 && terms(s.b[0]) <= 1) return false;
+  *sub = s;
+  sub->a = cut(s.a);
+  sub->b[0] = cut(s.b[0]);
+  return true;
+}
+
+// With stall families and a(x) or b1(x) of more than one term: the model nests its constant-
+// coefficient sub-model (constant_submodel), yet its fit from the grid can end above that
+// sub-model's. Measured: tools/validate_stall.py's extended C_m model (a(x) of degree 2 with
+// knots at 12 and 16 deg, b1 constant) on its 104 fit cycles ended at s(v) 0.03677 with its lag
+// at the decay floor, where the same model with a constant a(x) reached 0.03172 (held out: 0.95x
+// against 0.75x the Beddoes-Leishman peer's error). So the sub-model is fitted from its own grid
+// and one more start is its best fit with the cut terms at 0: the kept fit can then not end
+// above the sub-model's. Costs one grid of the smaller model. Returns the trial; *fit is its fit.
+StallStartTrial nested_constant_trial(const FitContext& c, const Estimate& est, const ParameterLayout& L,
+                                      const Eigen::VectorXd& theta0, const UnsteadyStructure& sub, MLResult* fit) {
+  const ParameterLayout Ls(sub, est.runs);
+  Eigen::VectorXd theta0_sub(Ls.size());
+  for (int i = 0; i < Ls.size(); ++i) theta0_sub(i) = theta0(L.find(Ls.ids()[static_cast<std::size_t>(i)]));
+  const std::vector<MLResult> sub_fits = fit_stall_grid(c, est, sub, stall_start_grid(Ls, theta0_sub), nullptr);
+  const MLResult& best = sub_fits[lowest_cost(sub_fits)];
+  StallStartTrial trial;
+  if (!std::isfinite(best.summary.cost) || best.theta.size() != Ls.size()) {
+    fit->summary.cost = fit->summary.fit_error = std::numeric_limits<double>::quiet_NaN();
+    trial.fit_error = fit->summary.fit_error;
+    trial.origin = "the constant-coefficient model's fit (a(x), b1(x) cut to their first term) did not propagate "
+                   "from any grid point";
+    return trial;
+  }
+  Eigen::VectorXd start = Eigen::VectorXd::Zero(L.size());
+  for (int i = 0; i < L.size(); ++i) {
+    const int k = Ls.find(L.ids()[static_cast<std::size_t>(i)]);
+    start(i) = k >= 0 ? best.theta(k) : 0.0;  // a cut term: 0, the sub-model
+  }
+  *fit = c.fit(est.s, est.runs, est.rotary, start);
+  trial.fit_error = fit->summary.fit_error;
+  trial.origin = fmt::format("from the constant-coefficient model's best fit (a(x), b1(x) cut to their first term, "
+                             "{} grid starts, s(v) = {:.6g}), the cut terms at 0",
+                             sub_fits.size(), best.summary.fit_error);
+  return trial;
+}
+
 // The stall start grid (FitOptions::stall_start_search): est.ml, the fit from the configured
 // start theta0, is replaced by the lowest-cost fit of the grid's starts (fitted in parallel,
-// c.o.threads) and, with T1r, of the start from the symmetric fit (nested_symmetric_trial);
-// every trial is recorded in `out`.
+// c.o.threads), with T1r of the start from the symmetric fit (nested_symmetric_trial), and with
+// a(x) or b1(x) of several terms of the start from the constant-coefficient fit
+// (nested_constant_trial); every trial is recorded in `out`.
 void search_stall_starts(const FitContext& c, Estimate& est, const Eigen::VectorXd& theta0,
                          StallStartSearchResult& out) {
   const ParameterLayout L(est.s, est.runs);
@@ -430,6 +486,10 @@ void search_stall_starts(const FitContext& c, Estimate& est, const Eigen::Vector
   if (L.find(param_id(ParamKind::stall_tau1_reattach)) >= 0) {
     fits.emplace_back();
     out.trials.push_back(nested_symmetric_trial(c, est, L, theta0, &fits.back()));
+  }
+  if (UnsteadyStructure sub; constant_submodel(est.s, &sub)) {
+    fits.emplace_back();
+    out.trials.push_back(nested_constant_trial(c, est, L, theta0, sub, &fits.back()));
   }
   const std::size_t best = lowest_cost(fits);
   out.chosen = static_cast<int>(best);

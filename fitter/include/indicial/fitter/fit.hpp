@@ -454,8 +454,9 @@ enum class ModelFunction { a, b1, rotary };
 
 // The stall start grid's trials (StallStartSearch::grid): each start's varied values (by
 // parameter name, in l / V) and the fit error it ended at (NaN: it could not be propagated).
-// `origin` is empty for a grid point; with T1r estimated the last trial starts from the
-// symmetric model's best fit (the same grid without T1r) and says so there.
+// `origin` is empty for a grid point; with T1r estimated a trial starts from the symmetric
+// model's best fit (the same grid without T1r), and with a(x) or b1(x) of several terms the last
+// from the constant-coefficient model's best fit (fit_two_stage.cpp), each saying so there.
 struct StallStartTrial {
   std::vector<std::pair<std::string, double>> start;
   double fit_error = 0.0;
