@@ -41,7 +41,9 @@ def fit_model(exe, work, coef, form, runs, vref, knots):
         f.write(text)
     out = os.path.join(work, f'fit-{coef}-{form}')
     t0 = time.time()
-    if not vs.run([exe, 'fit', exp, '--out', out, '--no-plots', '--quiet']):
+    # 200 iterations, as tools/validate_stall.py's fits (the first-order C_m fit stopped at the
+    # default 50 in the run of 2026-11-30, s(v) 0.02996 and still falling).
+    if not vs.run([exe, 'fit', exp, '--out', out, '--no-plots', '--quiet', '--max-iterations', '200']):
         return None, None
     fj = json.load(open(os.path.join(out, 'fit.json')))
     fj['wall_s'] = time.time() - t0
