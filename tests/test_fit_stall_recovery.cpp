@@ -274,6 +274,7 @@ TEST_CASE("fit stall families with a spline a(x) never ends above the constant-c
                                   << ", nested start " << trials.back().fit_error << ", kept " << nested.fit_error
                                   << " (start " << nested.stall_start_search.chosen << ")");
   CHECK(sub < 1.5 * kNoiseSigma);  // the sub-model is the truth's structure: it reaches the noise
-  CHECK(trials.back().fit_error <= sub * (1.0 + 1e-6));  // (the origin prints 6 digits)
-  CHECK(nested.fit_error <= sub * (1.0 + 1e-6));
+  // (The origin prints 6 significant digits: within 5e-6 of the value, relatively.)
+  CHECK(trials.back().fit_error <= sub * (1.0 + 1e-5));
+  CHECK(nested.fit_error <= sub * (1.0 + 1e-5));
 }
