@@ -557,8 +557,8 @@ nlohmann::json diagnosis_json(const DiagnoseResult& d, const Experiment& e, cons
   j["max_steps"] = o.max_steps;
   j["knot_spacing_deg"] = o.knot_spacing_deg;
   j["max_family_terms"] = o.max_family_terms;
-  j["stall_start_search"] = o.fit.stall_start_search == StallStartSearch::grid ? "grid" : "configured";
-  j["stall_prior"] = o.fit.stall_prior == StallPrior::none ? "none" : "beddoes_leishman";
+  j["stall_start_search"] = stall_start_search_name(o.fit.stall_start_search);
+  j["stall_prior"] = stall_prior_name(o.fit.stall_prior);
   j["test"] = d.rule == DecisionRule::leave_one_run_out
                   ? fmt::format("leave-one-run-out: a first or next term enters when mean_r ln(MSE_with / MSE_without) "
                                 "of runs left out of both fits + its standard error < 0, the mean < ln(1 - {}), it "

@@ -205,14 +205,14 @@ std::vector<double> stall_output_series(const CoefficientModel<double, Cap>& m, 
   return out;
 }
 
-// The longest dynamic-stall time constant a fit of periodic runs may reach (l / V units):
-// the shortest periodic cycle / ln 10, where a state keeps 0.1 of its value over that cycle
-// (fit_warnings' slow-state floor). +inf without periodic runs.
 // A periodic run's cycle in s: its span, plus the wrap step unless the last sample closes it.
 double cycle_s(const PreparedRun& r) {
   return r.t.back() - r.t.front() + (closes_on_last_sample(r) ? 0.0 : r.wrap_step_s());
 }
 
+// The longest dynamic-stall time constant a fit of periodic runs may reach (l / V units):
+// the shortest periodic cycle / ln 10, where a state keeps 0.1 of its value over that cycle
+// (fit_warnings' slow-state floor). +inf without periodic runs.
 double stall_time_constant_limit(const std::vector<PreparedRun>& runs) {
   double cycle = std::numeric_limits<double>::infinity();
   for (const PreparedRun& r : runs) {

@@ -87,6 +87,7 @@ std::vector<PriorTerm> stall_prior_terms(const Experiment& e, const FitOptions& 
                                          const std::vector<PreparedRun>& runs) {
   std::vector<PriorTerm> prior;
   if (o.stall_prior == StallPrior::none || s.stall.families == StallFamilies::none) return prior;
+  // (default_start's b1_0 is for the further lags' starts only: any value serves here.)
   auto add = [&](const ParamId& id, double sigma) { prior.push_back({id, default_start(id, 1.0, runs, e, s.stall), sigma}); };
   for (ParamKind k : {ParamKind::stall_tau1, ParamKind::stall_tau2, ParamKind::stall_tau1_reattach,
                       ParamKind::vortex_decay, ParamKind::vortex_travel}) {

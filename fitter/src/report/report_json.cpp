@@ -228,8 +228,8 @@ nlohmann::json fit_json(const FitResult& r, const Experiment& e, const FitOption
                   {"sv_cutoff", o.sv_cutoff},
                   {"state_derivative", state_derivative_name(o.state_derivative)},
                   {"max_two_stage_iterations", o.max_two_stage_iterations},
-                  {"stall_start_search", o.stall_start_search == StallStartSearch::grid ? "grid" : "configured"},
-                  {"stall_prior", o.stall_prior == StallPrior::none ? "none" : "beddoes_leishman"},
+                  {"stall_start_search", stall_start_search_name(o.stall_start_search)},
+                  {"stall_prior", stall_prior_name(o.stall_prior)},
                   {"threads", o.threads}};
   if (runtime != nullptr) {
     j["runtime_check"] = {{"loads_with", runtime_fit_name(runtime->fit)},

@@ -378,6 +378,14 @@ enum class Termination {
   rank_deficient    // the information matrix is singular at the estimate; see unidentifiable
 };
 
+// The words of fit.json's and diagnosis.json's options (the command line's and Python's too).
+inline const char* stall_start_search_name(StallStartSearch s) {
+  return s == StallStartSearch::grid ? "grid" : "configured";
+}
+inline const char* stall_prior_name(StallPrior p) {
+  return p == StallPrior::none ? "none" : "beddoes_leishman";
+}
+
 inline const char* termination_name(Termination t) {
   switch (t) {
     case Termination::converged: return "converged";
