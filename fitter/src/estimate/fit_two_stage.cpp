@@ -383,6 +383,34 @@ std::vector<MLResult> fit_stall_grid(const FitContext& c, const Estimate& est, c
   return fits;
 }
 
+// A start from a nested sub-model (the symmetric one, the constant-coefficient one, below): the
+// sub-model `sub` fitted from its own grid (its start theta0's values by parameter id), and the
+// full model's start from its best fit: the sub-model's estimates by id, every other parameter
+// at `others`' value. False when no grid fit propagated (*start untouched).
+bool nested_start(const FitContext& c, const Estimate& est, const ParameterLayout& L, const Eigen::VectorXd& theta0,
+                  const UnsteadyStructure& sub, const Eigen::VectorXd& others, Eigen::VectorXd* start,
+                  std::string* said) {
+  const ParameterLayout Ls(sub, est.runs);
+  Eigen::VectorXd theta0_sub(Ls.size());
+  for (int i = 0; i < Ls.size(); ++i) theta0_sub(i) = theta0(L.find(Ls.ids()[static_cast<std::size_t>(i)]));
+  const std::vector<MLResult> fits = fit_stall_grid(c, est, sub, stall_start_grid(Ls, theta0_sub), nullptr);
+  const MLResult& best = fits[lowest_cost(fits)];
+  if (!std::isfinite(best.summary.cost) || best.theta.size() != Ls.size()) return false;
+  *start = others;
+  for (int i = 0; i < Ls.size(); ++i) (*start)(L.find(Ls.ids()[static_cast<std::size_t>(i)])) = best.theta(i);
+  *said = fmt::format("{} grid starts, s(v) = {:.6g}", fits.size(), best.summary.fit_error);
+  return true;
+}
+
+// The trial of a nested start that could not be made: *fit's cost NaN, `why` its origin.
+StallStartTrial failed_trial(const char* why, MLResult* fit) {
+  fit->summary.cost = fit->summary.fit_error = std::numeric_limits<double>::quiet_NaN();
+  StallStartTrial trial;
+  trial.fit_error = fit->summary.fit_error;
+  trial.origin = why;
+  return trial;
+}
+
 // With T1r estimated (stall_reattachment = "estimated"): the model nests the symmetric one
 // (T1r = T1 is the same model), yet a fit from the grid alone can end above the symmetric
 // model's (measured: the Glasgow C_m fit cycles of tools/validate_stall.py, 0.0342 against
@@ -393,27 +421,17 @@ StallStartTrial nested_symmetric_trial(const FitContext& c, const Estimate& est,
                                        const Eigen::VectorXd& theta0, MLResult* fit) {
   UnsteadyStructure sym = est.s;
   sym.stall.reattachment = StallReattachment::as_separation;
-  const ParameterLayout Ls(sym, est.runs);
-  Eigen::VectorXd theta0_sym(Ls.size());
-  for (int i = 0; i < Ls.size(); ++i) theta0_sym(i) = theta0(L.find(Ls.ids()[static_cast<std::size_t>(i)]));
-  const std::vector<MLResult> sym_fits = fit_stall_grid(c, est, sym, stall_start_grid(Ls, theta0_sym), nullptr);
-  const MLResult& best = sym_fits[lowest_cost(sym_fits)];
-  const int t1 = Ls.find(param_id(ParamKind::stall_tau1));
-  StallStartTrial trial;
-  if (!std::isfinite(best.summary.cost) || t1 < 0 || best.theta.size() != Ls.size()) {
-    fit->summary.cost = fit->summary.fit_error = std::numeric_limits<double>::quiet_NaN();
-    trial.fit_error = fit->summary.fit_error;
-    trial.origin = "the symmetric model's fit (no T1r) did not propagate from any grid point";
-    return trial;
-  }
-  Eigen::VectorXd start = theta0;
-  for (int i = 0; i < Ls.size(); ++i) start(L.find(Ls.ids()[static_cast<std::size_t>(i)])) = best.theta(i);
-  start(L.find(param_id(ParamKind::stall_tau1_reattach))) = best.theta(t1);
+  Eigen::VectorXd start;
+  std::string said;
+  const int t1 = L.find(param_id(ParamKind::stall_tau1));
+  if (t1 < 0 || !nested_start(c, est, L, theta0, sym, theta0, &start, &said))
+    return failed_trial("the symmetric model's fit (no T1r) did not propagate from any grid point", fit);
+  start(L.find(param_id(ParamKind::stall_tau1_reattach))) = start(t1);
   *fit = c.fit(est.s, est.runs, est.rotary, start);
-  trial.start = {{"T1r", best.theta(t1)}};
+  StallStartTrial trial;
+  trial.start = {{"T1r", start(t1)}};
   trial.fit_error = fit->summary.fit_error;
-  trial.origin = fmt::format("from the symmetric model's best fit (no T1r, {} grid starts, s(v) = {:.6g}), T1r = its T1",
-                             sym_fits.size(), best.summary.fit_error);
+  trial.origin = fmt::format("from the symmetric model's best fit (no T1r, {}), T1r = its T1", said);
   return trial;
 }
 
@@ -441,34 +459,21 @@ bool constant_submodel(const UnsteadyStructure& s, UnsteadyStructure* sub) {
 // sub-model's. Measured: tools/validate_stall.py's extended C_m model (a(x) of degree 2 with
 // knots at 12 and 16 deg, b1 constant) on its 104 fit cycles ended at s(v) 0.03677 with its lag
 // at the decay floor, where the same model with a constant a(x) reached 0.03172 (held out: 0.95x
-// against 0.75x the Beddoes-Leishman peer's error). So the sub-model is fitted from its own grid
-// and one more start is its best fit with the cut terms at 0: the kept fit can then not end
-// above the sub-model's. Costs one grid of the smaller model. Returns the trial; *fit is its fit.
+// against 0.75x the Beddoes-Leishman peer's error). So one more start is the sub-model's best
+// fit (nested_start) with the cut terms at 0: the kept fit can then not end above the
+// sub-model's. Costs one grid of the smaller model. Returns the trial; *fit is its fit.
 StallStartTrial nested_constant_trial(const FitContext& c, const Estimate& est, const ParameterLayout& L,
                                       const Eigen::VectorXd& theta0, const UnsteadyStructure& sub, MLResult* fit) {
-  const ParameterLayout Ls(sub, est.runs);
-  Eigen::VectorXd theta0_sub(Ls.size());
-  for (int i = 0; i < Ls.size(); ++i) theta0_sub(i) = theta0(L.find(Ls.ids()[static_cast<std::size_t>(i)]));
-  const std::vector<MLResult> sub_fits = fit_stall_grid(c, est, sub, stall_start_grid(Ls, theta0_sub), nullptr);
-  const MLResult& best = sub_fits[lowest_cost(sub_fits)];
-  StallStartTrial trial;
-  if (!std::isfinite(best.summary.cost) || best.theta.size() != Ls.size()) {
-    fit->summary.cost = fit->summary.fit_error = std::numeric_limits<double>::quiet_NaN();
-    trial.fit_error = fit->summary.fit_error;
-    trial.origin = "the constant-coefficient model's fit (a(x), b1(x) cut to their first term) did not propagate "
-                   "from any grid point";
-    return trial;
-  }
-  Eigen::VectorXd start = Eigen::VectorXd::Zero(L.size());
-  for (int i = 0; i < L.size(); ++i) {
-    const int k = Ls.find(L.ids()[static_cast<std::size_t>(i)]);
-    start(i) = k >= 0 ? best.theta(k) : 0.0;  // a cut term: 0, the sub-model
-  }
+  Eigen::VectorXd start;
+  std::string said;
+  if (!nested_start(c, est, L, theta0, sub, Eigen::VectorXd::Zero(L.size()), &start, &said))
+    return failed_trial("the constant-coefficient model's fit (a(x), b1(x) cut to their first term) did not "
+                        "propagate from any grid point", fit);
   *fit = c.fit(est.s, est.runs, est.rotary, start);
+  StallStartTrial trial;
   trial.fit_error = fit->summary.fit_error;
   trial.origin = fmt::format("from the constant-coefficient model's best fit (a(x), b1(x) cut to their first term, "
-                             "{} grid starts, s(v) = {:.6g}), the cut terms at 0",
-                             sub_fits.size(), best.summary.fit_error);
+                             "{}), the cut terms at 0", said);
   return trial;
 }
 
