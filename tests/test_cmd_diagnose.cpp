@@ -198,6 +198,12 @@ TEST_CASE("indicial diagnose: the rule's options reach diagnosis.json, a bad one
   CHECK(j["knot_spacing_deg"].get<double>() == 20.0);
   CHECK(j["max_family_terms"] == 1);
   CHECK(j["stall_start_search"] == "grid");
+  // Each round says on what share of each run its held-out errors were taken (runs of one motion
+  // share their angle range: every sample).
+  REQUIRE(!j["rounds"].empty());
+  const auto& shares = j["rounds"][0]["held_out_scored_fraction"];
+  REQUIRE(shares.size() == 3);
+  for (const auto& s : shares) CHECK(s.get<double>() == 1.0);
   CHECK(j["test"].get<std::string>().find("ln(1 - 0.2)") != std::string::npos);
   CHECK(j["verdict"] == "time_delay");
   // report.md says the LR columns did not decide a held-out step (their p-value may exceed its

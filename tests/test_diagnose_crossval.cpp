@@ -126,6 +126,23 @@ TEST_CASE("leave-one-run-out: a knot the other runs do not reach is left out of 
   CHECK(h.folds == 3);
   REQUIRE(h.mse.size() == 3);
   for (double v : h.mse) CHECK(std::isfinite(v));
+  // Where each left-out run is scored: the middle run lies inside the range of the other two
+  // (0-70 deg) and counts every sample; runs 1 and 3 only their samples within the others'
+  // 20-70 and 0-50 deg widened by a tenth of that width (5 deg) at each end: 15-75 and -5..55,
+  // the half of each sine on the far side of its mean (the motion starts from rest: about half).
+  REQUIRE(h.scored_fraction.size() == 3);
+  CHECK(h.scored_fraction[1] == 1.0);
+  for (int r : {0, 2}) {
+    INFO("run " << r + 1);
+    CHECK(h.scored_fraction[static_cast<std::size_t>(r)] > 0.4);
+    CHECK(h.scored_fraction[static_cast<std::size_t>(r)] < 0.6);
+  }
+}
+
+TEST_CASE("leave-one-run-out: a run with too few samples inside the fold's range is scored on all") {
+  CHECK(diagnose_detail::min_scored_samples(128) == 32);
+  CHECK(diagnose_detail::min_scored_samples(20) == 8);
+  CHECK(diagnose_detail::min_scored_samples(4) == 8);  // never met: scored on all 4
 }
 
 TEST_CASE("too few runs: the rule before issue 21, said to be that") {

@@ -720,6 +720,7 @@ DecisionRule round_rule(Diagnoser& dg, const DiagnoseResult& d, DiagnoseRound& r
   if (d.rule != DecisionRule::leave_one_run_out) return d.rule;
   base_ho = dg.held_out(d.experiment, d.configs.back(), d.fits.back());
   for (double v : base_ho.mse) rd.held_out_base_rms.push_back(std::sqrt(v));
+  rd.held_out_scored_fraction = base_ho.scored_fraction;
   if (base_ho.ok) return DecisionRule::leave_one_run_out;
   rd.rule_note = "leave-one-run-out could not score the model of this round (" + base_ho.message +
                  "); the likelihood ratio with the residual's kappa decided";

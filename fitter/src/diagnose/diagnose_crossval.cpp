@@ -25,6 +25,23 @@
 // leak at R times the scan. Written by hand: the folds are fit_experiment calls, the
 // statistic is a mean and a standard deviation.
 //
+// Where a left-out run is scored: on its samples inside the angle range of the runs its fold
+// fitted, widened at each end by a tenth of its width (kScoredMarginFraction); on all of them
+// when fewer than min_scored_samples are inside. Beyond that range the fold's model holds
+// every angle-dependent term (a(x), b(x), C_aq(x), the static correction, the families' f0
+// correction) at the range's edge -- the runtime's envelope clamp -- so there the run measures
+// an extrapolation no such term can help, and with runs at different mean angles it
+// dominated: leaving out the run at the highest mean angle of three predicts its stall from
+// two cycles that never reached it (held-out RMS 0.44-0.64 against 0.03-0.12 for the other
+// two on two of the development set's mean-angle triples), its log ratio is near 0 for every
+// candidate and no effect can win a majority of the runs. Why the margin: the runs of one
+// frequency sweep reach largest angles a degree or two apart, and without it the top of the
+// highest run -- where stall effects act -- was cut: three sweeps' C_L models lost their
+// effects and predicted the other cycles worse (tools/diagnose_ab.py, 2026-11-30,
+// docs/diagnose-scoring.md). The prediction itself runs over the whole run (the states pass
+// through the part outside); only the squared errors outside are left out of its MSE. Runs
+// that share one angle range (a sweep, replicates, the null cases) are scored everywhere.
+//
 // Many runs (a tunnel entry has hundreds): R fits per candidate would cost R times the
 // candidate's fit, so with more runs than max_folds (DiagnoseOptions::cv_max_folds, 10) the
 // runs are dealt into K = max_folds folds, run r into fold r mod K (file order: runs listed by
@@ -96,7 +113,15 @@ std::vector<double> stepped_output(Predictor<double, FitCapacity>& p, const Run&
 // non-periodic run, at a free lag-1 initial state: the output is linear in it (y = y_a + dy0
 // (y_b - y_a)), and dy0 is the least-squares value on the run -- one nuisance number per run,
 // for the model with and without the candidate alike; no model parameter sees the run.
-double prediction_mse(const FitResult& f, const Run& run, double airspeed_mps) {
+// The scored range: the fold's angle range widened by this share of its width at each end.
+constexpr double kScoredMarginFraction = 0.1;
+
+struct RunScore {
+  double mse = std::numeric_limits<double>::quiet_NaN();
+  double scored_fraction = 0.0;
+};
+
+RunScore prediction_mse(const FitResult& f, const Run& run, double airspeed_mps, const AngleRange& fitted) {
   std::vector<double> y;
   if (run.periodic) {
     y = predict_periodic(f.model, run.time_s, run.motion_angle_rad, run.rate_radps, airspeed_mps).coefficients.at(0).predicted;
@@ -116,9 +141,26 @@ double prediction_mse(const FitResult& f, const Run& run, double airspeed_mps) {
     const double dy0 = den > 0.0 ? num / den : 0.0;
     for (std::size_t k = 0; k < y.size(); ++k) y[k] += dy0 * (yb[k] - y[k]);
   }
+  // Scored where the fold's model is not extrapolating (see held_out_errors): the samples whose
+  // model angle is inside the angle range of the runs the fold fitted; all of them when fewer
+  // than min_scored are.
+  const double margin = kScoredMarginFraction * (fitted.max_rad - fitted.min_rad);
+  std::vector<char> inside(y.size());
+  std::size_t n_inside = 0;
+  for (std::size_t k = 0; k < y.size(); ++k) {
+    const double x = model_angle(f.model.axis, f.model.alpha0_rad, run.motion_angle_rad[k]);
+    inside[k] = x >= fitted.min_rad - margin && x <= fitted.max_rad + margin;
+    n_inside += inside[k] ? 1 : 0;
+  }
+  const bool all = n_inside < min_scored_samples(y.size());
   double s = 0.0;
-  for (std::size_t k = 0; k < y.size(); ++k) s += (y[k] - run.coefficient[k]) * (y[k] - run.coefficient[k]);
-  return s / static_cast<double>(y.size());
+  std::size_t n = 0;
+  for (std::size_t k = 0; k < y.size(); ++k) {
+    if (!all && !inside[k]) continue;
+    s += (y[k] - run.coefficient[k]) * (y[k] - run.coefficient[k]);
+    ++n;
+  }
+  return RunScore{s / static_cast<double>(n), static_cast<double>(n) / static_cast<double>(y.size())};
 }
 
 // A knot the fold's runs do not straddle (at or beyond the range of their model angle) has a
@@ -146,6 +188,8 @@ ModelConfig fold_model(const ModelConfig& m, const AngleRange& r) {
 
 }  // namespace
 
+std::size_t min_scored_samples(std::size_t samples) { return std::max<std::size_t>(8, samples / 4); }
+
 bool majority_improved(int improved, int runs) { return 2 * improved > runs; }
 
 HeldOut held_out_errors(const Experiment& w, const ModelConfig& m, const Estimates& start, int threads,
@@ -155,6 +199,7 @@ HeldOut held_out_errors(const Experiment& w, const ModelConfig& m, const Estimat
   h.folds = static_cast<int>(std::min<std::size_t>(n, static_cast<std::size_t>(std::max(1, max_folds))));
   const std::size_t folds = static_cast<std::size_t>(h.folds);
   h.mse.assign(n, std::numeric_limits<double>::quiet_NaN());
+  h.scored_fraction.assign(n, 0.0);
   std::vector<std::string> why(n);
   detail::parallel_for(folds, threads, [&](std::size_t j) {
     Experiment fold = w;
@@ -180,7 +225,9 @@ HeldOut held_out_errors(const Experiment& w, const ModelConfig& m, const Estimat
       }
       for (std::size_t r = j; r < n; r += folds) {
         const Run& run = w.runs[r];
-        h.mse[r] = prediction_mse(f, run, run.airspeed_mps > 0.0 ? run.airspeed_mps : w.airspeed_mps);
+        const RunScore score = prediction_mse(f, run, run.airspeed_mps > 0.0 ? run.airspeed_mps : w.airspeed_mps, range);
+        h.mse[r] = score.mse;
+        h.scored_fraction[r] = score.scored_fraction;
       }
     } catch (const std::exception& err) {
       why[j] = fmt::format("{} left out: {}", left_out, err.what());

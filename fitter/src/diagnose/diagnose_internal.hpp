@@ -139,7 +139,8 @@ int choose_family(const std::vector<FamilyResult>& fr, const DiagnoseOptions& o,
 // fit failed or is rank deficient -- a term the other runs do not determine -- or the runtime
 // refuses it); `message` says which and why.
 struct HeldOut {
-  std::vector<double> mse;  // per run
+  std::vector<double> mse;  // per run, over its scored samples
+  std::vector<double> scored_fraction;  // per run: the share of its samples scored (1: all)
   int folds = 0;            // run r was left out with fold r mod folds (folds == runs or 0: one run each)
   double fit_error = std::numeric_limits<double>::quiet_NaN();  // the model's fit to ALL runs, s(v)
   bool ok = false;
@@ -153,6 +154,10 @@ HeldOut held_out_errors(const Experiment& w, const ModelConfig& m, const Estimat
 // the runs (majority_improved) and the fits to every run differ by ln(MSE ratio) < ln(1 -
 // min_in_sample_gain) (when both fit errors are known).
 bool majority_improved(int improved, int runs);
+// A left-out run is scored on its samples inside the angle range of the runs its fold fitted
+// (widened by a tenth of its width at each end) when at least this many of its `samples` are
+// (a quarter, and 8), on all of them otherwise.
+std::size_t min_scored_samples(std::size_t samples);
 HeldOutTest held_out_test(Effect effect, const std::string& terms, const char* stage, const HeldOut& without,
                           const HeldOut& with, double min_gain, double min_in_sample_gain);
 

@@ -226,11 +226,20 @@ std::string steps_markdown(const DiagnoseResult& d) {
 
 std::string held_out_markdown(const DiagnoseRound& r) {
   if (r.rule != DecisionRule::leave_one_run_out) return "";
-  std::string md = fmt::format(
-      "Held-out tests (leave one run out; the model of this round predicts the runs at RMS {}):\n\n"
-      "| effect | stage | terms | held-out RMS per run without | with | mean ln(MSE with / without) | SE | enters |\n"
-      "|---|---|---|---|---|---|---|---|\n",
-      rms_list(r.held_out_base_rms));
+  std::string md = fmt::format("Held-out tests (leave one run out; the model of this round predicts the runs at RMS {}):\n\n",
+                               rms_list(r.held_out_base_rms));
+  const auto& shares = r.held_out_scored_fraction;
+  if (std::any_of(shares.begin(), shares.end(), [](double f) { return f < 1.0; })) {
+    std::string list;
+    for (double f : shares) list += (list.empty() ? "" : ", ") + fmt::format("{:.0f} %", 100.0 * f);
+    md += fmt::format(
+        "A left-out run is scored on its samples inside the angle range of the runs its fold fitted, widened by a "
+        "tenth of its width at each end (beyond the range every angle-dependent term is held at its edge: an "
+        "extrapolation, not a test of the term): "
+        "{} of each run's samples.\n\n", list);
+  }
+  md += "| effect | stage | terms | held-out RMS per run without | with | mean ln(MSE with / without) | SE | enters |\n"
+        "|---|---|---|---|---|---|---|---|\n";
   for (const HeldOutTest& t : r.held_out)
     md += fmt::format("| `{}` | {} | {} | {} | {} | {} | {} | {} |\n", effect_name(t.effect), t.stage, t.terms,
                       rms_list(t.rms_without), rms_list(t.rms_with), num(t.mean_log_ratio), num(t.standard_error),
@@ -459,6 +468,7 @@ nlohmann::json round_json(const DiagnoseRound& r) {
     for (double v : r.held_out_base_rms) hb.push_back(finite_or_null(v));
     for (const HeldOutTest& t : r.held_out) ht.push_back(held_out_json(t));
     k["held_out_base_rms"] = hb;
+    k["held_out_scored_fraction"] = r.held_out_scored_fraction;
     k["held_out_tests"] = ht;
   }
   nlohmann::json cs = nlohmann::json::array(), fs_ = nlohmann::json::array();
