@@ -139,10 +139,34 @@ TEST_CASE("leave-one-run-out: a knot the other runs do not reach is left out of 
   }
 }
 
-TEST_CASE("leave-one-run-out: a run with too few samples inside the fold's range is scored on all") {
+TEST_CASE("leave-one-run-out: a left-out run is scored inside the fold's range and its margin, or everywhere") {
   CHECK(diagnose_detail::min_scored_samples(128) == 32);
   CHECK(diagnose_detail::min_scored_samples(20) == 8);
   CHECK(diagnose_detail::min_scored_samples(4) == 8);  // never met: scored on all 4
+  // A pitch run over 0..40 deg, one sample per degree (41 samples; at least 10 must be inside).
+  Run run;
+  for (int k = 0; k <= 40; ++k) run.motion_angle_rad.push_back(k * kDeg);
+  const auto count = [](const std::vector<char>& m) { return std::count(m.begin(), m.end(), char(1)); };
+  // The fold fitted 10.5..20.5 deg: scored 9.5..21.5 deg (a tenth of the width, 1 deg, at each
+  // end), the samples at 10..21 deg; without the margin it would be 11..20.
+  AngleRange fitted;
+  fitted.min_rad = 10.5 * kDeg;
+  fitted.max_rad = 20.5 * kDeg;
+  const std::vector<char> m = diagnose_detail::scored_samples(run, Axis::pitch, 0.0, fitted);
+  REQUIRE(m.size() == 41);
+  CHECK(count(m) == 12);
+  CHECK(m[9] == 0);
+  CHECK(m[10] == 1);
+  CHECK(m[21] == 1);
+  CHECK(m[22] == 0);
+  // The fold fitted 30..32 deg: 3 samples inside the widened range, fewer than 10: all scored.
+  fitted.min_rad = 30.0 * kDeg;
+  fitted.max_rad = 32.0 * kDeg;
+  CHECK(count(diagnose_detail::scored_samples(run, Axis::pitch, 0.0, fitted)) == 41);
+  // A range that holds the run: every sample.
+  fitted.min_rad = -1.0 * kDeg;
+  fitted.max_rad = 41.0 * kDeg;
+  CHECK(count(diagnose_detail::scored_samples(run, Axis::pitch, 0.0, fitted)) == 41);
 }
 
 TEST_CASE("too few runs: the rule before issue 21, said to be that") {

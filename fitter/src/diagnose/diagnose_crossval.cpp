@@ -25,22 +25,24 @@
 // leak at R times the scan. Written by hand: the folds are fit_experiment calls, the
 // statistic is a mean and a standard deviation.
 //
-// Where a left-out run is scored: on its samples inside the angle range of the runs its fold
-// fitted, widened at each end by a tenth of its width (kScoredMarginFraction); on all of them
-// when fewer than min_scored_samples are inside. Beyond that range the fold's model holds
-// every angle-dependent term (a(x), b(x), C_aq(x), the static correction, the families' f0
-// correction) at the range's edge -- the runtime's envelope clamp -- so there the run measures
-// an extrapolation no such term can help, and with runs at different mean angles it
-// dominated: leaving out the run at the highest mean angle of three predicts its stall from
-// two cycles that never reached it (held-out RMS 0.44-0.64 against 0.03-0.12 for the other
-// two on two of the development set's mean-angle triples), its log ratio is near 0 for every
-// candidate and no effect can win a majority of the runs. Why the margin: the runs of one
-// frequency sweep reach largest angles a degree or two apart, and without it the top of the
-// highest run -- where stall effects act -- was cut: three sweeps' C_L models lost their
-// effects and predicted the other cycles worse (tools/diagnose_ab.py, 2026-11-30,
+// Where a left-out run is scored (scored_samples): on its samples inside the angle range of the
+// runs its fold fitted, widened at each end by a tenth of its width (kScoredMarginFraction); on
+// all of them when fewer than min_scored_samples are inside. Beyond the fold's range its model
+// holds every fitted angle-dependent term (a(x), b(x), C_aq(x), the static correction, the
+// families' f0 correction) at the range's edge -- the runtime's envelope clamp; a static table
+// alone follows the angle -- so there the run measures an extrapolation no such term can help,
+// and with runs at different mean angles it dominated: leaving out the run at the highest mean
+// angle of three predicts its stall from two cycles that never reached it (held-out RMS
+// 0.44-0.64 against 0.03-0.12 for the other two on two of the development set's mean-angle
+// triples), its log ratio is near 0 for every candidate and no effect can win a majority of
+// the runs. The margin is a strip where the fold's model is clamped too, kept on purpose: the
+// runs of one frequency sweep reach largest angles a degree or two apart, and without it the
+// top of the highest run -- where stall effects act -- was cut: three sweeps' C_L models lost
+// their effects and predicted the other cycles worse (tools/diagnose_ab.py, 2026-11-30,
 // docs/diagnose-scoring.md). The prediction itself runs over the whole run (the states pass
-// through the part outside); only the squared errors outside are left out of its MSE. Runs
-// that share one angle range (a sweep, replicates, the null cases) are scored everywhere.
+// through the part outside); only the squared errors outside (and, for a non-periodic run,
+// their pull on its fitted initial state) are left out. Runs that share one angle range (a
+// sweep, replicates, the null cases) are scored everywhere.
 //
 // Many runs (a tunnel entry has hundreds): R fits per candidate would cost R times the
 // candidate's fit, so with more runs than max_folds (DiagnoseOptions::cv_max_folds, 10) the
@@ -65,6 +67,10 @@
 namespace indicial::diagnose_detail {
 
 namespace {
+
+// The scored range (scored_samples): the fold's angle range widened by this share of its width
+// at each end (see "Where a left-out run is scored" above).
+constexpr double kScoredMarginFraction = 0.1;
 
 // The start values without the runs of fold j (run r is in fold r mod folds): their initial
 // states dropped, the other runs renumbered.
@@ -108,20 +114,19 @@ std::vector<double> stepped_output(Predictor<double, FitCapacity>& p, const Run&
   return y;
 }
 
-// Mean square error of the fold's model on the left-out run. A periodic run: its periodic
-// steady state (predict_periodic). Otherwise the run starts where the fitter starts every
-// non-periodic run, at a free lag-1 initial state: the output is linear in it (y = y_a + dy0
-// (y_b - y_a)), and dy0 is the least-squares value on the run -- one nuisance number per run,
-// for the model with and without the candidate alike; no model parameter sees the run.
-// The scored range: the fold's angle range widened by this share of its width at each end.
-constexpr double kScoredMarginFraction = 0.1;
-
 struct RunScore {
   double mse = std::numeric_limits<double>::quiet_NaN();
   double scored_fraction = 0.0;
 };
 
+// Mean square error of the fold's model on the left-out run, over its scored samples
+// (scored_samples). A periodic run: its periodic steady state (predict_periodic). Otherwise
+// the run starts where the fitter starts every non-periodic run, at a free lag-1 initial
+// state: the output is linear in it (y = y_a + dy0 (y_b - y_a)), and dy0 is the least-squares
+// value on the run's scored samples -- one nuisance number per run, for the model with and
+// without the candidate alike; no model parameter sees the run.
 RunScore prediction_mse(const FitResult& f, const Run& run, double airspeed_mps, const AngleRange& fitted) {
+  const std::vector<char> scored = scored_samples(run, f.model.axis, f.model.alpha0_rad, fitted);
   std::vector<double> y;
   if (run.periodic) {
     y = predict_periodic(f.model, run.time_s, run.motion_angle_rad, run.rate_radps, airspeed_mps).coefficients.at(0).predicted;
@@ -134,6 +139,7 @@ RunScore prediction_mse(const FitResult& f, const Run& run, double airspeed_mps,
     const std::vector<double> yb = stepped_output(*p, run, airspeed_mps, 1.0);
     double num = 0.0, den = 0.0;
     for (std::size_t k = 0; k < y.size(); ++k) {
+      if (!scored[k]) continue;
       const double phi = yb[k] - y[k];
       num += phi * (run.coefficient[k] - y[k]);
       den += phi * phi;
@@ -141,22 +147,10 @@ RunScore prediction_mse(const FitResult& f, const Run& run, double airspeed_mps,
     const double dy0 = den > 0.0 ? num / den : 0.0;
     for (std::size_t k = 0; k < y.size(); ++k) y[k] += dy0 * (yb[k] - y[k]);
   }
-  // Scored where the fold's model is not extrapolating (see held_out_errors): the samples whose
-  // model angle is inside the angle range of the runs the fold fitted; all of them when fewer
-  // than min_scored are.
-  const double margin = kScoredMarginFraction * (fitted.max_rad - fitted.min_rad);
-  std::vector<char> inside(y.size());
-  std::size_t n_inside = 0;
-  for (std::size_t k = 0; k < y.size(); ++k) {
-    const double x = model_angle(f.model.axis, f.model.alpha0_rad, run.motion_angle_rad[k]);
-    inside[k] = x >= fitted.min_rad - margin && x <= fitted.max_rad + margin;
-    n_inside += inside[k] ? 1 : 0;
-  }
-  const bool all = n_inside < min_scored_samples(y.size());
   double s = 0.0;
   std::size_t n = 0;
   for (std::size_t k = 0; k < y.size(); ++k) {
-    if (!all && !inside[k]) continue;
+    if (!scored[k]) continue;
     s += (y[k] - run.coefficient[k]) * (y[k] - run.coefficient[k]);
     ++n;
   }
@@ -189,6 +183,20 @@ ModelConfig fold_model(const ModelConfig& m, const AngleRange& r) {
 }  // namespace
 
 std::size_t min_scored_samples(std::size_t samples) { return std::max<std::size_t>(8, samples / 4); }
+
+std::vector<char> scored_samples(const Run& run, Axis axis, double alpha0_rad, const AngleRange& fitted) {
+  const double margin_rad = kScoredMarginFraction * (fitted.max_rad - fitted.min_rad);
+  const std::size_t n = run.motion_angle_rad.size();
+  std::vector<char> inside(n);
+  std::size_t n_inside = 0;
+  for (std::size_t k = 0; k < n; ++k) {
+    const double x = model_angle(axis, alpha0_rad, run.motion_angle_rad[k]);
+    inside[k] = x >= fitted.min_rad - margin_rad && x <= fitted.max_rad + margin_rad;
+    n_inside += inside[k] ? 1 : 0;
+  }
+  if (n_inside < min_scored_samples(n)) std::fill(inside.begin(), inside.end(), 1);
+  return inside;
+}
 
 bool majority_improved(int improved, int runs) { return 2 * improved > runs; }
 

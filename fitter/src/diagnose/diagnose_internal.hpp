@@ -158,6 +158,9 @@ bool majority_improved(int improved, int runs);
 // (widened by a tenth of its width at each end) when at least this many of its `samples` are
 // (a quarter, and 8), on all of them otherwise.
 std::size_t min_scored_samples(std::size_t samples);
+// Which samples of `run` its held-out error is taken over (1: scored), given the model angle's
+// axis and offset and the fold's angle range `fitted` (diagnose_crossval.cpp).
+std::vector<char> scored_samples(const Run& run, Axis axis, double alpha0_rad, const AngleRange& fitted);
 HeldOutTest held_out_test(Effect effect, const std::string& terms, const char* stage, const HeldOut& without,
                           const HeldOut& with, double min_gain, double min_in_sample_gain);
 

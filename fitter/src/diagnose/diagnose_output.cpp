@@ -231,10 +231,11 @@ std::string held_out_markdown(const DiagnoseRound& r) {
   const auto& shares = r.held_out_scored_fraction;
   if (std::any_of(shares.begin(), shares.end(), [](double f) { return f < 1.0; })) {
     std::string list;
-    for (double f : shares) list += (list.empty() ? "" : ", ") + fmt::format("{:.0f} %", 100.0 * f);
+    for (double f : shares) list += (list.empty() ? "" : ", ") + fmt::format("{:.1f} %", 100.0 * f);
     md += fmt::format(
         "A left-out run is scored on its samples inside the angle range of the runs its fold fitted, widened by a "
-        "tenth of its width at each end (beyond the range every angle-dependent term is held at its edge: an "
+        "tenth of its width at each end, or on all of them when fewer than a quarter are inside (beyond the range "
+        "every fitted angle-dependent term is held at its edge, a static table alone following the angle: an "
         "extrapolation, not a test of the term): "
         "{} of each run's samples.\n\n", list);
   }
