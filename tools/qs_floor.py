@@ -78,20 +78,24 @@ def floor_ratio(rms, mean):
     return abs(mean) / rms if rms > 0 else 0.0
 
 
-def regime_table(cycles, errors, regime_of):
-    out = ['| regime | cycles | ' + ' | '.join(
-        f'{n}: median floor | {n}: floor <= 0.5' for n, _, _ in COEFFICIENTS) + ' |',
-        '|---|---|' + '---|---|' * len(COEFFICIENTS)]
+def by_regime(cycles, regime_of, columns, cells_of):
+    """A markdown table, one row per regime (and all): for each coefficient the `columns`, filled
+    by cells_of(cycles of the row, coefficient name)."""
+    out = ['| regime | cycles | ' + ' | '.join(f'{n}: {c}' for n, _, _ in COEFFICIENTS for c in columns) + ' |',
+           '|---|---|' + '---|' * (len(columns) * len(COEFFICIENTS))]
     for g in REGIMES + ('all',):
         sel = [c for c in cycles if g == 'all' or regime_of(c) == g]
-        if not sel:
-            continue
-        cells = []
-        for n, _, _ in COEFFICIENTS:
-            fl = [floor_ratio(*errors[c['id']][n]) for c in sel]
-            cells += [f'{statistics.median(fl):.2f}', f'{sum(f <= 0.5 for f in fl)} of {len(sel)}']
-        out.append(f'| {g} | {len(sel)} | ' + ' | '.join(cells) + ' |')
+        if sel:
+            cells = [x for n, _, _ in COEFFICIENTS for x in cells_of(sel, n)]
+            out.append(f'| {g} | {len(sel)} | ' + ' | '.join(cells) + ' |')
     return out
+
+
+def regime_table(cycles, errors, regime_of):
+    def cells(sel, n):
+        fl = [floor_ratio(*errors[c['id']][n]) for c in sel]
+        return [f'{statistics.median(fl):.2f}', f'{sum(f <= 0.5 for f in fl)} of {len(sel)}']
+    return by_regime(cycles, regime_of, ('median floor', 'floor <= 0.5'), cells)
 
 
 def offsets_table(cycles, errors, regime_of):
@@ -120,22 +124,14 @@ def peer_table(data, cycles, errors, regime_of):
         return ['(No bl-reference.csv in DIR: the peer\'s counts are not available.)']
     with open(path) as f:
         peer = {r['id']: r for r in csv.DictReader(f)}
-    sel = [c for c in cycles if c['id'] in peer]
-    out = ['| regime | cycles | ' + ' | '.join(
-        f'{n}: peer <= 0.5x | {n}: floor <= 0.5 | {n}: peer median ratio' for n, _, _ in COEFFICIENTS) + ' |',
-        '|---|---|' + '---|---|---|' * len(COEFFICIENTS)]
-    for g in REGIMES + ('all',):
-        s = [c for c in sel if g == 'all' or regime_of(c) == g]
-        if not s:
-            continue
-        cells = []
-        for n, _, _ in COEFFICIENTS:
-            ratio = [float(peer[c['id']][f'bl_rms_{n}']) / errors[c['id']][n][0] for c in s]
-            fl = [floor_ratio(*errors[c['id']][n]) for c in s]
-            cells += [f'{sum(r <= 0.5 for r in ratio)} of {len(s)}', f'{sum(f <= 0.5 for f in fl)} of {len(s)}',
-                      f'{statistics.median(ratio):.2f}']
-        out.append(f'| {g} | {len(s)} | ' + ' | '.join(cells) + ' |')
-    return out
+
+    def cells(sel, n):
+        ratio = [float(peer[c['id']][f'bl_rms_{n}']) / errors[c['id']][n][0] for c in sel]
+        fl = [floor_ratio(*errors[c['id']][n]) for c in sel]
+        return [f'{sum(r <= 0.5 for r in ratio)} of {len(sel)}', f'{sum(f <= 0.5 for f in fl)} of {len(sel)}',
+                f'{statistics.median(ratio):.2f}']
+    return by_regime([c for c in cycles if c['id'] in peer], regime_of,
+                     ('peer <= 0.5x', 'floor <= 0.5', 'peer median ratio'), cells)
 
 
 def main(argv):
