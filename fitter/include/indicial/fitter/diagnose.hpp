@@ -301,10 +301,10 @@ struct DiagnoseRound {
   bool check_only = false;             // the round after max_steps: tested, nothing added
   DecisionRule rule = DecisionRule::lr_residual;
   std::vector<double> held_out_base_rms;  // leave_one_run_out: the base's held-out RMS per run
-  // leave_one_run_out: per run, the share of its samples its held-out errors are taken over (the
+  // leave_one_run_out: per run, the share of its samples its held-out errors are taken over: the
   // samples inside the angle range of the runs its fold fitted, widened by a tenth of its width
-  // at each end; 1 when that is all of them, or
-  // when too few are: diagnose_crossval.cpp, held_out_errors). The same for every candidate.
+  // at each end; 1 when that is all of them, or when too few are inside and all are scored
+  // (diagnose_crossval.cpp, scored_samples). The same for every candidate of the round.
   std::vector<double> held_out_scored_fraction;
   std::vector<HeldOutTest> held_out;   // every held-out test of the round (first and next terms)
   std::string rule_note;               // leave_one_run_out could not run (why; the LR rule decided)
