@@ -42,7 +42,8 @@
 // docs/diagnose-scoring.md). The prediction itself runs over the whole run (the states pass
 // through the part outside); only the squared errors outside (and, for a non-periodic run,
 // their pull on its fitted initial state) are left out. Runs that share one angle range (a
-// sweep, replicates, the null cases) are scored everywhere.
+// sweep, replicates) are scored everywhere; the colored-noise null cases
+// (test_diagnose_null.cpp, the matrix) still name nothing.
 //
 // Many runs (a tunnel entry has hundreds): R fits per candidate would cost R times the
 // candidate's fit, so with more runs than max_folds (DiagnoseOptions::cv_max_folds, 10) the
