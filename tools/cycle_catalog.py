@@ -65,18 +65,24 @@ def cycle_path(data, c):
     return os.path.join(data, "cycles", c["id"] + "_coeffs.dat")
 
 
-def read_cycle(path):
-    """The cycle's rows as (phase_rad, alpha_deg, Cn, Ct, Cm, CL), CL = Cn cos(alpha) + Ct sin(alpha)."""
-    rows = []
+def numeric_rows(path):
+    """The database's layout: whitespace-separated numbers, `%` comment lines skipped."""
     with open(path) as f:
         for line in f:
             s = line.split()
-            if not s or s[0].startswith("%"):
-                continue
-            ph, a, cn, ct, cm = (float(v) for v in s[:5])
-            ar = math.radians(a)
-            rows.append((ph, a, cn, ct, cm, cn * math.cos(ar) + ct * math.sin(ar)))
-    return rows
+            if s and not s[0].startswith("%"):
+                yield [float(v) for v in s]
+
+
+def lift(alpha_deg, cn, ct):
+    """CL = Cn cos(alpha) + Ct sin(alpha)."""
+    ar = math.radians(alpha_deg)
+    return cn * math.cos(ar) + ct * math.sin(ar)
+
+
+def read_cycle(path):
+    """The cycle's rows as (phase_rad, alpha_deg, Cn, Ct, Cm, CL), CL = Cn cos(alpha) + Ct sin(alpha)."""
+    return [(ph, a, cn, ct, cm, lift(a, cn, ct)) for ph, a, cn, ct, cm in (r[:5] for r in numeric_rows(path))]
 
 
 def is_quasi_static(c):

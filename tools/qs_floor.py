@@ -41,16 +41,8 @@ COEFFICIENTS = (('CL', 5, 'CL'), ('Cm', 4, 'Cm'))  # name, read_cycle column, st
 
 def read_table(path):
     """The static table validate_real.py writes: rows of angle (deg), Cn, Ct, Cm; CL derived."""
-    rows = []
-    with open(path) as f:
-        for line in f:
-            s = line.split()
-            if not s or s[0].startswith('%'):
-                continue
-            a, cn, ct, cm = (float(v) for v in s[:4])
-            r = math.radians(a)
-            rows.append((a, {'CL': cn * math.cos(r) + ct * math.sin(r), 'Cm': cm}))
-    return rows
+    return [(a, {'CL': cycle_catalog.lift(a, cn, ct), 'Cm': cm})
+            for a, cn, ct, cm in (r[:4] for r in cycle_catalog.numeric_rows(path))]
 
 
 def static_value(table, column, alpha_deg):
