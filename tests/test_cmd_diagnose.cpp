@@ -205,6 +205,7 @@ TEST_CASE("indicial diagnose: the rule's options reach diagnosis.json, a bad one
   REQUIRE(shares.size() == 3);
   for (const auto& s : shares) CHECK(s.get<double>() == 1.0);
   CHECK(j["test"].get<std::string>().find("ln(1 - 0.2)") != std::string::npos);
+  CHECK(j["cv_min_gain_applied"].get<double>() == 0.2);  // three runs: the minimum as given
   CHECK(j["verdict"] == "time_delay");
   // report.md says the LR columns did not decide a held-out step (their p-value may exceed its
   // threshold); under --rule lr they did, and nothing says otherwise.

@@ -94,6 +94,30 @@ TEST_CASE("held-out test: runs dealt into folds are compared fold by fold") {
   CHECK_FALSE(per_fold.enters);
 }
 
+TEST_CASE("held-out test: the minimum gain shrinks as 3 / folds beyond three folds") {
+  using diagnose_detail::held_out_test;
+  using diagnose_detail::min_gain_for_folds;
+  CHECK(min_gain_for_folds(0.10, 2) == 0.10);
+  CHECK(min_gain_for_folds(0.10, 3) == 0.10);
+  CHECK(min_gain_for_folds(0.10, 6) == doctest::Approx(0.05));
+  CHECK(min_gain_for_folds(0.10, 10) == doctest::Approx(0.03));
+  CHECK(min_gain_for_folds(0.0, 10) == 0.0);
+  // Every run's held-out MSE 8 % lower, with a little spread (SE well below the mean): refused
+  // at three runs (8 % < 10 %), entered at ten (8 % > 3 %) -- the measured C_m rotary_alpha of
+  // docs/validation-stall.md, -8.0 % +- 0.8 % over 10 folds.
+  const auto runs = [](int n, double ratio) {
+    std::vector<double> v;
+    for (int r = 0; r < n; ++r) v.push_back(ratio * (1.0 + 0.01 * (r % 2 == 0 ? 1 : -1)));
+    return held_out(v);
+  };
+  CHECK_FALSE(held_out_test(Effect::bias, "con", "first term", runs(3, 1.0), runs(3, 0.92), 0.10, 0.0).enters);
+  const HeldOutTest ten = held_out_test(Effect::bias, "con", "first term", runs(10, 1.0), runs(10, 0.92), 0.10, 0.0);
+  CHECK(ten.folds == 10);
+  CHECK(ten.enters);
+  // And 2 % at ten folds stays out (below 3 %).
+  CHECK_FALSE(held_out_test(Effect::bias, "con", "first term", runs(10, 1.0), runs(10, 0.98), 0.10, 0.0).enters);
+}
+
 TEST_CASE("leave-one-run-out: a knot the other runs do not reach is left out of that fold's model") {
   // Three runs over 0-30, 20-50 and 40-70 deg, a(x) with a knot at 60 deg: without run 3 the
   // other runs never reach the knot (its term is zero at every sample of the fold). The fold

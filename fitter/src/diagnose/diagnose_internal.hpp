@@ -154,6 +154,10 @@ HeldOut held_out_errors(const Experiment& w, const ModelConfig& m, const Estimat
 // the runs (majority_improved) and the fits to every run differ by ln(MSE ratio) < ln(1 -
 // min_in_sample_gain) (when both fit errors are known).
 bool majority_improved(int improved, int runs);
+// The held-out gain a term must reach with `folds` folds: min_gain for three folds or fewer,
+// min_gain 3 / folds beyond (diagnose_crossval.cpp: the selection leak shrinks as 1 / folds).
+inline constexpr int kMinGainFolds = 3;
+double min_gain_for_folds(double min_gain, int folds);
 // A left-out run is scored on its samples inside the angle range of the runs its fold fitted
 // (widened by a tenth of its width at each end) when at least this many of its `samples` are
 // (a quarter, and 8), on all of them otherwise.

@@ -550,6 +550,7 @@ nlohmann::json diagnosis_json(const DiagnoseResult& d, const Experiment& e, cons
   if (d.rule == DecisionRule::leave_one_run_out) {
     j["cv_folds"] = d.cv_folds;
     j["cv_min_gain"] = o.cv_min_gain;
+    j["cv_min_gain_applied"] = diagnose_detail::min_gain_for_folds(o.cv_min_gain, d.cv_folds);
     j["cv_min_in_sample_gain"] = o.cv_min_in_sample_gain;
   }
   nlohmann::json steps = nlohmann::json::array();
@@ -572,11 +573,11 @@ nlohmann::json diagnosis_json(const DiagnoseResult& d, const Experiment& e, cons
   j["stall_prior"] = stall_prior_name(o.fit.stall_prior);
   j["test"] = d.rule == DecisionRule::leave_one_run_out
                   ? fmt::format("leave-one-run-out: a first or next term enters when mean_r ln(MSE_with / MSE_without) "
-                                "of runs left out of both fits + its standard error < 0, the mean < ln(1 - {}), it "
+                                "of runs left out of both fits + its standard error < 0, the mean < ln(1 - {:.4g}), it "
                                 "lowers more than half of the runs' errors and the fits to every run differ by "
                                 "ln(MSE ratio) < ln(1 - {}); effects compared by the held-out ratio "
                                 "(one-standard-error rule); the white LR passing alpha/M screens the first terms",
-                                o.cv_min_gain, o.cv_min_in_sample_gain)
+                                diagnose_detail::min_gain_for_folds(o.cv_min_gain, d.cv_folds), o.cv_min_in_sample_gain)
                   : "likelihood ratio N ln(s0^2/s1^2) / kappa ~ chi2(dp), kappa = (1 + r1) / (1 - r1) of the "
                     "extended fit's residuals (lr_residual) or of the replicates (lr_replication_noise); "
                     "Bonferroni alpha/M per round; delta BIC (N_eff = N / kappa) < 0; each effect grown "
