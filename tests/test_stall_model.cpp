@@ -365,36 +365,56 @@ TEST_CASE_TEMPLATE("logistic saturates exactly where its exp is skipped", S, dou
   }
 }
 
-// decay_exp (the families' decays, issue 22 item 6): its Taylor polynomial within 1 ulp of
-// the exact exp(-z) (long double) on [0, max_z] -- the bound model.hpp states --, exactly 1
-// at 0, step_exp's bits above max_z, and an autodiff type's value the double's bits with the
+// decay_weights (the families' decays, issue 22 item 6): exp(-z) by its Taylor polynomial
+// within 1 ulp of the exact exp(-z) (long double) on [0, max_z] -- the bound model.hpp states
+// --, on both sides of small_max_z (the two degrees), and phi1(z) from the same polynomial
+// within 1 ulp of the exact (1 - exp(-z)) / z; exactly 1 and 1 at 0, step_exp's bits and
+// phi1's quotient above max_z, and an autodiff type's value the double's bits with the
 // derivative within an ulp of -exp(-z).
-TEST_CASE_TEMPLATE("decay exp is within an ulp of exp and step exp beyond its range", S, double, float) {
+namespace {
+template <class S>
+long double ulp_of(long double exact) {
+  int binade;
+  std::frexp(exact, &binade);
+  return std::ldexp(1.0L, binade - std::numeric_limits<S>::digits);
+}
+}  // namespace
+
+TEST_CASE_TEMPLATE("decay weights are within an ulp of exp and phi1 and step exp beyond their range", S, double, float) {
   using C = indicial::detail::decay_series<S>;
   CHECK(indicial::decay_exp(S(0)) == S(1));
+  CHECK(indicial::decay_weights(S(0)).weight == S(1));
   const int n = 200000;
-  double worst_ulp = 0.0;
+  double worst_ulp = 0.0, worst_phi1_ulp = 0.0;
   for (int i = 0; i <= n; ++i) {
     const S z = S(C::max_z * i / n);
-    const long double exact = std::exp(-static_cast<long double>(z));
-    int binade;
-    std::frexp(exact, &binade);
-    const long double ulp = std::ldexp(1.0L, binade - std::numeric_limits<S>::digits);
-    const double err = static_cast<double>(std::fabs(static_cast<long double>(indicial::decay_exp(z)) - exact) / ulp);
+    const indicial::DecayWeights<S> d = indicial::decay_weights(z);
+    CHECK(d.decay == indicial::decay_exp(z));
+    const long double lz = static_cast<long double>(z);
+    const long double exact = std::exp(-lz);
+    const double err = static_cast<double>(std::fabs(static_cast<long double>(d.decay) - exact) / ulp_of<S>(exact));
     worst_ulp = err > worst_ulp ? err : worst_ulp;
+    if (i == 0) continue;
+    const long double exact_phi1 = -std::expm1(-lz) / lz;
+    const double err_phi1 =
+        static_cast<double>(std::fabs(static_cast<long double>(d.weight) - exact_phi1) / ulp_of<S>(exact_phi1));
+    worst_phi1_ulp = err_phi1 > worst_phi1_ulp ? err_phi1 : worst_phi1_ulp;
   }
-  MESSAGE("decay_exp worst error " << worst_ulp << " ulp");
+  MESSAGE("decay_weights worst error: exp " << worst_ulp << " ulp, phi1 " << worst_phi1_ulp << " ulp");
   CHECK(worst_ulp <= 1.0);
+  CHECK(worst_phi1_ulp <= 1.0);
   for (double z : {C::max_z * 1.0000001, 0.3, 1.0, 7.5, 40.0}) {
     const S sz = S(z);
     if (!(sz > S(C::max_z))) continue;
-    CHECK(indicial::decay_exp(sz) == indicial::detail::step_exp(S(-sz)));
+    const indicial::DecayWeights<S> d = indicial::decay_weights(sz);
+    CHECK(d.decay == indicial::detail::step_exp(S(-sz)));
+    CHECK(d.weight == indicial::phi1(sz, d.decay));
   }
 }
 
 TEST_CASE("decay exp of an autodiff type has the double's value and exp's derivative") {
   using Jet = Eigen::AutoDiffScalar<Eigen::VectorXd>;
-  for (double z : {0.0, 1e-4, 0.016, 0.05, 0.2, 0.25, 0.3, 2.0}) {
+  for (double z : {0.0, 1e-4, 0.016, 0.05, 0.0625, 0.07, 0.2, 0.25, 0.3, 2.0}) {
     const Jet j(z, 1, 0);
     const Jet e = indicial::decay_exp(j);
     CHECK(e.value() == indicial::decay_exp(z));

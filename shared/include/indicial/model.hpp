@@ -855,43 +855,103 @@ inline Scalar phi1(const Scalar& z) {
 }
 
 namespace detail {
-// decay_exp's Taylor polynomial: its degree and the largest z it serves, per precision.
+// decay_weights' Taylor polynomial: its degrees and the largest z each serves, per precision.
 template <class Scalar>
-struct decay_series { static constexpr int degree = 12; static constexpr double max_z = 0.25; };
+struct decay_series {
+  static constexpr int degree = 12;
+  static constexpr double max_z = 0.25;
+  static constexpr int small_degree = 9;  // for z <= small_max_z
+  static constexpr double small_max_z = 0.0625;
+};
 template <>
-struct decay_series<float> { static constexpr int degree = 7; static constexpr double max_z = 0.25; };
+struct decay_series<float> {
+  static constexpr int degree = 7;
+  static constexpr double max_z = 0.25;
+  static constexpr int small_degree = 5;
+  static constexpr double small_max_z = 0.0625;
+};
+
+// The coefficients (-1)^k / k!, each rounded once (k! is exact in double up to 22!).
+constexpr double decay_coefficient[13] = {
+    1.0,          -1.0,         1.0 / 2.0,       -1.0 / 6.0,         1.0 / 24.0,        -1.0 / 120.0,     1.0 / 720.0,
+    -1.0 / 5040.0, 1.0 / 40320.0, -1.0 / 362880.0, 1.0 / 3628800.0, -1.0 / 39916800.0, 1.0 / 479001600.0};
+
+// exp(-z) = 1 - z phi1(z), phi1(z) = 1 - z T(z): the tail T(z) = c2 + c3 z + ... + c_n z^(n-2)
+// of the degree-n Taylor polynomial (decay_weights) by Estrin's scheme: pairs t_2i + z t_2i+1,
+// then pairs of those with z^2, z^4, z^8 (4 levels of one multiply and one add for n = 12, 3
+// for n = 9, instead of n - 2 dependent Horner steps).
+template <class Scalar, int Degree>
+INDICIAL_HOT_INLINE Scalar decay_tail(const Scalar& z) {
+  static_assert(Degree < 13 && Degree >= 3, "decay_tail: more coefficients needed");
+  constexpr int tail = Degree - 1;
+  Scalar t[tail];
+#pragma GCC unroll 16
+  for (int i = 0; i < tail; ++i) t[i] = Scalar(decay_coefficient[i + 2]);
+  Scalar power = z;
+#pragma GCC unroll 8
+  for (int count = tail; count > 1; count = (count + 1) / 2) {
+#pragma GCC unroll 8
+    for (int i = 0; i < count / 2; ++i) {
+      const Scalar pair = t[2 * i] + power * t[2 * i + 1];
+      t[i] = pair;
+    }
+    if (count % 2 == 1) t[count / 2] = t[count - 1];
+    if (count > 2) power = power * power;
+  }
+  return t[0];
+}
 }  // namespace detail
 
-// exp(-z) for the decay z >= 0 of one step of the dynamic-stall families (their f, clock and
-// vortex decays; model.hpp's stall stages), written once for the fitter (every Scalar, an
-// autodiff type included) and the runtime. Why not step_exp: at real-time rates a step's
-// decay is small (z = h / T, h = dt V / l: 0.016..0.05 in bench_step's stall2), where the
-// Taylor polynomial of exp(-z) in Horner form is a third of a call to glibc's exp, and a call
-// makes x86-64 spill every live floating-point register around it (issue 22 item 6:
-// state/stall2/double 2144 -> 1974 instructions, float 2189 -> 2022, bench_step's callgrind
-// count). Error bound (tests/test_stall_model.cpp): for 0 <= z <= max_z the truncation
-// error is z^(n+1) / (n+1)! <= 0.25^13 / 13! = 2.4e-18 (double, n = 12) and 0.25^8 / 8! =
-// 3.8e-10 (float, n = 7), and with Horner's roundings the result is within 1 ulp of the exact
-// exp(-z) (measured 0.78 ulp in double and 0.77 in float over 2e6 points; glibc's exp is
-// within 0.51): the families' results are not glibc's bits but differ from them by about an
-// ulp per step; the fitter and the runtime share this function, so they agree as before
-// (tests/test_runtime_families.cpp). Above max_z, or for a NaN:
-// step_exp. decay_exp(0) is exactly 1. The branch compares values only, so an autodiff type
-// takes the same side as a double at the same point (and the polynomial's derivative, within
-// an ulp of -exp(-z)).
+// exp(-z) and phi1(z) for the decay z >= 0 of one step of the dynamic-stall families (their
+// f, clock and vortex decays and first_order's filter; model.hpp's stall stages), written once
+// for the fitter (every Scalar, an autodiff type included) and the runtime. Why not step_exp:
+// at real-time rates a step's decay is small (z = h / T, h = dt V / l: 0.016..0.05 in
+// bench_step's stall2), where the Taylor polynomial of exp(-z) is a third of a call to glibc's
+// exp, and a call makes x86-64 spill every live floating-point register around it (issue 22
+// item 6: state/stall2/double 2144 -> 1974 instructions, float 2189 -> 2022, bench_step's
+// callgrind count). Why both at once: the polynomial's last two Horner steps are
+// exp(-z) = 1 - z phi1(z) with phi1(z) = 1 - z T(z) (T: decay_tail), so phi1 comes from the
+// polynomial with no division, no branch and no cancellation, where phi1_with's (1 - exp(-z)) /
+// z loses about log2(1 / z) bits to 1 - exp(-z) (6 at z = 0.016), and it is ready before
+// exp(-z) is (the families' updates wait for it). Degree n = 12 for z <= 1/4, n = 9 for z <=
+// 1/16 (float: 7 and 5), the tail by Estrin's scheme (decay_tail; Horner's dependent steps
+// are two long waits of each vortex update: issue 22 item 6, bench_step's state/stall2/double
+// 160 -> 150 ns median for 43 more instructions), the last two steps by Horner's, whose roundings dominate
+// the error (Estrin to the end gives 2 ulp, Horner's last step alone 1.04, measured). Error
+// bound (tests/test_stall_model.cpp): the truncation error of exp(-z) is z^(n+1) / (n+1)! <=
+// 0.25^13 / 13! = 2.4e-18 (double, n = 12; 0.0625^10 / 10! = 2.5e-19 for n = 9) and 0.25^8 /
+// 8! = 3.8e-10 (float, n = 7; 0.0625^6 / 6! = 8.3e-11 for n = 5), and with the roundings
+// exp(-z) is within 1 ulp of the exact value (measured 0.80 ulp in double and 0.76 in float
+// over the test's 2e5 points; glibc's exp is within 0.51; Horner to the end gave 0.78 and
+// 0.77), phi1(z) within 1 ulp of the exact phi1 (measured 0.79 and 0.73; phi1_with's quotient
+// of glibc's exp errs by up to 480 ulp there, near z = 1e-3): the families' results are not
+// glibc's bits but differ from them by about an ulp per step; the fitter and the runtime
+// share this function, so they agree as before (tests/test_runtime_families.cpp). Above
+// max_z, or for a NaN: step_exp and phi1_with's quotient. z = 0 gives exactly 1 and 1. The branches compare values only, so an
+// autodiff type takes the same side as a double at the same point (and the polynomial's
+// derivative, within an ulp of -exp(-z)).
+template <class Scalar>
+struct DecayWeights {
+  Scalar decay;   // exp(-z)
+  Scalar weight;  // phi1(z) = (1 - exp(-z)) / z
+};
+template <class Scalar>
+INDICIAL_HOT_INLINE DecayWeights<Scalar> decay_weights(const Scalar& z) {
+  using C = detail::decay_series<Scalar>;
+  if (!(z <= Scalar(C::max_z))) {
+    const Scalar e = detail::step_exp(Scalar(-z));
+    return {e, phi1(z, e)};
+  }
+  const Scalar tail = z <= Scalar(C::small_max_z) ? detail::decay_tail<Scalar, C::small_degree>(z)
+                                                   : detail::decay_tail<Scalar, C::degree>(z);
+  const Scalar weight = Scalar(1) - z * tail;
+  return {Scalar(1) - z * weight, weight};
+}
+
+// exp(-z) alone (decay_weights' decay).
 template <class Scalar>
 INDICIAL_HOT_INLINE Scalar decay_exp(const Scalar& z) {
-  using C = detail::decay_series<Scalar>;
-  if (!(z <= Scalar(C::max_z))) return detail::step_exp(Scalar(-z));
-  // The coefficients (-1)^k / k!, each rounded once (k! is exact in double up to 22!).
-  constexpr double c[13] = {1.0,         -1.0,           1.0 / 2.0,        -1.0 / 6.0,      1.0 / 24.0,
-                            -1.0 / 120.0, 1.0 / 720.0,    -1.0 / 5040.0,    1.0 / 40320.0,   -1.0 / 362880.0,
-                            1.0 / 3628800.0, -1.0 / 39916800.0, 1.0 / 479001600.0};
-  static_assert(C::degree < 13, "decay_series: more coefficients needed");
-  Scalar r = Scalar(c[C::degree]);
-#pragma GCC unroll 16
-  for (int k = C::degree - 1; k >= 0; --k) r = r * z + Scalar(c[k]);
-  return r;
+  return decay_weights(z).decay;
 }
 
 namespace detail {
@@ -1486,15 +1546,26 @@ inline void lag_derivatives(const CoefficientModel<Scalar, Cap>& m, const Scalar
 //          the feed integral taken exactly as the difference of C_v, the feed gate
 //          G = g s and the decay z_v = h (2 - s) / T_v at the mid clock (tau0 + tau1) / 2,
 //          s = S((T_vl - tau_mid) / w_t) (1 + S(-u) = 2 - S(u): one exponential).
-//   The decays exp(-z) above (f's e, the clock's exp(-z_c), the vortex's exp(-z_v)) are
-//          decay_exp(z): for z <= 1/4 (a real-time step) exp's Taylor polynomial, within 1 ulp
-//          of the exact exp(-z) (glibc's exp: 0.51 ulp); above, exp itself. Deviation from
-//          exp's bits (issue 22 item 6), not from the equations: about an ulp per step.
-//          The switches S(u) keep exp (their u is not small).
+//   The decays exp(-z) above (f's e, the clock's exp(-z_c), the vortex's exp(-z_v)) and
+//          their phi1(z) are decay_weights(z): for z <= 1/4 (a real-time step) exp's Taylor
+//          polynomial, exp(-z) = 1 - z phi1(z), within 1 ulp of the exact exp(-z) (glibc's exp:
+//          0.51 ulp) and phi1 from the same polynomial (no division, no 1 - exp(-z)
+//          cancellation); above, exp itself and (1 - exp(-z)) / z. Deviation from exp's bits
+//          (issue 22 item 6), not from the equations: about an ulp per step. The switches
+//          S(u) keep exp (their u is not small).
+//   Operation forms (issue 22 item 6: the vortex update is one dependent chain per coefficient,
+//          angle -> g -> tau1 -> s -> v1, and a step waits for it): a division by a parameter
+//          or a structural constant is a multiplication by its reciprocal or quotient computed
+//          from the parameter and h alone, which the processor computes beside the chain:
+//          the lag (x1 - x0) (T2 / h), the switches' arguments (|C_N'| - C_N1) (1 / w) and
+//          (T_vl - tau) (1 / w_t), the decays z_c = (h / T_r) (1 - g) and z_v = (h / T_v) (2 -
+//          s); the updates' last products group the chain's value last: phi1(z_c) (h g),
+//          phi1(z_v) (G dC_v). Each rounds differently from the quotient written above (within
+//          an ulp of it).
 // Local error O(h^3) (the forcing's curvature over the step, the midpoint gates), so global
 // order 2 (tests/test_stall_model.cpp measures it against Boost.Odeint of stall_derivatives).
-// Cost: 5 exponentials (2 exp calls, 3 decay_exp polynomials; first_order a 6th, its filter's)
-// and 4 sqrt per coefficient and step (update and output); no sin / cos.
+// Cost: 5 exponentials (2 exp calls, 3 decay_weights polynomials; first_order a 6th, its
+// filter's) and 4 sqrt per coefficient and step (update and output); no sin / cos.
 // Non-smooth points: the clipping of f0c, |C_N'| at C_N' = 0, the clamp in xi (C1 there) and
 // sqrt f at f = 0 (K is evaluated with sqrt f := 0 for f <= 0, so an autodiff type gets a
 // finite derivative there).
@@ -1653,14 +1724,15 @@ inline Scalar separation_shape(const SeparationParameters<Scalar, Cap>& p, const
 template <class Scalar, class Cap>
 inline Scalar shedding_switch(const StallModel<Scalar, Cap>& m, const Scalar& lagged_x_rad) {
   const Scalar cn = attached_normal_force(m.separation, lagged_x_rad);
-  return detail::logistic(Scalar((detail::abs_value(cn) - m.vortex.shedding_threshold) /
-                                 Scalar(m.vortex.shedding_width)));
+  const Scalar per_width = Scalar(1) / Scalar(m.vortex.shedding_width);  // off the angle's chain
+  return detail::logistic(Scalar((detail::abs_value(cn) - m.vortex.shedding_threshold) * per_width));
 }
 
 // The feed gate s = S((T_vl - tau_v) / w_t); the decay factor is 1 + S(-u) = 2 - s.
 template <class Scalar>
 inline Scalar vortex_on_chord(const VortexParameters<Scalar>& p, const Scalar& clock) {
-  return detail::logistic(Scalar((p.travel_semichords - clock) / Scalar(p.clock_width_semichords)));
+  const Scalar per_width = Scalar(1) / Scalar(p.clock_width_semichords);  // off the clock's chain
+  return detail::logistic(Scalar((p.travel_semichords - clock) * per_width));
 }
 
 // xi(tau_v) = 3 r^2 - 2 r^3, r = clamp(tau_v / T_vl, 0, 1).
@@ -1752,8 +1824,8 @@ INDICIAL_NOINLINE FilteredAngles<Scalar> stall_filtered_angles(const SeparationP
                                                                Scalar forcing0_rad) {
   if (!(p.tau2_semichords > Scalar(0))) return {x0_rad, x1_rad};
   const Scalar z = h / p.tau2_semichords;
-  const Scalar e = decay_exp(z);
-  const Scalar w = phi1(z, e);
+  const DecayWeights<Scalar> d = decay_weights(z);
+  const Scalar e = d.decay, w = d.weight;
   return {forcing0_rad, Scalar(e * forcing0_rad + (w - e) * x0_rad + (Scalar(1) - w) * x1_rad)};
 }
 
@@ -1767,7 +1839,7 @@ inline void stall_lagged_angles(const SeparationParameters<Scalar, Cap>& p, cons
     *forcing = a.x1_rad;
     return;
   }
-  const Scalar lag = p.tau2_semichords * (g.x1_rad - g.x0_rad) / h;
+  const Scalar lag = (g.x1_rad - g.x0_rad) * (p.tau2_semichords / h);
   k->lagged_x0_rad = g.x0_rad - lag;
   k->lagged_x1_rad = g.x1_rad - lag;
 }
@@ -1783,11 +1855,12 @@ inline void stall_table_lookups(const SeparationParameters<Scalar, Cap>& p, Stal
 
 // exp(-h / T1) and phi1(h / T1) (T1 and the step only).
 template <class Scalar, class Cap>
-inline void stall_decay(const SeparationParameters<Scalar, Cap>& p, const Scalar& h,
+INDICIAL_HOT_INLINE void stall_decay(const SeparationParameters<Scalar, Cap>& p, const Scalar& h,
                         StallLookups<Scalar>* k) {
   const Scalar z = h / p.tau1_semichords;
-  k->decay = decay_exp(z);
-  k->weight = phi1(z, k->decay);
+  const DecayWeights<Scalar> d = decay_weights(z);
+  k->decay = d.decay;
+  k->weight = d.weight;
 }
 
 // The update of one step in stages (advance_stall_with runs them in order), so that a runtime
@@ -1819,8 +1892,9 @@ INDICIAL_HOT_INLINE void stall_separation_stage(const StallModel<Scalar, Cap>& m
   const Scalar f0 = s->separation_point;
   if (p.tau1_reattach_semichords > Scalar(0) && u0 + u1 > f0 + f0) {  // reattaching: T1r
     const Scalar z = h / p.tau1_reattach_semichords;
-    e = decay_exp(z);
-    w = phi1(z, e);
+    const DecayWeights<Scalar> d = decay_weights(z);
+    e = d.decay;
+    w = d.weight;
   }
   q->f0 = f0;
   s->separation_point = e * f0 + (w - e) * u0 + (Scalar(1) - w) * u1;
@@ -1841,12 +1915,14 @@ INDICIAL_HOT_INLINE void stall_clock_stage(const StallModel<Scalar, Cap>& m, con
                                            StallState<Scalar>* s, StallProgress<Scalar>* q) {
   const Scalar gate = q->gate;
   const Scalar clock0 = s->vortex_clock_semichords;
-  const Scalar zc = h * (Scalar(1) - gate) / Scalar(m.vortex.clock_reset_semichords);
+  const Scalar zc = h / Scalar(m.vortex.clock_reset_semichords) * (Scalar(1) - gate);
   // Why the branch: while the shedding switch is saturated (gate == 1) zc is 0 and e^-0 is 1
   // exactly; a plain floating-point type skips the exp (same bits), an autodiff type keeps it.
-  const Scalar ec = std::is_floating_point<Scalar>::value && zc == Scalar(0) ? Scalar(1) : decay_exp(zc);
+  const DecayWeights<Scalar> d = std::is_floating_point<Scalar>::value && zc == Scalar(0)
+                                     ? DecayWeights<Scalar>{Scalar(1), Scalar(1)}
+                                     : decay_weights(zc);
   q->clock0 = clock0;
-  s->vortex_clock_semichords = ec * clock0 + phi1(zc, ec) * h * gate;
+  s->vortex_clock_semichords = d.decay * clock0 + d.weight * (h * gate);
   flush_below_normal<ScalarOps<Scalar>>(&s->vortex_clock_semichords);
 }
 
@@ -1864,12 +1940,12 @@ INDICIAL_HOT_INLINE void stall_vortex_stage(const StallModel<Scalar, Cap>& m, co
                                             const Scalar& h, StallState<Scalar>* s,
                                             const StallProgress<Scalar>& q) {
   const Scalar feed_gate = q.gate * q.on_chord;
-  const Scalar zv = h * (Scalar(2) - q.on_chord) / m.vortex.decay_semichords;
-  const Scalar ev = decay_exp(zv);
+  const Scalar zv = h / m.vortex.decay_semichords * (Scalar(2) - q.on_chord);
+  const DecayWeights<Scalar> d = decay_weights(zv);
   const SeparationParameters<Scalar, Cap>& p = m.separation;
   const Scalar feed = vortex_feed_from_factor(p, g.x1_rad, q.kirchhoff1) -
                       vortex_feed_from_factor(p, g.x0_rad, q.kirchhoff0);
-  s->vortex_lift = ev * s->vortex_lift + phi1(zv, ev) * feed_gate * feed;
+  s->vortex_lift = d.decay * s->vortex_lift + d.weight * (feed_gate * feed);
   flush_below_normal<ScalarOps<Scalar>>(&s->vortex_lift);
 }
 
