@@ -24,4 +24,4 @@ find "${dirs[@]}" \( -name '*.cpp' -o -name '*.hpp' -o -name '*.h' \) -print0 |
       }
       if (start > 0 && end >= start) printf "%5d  %s:%d  %s\n", end - start + 1, $2, start, $1
     }' |
-  sort -k1,1nr -k2,2 | head -n "$count"
+  sort -k1,1nr -k2,2 | awk -v n="$count" 'NR <= n'  # not head: sort's SIGPIPE fails pipefail (exit 141)
