@@ -141,7 +141,8 @@ const indicial::tools::RegisterCommand register_diagnose([](CLI::App& app) {
                   "into fold r mod K), each left out at once (default 10; fewer runs: one run per fold)");
   sub->add_option("--min-gain", opt->diag.cv_min_gain,
                   "cross-validation: an effect must lower the held-out mean square error by at least this "
-                  "fraction (default 0.10; in [0, 1); 0: the standard-error and majority conditions alone)");
+                  "fraction with three folds or fewer, G 3 / K with K > 3 folds (default 0.10; in [0, 1); 0: the "
+                  "standard-error and majority conditions alone)");
   sub->add_option("--min-in-sample-gain", opt->diag.cv_min_in_sample_gain,
                   "cross-validation: an effect must also lower the fit error of all runs by at least this "
                   "fraction of the mean square error (default 0.04; in [0, 1), 0: off)");

@@ -578,7 +578,8 @@ def diagnose(experiment: Experiment, *, alpha: float = 0.01, max_steps: int = 6,
     3, or more runs, else likelihood ratio), ``"cv"`` or ``"lr"``; ``cv_min_runs`` (>= 2) the runs
     leave-one-run-out needs; ``max_folds`` (>= 2) the folds runs are dealt
     into; ``min_gain`` and ``min_in_sample_gain`` (each in [0, 1)) the cross-validation rule's
-    held-out and in-sample gains, fractions of the mean square error; ``threads`` (>= 1) fits run
+    held-out and in-sample gains, fractions of the mean square error (the held-out one with three
+    folds or fewer; with K > 3 folds ``min_gain`` 3 / K); ``threads`` (>= 1) fits run
     in parallel (a scan's candidates, the held-out folds, each fit's stall start grid; the
     results do not depend on it). A bad value is an ``InputError`` (a ValueError). ``fit_options`` as ``fit``'s.
     The GIL is released meanwhile."""
