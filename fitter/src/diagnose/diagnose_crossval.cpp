@@ -24,10 +24,9 @@
 // worse, so not every run must improve). Choosing the term inside each fold would remove the
 // leak at R times the scan. With K > 3 folds the minimum is min_gain 3 / K
 // (min_gain_for_folds): the left-out fold is 1 / K of the data the term was chosen on, so the
-// chance gain it lends that fold shrinks as 1 / K, and min_gain was set for three. Measured on
-// measured cycles (docs/validation-stall.md, 104 runs in 10 folds): C_m's rotary_alpha lowered
-// the folds' error by 8 % +- 0.8 % (ln ratio -0.0805 +- 0.0078), refused at 10 %; the
-// selection leak under noise alone: docs/diagnose.md, tests/test_diagnose_crossval_many_runs.cpp. Written by hand: the folds are fit_experiment calls, the
+// chance gain it lends that fold shrinks as 1 / K, and min_gain was set for three (the leak
+// under noise alone, measured with six and ten runs: docs/diagnose.md,
+// tests/test_diagnose_crossval_many_runs.cpp). Written by hand: the folds are fit_experiment calls, the
 // statistic is a mean and a standard deviation.
 //
 // Where a left-out run is scored (scored_samples): on its samples inside the angle range of the
