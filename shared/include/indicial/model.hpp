@@ -948,12 +948,6 @@ INDICIAL_HOT_INLINE DecayWeights<Scalar> decay_weights(const Scalar& z) {
   return {Scalar(1) - z * weight, weight};
 }
 
-// exp(-z) alone (decay_weights' decay).
-template <class Scalar>
-INDICIAL_HOT_INLINE Scalar decay_exp(const Scalar& z) {
-  return decay_weights(z).decay;
-}
-
 namespace detail {
 // Below this angle step the mean of b over [x0, x1] is taken as b at the midpoint (see
 // interval_mean). Chosen per precision: the difference quotient (B(x1) - B(x0)) / dx loses
