@@ -209,7 +209,7 @@ TEST_CASE("CSV: non-uniform step") {
   const std::string good = good_run_csv();
   const std::string row8 = line_of(good, 8);
   expect_fit_refusal(replace_once(good, row8, with_time(row8, "0.09")), experiment_toml(),
-                     "run.csv:8: non-uniform time step: 0.011874999999999997 s after 0.078125, the run's "
+                     "run.csv:8: non-uniform time step: 0.011875 s after 0.078125, the run's "
                      "step is 0.015625 s (allowed deviation 1e-6 relative or the printed digits; declare "
                      "time_grid = \"nonuniform\" in the run's entry if the log is not uniform)");
 }
@@ -485,7 +485,8 @@ TEST_CASE("runtime limits are checked at input: static-table rows, knots, lags")
   const Result r = run_cli(dir, {"fit", dir / "experiment.toml", "--out", dir / "out", "--no-plots"});
   CHECK(r.status == 1);
   CHECK(r.err == "indicial: error: " + (dir / "experiment.toml") + ":8: 'static.table' needs 80 rows ('" +
-                     (dir / "static.csv") + "'); the runtime (indicial::DefaultCapacity) holds at most 64\n");
+                     (dir / "static.csv") + "'); the runtime (indicial::DefaultCapacity) holds at most 64 (thin the table to at most 64 rows: keep "
+                     "those where the curve bends, drop rows where it is straight)\n");
   expect_fit_refusal(good_run_csv(), experiment_toml("run.csv", "\n[model]\nb1_knots_deg = [6, 8, 10, 12, 14, 16, 18, 20, 22]\n"),
                      "experiment.toml:11: 'model.b1_knots_deg' needs 9 knots; the runtime "
                      "(indicial::DefaultCapacity) holds at most 8");

@@ -455,7 +455,7 @@ TEST_CASE("a missing time column whose nearest name holds a phase is advised as 
   write("cycle.dat", database_text(database_cycle()));
   const char* unmapped_phase = "[columns]\nalpha_deg = \"Angle(deg)\"\nCnormal = \"Cn\"\nCtangential = \"Ct\"\n";
   const std::string m = load_error("no_phase.toml", experiment("CL", unmapped_phase));
-  CHECK_HAS(m, "cycle.dat:1: missing column 'time_s' (or 'phase_rad' / 'phase_deg')");
+  CHECK_HAS(m, "cycle.dat:1: missing column 'time_s' (or 'phase_rad' / 'phase_deg' / 'phase_cycles')");
   CHECK_HAS(m, "'Time()' runs from 0 to 2 pi: if it is the cycle's phase in rad, map it in the experiment: "
                "[columns] phase_rad = \"Time()\"");
   CHECK(m.find("time_s = \"Time()\"") == std::string::npos);

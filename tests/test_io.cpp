@@ -742,7 +742,7 @@ TEST_CASE("[columns] maps the file's names to ours, in runs and the static table
   CHECK(mapped.runs[1].coefficient == plain.runs[1].coefficient);
   // Without the table: the message suggests the mapping.
   const std::string m = exp_error("unmapped.toml", t);
-  CHECK_HAS(m, "missing column 'time_s' (or 'phase_rad' / 'phase_deg') (columns found: Time, AoA");
+  CHECK_HAS(m, "missing column 'time_s' (or 'phase_rad' / 'phase_deg' / 'phase_cycles') (columns found: Time, AoA");
   CHECK_HAS(m, "did you mean 'Time'?");
   // A mapping to a column the file does not have is named.
   const std::string m2 = exp_error("badmap.toml", t + replace(columns, "\"AoA\"", "\"AOA2\""));
@@ -830,7 +830,7 @@ TEST_CASE("a 128-sample cycle with phase rounded to 0.01 rad is uniform, snapped
   CHECK(r.dt_s() == doctest::Approx(1 / 256.0).epsilon(1e-9));
   CHECK(any_note_has(e.notes, "cycle128.csv: 'phase_rad' is uniform to its printed digits"));
   // In the column's own unit (2 pi / 128 rad), seconds beside; the rounding is below 0.005 rad.
-  CHECK(any_note_has(e.notes, "snapped to a step of 0.049087385212"));
+  CHECK(any_note_has(e.notes, "snapped to a step of 0.0490874 rad (0.00390625 s)"));
   CHECK(any_note_has(e.notes, " rad (0.00390625"));
   CHECK(any_note_has(e.notes, "is uniform to its printed digits (max deviation 0.00"));
   for (const std::string& n : e.notes) {

@@ -289,3 +289,142 @@ TEST_CASE("files = [...]: each file resolved from the experiment's folder and di
   CHECK(indicial::experiment_input_paths(e) ==
         std::vector<std::string>{toml, p.inputs[1].path, p.inputs[2].path});
 }
+
+// A digitizer's export (2026-11-30 trial): every file headed x,y. The experiment's [columns]
+// cannot say that y is alpha in one file and C_L in another (a map sending 'y' to both is
+// refused: one of the two was silently lost), so each file carries its own map, which
+// resolves to the same run as files with our names, and is written back with the run.
+TEST_CASE("files = [...]: a file's own column map reads x,y files, one column mapped twice is refused") {
+  std::string named_a = "phase_deg,alpha_deg\n", named_l = "phase_deg,CL\n", xy_a = "x,y\n", xy_l = "x,y\n";
+  for (double ph : digitized_phases(44, 11)) {
+    const std::string p = indicial::format_double(ph * 180 / kPi), v = indicial::format_double(10 + 8 * std::sin(ph));
+    named_a += p + "," + v + "\n";
+    xy_a += p + "," + v + "\n";
+  }
+  for (double ph : digitized_phases(39, 12)) {
+    const std::string p = indicial::format_double(ph * 180 / kPi), v = indicial::format_double(history(ph));
+    named_l += p + "," + v + "\n";
+    xy_l += p + "," + v + "\n";
+  }
+  write("n_alpha.csv", named_a);
+  write("n_cl.csv", named_l);
+  write("xy_alpha.csv", xy_a);
+  write("xy_cl.csv", xy_l);
+  const std::string head = "axis = \"pitch\"\ncoefficient = \"CL\"\nreference_length_m = 0.275\nairspeed_mps = 40\n";
+  const std::string tail = "[static]\npolynomial = [0.1, 5.0]\n";
+  const indicial::Experiment named = indicial::load_experiment(write(
+      "named.toml", head + "runs = [{files = [\"n_alpha.csv\", \"n_cl.csv\"], frequency_hz = 2.0}]\n" + tail));
+  const indicial::Experiment own = indicial::load_experiment(
+      write("own.toml", head +
+                            "runs = [{files = [{file = \"xy_alpha.csv\", columns = {phase_deg = \"x\", alpha_deg = "
+                            "\"y\"}}, {file = \"xy_cl.csv\", columns = {phase_deg = \"x\", CL = \"y\"}}], "
+                            "frequency_hz = 2.0}]\n" + tail));
+  REQUIRE(own.runs.size() == 1);
+  CHECK(own.runs[0].motion_angle_rad == named.runs[0].motion_angle_rad);
+  CHECK(own.runs[0].coefficient == named.runs[0].coefficient);
+  // Written back with each file's map, and read again to the same run.
+  const std::string back = indicial::write_experiment_toml(own, {});
+  CHECK(back.find("columns = {CL = \"y\", phase_deg = \"x\"}}") != std::string::npos);
+  const indicial::Experiment again = indicial::load_experiment(write("own_back.toml", back));
+  CHECK(again.runs[0].coefficient == own.runs[0].coefficient);
+  // One map sending 'y' to two quantities: refused, at its line, with the way out.
+  std::string clash;
+  try {
+    indicial::load_experiment(write("clash.toml", head + "runs = [{files = [\"xy_alpha.csv\", \"xy_cl.csv\"], "
+                                                         "frequency_hz = 2.0}]\n" + tail +
+                                                         "[columns]\nphase_deg = \"x\"\nalpha_deg = \"y\"\nCL = \"y\"\n"));
+  } catch (const indicial::InputError& e) {
+    clash = e.what();
+  }
+  CHECK(clash.find("clash.toml:10: 'columns' maps the file column 'y' to both 'CL' and 'alpha_deg'") != std::string::npos);
+  CHECK(clash.find("each need a map of their own") != std::string::npos);
+  // A file table's keys are checked like every other table's.
+  std::string unknown;
+  try {
+    indicial::load_experiment(write("unknown.toml", head + "runs = [{files = [{file = \"n_alpha.csv\", colums = {}}, "
+                                                           "\"n_cl.csv\"], frequency_hz = 2.0}]\n" + tail));
+  } catch (const indicial::InputError& e) {
+    unknown = e.what();
+  }
+  CHECK(unknown.find("colums") != std::string::npos);
+}
+
+// A quantity no file of the run has: each file's columns and the nearest name, as a one-file
+// run's missing column says (the trial's Cm file was headed 'cm').
+TEST_CASE("files = [...]: a missing column names each file's columns and the nearest name") {
+  std::string a = "phase_deg,alpha_deg\n", m = "phase_deg,cm\n";
+  for (double ph : digitized_phases(40, 21)) a += indicial::format_double(ph * 180 / kPi) + ",10\n";
+  for (double ph : digitized_phases(40, 22)) m += indicial::format_double(ph * 180 / kPi) + ",-0.01\n";
+  write("m_alpha.csv", a);
+  write("m_cm.csv", m);
+  std::string message;
+  try {
+    indicial::load_experiment(write("missing.toml",
+                                    "axis = \"pitch\"\ncoefficient = \"Cm\"\nreference_length_m = 0.275\nairspeed_mps "
+                                    "= 40\nruns = [{files = [\"m_alpha.csv\", \"m_cm.csv\"], frequency_hz = 2.0}]\n"
+                                    "[static]\npolynomial = [0.0]\n"));
+  } catch (const indicial::InputError& e) {
+    message = e.what();
+  }
+  const std::string d = dir().string() + "/";
+  CHECK(message.find("no file of the run has the 'Cm' column (columns found: " + d + "m_alpha.csv: phase_deg, alpha_deg; " +
+                     d + "m_cm.csv: phase_deg, cm); did you mean 'cm' in " + d + "m_cm.csv? (map it in [columns]: Cm = \"cm\")") !=
+        std::string::npos);
+}
+
+// CL and Cm of one run on one grid: the default size counts every file of the run, so the two
+// coefficients of `coefficients = ["CL", "Cm"]` share their phases (and their envelope).
+TEST_CASE("files = [...]: every coefficient of a run is resampled onto the same default grid") {
+  std::string a = "phase_deg,alpha_deg\n", l = "phase_deg,CL\n", m = "phase_deg,Cm\n";
+  for (double ph : digitized_phases(50, 31)) a += indicial::format_double(ph * 180 / kPi) + "," + indicial::format_double(10 + 8 * std::sin(ph)) + "\n";
+  for (double ph : digitized_phases(60, 32)) l += indicial::format_double(ph * 180 / kPi) + "," + indicial::format_double(history(ph)) + "\n";
+  for (double ph : digitized_phases(90, 33)) m += indicial::format_double(ph * 180 / kPi) + ",-0.01\n";
+  write("g2_alpha.csv", a);
+  write("g2_cl.csv", l);
+  write("g2_cm.csv", m);
+  const std::vector<indicial::Experiment> es = indicial::load_experiments(write(
+      "grid.toml", "axis = \"pitch\"\ncoefficients = [\"CL\", \"Cm\"]\nreference_length_m = 0.275\nairspeed_mps = 40\n"
+                   "runs = [{files = [\"g2_alpha.csv\", \"g2_cl.csv\", \"g2_cm.csv\"], frequency_hz = 2.0}]\n"
+                   "[static.CL]\npolynomial = [0.1, 5.0]\n[static.Cm]\npolynomial = [0.0]\n"));
+  REQUIRE(es.size() == 2);
+  CHECK(es[0].runs[0].size() == 90);  // Cm's file has the most rows; CL's run takes its grid too
+  CHECK(es[1].runs[0].size() == 90);
+  CHECK(es[0].runs[0].motion_angle_rad == es[1].runs[0].motion_angle_rad);
+}
+
+// The phase as the fraction of the cycle (t / T), as digitized histories are often plotted:
+// phase_cycles reads as phase_deg / 360; a phase_deg column that never exceeds 1 is refused
+// (its gap) with the hint to name it so (the trial's message said "radians").
+TEST_CASE("phase_cycles: a phase as the fraction of the cycle, a t / T column under phase_deg is named") {
+  std::string deg = "phase_deg,alpha_deg\n", cyc = "phase_cycles,alpha_deg\n", wrong = "phase_deg,alpha_deg\n",
+              cl = "phase_deg,CL\n";
+  for (double ph : digitized_phases(45, 41)) {
+    const std::string v = indicial::format_double(10 + 8 * std::sin(ph));
+    deg += indicial::format_double(ph * 180 / kPi) + "," + v + "\n";
+    cyc += indicial::format_double(ph / (2 * kPi)) + "," + v + "\n";
+    wrong += indicial::format_double(ph / (2 * kPi)) + "," + v + "\n";
+  }
+  for (double ph : digitized_phases(45, 42))
+    cl += indicial::format_double(ph * 180 / kPi) + "," + indicial::format_double(history(ph)) + "\n";
+  write("c_deg.csv", deg);
+  write("c_cyc.csv", cyc);
+  write("c_wrong.csv", wrong);
+  write("c_cl.csv", cl);
+  auto experiment = [&](const std::string& name, const std::string& alpha_file) {
+    return write(name, "axis = \"pitch\"\ncoefficient = \"CL\"\nreference_length_m = 0.275\nairspeed_mps = 40\n"
+                       "runs = [{files = [\"" + alpha_file + "\", \"c_cl.csv\"], frequency_hz = 2.0}]\n"
+                       "[static]\npolynomial = [0.1, 5.0]\n");
+  };
+  const indicial::Experiment in_deg = indicial::load_experiment(experiment("c_deg.toml", "c_deg.csv"));
+  const indicial::Experiment in_cycles = indicial::load_experiment(experiment("c_cyc.toml", "c_cyc.csv"));
+  REQUIRE(in_cycles.runs[0].size() == in_deg.runs[0].size());
+  for (std::size_t k = 0; k < in_deg.runs[0].size(); ++k)
+    CHECK(in_cycles.runs[0].motion_angle_rad[k] == doctest::Approx(in_deg.runs[0].motion_angle_rad[k]).epsilon(1e-12));
+  std::string message;
+  try {
+    indicial::load_experiment(experiment("c_wrong.toml", "c_wrong.csv"));
+  } catch (const indicial::InputError& e) {
+    message = e.what();
+  }
+  CHECK(message.find("they look like a fraction of the cycle, t / T; name it phase_cycles if so") != std::string::npos);
+}

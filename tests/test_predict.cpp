@@ -459,8 +459,38 @@ TEST_CASE("predict: several DATA files are one cycle at their own phases, as the
   MESSAGE("largest difference: prediction " << worst_pred << ", measured C_L " << worst_measured);
   CHECK(worst_pred < 1e-9);
   CHECK(worst_measured < 0.02);
-  // Without a frequency, or --samples with one file: refused, nothing written.
+  // The same cycle kept in an experiment file as a digitizer exports it (every file headed x,y,
+  // each with its own column map) and predicted by --run: the same prediction (--run reads the
+  // run as fit does; predict's DATA files could not say which y is which).
+  for (const char* name : {"angle", "lift"}) {
+    std::ifstream named(tmp.path / (std::string(name) + ".csv"));
+    std::ofstream xy(tmp.path / (std::string(name) + "_xy.csv"));
+    std::string line;
+    std::getline(named, line);  // our header, replaced by x,y[,z]
+    xy << (std::string(name) == "angle" ? "x,y,z\n" : "x,y\n");
+    while (std::getline(named, line)) xy << line << "\n";
+  }
+  const fs::path held = tmp.path / "held.toml", three = tmp.path / "three.csv";
+  std::ofstream(held) << "axis = \"pitch\"\ncoefficient = \"CL\"\nreference_length_m = 0.15\nairspeed_mps = 30\n"
+                         "runs = [{files = [{file = \"angle_xy.csv\", columns = {phase_rad = \"x\", alpha_deg = \"y\", "
+                         "q_degps = \"z\"}}, {file = \"lift_xy.csv\", columns = {phase_rad = \"x\", CL = \"y\"}}], "
+                         "reduced_frequency = 0.08, airspeed_mps = 30, samples = 128}]\n[static]\ntable = \""
+                      << (sim / "static.csv").string() << "\"\n";
+  REQUIRE(run(exe + " predict " + coef + " --experiment " + held.string() + " --run 1 --out " + three.string()) == 0);
+  const auto c3 = columns(three);
+  REQUIRE(c3.size() == 128);
+  for (std::size_t i = 0; i < c3.size(); ++i) {
+    CHECK(c3[i][2] == doctest::Approx(b[i][2]).epsilon(1e-12));
+    CHECK(c3[i][4] == doctest::Approx(b[i][4]).epsilon(1e-12));
+  }
+  // --run names a run that is there, and takes its frequency and airspeed from the entry.
   const fs::path no = tmp.path / "no.csv";
+  CHECK(run(exe + " predict " + coef + " --experiment " + held.string() + " --run 2 --out " + no.string()) != 0);
+  CHECK(run(exe + " predict " + coef + " --experiment " + held.string() + " --run 1 --airspeed-mps 30 --out " +
+            no.string()) != 0);
+  CHECK(run(exe + " predict " + coef + " --run 1 --out " + no.string()) != 0);
+  CHECK(run(exe + " predict " + coef + " --out " + no.string()) != 0);
+  // Without a frequency, or --samples with one file: refused, nothing written.
   CHECK(run(exe + " predict " + coef + " " + (tmp.path / "angle.csv").string() + " " + (tmp.path / "lift.csv").string() +
             " --out " + no.string()) != 0);
   CHECK(run(exe + " predict " + coef + " " + cycle.string() + k + " --samples 64 --out " + no.string()) != 0);

@@ -86,9 +86,9 @@ const std::vector<KeyDoc>& key_docs() {
                    "(an average of N >= 2 cycles whose file has the spread column <coefficient>_std, the\n"
                    "single cycles' standard deviation: the noise from replication is spread / sqrt(N)).\n"
                    "A cycle whose quantities are at their own phases (digitized histories: a file per quantity,\n"
-                   "each with its own phase_deg|phase_rad column, any spacing): {files = [\"alpha.csv\", \"cl.csv\"],\n"
+                   "each with its own phase_deg|phase_rad|phase_cycles column, any spacing): {files = [\"alpha.csv\", \"cl.csv\"],\n"
                    "frequency_hz = 2.0, samples = 128}, resampled onto `samples` uniform phases (default: the\n"
-                   "most rows of the files used) by a periodic modified Akima cubic.",
+                   "most rows of any file of the run) by a periodic modified Akima cubic.",
        "runs = [\"run1.csv\", \"run2.csv\"]"},
       {"static", "polynomial", "the static curve C_a(x) = c0 + c1 x + c2 x^2 + ...: coefficients of x^0, x^1, ...\n"
                                "with x = alpha (pitch) or beta (roll, yaw) in RAD. Give polynomial or table (one is required).",

@@ -4,6 +4,11 @@
 //                    [--metrics FILE.json] [--airspeed-mps V] [--time-grid uniform|nonuniform] [--periodic]
 //                    [--frequency-hz F | --reduced-frequency K] [--samples N] [--experiment E.toml]
 //                    [--score-from-s T] [--force] [--quiet]
+//   indicial predict MODEL.coef --experiment E.toml --run N --out FILE.csv [...]
+//
+// --run N predicts the experiment's run N exactly as fit and diagnose read it (its files, its
+// [columns] and each file's own map, its frequency, airspeed and periodicity): a held-out
+// cycle kept in an experiment file, such as digitized files headed x,y.
 //
 // Several DATA files are one cycle whose quantities are at their own phases (digitized
 // histories: an experiment's runs entry `files = [...]`, phase_resample.hpp), resampled onto
@@ -50,6 +55,7 @@ struct PredictOptions {
   indicial::TimeGrid grid = indicial::TimeGrid::uniform;
   bool grid_given = false;         // --time-grid on the command line
   std::string experiment;          // read DATA with this experiment's [columns] and [csv]
+  int run = 0;                     // --run N (1-based): predict run N of --experiment, read as fit reads it
   bool force = false;
   bool periodic = false;
   bool quiet = false;              // --quiet: no input notes on stderr
@@ -93,19 +99,135 @@ std::vector<indicial::Run> read_cycle_of_files(const PredictOptions& o, const in
   return runs;
 }
 
-void run_predict(const PredictOptions& o) {
+// --experiment E.toml --run N: the run as E's readers make it, one per model coefficient (the
+// coefficient's own experiment where E models it; else the motion of E's first, unmeasured).
+std::vector<indicial::Run> read_experiment_run(const PredictOptions& o,
+                                               const indicial::ModelSet<double, indicial::FitCapacity>& model) {
+  using namespace indicial;
+  if (o.experiment.empty()) throw InputError("--run", 0, "needs --experiment E.toml (the experiment whose run it names)");
+  if (!o.data_paths.empty())
+    throw InputError("--run", 0, "predicts a run of --experiment: give it or DATA files, not both");
+  if (o.frequency_hz != 0.0 || o.reduced_frequency != 0.0 || o.samples != 0 || o.grid_given || o.airspeed_mps != 0.0)
+    throw InputError("--run", 0, "the run's frequency, samples, time grid and airspeed are its entry's in " +
+                                     o.experiment + ": --frequency-hz, --reduced-frequency, --samples, --time-grid "
+                                     "and --airspeed-mps do not apply");
+  const std::vector<Experiment> es = load_experiments(o.experiment);
+  const std::size_t n_runs = es.front().runs.size();
+  if (o.run < 1 || static_cast<std::size_t>(o.run) > n_runs)
+    throw InputError("--run", 0, o.experiment + " has " + std::to_string(n_runs) + " run(s): give 1.." +
+                                     std::to_string(n_runs));
+  const std::size_t index = static_cast<std::size_t>(o.run - 1);
+  std::vector<Run> runs;
+  for (int c = 0; c < model.n_coefficients; ++c) {
+    const auto same = std::find_if(es.begin(), es.end(), [&](const Experiment& e) { return e.coefficient == model.coefficients[c].name; });
+    Run run = (same != es.end() ? *same : es.front()).runs[index];
+    if (same == es.end()) run.coefficient.clear();  // not measured in E: predicted only
+    runs.push_back(std::move(run));
+  }
+  return runs;
+}
+
+// Predicts the run (one per model coefficient: the measured column where present) at the
+// airspeed, scores it and writes the outputs (all or none), as `predict` prints them.
+void predict_and_write(const PredictOptions& o, const indicial::ModelSet<double, indicial::FitCapacity>& model,
+                       const std::vector<indicial::Run>& runs, double airspeed, const std::string& data_label,
+                       const std::vector<std::string>& data_inputs) {
   using namespace indicial;
   const Overwrite overwrite = o.force ? Overwrite::replace : Overwrite::refuse;
+  const Run& run = runs.front();
+  tools::print_notes(run.notes, o.quiet ? tools::Verbosity::quiet : tools::Verbosity::progress);
+  tools::print_warnings(run.warnings);
+  // A phase cycle carries no airspeed, and the airspeed sets its lags' and stall states' time
+  // constants (l / V) and, with --reduced-frequency, its frequency: without --airspeed-mps it is
+  // predicted at the model's reference airspeed, said (a user's trial predicted 27 and 54 m/s
+  // cycles at 40 m/s without a word).
+  if (o.airspeed_mps == 0.0 && o.run == 0 && run.time_source == TimeSource::phase_column) {
+    tools::print_warnings({data_label + ": no --airspeed-mps: the cycle is predicted at the model's reference "
+                                          "airspeed, " + format_double(airspeed) + " m/s (give the cycle's own)"});
+  }
+  // A phase column is one ensemble-averaged cycle: periodic whether or not --periodic is given.
+  // (An experiment's run, --run, is periodic as its entry says.)
+  const bool periodic = o.periodic || run.time_source == TimeSource::phase_column || (o.run > 0 && run.periodic);
+  if (o.periodic && run.time_source == TimeSource::time_column) {
+    const std::string problem = periodic_closure_problem(run);
+    if (!problem.empty()) throw InputError(data_label, 0, "--periodic: the file is " + problem);
+  }
+  const std::string angle_column = run.angle_column;  // echoed in the unit the file used
+
+  require_runtime_accepts(model, o.model_path, ModelFile::read);  // a refused model names the file
+  Prediction p = periodic ? predict_periodic(model, run.time_s, run.motion_angle_rad, run.rate_radps, airspeed,
+                                               o.model_path)
+                            : predict_motion(model, run.time_s, run.motion_angle_rad, run.rate_radps, airspeed,
+                                             o.model_path);
+  bool any_measured = false;
+  for (std::size_t c = 0; c < p.coefficients.size(); ++c) {
+    p.coefficients[c].measured = runs[c].coefficient;
+    any_measured = any_measured || !runs[c].coefficient.empty();
+  }
+  score_coefficients(p, o.score_from_s);
+  const std::vector<std::string> lines = prediction_metrics_lines(p);
+
+  // Refuse before writing anything, so that outputs appear all or none (barring disk errors).
+  const std::string metrics_path =
+      any_measured ? (o.metrics.empty() ? default_metrics_path(o.out) : o.metrics) : std::string();
+  if (overwrite == Overwrite::refuse) {
+    for (const std::string& f : {o.out, metrics_path, o.plot})
+      if (!f.empty() && std::filesystem::exists(f))
+        throw InputError(f, 0, "output file exists (use --force to replace it)");
+  }
+  // --force replaces outputs, never an input (the model, a DATA file, the experiment).
+  std::vector<std::string> inputs = data_inputs;
+  inputs.push_back(o.model_path);
+  inputs.push_back(o.experiment);
+  for (const std::string& f : {o.out, metrics_path, o.plot}) refuse_output_onto_input(f, inputs);
+  std::vector<std::string> comments = {"indicial predict " + o.model_path + " " + data_label,
+                                       periodic ? "predicted with the runtime (indicial::Predictor): the "
+                                                    "cycle's periodic steady state"
+                                                  : "predicted with the runtime (indicial::Predictor), reset "
+                                                    "to the steady state at the first sample"};
+  for (const auto& l : lines) comments.push_back(l);
+  const std::vector<std::string> warnings = prediction_warnings(p);
+  for (const auto& w : warnings) comments.push_back("warning: " + w);
+  if (!o.plot.empty()) {
+    write_prediction_plot(p, o.plot, "indicial predict: " + std::filesystem::path(data_label).filename().string(),
+                          overwrite, o.gnuplot);
+  }
+  if (!metrics_path.empty()) write_file_atomically(metrics_path, prediction_metrics_json(p), overwrite);
+  write_file_atomically(o.out, prediction_csv(p, angle_column, comments), overwrite);
+
+  std::printf("predict: %zu samples, %zu coefficient(s) -> %s\n", p.time_s.size(),
+              p.coefficients.size(), o.out.c_str());
+  for (const auto& l : lines) std::printf("predict: %s\n", l.c_str());
+  // On stderr named by the data, as every other warning is (the CSV's comment lines need no name).
+  std::vector<std::string> named;
+  for (const std::string& w : warnings) named.push_back(data_label + ": " + w);
+  tools::print_warnings(named);
+  if (!metrics_path.empty()) std::printf("predict: metrics -> %s\n", metrics_path.c_str());
+  if (!o.plot.empty()) std::printf("predict: plot -> %s\n", o.plot.c_str());
+}
+
+void run_predict(const PredictOptions& o) {
+  using namespace indicial;
   if (o.out.empty()) throw InputError("--out", 0, "an output CSV path is required");
   if (std::filesystem::is_directory(o.model_path))
     throw InputError(o.model_path + " is a directory, expected a coefficient file (.coef)");
   for (const std::string& f : o.data_paths)
     if (std::filesystem::is_directory(f)) throw InputError(f + " is a directory, expected a CSV file");
+  if (o.data_paths.empty() && o.run == 0)
+    throw InputError("DATA", 0, "give the run file(s) to predict, or --experiment E.toml --run N");
   if (o.data_paths.size() == 1 && o.samples != 0)
     throw InputError("--samples", 0, "is for several DATA files (one cycle at their own phases); one run file is "
                                      "predicted at its own samples");
   const auto model = std::make_unique<ModelSet<double, FitCapacity>>(read_model_file(o.model_path));
   if (o.airspeed_mps < 0.0) throw InputError("--airspeed-mps", 0, "must be > 0");
+  if (o.run > 0) {
+    const std::vector<Run> runs = read_experiment_run(o, *model);
+    std::vector<std::string> inputs = runs.front().source_files;
+    if (inputs.empty()) inputs.push_back(runs.front().path);
+    const double airspeed = runs.front().airspeed_mps > 0.0 ? runs.front().airspeed_mps : model->airspeed_mps;
+    predict_and_write(o, *model, runs, airspeed, runs.front().path, inputs);
+    return;
+  }
   const double airspeed = o.airspeed_mps > 0.0 ? o.airspeed_mps : model->airspeed_mps;
 
   // One read per coefficient: the measured column is optional for each.
@@ -127,75 +249,7 @@ void run_predict(const PredictOptions& o) {
       runs.push_back(read_run_csv(o.data_paths.front(), model->axis, model->coefficients[c].name,
                                   CoefficientPresence::optional, read));
   }
-  const Run& run = runs.front();
-  tools::print_notes(run.notes, o.quiet ? tools::Verbosity::quiet : tools::Verbosity::progress);
-  tools::print_warnings(run.warnings);
-  // A phase cycle carries no airspeed, and the airspeed sets its lags' and stall states' time
-  // constants (l / V) and, with --reduced-frequency, its frequency: without --airspeed-mps it is
-  // predicted at the model's reference airspeed, said (a user's trial predicted 27 and 54 m/s
-  // cycles at 40 m/s without a word).
-  if (o.airspeed_mps == 0.0 && run.time_source == TimeSource::phase_column) {
-    tools::print_warnings({o.data_label + ": no --airspeed-mps: the cycle is predicted at the model's reference "
-                                          "airspeed, " + format_double(airspeed) + " m/s (give the cycle's own)"});
-  }
-  // A phase column is one ensemble-averaged cycle: periodic whether or not --periodic is given.
-  const bool periodic = o.periodic || run.time_source == TimeSource::phase_column;
-  if (o.periodic && run.time_source == TimeSource::time_column) {
-    const std::string problem = periodic_closure_problem(run);
-    if (!problem.empty()) throw InputError(o.data_paths.front(), 0, "--periodic: the file is " + problem);
-  }
-  const std::string angle_column = run.angle_column;  // echoed in the unit the file used
-
-  require_runtime_accepts(*model, o.model_path, ModelFile::read);  // a refused model names the file
-  Prediction p = periodic ? predict_periodic(*model, run.time_s, run.motion_angle_rad, run.rate_radps, airspeed,
-                                               o.model_path)
-                            : predict_motion(*model, run.time_s, run.motion_angle_rad, run.rate_radps, airspeed,
-                                             o.model_path);
-  bool any_measured = false;
-  for (std::size_t c = 0; c < p.coefficients.size(); ++c) {
-    p.coefficients[c].measured = runs[c].coefficient;
-    any_measured = any_measured || !runs[c].coefficient.empty();
-  }
-  score_coefficients(p, o.score_from_s);
-  const std::vector<std::string> lines = prediction_metrics_lines(p);
-
-  // Refuse before writing anything, so that outputs appear all or none (barring disk errors).
-  const std::string metrics_path =
-      any_measured ? (o.metrics.empty() ? default_metrics_path(o.out) : o.metrics) : std::string();
-  if (overwrite == Overwrite::refuse) {
-    for (const std::string& f : {o.out, metrics_path, o.plot})
-      if (!f.empty() && std::filesystem::exists(f))
-        throw InputError(f, 0, "output file exists (use --force to replace it)");
-  }
-  // --force replaces outputs, never an input (the model, a DATA file, the experiment).
-  std::vector<std::string> inputs = o.data_paths;
-  inputs.push_back(o.model_path);
-  inputs.push_back(o.experiment);
-  for (const std::string& f : {o.out, metrics_path, o.plot}) refuse_output_onto_input(f, inputs);
-  std::vector<std::string> comments = {"indicial predict " + o.model_path + " " + o.data_label,
-                                       periodic ? "predicted with the runtime (indicial::Predictor): the "
-                                                    "cycle's periodic steady state"
-                                                  : "predicted with the runtime (indicial::Predictor), reset "
-                                                    "to the steady state at the first sample"};
-  for (const auto& l : lines) comments.push_back(l);
-  const std::vector<std::string> warnings = prediction_warnings(p);
-  for (const auto& w : warnings) comments.push_back("warning: " + w);
-  if (!o.plot.empty()) {
-    write_prediction_plot(p, o.plot, "indicial predict: " + std::filesystem::path(o.data_paths.front()).filename().string(),
-                          overwrite, o.gnuplot);
-  }
-  if (!metrics_path.empty()) write_file_atomically(metrics_path, prediction_metrics_json(p), overwrite);
-  write_file_atomically(o.out, prediction_csv(p, angle_column, comments), overwrite);
-
-  std::printf("predict: %zu samples, %zu coefficient(s) -> %s\n", p.time_s.size(),
-              p.coefficients.size(), o.out.c_str());
-  for (const auto& l : lines) std::printf("predict: %s\n", l.c_str());
-  // On stderr named by the data, as every other warning is (the CSV's comment lines need no name).
-  std::vector<std::string> named;
-  for (const std::string& w : warnings) named.push_back(o.data_label + ": " + w);
-  tools::print_warnings(named);
-  if (!metrics_path.empty()) std::printf("predict: metrics -> %s\n", metrics_path.c_str());
-  if (!o.plot.empty()) std::printf("predict: plot -> %s\n", o.plot.c_str());
+  predict_and_write(o, *model, runs, airspeed, o.data_label, o.data_paths);
 }
 
 const indicial::tools::RegisterCommand register_predict([](CLI::App& app) {
@@ -213,8 +267,7 @@ const indicial::tools::RegisterCommand register_predict([](CLI::App& app) {
                   "run CSV: time_s (or a phase column), the angle column, optional rate and coefficients; or "
                   "several files, one cycle whose quantities are at their own phases (each file its own phase "
                   "column: a digitized history, an experiment's files = [...]), with --frequency-hz or "
-                  "--reduced-frequency")
-      ->required();
+                  "--reduced-frequency (or none: --experiment E.toml --run N)");
   sub->add_option("--out", opt->out, "output CSV")->required();
   sub->add_option("--plot", opt->plot, "overlay plot PNG (gnuplot): against time and against angle");
   sub->add_option("--gnuplot", opt->gnuplot, "gnuplot executable (default: gnuplot on PATH)");
@@ -236,7 +289,7 @@ const indicial::tools::RegisterCommand register_predict([](CLI::App& app) {
                 "steady state (the cycle closes on its last sample if it repeats the first angle, else "
                 "with one more mean step back to the first)");
   sub->add_option("--frequency-hz", opt->frequency_hz,
-                  "the cycle's frequency, for a DATA file with a phase_rad/phase_deg column (then --periodic "
+                  "the cycle's frequency, for a DATA file with a phase_rad/phase_deg/phase_cycles column (then --periodic "
                   "is implied)");
   sub->add_option("--reduced-frequency", opt->reduced_frequency,
                   "or its reduced frequency k = 2 pi f l / V (l: the model's reference length, V: the airspeed)");
@@ -246,6 +299,10 @@ const indicial::tools::RegisterCommand register_predict([](CLI::App& app) {
   sub->add_option("--experiment", opt->experiment,
                   "read DATA as the experiment file E.toml reads its runs: its [columns] map (file column -> "
                   "ours, e.g. Cnormal = \"Cn\") and its [csv] dialect");
+  sub->add_option("--run", opt->run,
+                  "with --experiment and no DATA: predict the experiment's run N (1-based) exactly as fit reads "
+                  "it -- its files, [columns] and each file's own map, frequency, airspeed and periodicity (a "
+                  "held-out cycle kept in an experiment file; digitized files headed x,y)");
   sub->add_option("--score-from-s", opt->score_from_s,
                   "score (RMS, max, TIC) only the samples at time >= T s; every sample is still predicted and "
                   "written (a raw multi-cycle log: leave out the start-up transient of the initial state)");

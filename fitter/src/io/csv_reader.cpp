@@ -123,7 +123,8 @@ bool parse_number(const std::string& cell, double& v, std::string& problem) {
 }
 
 // ---- column names -----------------------------------------------------------------------
-enum class Quantity { time, angle, rate };
+constexpr double kPhaseCyclesToRad = 2.0 * 3.14159265358979323846;  // phase_cycles: t / T
+enum class Quantity { time, angle, phase, rate };
 struct UnitChoice {
   const char* suffix;
   double to_si;  // factor to rad, rad/s or s
@@ -133,7 +134,7 @@ struct BaseName {
   Quantity quantity;
 };
 constexpr std::array<BaseName, 10> kUnitBases = {{{"time", Quantity::time},
-                                                  {"phase", Quantity::angle},
+                                                  {"phase", Quantity::phase},
                                                   {"alpha", Quantity::angle},
                                                   {"beta", Quantity::angle},
                                                   {"phi", Quantity::angle},
@@ -162,6 +163,9 @@ std::vector<UnitChoice> units_of(Quantity q) {
   switch (q) {
     case Quantity::time: return {{"s", 1.0}};
     case Quantity::angle: return {{"deg", kDegToRad}, {"rad", 1.0}};
+    // A cycle's phase also as the fraction of the cycle (t / T, 0 ... 1: digitized histories
+    // are often plotted against it).
+    case Quantity::phase: return {{"deg", kDegToRad}, {"rad", 1.0}, {"cycles", kPhaseCyclesToRad}};
     case Quantity::rate: return {{"degps", kDegToRad}, {"radps", 1.0}};
   }
   return {};
@@ -846,7 +850,8 @@ RunColumns locate_run_columns(const std::string& path, const CsvTable& t, Axis a
                                               "' given; keep one (a phase column replaces time)");
   }
   if (rc.time < 0 && rc.phase < 0)
-    missing_column(path, t, "'time_s' (or 'phase_rad' / 'phase_deg')", {"time_s", "phase_rad", "phase_deg"}, columns);
+    missing_column(path, t, "'time_s' (or 'phase_rad' / 'phase_deg' / 'phase_cycles')",
+                   {"time_s", "phase_rad", "phase_deg", "phase_cycles"}, columns);
   const std::string mb = motion_base(axis);
   rc.angle = find_unit_column(path, t, mb, rc.angle_factor);
   if (rc.angle < 0) {
@@ -906,6 +911,15 @@ std::vector<double> read_time(const std::string& path, CsvTable& t, const RunCol
   return tol;
 }
 
+// A phase column's unit and its cycle's end, for messages ("rad", "2 pi"; "deg", "360";
+// "cycles", "1"), from the column's factor to rad.
+const char* phase_unit(double phase_factor) {
+  return phase_factor == 1.0 ? "rad" : (phase_factor == kPhaseCyclesToRad ? "cycles" : "deg");
+}
+const char* phase_cycle_end(double phase_factor) {
+  return phase_factor == 1.0 ? "2 pi" : (phase_factor == kPhaseCyclesToRad ? "1" : "360");
+}
+
 // What a phase outside [0, 2 pi) most likely is (phase in rad, the column's factor to rad): the
 // cycle's end point repeating its start (360 deg, 2 pi), a cycle in [-pi, pi), or degrees in a
 // radian column; "" otherwise.
@@ -915,6 +929,8 @@ std::string degrees_hint(double phase_factor, double phase) {
   if (phase < 0.0 && phase >= -kPi) return " (a cycle in [-pi, pi) or [-180, 180): add a full cycle to the negative phases)";
   if (phase_factor == 1.0 && phase >= 2.0 * kPi && phase < 360.0)
     return " (it looks like degrees in a radian column: name it phase_deg if so)";
+  if (phase_factor == kPhaseCyclesToRad && phase >= 2.0 * kPi && phase < 360.0 * kPhaseCyclesToRad)
+    return " (it looks like degrees in a column of cycles: name it phase_deg if so)";
   return "";
 }
 
@@ -934,7 +950,7 @@ void check_time_order(const std::string& path, const CsvTable& t, const RunColum
     const double phase_rad = run.time_s[i] * 2.0 * kPi * run.frequency_hz;
     if (phase && !(phase_rad >= 0.0 && phase_rad < 2.0 * kPi * (1.0 - 1e-15))) {
       throw InputError(path, t.row_line[i], "column '" + name + "': phase " + t.rows[i][c] + " is outside [0, " +
-                                                (rc.phase_factor == 1.0 ? "2 pi" : "360") + ")" +
+                                                phase_cycle_end(rc.phase_factor) + ")" +
                                                 degrees_hint(rc.phase_factor, phase_rad));
     }
     if (i > 0 && !(run.time_s[i] > run.time_s[i - 1])) {
@@ -981,11 +997,13 @@ void check_time_grid(const std::string& path, const CsvTable& t, const RunColumn
   run.time_grid = declared;
   if (bad == 0 || declared == TimeGrid::nonuniform) return;
   // A duration in the column's own unit: a phase column's in rad or deg, with seconds beside.
+  // Six significant digits: these are differences of printed values (0.30000000000000016 deg
+  // is 0.3 deg to anyone reading the message).
   const auto in_column = [&](double seconds) {
-    if (rc.phase < 0) return format_double(seconds) + " s";
+    if (rc.phase < 0) return printed(seconds, "%.6g") + " s";
     const double per_s = 2.0 * kPi * run.frequency_hz / rc.phase_factor;
-    return format_double(seconds * per_s) + (rc.phase_factor == 1.0 ? " rad" : " deg") + " (" +
-           format_double(seconds) + " s)";
+    return printed(seconds * per_s, "%.6g") + " " + phase_unit(rc.phase_factor) + " (" +
+           printed(seconds, "%.6g") + " s)";
   };
   double a = 0.0, b = 0.0;
   // A phase cycle of n samples: one cycle over n steps, 1 / (n f) s each.
@@ -1017,8 +1035,8 @@ void check_time_grid(const std::string& path, const CsvTable& t, const RunColumn
                          "to read it as a nonuniform cycle");
   }
   throw InputError(path, t.row_line[bad],
-                   "non-uniform time step: " + format_double(steps[bad - 1]) + " s after " + t.rows[bad - 1][c] +
-                       ", the run's step is " + format_double(dt) +
+                   "non-uniform time step: " + printed(steps[bad - 1], "%.6g") + " s after " + t.rows[bad - 1][c] +
+                       ", the run's step is " + printed(dt, "%.6g") +
                        " s (allowed deviation 1e-6 relative or the printed digits; declare "
                        "time_grid = \"nonuniform\" in the run's entry if the log is not uniform)");
 }
@@ -1061,12 +1079,18 @@ void check_phase_gaps(const std::string& path, const CsvTable& t, int phase_col,
   const std::string where = "the phases leave a gap of " + printed(gap * 180.0 / kPi, "%.1f") + " deg between " +
                             t.rows[before][c] + " and " + t.rows[after][c] + (after == 0 ? " (the wrap)" : "");
   if (gap > kPi) {
-    const bool radians = factor != 1.0 && phase_rad.back() / factor <= 2.0 * kPi;
+    // Values that never exceed 1 are a fraction of the cycle (t / T) whatever the name says;
+    // values up to 2 pi under phase_deg are radians.
+    const double largest = phase_rad.back() / factor;
+    const bool fraction = factor != kPhaseCyclesToRad && largest <= 1.0;
+    const bool radians = !fraction && factor == kDegToRad && largest <= 2.0 * kPi;
     throw InputError(path, t.row_line[after], "column '" + t.header[c] + "': " + where +
                                                   ", more than half the cycle: a cycle's phases must cover it" +
-                                                  (radians ? " (its values never exceed 2 pi: they look like radians "
-                                                             "in a degree column; name it phase_rad if so)"
-                                                           : ""));
+                                                  (fraction ? " (its values never exceed 1: they look like a fraction "
+                                                              "of the cycle, t / T; name it phase_cycles if so)"
+                                                   : radians ? " (its values never exceed 2 pi: they look like radians "
+                                                               "in a degree column; name it phase_rad if so)"
+                                                             : ""));
   }
   if (gap > kPi / 3.0)
     warnings->push_back(path + ":" + std::to_string(t.row_line[after]) + ": column '" + t.header[c] + "': " + where +
@@ -1214,8 +1238,8 @@ PhaseSeries read_phase_series(const std::string& path, Axis axis, const std::str
   RunColumns rc;
   rc.phase = find_unit_column(path, t, "phase", rc.phase_factor);
   if (rc.phase < 0) {
-    missing_column(path, t, "'phase_rad' or 'phase_deg' (each file of a run sampled at its own phases has its own "
-                            "phase column)", {"phase_rad", "phase_deg"}, options.columns);
+    missing_column(path, t, "'phase_rad', 'phase_deg' or 'phase_cycles' (each file of a run sampled at its own "
+                            "phases has its own phase column)", {"phase_rad", "phase_deg", "phase_cycles"}, options.columns);
   }
   rc.angle = find_unit_column(path, t, motion_base(axis), rc.angle_factor);
   rc.rate = find_unit_column(path, t, rate_base(axis), rc.rate_factor);
@@ -1226,6 +1250,8 @@ PhaseSeries read_phase_series(const std::string& path, Axis axis, const std::str
                                               "' needs the angle of attack in the same file");
   PhaseSeries s;
   s.path = path;
+  s.columns = t.original;
+  s.angle_base = motion_base(axis);
   s.phase_rad = numeric_column(path, t, rc.phase, rc.phase_factor);
   if (s.phase_rad.size() < 4)
     throw InputError(path, t.row_line.back(), "only " + std::to_string(s.phase_rad.size()) +
@@ -1234,7 +1260,7 @@ PhaseSeries read_phase_series(const std::string& path, Axis axis, const std::str
   for (std::size_t i = 0; i < s.phase_rad.size(); ++i) {
     if (!(s.phase_rad[i] >= 0.0 && s.phase_rad[i] < 2.0 * kPi * (1.0 - 1e-15)))
       throw InputError(path, t.row_line[i], "column '" + t.header[pc] + "': phase " + t.rows[i][pc] +
-                                                " is outside [0, " + (rc.phase_factor == 1.0 ? "2 pi" : "360") + ")" +
+                                                " is outside [0, " + phase_cycle_end(rc.phase_factor) + ")" +
                                                 degrees_hint(rc.phase_factor, s.phase_rad[i]));
     if (i > 0 && !(s.phase_rad[i] > s.phase_rad[i - 1]))
       throw InputError(path, t.row_line[i], t.header[pc] + " is not strictly increasing (" + t.rows[i][pc] +

@@ -237,8 +237,13 @@ void check_runtime_capacity(const CapacityUse& use, Experiment& e,
   if (use.needed <= use.limit) return;
   const bool pool = (use.pool == CapacityUse::Pool::model_stepwise && e.model.structure == StructureMode::stepwise) ||
                     (use.pool == CapacityUse::Pool::rotary_estimate && e.rotary.estimate);
-  const std::string text = "'" + use.key + "' needs " + std::to_string(use.needed) + " " + use.what +
-                           "; the runtime (indicial::DefaultCapacity) holds at most " + std::to_string(use.limit);
+  std::string text = "'" + use.key + "' needs " + std::to_string(use.needed) + " " + use.what +
+                     "; the runtime (indicial::DefaultCapacity) holds at most " + std::to_string(use.limit);
+  // A digitized or finely tabulated polar: the runtime interpolates linearly between rows, so
+  // the table is the user's to thin (where it is straight), not ours to change silently.
+  if (use.key == "static.table")
+    text += " (thin the table to at most " + std::to_string(use.limit) +
+            " rows: keep those where the curve bends, drop rows where it is straight)";
   if (!pool) throw error(text);
   e.warnings.push_back(warning_site + text + ": a candidate pool may exceed it, the selected model must not");
 }

@@ -46,6 +46,7 @@ struct KnotSource {
 struct RunEntry {
   std::string file;
   std::vector<std::string> files;    // `files = [...]`: columns at their own phases (phase_resample.hpp)
+  std::vector<ColumnMap> file_columns;  // each file's own map ({file = ..., columns = {...}}; empty: none)
   int samples = 0;                   // with files: the uniform grid's size (0: the most rows of any file)
   long line = 0;
   std::optional<bool> periodic;      // as stated
@@ -227,10 +228,45 @@ const toml::node* section_for(const LoadContext& c, const toml::table& root, con
   return node->as_table()->get(coefficient);
 }
 
+// A column map (`[columns]`, `[static] columns`): our column name = the file's name, into *out.
+// A file column mapped to two of ours is refused (one of them was silently lost): a
+// digitizer's files headed x,y each hold a different quantity under the same name, which
+// only a map per file can say.
+void read_column_map(const TomlReader& r, const toml::node& node, const std::string& key_name,
+                     std::map<std::string, std::string>* out) {
+  std::map<std::string, std::string> mapped_from;  // the file's name -> ours
+  for (auto&& [key, value] : r.table(node, key_name)) {
+    const std::string ours(key.str());
+    const std::string theirs = r.string(value, key_name + "." + ours);
+    if (theirs.empty()) r.fail(value, "'" + key_name + "." + ours + "' is empty: name the file's column");
+    const auto [it, fresh] = mapped_from.emplace(theirs, ours);
+    if (!fresh)
+      r.fail(value, "'" + key_name + "' maps the file column '" + theirs + "' to both '" + it->second + "' and '" +
+                        ours + "': a column is one quantity (files whose columns share names, such as a "
+                        "digitizer's x,y, each need a map of their own: runs = [{files = [{file = \"alpha.csv\", "
+                        "columns = {phase_deg = \"x\", alpha_deg = \"y\"}}, {file = \"cl.csv\", columns = "
+                        "{phase_deg = \"x\", CL = \"y\"}}], frequency_hz = ...}])");
+    (*out)[ours] = theirs;
+  }
+}
+
 // runs.files (at least one file name) and runs.samples; each file has its own phase column, so
 // the run is one periodic cycle with its frequency given (checked by read_runs).
 void read_run_files(const TomlReader& r, const toml::node& files, const toml::table& t, RunEntry& re) {
-  for (const auto& n : r.array(files, "runs.files")) re.files.push_back(r.string(n, "runs.files entry"));
+  for (const auto& n : r.array(files, "runs.files")) {
+    ColumnMap own;
+    if (const toml::table* ft = n.as_table()) {
+      // {file = "cl.csv", columns = {phase_deg = "x", CL = "y"}}: this file's own column map.
+      r.check_keys(*ft, {"file", "columns"}, "runs.files.");
+      const toml::node* f = ft->get("file");
+      if (!f) r.fail(n, "a 'runs.files' table needs 'file' (and optionally 'columns', the file's own column map)");
+      re.files.push_back(r.string(*f, "runs.files.file"));
+      if (const toml::node* m = ft->get("columns")) read_column_map(r, *m, "runs.files.columns", &own);
+    } else {
+      re.files.push_back(r.string(n, "runs.files entry"));
+    }
+    re.file_columns.push_back(own);
+  }
   if (re.files.empty()) r.fail(files, "'runs.files' is empty");
   re.file = re.files.front();
   for (std::size_t i = 1; i < re.files.size(); ++i) re.file += " + " + re.files[i];
@@ -319,16 +355,6 @@ std::vector<RunEntry> read_run_entries(LoadContext& c, const toml::table& root, 
   return entries;
 }
 
-// A column map (`[columns]`, `[static] columns`): our column name = the file's name, into *out.
-void read_column_map(const TomlReader& r, const toml::node& node, const std::string& key_name,
-                     std::map<std::string, std::string>* out) {
-  for (auto&& [key, value] : r.table(node, key_name)) {
-    const std::string ours(key.str());
-    const std::string theirs = r.string(value, key_name + "." + ours);
-    if (theirs.empty()) r.fail(value, "'" + key_name + "." + ours + "' is empty: name the file's column");
-    (*out)[ours] = theirs;
-  }
-}
 
 // [columns]: the runs' (and, without [static] columns, the static table's) column map.
 void read_columns_section(LoadContext& c, const toml::node* node) {
@@ -645,7 +671,11 @@ Run read_run_of_files(const LoadContext& c, const RunEntry& entry, const Experim
     label += (label.empty() ? "" : " + ") + resolved.back();
   }
   std::vector<PhaseSeries> series;
-  for (const std::string& path : resolved) series.push_back(read_phase_series(path, e.axis, e.coefficient, entry.csv));
+  for (std::size_t i = 0; i < resolved.size(); ++i) {
+    RunCsvOptions options = entry.csv;  // [columns], with the file's own map over it
+    for (const auto& [ours, theirs] : entry.file_columns[i]) options.columns[ours] = theirs;
+    series.push_back(read_phase_series(resolved[i], e.axis, e.coefficient, options));
+  }
   Run run;
   try {
     run = resample_phase_series(series, e.coefficient, CoefficientPresence::required, entry.csv.frequency_hz,
@@ -658,6 +688,8 @@ Run read_run_of_files(const LoadContext& c, const RunEntry& entry, const Experim
     throw InputError(c.r.file(), entry.line, "runs entry " + m);
   }
   run.source_files = resolved;
+  if (std::any_of(entry.file_columns.begin(), entry.file_columns.end(), [](const ColumnMap& m) { return !m.empty(); }))
+    run.source_file_columns = entry.file_columns;
   run.resampled_points = entry.samples;
   return run;
 }
@@ -950,13 +982,37 @@ std::string power_terms(const std::string& name, const std::vector<int>& powers)
   for (std::size_t i = 0; i < powers.size(); ++i) out += (i ? ", " : "") + std::to_string(powers[i]);
   return out + "]\n";
 }
+// A TOML key: bare when it can be (letters, digits, '_', '-'), quoted otherwise.
+std::string toml_key(const std::string& k) {
+  const bool bare = !k.empty() && std::all_of(k.begin(), k.end(), [](char ch) {
+    return (ch >= 'a' && ch <= 'z') || (ch >= 'A' && ch <= 'Z') || (ch >= '0' && ch <= '9') || ch == '_' || ch == '-';
+  });
+  return bare ? k : toml_string(k);
+}
+
 // A `runs` entry: the bare file name, or a table with the keys that differ from the defaults.
 // A phase-column run is periodic by its file (periodic is then implied, not written).
 std::string run_entry(const Run& run, double experiment_airspeed_mps) {
   std::string keys;
   if (!run.source_files.empty()) {
     std::string files = "[";
-    for (std::size_t i = 0; i < run.source_files.size(); ++i) files += (i ? ", " : "") + toml_string(run.source_files[i]);
+    for (std::size_t i = 0; i < run.source_files.size(); ++i) {
+      const ColumnMap* own = i < run.source_file_columns.size() && !run.source_file_columns[i].empty()
+                                 ? &run.source_file_columns[i]
+                                 : nullptr;
+      files += (i ? ", " : "");
+      if (!own) {
+        files += toml_string(run.source_files[i]);
+        continue;
+      }
+      files += "{file = " + toml_string(run.source_files[i]) + ", columns = {";
+      bool first = true;
+      for (const auto& [ours, theirs] : *own) {
+        files += std::string(first ? "" : ", ") + toml_key(ours) + " = " + toml_string(theirs);
+        first = false;
+      }
+      files += "}}";
+    }
     std::string out = "{files = " + files + "], frequency_hz = " + format_double(run.frequency_hz);
     if (run.resampled_points > 0) out += ", samples = " + std::to_string(run.resampled_points);
     if (run.airspeed_mps > 0.0 && run.airspeed_mps != experiment_airspeed_mps)
@@ -973,13 +1029,6 @@ std::string run_entry(const Run& run, double experiment_airspeed_mps) {
   return keys.empty() ? toml_string(run.path) : "{file = " + toml_string(run.path) + keys + "}";
 }
 
-// A TOML key: bare when it can be (letters, digits, '_', '-'), quoted otherwise.
-std::string toml_key(const std::string& k) {
-  const bool bare = !k.empty() && std::all_of(k.begin(), k.end(), [](char ch) {
-    return (ch >= 'a' && ch <= 'z') || (ch >= 'A' && ch <= 'Z') || (ch >= '0' && ch <= '9') || ch == '_' || ch == '-';
-  });
-  return bare ? k : toml_string(k);
-}
 
 // The [columns] and [csv] sections of a run-file format, each only where it is not the
 // default (read_columns_section, read_csv_section read them back).

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "indicial/fitter/derivative.hpp"
+#include "indicial/fitter/did_you_mean.hpp"
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/io.hpp"
 
@@ -38,6 +39,30 @@ int holder(const std::vector<PhaseSeries>& files, std::vector<double> PhaseSerie
   return found;
 }
 
+// A quantity no file of the run has: each file's columns, and the nearest name within two
+// edits (letter case ignored), as a one-file run's missing column says.
+[[noreturn]] void missing_in_files(const std::vector<PhaseSeries>& files, const std::string& what,
+                                   const std::vector<std::string>& wanted, const std::string& label) {
+  std::string found, nearest, nearest_file, nearest_wanted;
+  std::size_t best = 3;
+  for (const PhaseSeries& f : files) {
+    std::string names;
+    for (const std::string& name : f.columns) {
+      names += (names.empty() ? "" : ", ") + name;
+      for (const std::string& w : wanted) {
+        const std::size_t d = edit_distance(name, w, LetterCase::ignored);
+        if (d < best && d < w.size()) best = d, nearest = name, nearest_file = f.path, nearest_wanted = w;
+      }
+    }
+    found += (found.empty() ? "" : "; ") + f.path + ": " + names;
+  }
+  std::string msg = "no file of the run has " + what + " (columns found: " + found + ")";
+  if (!nearest.empty())
+    msg += "; did you mean '" + nearest + "' in " + nearest_file + "? (map it in [columns]: " + nearest_wanted +
+           " = \"" + nearest + "\")";
+  throw InputError(label, 0, msg);
+}
+
 }  // namespace
 
 std::vector<double> periodic_interpolate(const std::vector<double>& phase_rad, const std::vector<double>& value,
@@ -64,16 +89,20 @@ Run resample_phase_series(const std::vector<PhaseSeries>& files, const std::stri
     throw InputError(label, 0, "a run of files at their own phases needs the cycle's frequency (frequency_hz or "
                                "reduced_frequency)");
   const int angle = holder(files, &PhaseSeries::motion_angle_rad, false, "the motion angle", label);
-  if (angle < 0) throw InputError(label, 0, "no file of the run has the motion angle column");
+  if (angle < 0) {
+    const std::string& base = files.front().angle_base;
+    missing_in_files(files, "the motion angle column", {base + "_deg", base + "_rad"}, label);
+  }
   const int coef = holder(files, &PhaseSeries::coefficient, true, "'" + coefficient + "'", label);
   if (coef < 0 && presence == CoefficientPresence::required)
-    throw InputError(label, 0, "no file of the run has the '" + coefficient + "' column");
+    missing_in_files(files, "the '" + coefficient + "' column", {coefficient}, label);
   const int rate = holder(files, &PhaseSeries::rate_radps, false, "the rate", label);
-  // The default grid: the most rows of the files the run uses (not of a file with only another
-  // coefficient's column, which a run of this coefficient ignores).
+  // The default grid: the most rows of any file of the run, a file with only another
+  // coefficient's column included. Why: the run's coefficients (an experiment's `coefficients
+  // = ["CL", "Cm"]`, predict's model) are then on one grid with one envelope; counting only the
+  // files each coefficient uses put CL on 309 phases and Cm on 341 of the same cycles.
   std::size_t n = 0;
-  for (const int used : {angle, coef, rate})
-    if (used >= 0) n = std::max(n, files[static_cast<std::size_t>(used)].phase_rad.size());
+  for (const PhaseSeries& f : files) n = std::max(n, f.phase_rad.size());
   if (samples > 0) n = static_cast<std::size_t>(samples);
   n = std::max<std::size_t>(n, static_cast<std::size_t>(min_run_samples));
   Run run;

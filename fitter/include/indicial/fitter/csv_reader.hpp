@@ -120,6 +120,8 @@ Run read_run_csv(const std::string& path, Axis axis, const std::string& coeffici
 // angle. Dialect and [columns] as read_run_csv.
 struct PhaseSeries {
   std::string path;
+  std::vector<std::string> columns;  // the file's header as written (for a missing column's hint)
+  std::string angle_base;            // the motion angle's name without its unit: alpha (pitch), phi, beta
   std::vector<double> phase_rad;
   std::vector<double> motion_angle_rad;
   std::string motion_column;

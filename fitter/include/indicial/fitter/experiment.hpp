@@ -57,6 +57,9 @@ struct Run {
   // size; path is then those paths joined by " + " (a label, not a file). Empty for a run of
   // one file.
   std::vector<std::string> source_files;
+  // Each source file's own column map (`files = [{file = ..., columns = {...}}]`, over the
+  // experiment's [columns]); empty maps for files named by a bare string. Empty, or one per file.
+  std::vector<std::map<std::string, std::string>> source_file_columns;
   int resampled_points = 0;
   std::vector<std::string> notes;         // one-line notes of the reader (ignored columns, ...)
   std::vector<std::string> warnings;      // plausible mistakes (radians in a degree column, ...)

@@ -9,7 +9,7 @@
 // experiment names them in one runs entry, `{files = ["alpha.csv", "cl.csv", "cm.csv"],
 // frequency_hz = 2.0}`, and resample_phase_series() makes one periodic Run of them: every
 // quantity interpolated onto one uniform phase grid of `samples` points (default: the largest
-// number of rows of the files the run uses), phase_k = 2 pi k / samples, t_k = phase_k / (2 pi f).
+// number of rows of any file of the run), phase_k = 2 pi k / samples, t_k = phase_k / (2 pi f).
 //
 // How, and the error it makes
 // ---------------------------
