@@ -919,6 +919,24 @@ RunCsvOptions run_file_format(const std::string& toml_path) {
   return options;
 }
 
+std::vector<Experiment> load_experiment_runs(const std::string& toml_path) {
+  std::vector<std::string> coefficients;
+  const toml::table root = parse_checked(toml_path, coefficients);
+  std::vector<Experiment> out;
+  for (const std::string& name : coefficients) {
+    const TomlReader r(toml_path);
+    LoadContext c{r, fs::path(toml_path).parent_path(), {}, root.source(), {}, {}, {}};
+    Experiment e;
+    e.path = toml_path;
+    read_top_level(c, root, name, e);
+    read_columns_section(c, root.get("columns"));
+    read_csv_section(c, root.get("csv"));
+    read_runs(c, read_run_entries(c, root, e), e);
+    out.push_back(std::move(e));
+  }
+  return out;
+}
+
 std::vector<Experiment> load_experiments(const std::string& toml_path) {
   std::vector<std::string> coefficients;
   const toml::table root = parse_checked(toml_path, coefficients);

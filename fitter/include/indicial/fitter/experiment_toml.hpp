@@ -105,6 +105,11 @@ Experiment load_experiment(const std::string& toml_path, const std::string& coef
 // docs/formats.md) and the same runs, in the order of `coefficients`.
 std::vector<Experiment> load_experiments(const std::string& toml_path);
 
+// The runs only, one Experiment per coefficient as load_experiments reads them (axis, lengths,
+// airspeed, [columns], [csv], runs), without [static], [rotary] and [model] (not required, not
+// read; their keys are still checked): for `indicial polar`, which makes the static table.
+std::vector<Experiment> load_experiment_runs(const std::string& toml_path);
+
 // How the experiment's run files are read: its [columns] map and its [csv] dialect (the rest of
 // the file is checked for TOML syntax only). `indicial predict --experiment` reads a run file
 // this way, as `fit` reads the experiment's runs.
