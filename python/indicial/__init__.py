@@ -37,7 +37,8 @@ from ._indicial import ClosedError, InputError, StepError
 __version__ = _indicial.__version__
 
 __all__ = [
-    "Experiment", "Run", "fit", "diagnose", "predict", "simulate", "simulation_case",
+    "Experiment", "Run", "fit", "diagnose", "predict", "simulate", "simulation_case", "quasi_static_polar",
+    "QuasiStaticPolar",
     "Model", "Predictor", "BatchStepper", "FitResult", "Parameter", "Diagnosis",
     "Prediction", "InputError", "StepError", "ClosedError", "IndicialWarning",
 ]
@@ -632,6 +633,44 @@ def predict(model: Model, *, time_s, airspeed_mps: Optional[float] = None, perio
     angle, rate = _motion(model.axis, motion)
     return Prediction(_indicial._predict(model._m, time_s, angle, rate, airspeed_mps, bool(periodic), measured,
                                          time_grid, _real(score_from_s, "score_from_s")))
+
+
+class QuasiStaticPolar:
+    """What ``quasi_static_polar`` returns: ``x_rad`` (each row's mean model angle, rad),
+    ``values`` ({coefficient: array}, the bin means), ``samples`` (per row; 0 for a held row),
+    ``bins_dropped``, ``samples_used``, ``runs``, ``held_rows``, ``axis``, and ``csv`` (the
+    static-table CSV ``indicial polar`` writes: ``write(path)`` writes it)."""
+
+    def __init__(self, d: dict):
+        self.x_rad = d["x_rad"]
+        self.values = dict(d["values"])
+        self.samples = d["samples"]
+        self.bins_dropped = d["bins_dropped"]
+        self.samples_used = d["samples_used"]
+        self.runs = d["runs"]
+        self.held_rows = d["held_rows"]
+        self.axis = d["axis"]
+        self.csv = d["csv"]
+
+    def write(self, path: str, force: bool = False) -> None:
+        """Writes ``csv`` to path, atomically; refuses an existing file unless force=True."""
+        _indicial._write_polar(str(path), self.csv, bool(force))
+
+    def __repr__(self) -> str:
+        return f"<indicial.QuasiStaticPolar {', '.join(self.values)}: {len(self.x_rad)} rows>"
+
+
+def quasi_static_polar(path: str, *, bin_deg: float = 1.0, min_samples: int = 4, stroke: str = "rising",
+                       hold_deg: float = 0.0) -> QuasiStaticPolar:
+    """A static table from the quasi-static cycles an experiment file names (``indicial
+    polar``; the file needs no [static]): the rising samples (``stroke="both"``: all) in
+    ``bin_deg`` bins centred on multiples of it, a row per bin of >= ``min_samples`` samples at
+    its mean angle; ``hold_deg``: one more row that far beyond each end, holding the end values.
+    Warnings of the reader are issued as IndicialWarning."""
+    d = _indicial._quasi_static_polar(str(path), _real(bin_deg, "bin_deg"), int(min_samples), str(stroke),
+                                      _real(hold_deg, "hold_deg"))
+    _warn(d["warnings"])
+    return QuasiStaticPolar(d)
 
 
 @dataclass

@@ -132,5 +132,6 @@ void bind_predict(py::module_& m);
 void bind_simulate(py::module_& m);
 void bind_stepper(py::module_& m);
 void bind_bench(py::module_& m);
+void bind_polar(py::module_& m);
 
 }  // namespace indicial::python

@@ -17,4 +17,5 @@ PYBIND11_MODULE(_indicial, m) {
   ip::bind_simulate(m);
   ip::bind_stepper(m);
   ip::bind_bench(m);
+  ip::bind_polar(m);
 }
