@@ -88,7 +88,9 @@ const std::vector<KeyDoc>& key_docs() {
                    "A cycle whose quantities are at their own phases (digitized histories: a file per quantity,\n"
                    "each with its own phase_deg|phase_rad|phase_cycles column, any spacing): {files = [\"alpha.csv\", \"cl.csv\"],\n"
                    "frequency_hz = 2.0, samples = 128}, resampled onto `samples` uniform phases (default: the\n"
-                   "most rows of any file of the run) by a periodic modified Akima cubic.",
+                   "most rows of any file of the run) by a periodic modified Akima cubic. A file whose columns\n"
+                   "are named otherwise (a digitizer's x,y) takes its own map over [columns]:\n"
+                   "{file = \"cl.csv\", columns = {phase_deg = \"x\", CL = \"y\"}} in place of its name.",
        "runs = [\"run1.csv\", \"run2.csv\"]"},
       {"static", "polynomial", "the static curve C_a(x) = c0 + c1 x + c2 x^2 + ...: coefficients of x^0, x^1, ...\n"
                                "with x = alpha (pitch) or beta (roll, yaw) in RAD. Give polynomial or table (one is required).",
