@@ -180,13 +180,18 @@ indicial::ReportOptions report_options(const FitCliOptions& o, const indicial::E
 
 // Never write (or exit 0 with) a model the runtime refuses: throws (one line, nothing written);
 // returns the post-fit warnings (fit error far above the noise, a model only FitCapacity holds).
+// `coefficient_named`: several coefficients of one file are fitted, so a warning naming the
+// experiment file names the coefficient too ("experiment.toml (Cm): ...").
 std::vector<std::string> checked_fit(const indicial::FitResult& r, const indicial::Experiment& e,
-                                     const std::string& coef_path) {
+                                     const std::string& coef_path, bool coefficient_named = false) {
   using namespace indicial;
+  const std::string site = coefficient_named ? e.path + " (" + e.coefficient + ")" : e.path;
   // Printed under --quiet too: it says how the model was chosen, not what a reader did.
-  if (!r.stepwise_fallback.empty()) tools::print_notes({e.path + ": " + r.stepwise_fallback});
+  if (!r.stepwise_fallback.empty()) tools::print_notes({site + ": " + r.stepwise_fallback});
   const RuntimeAcceptance accepted = require_runtime_accepts(r.model, coef_path, ModelFile::to_write);
   std::vector<std::string> after_fit = fit_warnings(r, e);
+  for (std::string& w : after_fit)
+    if (coefficient_named && w.rfind(e.path + ": ", 0) == 0) w = site + w.substr(e.path.size());
   if (accepted.capacity == RuntimeCapacity::fit_capacity_only) after_fit.push_back(coef_path + ": " + accepted.reason);
   tools::print_warnings(after_fit);
   return after_fit;
@@ -247,7 +252,7 @@ void run_fit_several(const FitCliOptions& o, const indicial::FitOptions& fo,
   for (std::size_t i = 0; i < es.size(); ++i) {
     clock.stage("fitting " + es[i].coefficient + " (equation error, stepwise, output error)",
                 [&] { results.push_back(fit_experiment(es[i], fo)); });
-    after[i] = checked_fit(results[i], es[i], o.out + "/" + es[i].coefficient + "/model.coef");
+    after[i] = checked_fit(results[i], es[i], o.out + "/" + es[i].coefficient + "/model.coef", true);
   }
   OutputDir out(o.out, overwrite);
   std::vector<NamedModelSet> parts;
