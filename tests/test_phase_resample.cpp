@@ -338,6 +338,37 @@ TEST_CASE("files = [...]: a file's own column map reads x,y files, one column ma
   }
   CHECK(clash.find("clash.toml:10: 'columns' maps the file column 'y' to both 'CL' and 'alpha_deg'") != std::string::npos);
   CHECK(clash.find("each need a map of their own") != std::string::npos);
+  // A file's own map wins over [columns] for the file columns it names (the review's case:
+  // [columns] CL = "y" must not take the alpha file's y), and the other files keep [columns].
+  const indicial::Experiment layered = indicial::load_experiment(
+      write("layered.toml", head +
+                                "runs = [{files = [{file = \"xy_alpha.csv\", columns = {alpha_deg = \"y\"}}, "
+                                "\"xy_cl.csv\"], frequency_hz = 2.0}]\n" + tail +
+                                "[columns]\nphase_deg = \"x\"\nCL = \"y\"\n"));
+  CHECK(layered.runs[0].motion_angle_rad == named.runs[0].motion_angle_rad);
+  CHECK(layered.runs[0].coefficient == named.runs[0].coefficient);
+  // A file's own map naming a column the file lacks: refused, naming that file's map.
+  std::string lacking;
+  try {
+    indicial::load_experiment(write("lacking.toml", head + "runs = [{files = [{file = \"xy_alpha.csv\", columns = "
+                                                           "{phase_deg = \"x\", alpha_deg = \"Y\"}}, {file = "
+                                                           "\"xy_cl.csv\", columns = {phase_deg = \"x\", CL = "
+                                                           "\"y\"}}], frequency_hz = 2.0}]\n" + tail));
+  } catch (const indicial::InputError& e) {
+    lacking = e.what();
+  }
+  CHECK(lacking.find("lacking.toml:5: runs entry: the map of 'xy_alpha.csv' names its column 'Y' (for alpha_deg), "
+                     "which the file does not have (columns found: x, y)") != std::string::npos);
+  // One column twice with a sign flip is still one column twice.
+  std::string flipped;
+  try {
+    indicial::load_experiment(write("flipped.toml", head + "runs = [{files = [\"xy_alpha.csv\", \"xy_cl.csv\"], "
+                                                            "frequency_hz = 2.0}]\n" + tail +
+                                                            "[columns]\nalpha_deg = \"y\"\nCL = \"-y\"\n"));
+  } catch (const indicial::InputError& e) {
+    flipped = e.what();
+  }
+  CHECK(flipped.find("maps the file column 'y' to both 'CL' and 'alpha_deg'") != std::string::npos);
   // A file table's keys are checked like every other table's.
   std::string unknown;
   try {
@@ -427,4 +458,16 @@ TEST_CASE("phase_cycles: a phase as the fraction of the cycle, a t / T column un
     message = e.what();
   }
   CHECK(message.find("they look like a fraction of the cycle, t / T; name it phase_cycles if so") != std::string::npos);
+  // Radians under phase_cycles: every value past the first exceeds 1, and the hint says radians
+  // (judged on the column's largest value, not on the first row out of range).
+  std::string rad = "phase_cycles,alpha_deg\n";
+  for (double ph : digitized_phases(45, 43)) rad += indicial::format_double(ph) + ",10\n";
+  write("c_rad.csv", rad);
+  message.clear();
+  try {
+    indicial::load_experiment(experiment("c_rad.toml", "c_rad.csv"));
+  } catch (const indicial::InputError& e) {
+    message = e.what();
+  }
+  CHECK(message.find("they look like radians in a column of cycles; name it phase_rad if so") != std::string::npos);
 }

@@ -474,8 +474,7 @@ TEST_CASE("predict: several DATA files are one cycle at their own phases, as the
   std::ofstream(held) << "axis = \"pitch\"\ncoefficient = \"CL\"\nreference_length_m = 0.15\nairspeed_mps = 30\n"
                          "runs = [{files = [{file = \"angle_xy.csv\", columns = {phase_rad = \"x\", alpha_deg = \"y\", "
                          "q_degps = \"z\"}}, {file = \"lift_xy.csv\", columns = {phase_rad = \"x\", CL = \"y\"}}], "
-                         "reduced_frequency = 0.08, airspeed_mps = 30, samples = 128}]\n[static]\ntable = \""
-                      << (sim / "static.csv").string() << "\"\n";
+                         "reduced_frequency = 0.08, airspeed_mps = 30, samples = 128}]\n";  // no [static]: MODEL's
   REQUIRE(run(exe + " predict " + coef + " --experiment " + held.string() + " --run 1 --out " + three.string()) == 0);
   const auto c3 = columns(three);
   REQUIRE(c3.size() == 128);
@@ -483,13 +482,28 @@ TEST_CASE("predict: several DATA files are one cycle at their own phases, as the
     CHECK(c3[i][2] == doctest::Approx(b[i][2]).epsilon(1e-12));
     CHECK(c3[i][4] == doctest::Approx(b[i][4]).epsilon(1e-12));
   }
-  // --run names a run that is there, and takes its frequency and airspeed from the entry.
-  const fs::path no = tmp.path / "no.csv";
-  CHECK(run(exe + " predict " + coef + " --experiment " + held.string() + " --run 2 --out " + no.string()) != 0);
-  CHECK(run(exe + " predict " + coef + " --experiment " + held.string() + " --run 1 --airspeed-mps 30 --out " +
-            no.string()) != 0);
-  CHECK(run(exe + " predict " + coef + " --run 1 --out " + no.string()) != 0);
-  CHECK(run(exe + " predict " + coef + " --out " + no.string()) != 0);
+  // --run names a run that is there, of the model's axis, and takes its frequency and airspeed
+  // from the entry; each refusal says why and writes nothing.
+  const fs::path no = tmp.path / "no.csv", err = tmp.path / "err.txt";
+  auto refusal = [&](const std::string& args) {
+    CHECK(std::system((exe + " predict " + coef + args + " --out " + no.string() + " > /dev/null 2> " + err.string())
+                          .c_str()) != 0);
+    CHECK_FALSE(fs::exists(no));
+    return slurp_file(err.string());
+  };
+  const std::string with_held = " --experiment " + held.string();
+  CHECK(refusal(with_held + " --run 2").find("held.toml has 1 run(s): give 1..1") != std::string::npos);
+  CHECK(refusal(with_held + " --run 0").find("--run: must be >= 1") != std::string::npos);
+  CHECK(refusal(with_held + " --run 1 --airspeed-mps 30").find("do not apply") != std::string::npos);
+  CHECK(refusal(" --run 1").find("needs --experiment") != std::string::npos);
+  CHECK(refusal("").find("give the run file(s) to predict, or --experiment E.toml --run N") != std::string::npos);
+  const fs::path yaw = tmp.path / "yaw.toml";
+  std::ofstream(yaw) << "axis = \"yaw\"\ncoefficient = \"Cn\"\nalpha0_deg = 10\nreference_length_m = 0.15\n"
+                        "airspeed_mps = 30\nruns = [{files = [{file = \"angle_xy.csv\", columns = {phase_rad = \"x\", "
+                        "psi_deg = \"y\"}}, {file = \"lift_xy.csv\", columns = {phase_rad = \"x\", Cn = \"y\"}}], "
+                        "reduced_frequency = 0.08}]\n";
+  CHECK(refusal(" --experiment " + yaw.string() + " --run 1").find("is a yaw experiment; the model is pitch") !=
+        std::string::npos);
   // Without a frequency, or --samples with one file: refused, nothing written.
   CHECK(run(exe + " predict " + coef + " " + (tmp.path / "angle.csv").string() + " " + (tmp.path / "lift.csv").string() +
             " --out " + no.string()) != 0);

@@ -14,6 +14,7 @@
 #include "indicial/fitter/experiment_toml.hpp"
 #include "indicial/fitter/io.hpp"
 #include "indicial/fitter/quasi_static_polar.hpp"
+#include "cli_test_support.hpp"
 #include "test_support.hpp"
 
 namespace fs = std::filesystem;
@@ -103,6 +104,18 @@ TEST_CASE("quasi-static polar: sparse bins dropped, held end rows, invalid optio
   o.min_samples = 100000;
   CHECK_THROWS_WITH_AS(indicial::quasi_static_polar(es, o), doctest::Contains("held fewer than 100000 samples"),
                        indicial::InputError);
+  o = {};
+  o.bin_deg = 0.2;
+  o.min_samples = 1;  // about 100 rows: more than a static table holds
+  CHECK_THROWS_WITH_AS(indicial::quasi_static_polar(es, o), doctest::Contains("a static table holds at most 64"),
+                       indicial::InputError);
+  // Runs at a constant angle (a static test): nothing rises, and the message says --stroke both.
+  std::vector<indicial::Experiment> still = {experiment_of("CL")};
+  for (indicial::Run& r : still[0].runs) std::fill(r.motion_angle_rad.begin(), r.motion_angle_rad.end(), 0.1);
+  CHECK_THROWS_WITH_AS(indicial::quasi_static_polar(still, {}), doctest::Contains("0 of 600 samples have the angle "
+                                                                                   "rising: with runs that do not "
+                                                                                   "move, --stroke both"),
+                       indicial::InputError);
   std::vector<indicial::Experiment> unequal = es;
   unequal[1].runs.pop_back();
   CHECK_THROWS_WITH_AS(indicial::quasi_static_polar(unequal, {}), doctest::Contains("the runs of Cm differ"),
@@ -140,8 +153,14 @@ TEST_CASE("indicial polar: writes a static table the experiment reader accepts, 
   REQUIRE(e.static_curve.table_x_rad.size() >= 19);
   for (std::size_t i = 1; i + 1 < e.static_curve.table_x_rad.size(); ++i)  // the binned rows
     CHECK(std::abs(e.static_curve.table_value[i] - static_curve(e.static_curve.table_x_rad[i])) < 1e-3);
-  // An existing output is kept; 0.2 deg bins of any count make more rows than the runtime holds.
+  // An existing output is kept, and an input is never replaced, --force or not; 0.2 deg bins of
+  // any count make more rows than the runtime holds.
+  const std::string before = indicial::testing::slurp(table);
   CHECK(run(exe + " polar " + (tmp.path / "qs.toml").string() + " --out " + table) != 0);
+  CHECK(indicial::testing::slurp(table) == before);
+  const std::string run_file = (tmp.path / "qs1.csv").string(), run_text = indicial::testing::slurp(run_file);
+  CHECK(run(exe + " polar " + (tmp.path / "qs.toml").string() + " --out " + run_file + " --force") != 0);
+  CHECK(indicial::testing::slurp(run_file) == run_text);
   const std::string fine = (tmp.path / "fine.csv").string();
   CHECK(run(exe + " polar " + (tmp.path / "qs.toml").string() + " --out " + fine + " --bin-deg 0.2 --min-samples 1") != 0);
   CHECK_FALSE(fs::exists(fine));

@@ -28,20 +28,25 @@ struct PolarCommandOptions {
   bool force = false;
 };
 
+// The experiment file and every run file it names (a run of several files: each).
+std::vector<std::string> polar_inputs(const std::string& experiment, const std::vector<indicial::Experiment>& es) {
+  std::vector<std::string> inputs = {experiment};
+  for (const indicial::Run& r : es.front().runs) {
+    if (r.source_files.empty()) inputs.push_back(r.path);
+    inputs.insert(inputs.end(), r.source_files.begin(), r.source_files.end());
+  }
+  return inputs;
+}
+
 void run_polar(const PolarCommandOptions& o) {
   using namespace indicial;
-  if (const std::string why = o.polar.invalid_reason(); !why.empty()) throw InputError("polar", 0, why);
+  if (const std::string why = o.polar.invalid_reason(); !why.empty())
+    throw InputError("--bin-deg / --min-samples / --hold-deg", 0, why);
   const Overwrite overwrite = o.force ? Overwrite::replace : Overwrite::refuse;
   const std::vector<Experiment> es = load_experiment_runs(o.experiment);
   for (const Experiment& e : es) tools::print_warnings(e.warnings);
   const QuasiStaticPolar p = quasi_static_polar(es, o.polar);
-  // The table must load where it is meant to go: the runtime holds at most this many rows.
-  if (p.x_rad.size() > static_cast<std::size_t>(DefaultCapacity::max_table_points))
-    throw InputError(o.experiment, 0, fmt::format("the polar has {} rows; a static table holds at most {} (the "
-                                                  "runtime's indicial::DefaultCapacity): give a wider --bin-deg "
-                                                  "than {:g}", p.x_rad.size(), DefaultCapacity::max_table_points,
-                                                  o.polar.bin_deg));
-  refuse_output_onto_input(o.out, {o.experiment});
+  refuse_output_onto_input(o.out, polar_inputs(o.experiment, es));  // --force replaces outputs, never an input
   const char* stroke = o.polar.stroke == PolarStroke::rising ? "the rising samples (model angle increasing)" : "every sample";
   std::vector<std::string> comments = {
       "indicial polar " + o.experiment,

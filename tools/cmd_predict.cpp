@@ -56,6 +56,7 @@ struct PredictOptions {
   bool grid_given = false;         // --time-grid on the command line
   std::string experiment;          // read DATA with this experiment's [columns] and [csv]
   int run = 0;                     // --run N (1-based): predict run N of --experiment, read as fit reads it
+  bool run_given = false;          // --run on the command line (0 and negatives are refused)
   bool force = false;
   bool periodic = false;
   bool quiet = false;              // --quiet: no input notes on stderr
@@ -111,9 +112,18 @@ std::vector<indicial::Run> read_experiment_run(const PredictOptions& o,
     throw InputError("--run", 0, "the run's frequency, samples, time grid and airspeed are its entry's in " +
                                      o.experiment + ": --frequency-hz, --reduced-frequency, --samples, --time-grid "
                                      "and --airspeed-mps do not apply");
-  const std::vector<Experiment> es = load_experiments(o.experiment);
+  // The runs only: a held-out cycle's experiment need not have a [static] table covering it, or
+  // knots inside it (the model predicted is MODEL's, not the experiment's).
+  const std::vector<Experiment> es = load_experiment_runs(o.experiment);
+  if (es.front().axis != model.axis)
+    throw InputError("--run", 0, o.experiment + " is a " + axis_name(es.front().axis) + " experiment; the model is " +
+                                     axis_name(model.axis));
+  if (model.axis != Axis::pitch && es.front().alpha0_rad != model.alpha0_rad)
+    tools::print_warnings({o.experiment + ": alpha0 " + format_double(es.front().alpha0_rad * 180.0 / 3.14159265358979323846) +
+                           " deg differs from the model's " + format_double(model.alpha0_rad * 180.0 / 3.14159265358979323846) +
+                           " deg: the run is predicted at the model's"});
   const std::size_t n_runs = es.front().runs.size();
-  if (o.run < 1 || static_cast<std::size_t>(o.run) > n_runs)
+  if (static_cast<std::size_t>(o.run) > n_runs)
     throw InputError("--run", 0, o.experiment + " has " + std::to_string(n_runs) + " run(s): give 1.." +
                                      std::to_string(n_runs));
   const std::size_t index = static_cast<std::size_t>(o.run - 1);
@@ -213,6 +223,7 @@ void run_predict(const PredictOptions& o) {
     throw InputError(o.model_path + " is a directory, expected a coefficient file (.coef)");
   for (const std::string& f : o.data_paths)
     if (std::filesystem::is_directory(f)) throw InputError(f + " is a directory, expected a CSV file");
+  if (o.run_given && o.run < 1) throw InputError("--run", 0, "must be >= 1 (runs are numbered from 1)");
   if (o.data_paths.empty() && o.run == 0)
     throw InputError("DATA", 0, "give the run file(s) to predict, or --experiment E.toml --run N");
   if (o.data_paths.size() == 1 && o.samples != 0)
@@ -309,6 +320,7 @@ const indicial::tools::RegisterCommand register_predict([](CLI::App& app) {
   sub->add_flag("--force", opt->force, "replace existing outputs");
   sub->callback([opt, sub]() {
     opt->grid_given = sub->get_option("--time-grid")->count() > 0;
+    opt->run_given = sub->get_option("--run")->count() > 0;
     opt->data_label.clear();
     for (const std::string& f : opt->data_paths) opt->data_label += (opt->data_label.empty() ? "" : " + ") + f;
     run_predict(*opt);

@@ -651,10 +651,12 @@ class QuasiStaticPolar:
         self.held_rows = d["held_rows"]
         self.axis = d["axis"]
         self.csv = d["csv"]
+        self._inputs = list(d["inputs"])
 
     def write(self, path: str, force: bool = False) -> None:
-        """Writes ``csv`` to path, atomically; refuses an existing file unless force=True."""
-        _indicial._write_polar(str(path), self.csv, bool(force))
+        """Writes ``csv`` to path, atomically; refuses an existing file unless force=True, and
+        the experiment file or a run file it was made from always."""
+        _indicial._write_polar(str(path), self.csv, bool(force), self._inputs)
 
     def __repr__(self) -> str:
         return f"<indicial.QuasiStaticPolar {', '.join(self.values)}: {len(self.x_rad)} rows>"

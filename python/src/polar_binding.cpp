@@ -40,6 +40,12 @@ py::dict polar_of_file(const std::string& path, double bin_deg, int min_samples,
   d["held_rows"] = p.held_rows;
   d["axis"] = std::string(axis_name(es.front().axis));
   d["csv"] = quasi_static_polar_csv(p, es.front().axis, {"indicial.quasi_static_polar " + path});
+  std::vector<std::string> inputs = {path};  // what write() must never replace
+  for (const Run& r : es.front().runs) {
+    if (r.source_files.empty()) inputs.push_back(r.path);
+    inputs.insert(inputs.end(), r.source_files.begin(), r.source_files.end());
+  }
+  d["inputs"] = inputs;
   std::vector<std::string> warnings;
   for (const Experiment& e : es) warnings.insert(warnings.end(), e.warnings.begin(), e.warnings.end());
   d["warnings"] = warnings;
@@ -53,9 +59,11 @@ void bind_polar(py::module_& m) {
         py::arg("stroke"), py::arg("hold_deg"));
   // The polar's CSV written as the command writes it: atomically, an existing file refused
   // unless force.
-  m.def("_write_polar", [](const std::string& path, const std::string& text, bool force) {
+  m.def("_write_polar", [](const std::string& path, const std::string& text, bool force,
+                           const std::vector<std::string>& inputs) {
+    refuse_output_onto_input(path, inputs);  // force replaces an output, never an input
     write_file_atomically(path, text, force ? Overwrite::replace : Overwrite::refuse);
-  }, py::arg("path"), py::arg("text"), py::arg("force"));
+  }, py::arg("path"), py::arg("text"), py::arg("force"), py::arg("inputs"));
 }
 
 }  // namespace indicial::python

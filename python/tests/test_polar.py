@@ -49,6 +49,9 @@ def test_polar_is_the_commands_table(tmp_path, cli):
     p.write(str(tmp_path / "static.csv"))
     with pytest.raises(indicial.InputError, match="exists"):
         p.write(str(tmp_path / "static.csv"))
+    with pytest.raises(indicial.InputError):  # never onto an input, force or not
+        p.write(str(tmp_path / "qs1.csv"), force=True)
+    assert (tmp_path / "qs1.csv").read_text().startswith("phase_rad,alpha_deg,CL")
     held = indicial.quasi_static_polar(path, hold_deg=2.0)
     assert held.held_rows == 2 and len(held.x_rad) == len(p.x_rad) + 2
 
@@ -61,3 +64,5 @@ def test_polar_bad_options_raise(tmp_path):
         indicial.quasi_static_polar(path, stroke="up")
     with pytest.raises(indicial.InputError, match="held fewer than 100000 samples"):
         indicial.quasi_static_polar(path, min_samples=100000)
+    with pytest.raises(indicial.InputError, match="a static table holds at most 64"):
+        indicial.quasi_static_polar(path, bin_deg=0.2, min_samples=1)

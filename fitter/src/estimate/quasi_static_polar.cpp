@@ -58,13 +58,16 @@ QuasiStaticPolar quasi_static_polar(const std::vector<Experiment>& experiments, 
   // Bins keyed by round(x / w): centred on multiples of the width.
   const double width_rad = o.bin_deg * kPolarDegToRad;
   std::map<long, Bin> bins;
+  int considered = 0, total = 0;  // samples binned, samples read
   for (std::size_t r = 0; r < first.runs.size(); ++r) {
     const Run& run = first.runs[r];
     std::vector<double> x(run.size());
     for (std::size_t k = 0; k < x.size(); ++k) x[k] = model_angle(first.axis, first.alpha0_rad, run.motion_angle_rad[k]);
     const std::vector<char> rising = rising_samples(x, run.periodic);
     for (std::size_t k = 0; k < x.size(); ++k) {
+      ++total;
       if (o.stroke == PolarStroke::rising && !rising[k]) continue;
+      ++considered;
       Bin& b = bins[std::lround(x[k] / width_rad)];
       if (b.sum_values.empty()) b.sum_values.assign(n_coef, 0.0);
       ++b.count;
@@ -86,15 +89,26 @@ QuasiStaticPolar quasi_static_polar(const std::vector<Experiment>& experiments, 
     p.samples_used += b.count;
     for (std::size_t c = 0; c < n_coef; ++c) p.values[c].push_back(b.sum_values[c] / b.count);
   }
-  if (p.x_rad.size() < 2)
-    throw InputError(first.path, 0, "the polar has " + std::to_string(p.x_rad.size()) + " row(s): " +
-                                        std::to_string(p.bins_dropped) + " bin(s) of " + fmt::format("{:g}", o.bin_deg) +
-                                        " deg held fewer than " + std::to_string(o.min_samples) +
-                                        " samples (wider bins, or more or slower cycles)");
+  if (p.x_rad.size() < 2) {
+    // Say why: too few samples per bin, or (static runs, a constant angle) none rising.
+    const std::string stroke = o.stroke == PolarStroke::rising
+                                   ? fmt::format(" ({} of {} samples have the angle rising: with runs that do not "
+                                                 "move, --stroke both)", considered, total)
+                                   : std::string();
+    throw InputError(first.path, 0, fmt::format("the polar has {} row(s): {} bin(s) of {:g} deg held fewer than {} "
+                                                "samples{} (wider bins, or more or slower cycles)",
+                                                p.x_rad.size(), p.bins_dropped, o.bin_deg, o.min_samples, stroke));
+  }
+  // The table must load where it is meant to go: the runtime holds at most this many rows.
+  const std::size_t rows = p.x_rad.size() + (o.hold_deg > 0.0 ? 2 : 0);
+  if (rows > static_cast<std::size_t>(DefaultCapacity::max_table_points))
+    throw InputError(first.path, 0, fmt::format("the polar has {} rows; a static table holds at most {} (the runtime's "
+                                                "indicial::DefaultCapacity): wider bins than {:g} deg",
+                                                rows, DefaultCapacity::max_table_points, o.bin_deg));
   if (o.hold_deg > 0.0) {
-    const double h = o.hold_deg * kPolarDegToRad;
-    p.x_rad.insert(p.x_rad.begin(), p.x_rad.front() - h);
-    p.x_rad.push_back(p.x_rad.back() + h);
+    const double hold_rad = o.hold_deg * kPolarDegToRad;
+    p.x_rad.insert(p.x_rad.begin(), p.x_rad.front() - hold_rad);
+    p.x_rad.push_back(p.x_rad.back() + hold_rad);
     p.samples.insert(p.samples.begin(), 0);
     p.samples.push_back(0);
     for (std::vector<double>& v : p.values) {

@@ -920,16 +920,21 @@ const char* phase_cycle_end(double phase_factor) {
   return phase_factor == 1.0 ? "2 pi" : (phase_factor == kPhaseCyclesToRad ? "1" : "360");
 }
 
-// What a phase outside [0, 2 pi) most likely is (phase in rad, the column's factor to rad): the
-// cycle's end point repeating its start (360 deg, 2 pi), a cycle in [-pi, pi), or degrees in a
-// radian column; "" otherwise.
-std::string degrees_hint(double phase_factor, double phase) {
+// What a phase outside [0, 2 pi) most likely is (phase in rad, the column's factor to rad, the
+// column's largest phase in rad): the cycle's end point repeating its start (360 deg, 2 pi), a
+// cycle in [-pi, pi), or another unit than the name's, judged by the column's largest value
+// (every row, not the first out of range: radians under phase_cycles exceed 1 from the second
+// row on); "" otherwise.
+std::string degrees_hint(double phase_factor, double phase, double largest_phase_rad) {
   if (std::abs(phase - 2.0 * kPi) <= 1e-9 * 2.0 * kPi)
     return " (the cycle's end point repeats its start: drop that row)";
   if (phase < 0.0 && phase >= -kPi) return " (a cycle in [-pi, pi) or [-180, 180): add a full cycle to the negative phases)";
-  if (phase_factor == 1.0 && phase >= 2.0 * kPi && phase < 360.0)
+  const double largest_in_unit = largest_phase_rad / phase_factor;  // as written in the column
+  if (phase_factor == 1.0 && largest_in_unit < 360.0)
     return " (it looks like degrees in a radian column: name it phase_deg if so)";
-  if (phase_factor == kPhaseCyclesToRad && phase >= 2.0 * kPi && phase < 360.0 * kPhaseCyclesToRad)
+  if (phase_factor == kPhaseCyclesToRad && largest_in_unit < 2.0 * kPi)
+    return " (its values never reach 2 pi: they look like radians in a column of cycles; name it phase_rad if so)";
+  if (phase_factor == kPhaseCyclesToRad && largest_in_unit < 360.0)
     return " (it looks like degrees in a column of cycles: name it phase_deg if so)";
   return "";
 }
@@ -946,12 +951,14 @@ void check_time_order(const std::string& path, const CsvTable& t, const RunColum
   const bool phase = rc.phase >= 0;
   const auto c = static_cast<std::size_t>(phase ? rc.phase : rc.time);
   const std::string& name = t.header[c];
+  double largest_phase_rad = 0.0;
+  for (double t_s : run.time_s) largest_phase_rad = std::max(largest_phase_rad, t_s * 2.0 * kPi * run.frequency_hz);
   for (std::size_t i = 0; i < run.time_s.size(); ++i) {
     const double phase_rad = run.time_s[i] * 2.0 * kPi * run.frequency_hz;
     if (phase && !(phase_rad >= 0.0 && phase_rad < 2.0 * kPi * (1.0 - 1e-15))) {
       throw InputError(path, t.row_line[i], "column '" + name + "': phase " + t.rows[i][c] + " is outside [0, " +
                                                 phase_cycle_end(rc.phase_factor) + ")" +
-                                                degrees_hint(rc.phase_factor, phase_rad));
+                                                degrees_hint(rc.phase_factor, phase_rad, largest_phase_rad));
     }
     if (i > 0 && !(run.time_s[i] > run.time_s[i - 1])) {
       throw InputError(path, t.row_line[i],
@@ -1081,9 +1088,9 @@ void check_phase_gaps(const std::string& path, const CsvTable& t, int phase_col,
   if (gap > kPi) {
     // Values that never exceed 1 are a fraction of the cycle (t / T) whatever the name says;
     // values up to 2 pi under phase_deg are radians.
-    const double largest = phase_rad.back() / factor;
-    const bool fraction = factor != kPhaseCyclesToRad && largest <= 1.0;
-    const bool radians = !fraction && factor == kDegToRad && largest <= 2.0 * kPi;
+    const double largest_in_unit = phase_rad.back() / factor;  // as written in the column
+    const bool fraction = factor != kPhaseCyclesToRad && largest_in_unit <= 1.0;
+    const bool radians = !fraction && factor == kDegToRad && largest_in_unit <= 2.0 * kPi;
     throw InputError(path, t.row_line[after], "column '" + t.header[c] + "': " + where +
                                                   ", more than half the cycle: a cycle's phases must cover it" +
                                                   (fraction ? " (its values never exceed 1: they look like a fraction "
@@ -1257,11 +1264,12 @@ PhaseSeries read_phase_series(const std::string& path, Axis axis, const std::str
     throw InputError(path, t.row_line.back(), "only " + std::to_string(s.phase_rad.size()) +
                                                   " data rows; a series at its own phases needs at least 4");
   const auto pc = static_cast<std::size_t>(rc.phase);
+  const double largest_phase_rad = *std::max_element(s.phase_rad.begin(), s.phase_rad.end());
   for (std::size_t i = 0; i < s.phase_rad.size(); ++i) {
     if (!(s.phase_rad[i] >= 0.0 && s.phase_rad[i] < 2.0 * kPi * (1.0 - 1e-15)))
       throw InputError(path, t.row_line[i], "column '" + t.header[pc] + "': phase " + t.rows[i][pc] +
                                                 " is outside [0, " + phase_cycle_end(rc.phase_factor) + ")" +
-                                                degrees_hint(rc.phase_factor, s.phase_rad[i]));
+                                                degrees_hint(rc.phase_factor, s.phase_rad[i], largest_phase_rad));
     if (i > 0 && !(s.phase_rad[i] > s.phase_rad[i - 1]))
       throw InputError(path, t.row_line[i], t.header[pc] + " is not strictly increasing (" + t.rows[i][pc] +
                                                 " after " + t.rows[i - 1][pc] + ")");

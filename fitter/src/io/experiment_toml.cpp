@@ -229,25 +229,47 @@ const toml::node* section_for(const LoadContext& c, const toml::table& root, con
 }
 
 // A column map (`[columns]`, `[static] columns`): our column name = the file's name, into *out.
+// The file column a map value names: "-X" (X with its sign flipped) names X.
+std::string mapped_column_name(const std::string& theirs) {
+  return theirs.size() > 1 && theirs[0] == '-' ? theirs.substr(1) : theirs;
+}
+
 // A file column mapped to two of ours is refused (one of them was silently lost): a
 // digitizer's files headed x,y each hold a different quantity under the same name, which
 // only a map per file can say.
 void read_column_map(const TomlReader& r, const toml::node& node, const std::string& key_name,
                      std::map<std::string, std::string>* out) {
-  std::map<std::string, std::string> mapped_from;  // the file's name -> ours
+  std::map<std::string, std::string> mapped_from;  // the file's name (sign dropped) -> ours
+  const bool per_file = key_name == "runs.files.columns";
   for (auto&& [key, value] : r.table(node, key_name)) {
     const std::string ours(key.str());
     const std::string theirs = r.string(value, key_name + "." + ours);
     if (theirs.empty()) r.fail(value, "'" + key_name + "." + ours + "' is empty: name the file's column");
-    const auto [it, fresh] = mapped_from.emplace(theirs, ours);
+    const auto [it, fresh] = mapped_from.emplace(mapped_column_name(theirs), ours);
     if (!fresh)
-      r.fail(value, "'" + key_name + "' maps the file column '" + theirs + "' to both '" + it->second + "' and '" +
-                        ours + "': a column is one quantity (files whose columns share names, such as a "
-                        "digitizer's x,y, each need a map of their own: runs = [{files = [{file = \"alpha.csv\", "
-                        "columns = {phase_deg = \"x\", alpha_deg = \"y\"}}, {file = \"cl.csv\", columns = "
-                        "{phase_deg = \"x\", CL = \"y\"}}], frequency_hz = ...}])");
+      r.fail(value, "'" + key_name + "' maps the file column '" + mapped_column_name(theirs) + "' to both '" +
+                        it->second + "' and '" + ours + "': a column is one quantity" +
+                        (per_file ? std::string()
+                                  : " (files whose columns share names, such as a digitizer's x,y, each need a map "
+                                    "of their own: runs = [{files = [{file = \"alpha.csv\", columns = {phase_deg = "
+                                    "\"x\", alpha_deg = \"y\"}}, {file = \"cl.csv\", columns = {phase_deg = "
+                                    "\"x\", CL = \"y\"}}], frequency_hz = ...}])"));
     (*out)[ours] = theirs;
   }
+}
+
+// A file's own map over the experiment's [columns]: every [columns] entry for one of the file
+// columns its own map names is dropped (else both would rename that column, and the first in
+// our names' order would win: a trial's [columns] phase_cycles = "x" beat a file's
+// phase_deg = "x"), then the file's entries are laid over the rest.
+ColumnMap file_column_map(const ColumnMap& experiment, const ColumnMap& own) {
+  std::set<std::string> taken;
+  for (const auto& [ours, theirs] : own) taken.insert(mapped_column_name(theirs));
+  ColumnMap merged;
+  for (const auto& [ours, theirs] : experiment)
+    if (!taken.count(mapped_column_name(theirs))) merged[ours] = theirs;
+  for (const auto& [ours, theirs] : own) merged[ours] = theirs;
+  return merged;
 }
 
 // runs.files (at least one file name) and runs.samples; each file has its own phase column, so
@@ -673,8 +695,21 @@ Run read_run_of_files(const LoadContext& c, const RunEntry& entry, const Experim
   std::vector<PhaseSeries> series;
   for (std::size_t i = 0; i < resolved.size(); ++i) {
     RunCsvOptions options = entry.csv;  // [columns], with the file's own map over it
-    for (const auto& [ours, theirs] : entry.file_columns[i]) options.columns[ours] = theirs;
+    options.columns = file_column_map(entry.csv.columns, entry.file_columns[i]);
     series.push_back(read_phase_series(resolved[i], e.axis, e.coefficient, options));
+    // A file's own map names its columns: one the file lacks is a mistake in that map (the
+    // run-level "no file has ..." would not say which map).
+    for (const auto& [ours, theirs] : entry.file_columns[i]) {
+      const std::vector<std::string>& have = series.back().columns;
+      if (std::find(have.begin(), have.end(), theirs) != have.end() ||
+          std::find(have.begin(), have.end(), mapped_column_name(theirs)) != have.end())
+        continue;
+      std::string found;
+      for (const std::string& h : have) found += (found.empty() ? "" : ", ") + h;
+      throw InputError(c.r.file(), entry.line, "runs entry: the map of '" + entry.files[i] + "' names its column '" +
+                                                   theirs + "' (for " + ours + "), which the file does not have "
+                                                   "(columns found: " + found + ")");
+    }
   }
   Run run;
   try {

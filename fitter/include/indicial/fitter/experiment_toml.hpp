@@ -107,7 +107,8 @@ std::vector<Experiment> load_experiments(const std::string& toml_path);
 
 // The runs only, one Experiment per coefficient as load_experiments reads them (axis, lengths,
 // airspeed, [columns], [csv], runs), without [static], [rotary] and [model] (not required, not
-// read; their keys are still checked): for `indicial polar`, which makes the static table.
+// read, not checked): for `indicial polar`, which makes the static table, and `indicial predict
+// --run`, which predicts a run whatever the experiment's model.
 std::vector<Experiment> load_experiment_runs(const std::string& toml_path);
 
 // How the experiment's run files are read: its [columns] map and its [csv] dialect (the rest of

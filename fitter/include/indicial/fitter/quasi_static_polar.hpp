@@ -55,7 +55,9 @@ struct QuasiStaticPolar {
 
 // The polar of the experiments' runs (load_experiment_runs: one Experiment per coefficient,
 // the same runs and samples in each). Throws InputError (naming the experiment file) when the
-// options are invalid, the runs differ between coefficients, or no bin keeps enough samples.
+// options are invalid, the runs differ between coefficients, fewer than two bins keep enough
+// samples, or the rows (held rows included) exceed the runtime's static table
+// (DefaultCapacity::max_table_points): a table no experiment could load is never made.
 QuasiStaticPolar quasi_static_polar(const std::vector<Experiment>& experiments, const QuasiStaticPolarOptions& options);
 
 // The polar as a static-table CSV: `alpha_deg` (pitch) or `beta_deg` (roll, yaw), then one
