@@ -1,5 +1,5 @@
 // A static table from quasi-static cycles (quasi_static_polar.hpp, `indicial polar`): the
-// rising samples recover the static curve where the downstroke's hysteresis would bias it; the
+// outward samples recover the static curve where the return stroke's hysteresis would bias it; the
 // command's table is accepted as a [static] table by the experiment reader.
 #include <doctest/doctest.h>
 
@@ -54,7 +54,7 @@ indicial::Experiment experiment_of(const std::string& coefficient) {
 
 }  // namespace
 
-TEST_CASE("quasi-static polar: the rising samples recover the static curve, both strokes carry the hysteresis") {
+TEST_CASE("quasi-static polar: the outward samples recover the static curve, both strokes carry the hysteresis") {
   const std::vector<indicial::Experiment> es = {experiment_of("CL")};
   const indicial::QuasiStaticPolar rising = indicial::quasi_static_polar(es, {});
   REQUIRE(rising.x_rad.size() >= 19);
@@ -67,7 +67,7 @@ TEST_CASE("quasi-static polar: the rising samples recover the static curve, both
     // |s''| w^2 / 24 = 48 x 0.3 x (1 deg)^2 / 24, about 2e-4.
     worst = std::max(worst, std::abs(rising.values[0][i] - static_curve(rising.x_rad[i])));
   }
-  MESSAGE("largest error of the rising polar: " << worst);
+  MESSAGE("largest error of the outward polar: " << worst);
   CHECK(worst < 1e-3);
   indicial::QuasiStaticPolarOptions both;
   both.stroke = indicial::PolarStroke::both;
@@ -77,6 +77,39 @@ TEST_CASE("quasi-static polar: the rising samples recover the static curve, both
     if (pooled.x_rad[i] > 11 * kDeg && pooled.x_rad[i] < 17 * kDeg)
       bias_above_10 = std::max(bias_above_10, static_curve(pooled.x_rad[i]) - pooled.values[0][i]);
   CHECK(bias_above_10 > 0.1);  // half the samples 0.3 low
+}
+
+// A cycle through zero (-20 ... 20 deg) that stalls on both sides: the return stroke is 0.3
+// inside the static curve beyond 10 deg either way. The outward samples (the angle moving away
+// from zero) recover the curve on both sides; the rising ones take the negative side's return.
+TEST_CASE("quasi-static polar: the outward stroke recovers both sides of a cycle through zero, rising does not") {
+  indicial::Experiment e;
+  e.path = "symmetric.toml";
+  e.coefficient = "CL";
+  for (int c = 0; c < 3; ++c) {
+    indicial::Run r;
+    r.periodic = true;
+    for (int k = 0; k < 300; ++k) {
+      const double ph = 2 * kPi * k / 300 + 0.29 * c;
+      const double x = 20.0 * kDeg * std::sin(ph);
+      const bool outward = (x >= 0.0) == (std::cos(ph) > 0.0);
+      r.time_s.push_back(k * 0.01);
+      r.motion_angle_rad.push_back(x);
+      r.coefficient.push_back(static_curve(x) - (!outward && std::abs(x) > 10 * kDeg ? (x > 0 ? 0.3 : -0.3) : 0.0));
+    }
+    e.runs.push_back(r);
+  }
+  auto worst_below = [&](indicial::PolarStroke stroke) {
+    indicial::QuasiStaticPolarOptions o;
+    o.stroke = stroke;
+    const indicial::QuasiStaticPolar p = indicial::quasi_static_polar({e}, o);
+    double worst = 0.0;
+    for (std::size_t i = 0; i < p.x_rad.size(); ++i)
+      if (p.x_rad[i] < -11 * kDeg) worst = std::max(worst, std::abs(p.values[0][i] - static_curve(p.x_rad[i])));
+    return worst;
+  };
+  CHECK(worst_below(indicial::PolarStroke::outward) < 1e-3);
+  CHECK(worst_below(indicial::PolarStroke::rising) > 0.2);
 }
 
 TEST_CASE("quasi-static polar: sparse bins dropped, held end rows, invalid options and unequal runs refused") {
@@ -112,9 +145,9 @@ TEST_CASE("quasi-static polar: sparse bins dropped, held end rows, invalid optio
   // Runs at a constant angle (a static test): nothing rises, and the message says --stroke both.
   std::vector<indicial::Experiment> still = {experiment_of("CL")};
   for (indicial::Run& r : still[0].runs) std::fill(r.motion_angle_rad.begin(), r.motion_angle_rad.end(), 0.1);
-  CHECK_THROWS_WITH_AS(indicial::quasi_static_polar(still, {}), doctest::Contains("0 of 600 samples have the angle "
-                                                                                   "rising: with runs that do not "
-                                                                                   "move, --stroke both"),
+  CHECK_THROWS_WITH_AS(indicial::quasi_static_polar(still, {}), doctest::Contains("0 of 600 samples are on the "
+                                                                                   "outward stroke: with runs that "
+                                                                                   "do not move, --stroke both"),
                        indicial::InputError);
   std::vector<indicial::Experiment> unequal = es;
   unequal[1].runs.pop_back();

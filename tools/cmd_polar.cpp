@@ -3,7 +3,7 @@
 // `model.stall_polar`. See fitter/.../quasi_static_polar.hpp for the recipe.
 //
 //   indicial polar E.toml --out static.csv [--bin-deg 1] [--min-samples 4]
-//                  [--stroke rising|both] [--hold-deg 0] [--force]
+//                  [--stroke outward|rising|both] [--hold-deg 0] [--force]
 #include <algorithm>
 #include <cstdio>
 #include <fmt/format.h>
@@ -47,7 +47,9 @@ void run_polar(const PolarCommandOptions& o) {
   for (const Experiment& e : es) tools::print_warnings(e.warnings);
   const QuasiStaticPolar p = quasi_static_polar(es, o.polar);
   refuse_output_onto_input(o.out, polar_inputs(o.experiment, es));  // --force replaces outputs, never an input
-  const char* stroke = o.polar.stroke == PolarStroke::rising ? "the rising samples (model angle increasing)" : "every sample";
+  const char* stroke = o.polar.stroke == PolarStroke::outward ? "the outward samples (model angle moving away from zero)"
+                       : o.polar.stroke == PolarStroke::rising ? "the rising samples (model angle increasing)"
+                                                               : "every sample";
   std::vector<std::string> comments = {
       "indicial polar " + o.experiment,
       fmt::format("{} of {} run(s), in {:g} deg bins centred on multiples of it; a row per bin of >= {} samples (its "
@@ -75,16 +77,20 @@ const indicial::tools::RegisterCommand register_polar([](CLI::App& app) {
       "polar",
       "A static table from quasi-static cycles: the runs of an experiment file (read as fit reads\n"
       "them; it needs no [static] yet) binned by the model angle, a row per bin: the samples' mean\n"
-      "angle and mean coefficient(s). By default the rising samples only (a downstroke stays\n"
-      "separated below the static stall angle). Writes alpha_deg (beta_deg in roll and yaw) and a\n"
+      "angle and mean coefficient(s). By default the outward samples only (the angle moving away\n"
+      "from zero: the return stroke stays separated inside the static stall angle). Writes alpha_deg\n"
+      "(beta_deg in roll and yaw) and a\n"
       "column per coefficient: a [static] table and a model.stall_polar.");
   sub->add_option("EXPERIMENT", opt->experiment, "experiment file (.toml) naming the quasi-static runs")->required();
   sub->add_option("--out", opt->out, "output CSV")->required();
   sub->add_option("--bin-deg", opt->polar.bin_deg, "bin width, deg (bins centred on multiples of it; default 1)");
   sub->add_option("--min-samples", opt->polar.min_samples, "a bin with fewer samples is dropped (default 4)");
-  sub->add_option("--stroke", opt->polar.stroke, "rising (default: the model angle increasing) or both")
+  sub->add_option("--stroke", opt->polar.stroke,
+                  "outward (default: the model angle moving away from zero, the stroke on which the flow "
+                  "separates, either side of zero), rising (the angle increasing) or both")
       ->transform(CLI::CheckedTransformer(std::map<std::string, indicial::PolarStroke>{
-          {"rising", indicial::PolarStroke::rising}, {"both", indicial::PolarStroke::both}}));
+          {"outward", indicial::PolarStroke::outward}, {"rising", indicial::PolarStroke::rising},
+          {"both", indicial::PolarStroke::both}}));
   sub->add_option("--hold-deg", opt->polar.hold_deg,
                   "one more row this far beyond each end, holding the end values, so that the table covers "
                   "cycles reaching beyond the quasi-static ones (default 0: none; as a lift polar a held row "

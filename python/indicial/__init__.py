@@ -662,10 +662,11 @@ class QuasiStaticPolar:
         return f"<indicial.QuasiStaticPolar {', '.join(self.values)}: {len(self.x_rad)} rows>"
 
 
-def quasi_static_polar(path: str, *, bin_deg: float = 1.0, min_samples: int = 4, stroke: str = "rising",
+def quasi_static_polar(path: str, *, bin_deg: float = 1.0, min_samples: int = 4, stroke: str = "outward",
                        hold_deg: float = 0.0) -> QuasiStaticPolar:
     """A static table from the quasi-static cycles an experiment file names (``indicial
-    polar``; the file needs no [static]): the rising samples (``stroke="both"``: all) in
+    polar``; the file needs no [static]): the outward samples (the angle moving away from zero;
+    ``stroke="rising"``: the angle increasing, ``"both"``: all) in
     ``bin_deg`` bins centred on multiples of it, a row per bin of >= ``min_samples`` samples at
     its mean angle; ``hold_deg``: one more row that far beyond each end, holding the end values.
     Warnings of the reader are issued as IndicialWarning."""

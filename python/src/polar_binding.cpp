@@ -17,12 +17,14 @@ py::dict polar_of_file(const std::string& path, double bin_deg, int min_samples,
   o.bin_deg = bin_deg;
   o.min_samples = min_samples;
   o.hold_deg = hold_deg;
-  if (stroke == "rising") {
+  if (stroke == "outward") {
+    o.stroke = PolarStroke::outward;
+  } else if (stroke == "rising") {
     o.stroke = PolarStroke::rising;
   } else if (stroke == "both") {
     o.stroke = PolarStroke::both;
   } else {
-    throw InputError("stroke", 0, "expected one of 'rising', 'both', found '" + stroke + "'");
+    throw InputError("stroke", 0, "expected one of 'outward', 'rising', 'both', found '" + stroke + "'");
   }
   if (const std::string why = o.invalid_reason(); !why.empty()) throw InputError("quasi_static_polar", 0, why);
   const std::vector<Experiment> es = load_experiment_runs(path);

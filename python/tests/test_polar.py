@@ -60,7 +60,7 @@ def test_polar_bad_options_raise(tmp_path):
     path = _write_cycles(tmp_path)
     with pytest.raises(indicial.InputError, match="bin width must be > 0"):
         indicial.quasi_static_polar(path, bin_deg=0.0)
-    with pytest.raises(indicial.InputError, match="expected one of 'rising', 'both'"):
+    with pytest.raises(indicial.InputError, match="expected one of 'outward', 'rising', 'both'"):
         indicial.quasi_static_polar(path, stroke="up")
     with pytest.raises(indicial.InputError, match="held fewer than 100000 samples"):
         indicial.quasi_static_polar(path, min_samples=100000)

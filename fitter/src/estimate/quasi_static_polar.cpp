@@ -15,19 +15,23 @@ namespace {
 
 constexpr double kPolarDegToRad = 3.14159265358979323846 / 180.0;
 
-// Rising samples of one run: the model angle increasing through the sample (central difference;
-// a periodic run wraps, a record's ends take the one-sided one). A sample at a turning point
-// (no change) is neither.
-std::vector<char> rising_samples(const std::vector<double>& x, bool periodic) {
+// The samples of one run on the stroke asked for: the model angle's change through each sample
+// (central difference; a periodic run wraps, a record's ends take the one-sided one), rising
+// (> 0), or outward (rising above zero, falling below). A sample at a turning point (no
+// change) is on neither.
+std::vector<char> stroke_samples(const std::vector<double>& x, bool periodic, PolarStroke stroke) {
   const std::size_t n = x.size();
-  std::vector<char> rising(n, 0);
+  std::vector<char> on(n, 1);
+  if (stroke == PolarStroke::both) return on;
   for (std::size_t k = 0; k < n; ++k) {
     const bool first = k == 0, last = k + 1 == n;
     const double ahead = last ? (periodic ? x[0] : x[k]) : x[k + 1];
     const double behind = first ? (periodic ? x[n - 1] : x[k]) : x[k - 1];
-    rising[k] = ahead - behind > 0.0 ? 1 : 0;
+    const double change = ahead - behind;
+    const bool outward_below_zero = stroke == PolarStroke::outward && x[k] < 0.0;
+    on[k] = (outward_below_zero ? change < 0.0 : change > 0.0) ? 1 : 0;
   }
-  return rising;
+  return on;
 }
 
 struct Bin {
@@ -63,10 +67,10 @@ QuasiStaticPolar quasi_static_polar(const std::vector<Experiment>& experiments, 
     const Run& run = first.runs[r];
     std::vector<double> x(run.size());
     for (std::size_t k = 0; k < x.size(); ++k) x[k] = model_angle(first.axis, first.alpha0_rad, run.motion_angle_rad[k]);
-    const std::vector<char> rising = rising_samples(x, run.periodic);
+    const std::vector<char> on_stroke = stroke_samples(x, run.periodic, o.stroke);
     for (std::size_t k = 0; k < x.size(); ++k) {
       ++total;
-      if (o.stroke == PolarStroke::rising && !rising[k]) continue;
+      if (!on_stroke[k]) continue;
       ++considered;
       Bin& b = bins[std::lround(x[k] / width_rad)];
       if (b.sum_values.empty()) b.sum_values.assign(n_coef, 0.0);
@@ -91,9 +95,10 @@ QuasiStaticPolar quasi_static_polar(const std::vector<Experiment>& experiments, 
   }
   if (p.x_rad.size() < 2) {
     // Say why: too few samples per bin, or (static runs, a constant angle) none rising.
-    const std::string stroke = o.stroke == PolarStroke::rising
-                                   ? fmt::format(" ({} of {} samples have the angle rising: with runs that do not "
-                                                 "move, --stroke both)", considered, total)
+    const std::string stroke = o.stroke != PolarStroke::both
+                                   ? fmt::format(" ({} of {} samples are on the {} stroke: with runs that do not "
+                                                 "move, --stroke both)", considered, total,
+                                                 o.stroke == PolarStroke::rising ? "rising" : "outward")
                                    : std::string();
     throw InputError(first.path, 0, fmt::format("the polar has {} row(s): {} bin(s) of {:g} deg held fewer than {} "
                                                 "samples{} (wider bins, or more or slower cycles)",

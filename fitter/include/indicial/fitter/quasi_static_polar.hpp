@@ -10,10 +10,11 @@
 // [columns]).
 //
 // The recipe (defaults measured on the development set, docs/formats.md "Getting a static
-// polar"): the RISING samples only (the model angle increasing: a downstroke's flow stays
-// separated below the static stall angle and reattaches late, so pooling both strokes puts
-// that hysteresis into the static curve: the quasi-steady C_m error of the attached held-out
-// cycles 0.0195 -> 0.0239), in bins `bin_deg` wide centred on multiples of it, a bin kept with
+// polar"): the OUTWARD samples only (the model angle moving away from zero: above zero the
+// upstroke, below zero the downstroke; the return stroke's flow stays separated inside the
+// static stall angle and reattaches late, so pooling both strokes puts that hysteresis into the
+// static curve: the quasi-steady C_m error of the attached held-out cycles 0.0195 -> 0.0239,
+// with the upstrokes of cycles that barely go below zero), in bins `bin_deg` wide centred on multiples of it, a bin kept with
 // at least `min_samples` samples. Each row is at its samples' mean angle (not the bin's centre:
 // exact for a linear stretch, whatever the samples' spread in the bin). Nothing is held beyond
 // the rows unless hold_deg says so.
@@ -26,12 +27,15 @@
 
 namespace indicial {
 
-enum class PolarStroke { rising, both };
+// outward: the samples whose model angle moves away from zero (rising above 0, falling below):
+// the stroke on which the flow separates, on either side of a cycle through zero; rising: the
+// angle increasing only; both: every sample.
+enum class PolarStroke { outward, rising, both };
 
 struct QuasiStaticPolarOptions {
   double bin_deg = 1.0;                      // > 0: bins centred on multiples of it
   int min_samples = 4;                       // >= 1: a bin with fewer is dropped
-  PolarStroke stroke = PolarStroke::rising;  // rising: the model angle increasing only
+  PolarStroke stroke = PolarStroke::outward;  // the separating stroke (above)
   // >= 0: one more row this far beyond each end, holding the end values (what the runtime does
   // outside a table), so that the table covers cycles that reach beyond the quasi-static ones
   // (a static table must cover the fit's runs). Caveat: as a lift polar, a held row beyond the
