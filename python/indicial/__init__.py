@@ -37,7 +37,7 @@ from ._indicial import ClosedError, InputError, StepError
 __version__ = _indicial.__version__
 
 __all__ = [
-    "Experiment", "Run", "fit", "diagnose", "predict", "simulate", "simulation_case", "quasi_static_polar",
+    "Experiment", "Run", "fit", "diagnose", "predict", "simulate", "simulation_case", "quasi_static_polar", "read_runs",
     "QuasiStaticPolar",
     "Model", "Predictor", "BatchStepper", "FitResult", "Parameter", "Diagnosis",
     "Prediction", "InputError", "StepError", "ClosedError", "IndicialWarning",
@@ -524,7 +524,10 @@ def fit(experiment: Experiment, *, f_to_enter: float = 4.0, f_to_remove: float =
 
 class Diagnosis:
     """What ``diagnose`` returns: ``steps`` (dicts: effect, detail, statistic, p_value,
-    fit_error_before, fit_error_after, ...), ``verdict``, ``effects_added``,
+    fit_error_before, fit_error_after, ..., ``rule``, the rule that decided the step, and with
+    ``"leave_one_run_out"`` its evidence: held_out_rms_before / _after per run,
+    held_out_mean_log_mse_ratio, held_out_standard_error; statistic and p_value then did not
+    decide), ``verdict``, ``effects_added``,
     ``initial_fit_error``, ``final_fit_error``, ``noise`` (source: the replication or
     "residual_differences"; sigma and lag1_correlation: the noise, from replication where the
     data have it, else the residual's AR(1) level; residual_sigma, white_equivalent: the
@@ -601,7 +604,9 @@ class Prediction:
     ``clamped_samples``, ``scored_samples`` (the samples the metrics cover: from
     ``score_from_s`` on), and per coefficient name: ``predicted[name]`` (full model),
     ``quasi_steady[name]`` (static + rotary), ``metrics[name]`` (model and quasi-steady RMS,
-    max error and Theil's inequality coefficient, when measured was given)."""
+    max error and Theil's inequality coefficient, when measured was given), and ``warnings``
+    (issued as IndicialWarning too: samples outside the model's envelope, an angle array that
+    looks like degrees)."""
 
     def __init__(self, d: dict):
         self._d = d
@@ -615,6 +620,7 @@ class Prediction:
         self.quasi_steady = {k: v["quasi_steady"] for k, v in c.items()}
         self.metrics = {k: {"model": v["model_metrics"], "quasi_steady": v["quasi_steady_metrics"]}
                         for k, v in c.items() if "model_metrics" in v}
+        self.warnings = list(d["warnings"])
 
     def __repr__(self) -> str:
         return f"<indicial.Prediction {', '.join(self.predicted)}: {len(self.time_s)} samples>"
@@ -629,10 +635,34 @@ def predict(model: Model, *, time_s, airspeed_mps: Optional[float] = None, perio
     pitch, ...); without a rate, the Savitzky-Golay derivative of the angle. ``measured``:
     {name: array} to score; ``score_from_s``: score only the samples at time_s >= it
     (``--score-from-s``: a raw log's start-up transient left out; every sample is still
-    predicted). The GIL is released while stepping."""
+    predicted). ``periodic=True`` needs one whole cycle (refused otherwise, as ``--periodic``).
+    The command line's warnings are issued as IndicialWarning. The GIL is released while
+    stepping."""
     angle, rate = _motion(model.axis, motion)
-    return Prediction(_indicial._predict(model._m, time_s, angle, rate, airspeed_mps, bool(periodic), measured,
-                                         time_grid, _real(score_from_s, "score_from_s")))
+    p = Prediction(_indicial._predict(model._m, time_s, angle, rate, airspeed_mps, bool(periodic), measured,
+                                      time_grid, _real(score_from_s, "score_from_s")))
+    _warn(p.warnings)
+    return p
+
+
+def read_runs(path: str) -> Dict[str, list]:
+    """The runs an experiment file names, read exactly as ``indicial fit`` reads them (one file
+    or ``files = [...]`` at their own phases, resampled; [columns] and each file's own map;
+    Cnormal/Ctangential; phase columns), without its [static], [rotary] or [model] (not
+    needed): {coefficient: [run dict]}, each run dict with ``time_s``, ``motion_angle_rad``,
+    ``rate_radps``, ``coefficient`` (measured), ``periodic``, ``airspeed_mps``,
+    ``frequency_hz``, ``axis``, ``name``, ``warnings`` (issued as IndicialWarning too). A
+    held-out digitized cycle so reaches ``predict``:
+    ``r = read_runs("held.toml")["CL"][0]; predict(model, time_s=r["time_s"],
+    alpha_rad=r["motion_angle_rad"], q_radps=r["rate_radps"], periodic=r["periodic"],
+    airspeed_mps=r["airspeed_mps"], measured={"CL": r["coefficient"]})`` (``indicial predict
+    --experiment held.toml --run 1``)."""
+    out = {name: list(runs) for name, runs in _indicial._read_runs(str(path)).items()}
+    seen = set()
+    for runs in out.values():
+        for r in runs:
+            _warn([w for w in r["warnings"] if not (w in seen or seen.add(w))])
+    return out
 
 
 class QuasiStaticPolar:

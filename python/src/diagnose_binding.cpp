@@ -38,6 +38,13 @@ py::dict step_dict(const DiagnoseStep& s) {
   d["fit_error_after"] = s.fit_error_after;
   d["run_rms_before"] = to_numpy(s.run_rms_before);
   d["run_rms_after"] = to_numpy(s.run_rms_after);
+  // The rule that decided the step, and with leave-one-run-out its held-out evidence (what
+  // diagnosis.json's steps carry: the statistic and p_value above did not decide then).
+  d["rule"] = decision_rule_name(s.rule);
+  d["held_out_rms_before"] = to_numpy(s.held_out_rms_before);
+  d["held_out_rms_after"] = to_numpy(s.held_out_rms_after);
+  d["held_out_mean_log_mse_ratio"] = s.held_out_log_ratio;
+  d["held_out_standard_error"] = s.held_out_standard_error;
   return d;
 }
 

@@ -97,6 +97,11 @@ Run make_run(const py::dict& d, const std::string& label) {
   if (!(run.airspeed_mps >= 0.0) || !std::isfinite(run.airspeed_mps))
     throw InputError(label, 0, "airspeed_mps must be > 0");
   check_time(run, label);
+  // The file reader's check of a periodic run (experiment_checks.hpp): one whole cycle, else the
+  // experiment's write_files would write a run that `indicial fit` refuses.
+  if (run.periodic)
+    if (const std::string problem = periodic_closure_problem(run); !problem.empty())
+      throw InputError(label, 0, "is " + problem);
   if (!run.rate_from_file) {
     run.rate_radps = run.time_grid == TimeGrid::nonuniform
                          ? smooth_derivative_nonuniform(run.time_s, run.motion_angle_rad, default_sg_half_window,
@@ -470,6 +475,23 @@ void bind_experiment(py::module_& m) {
     return std::make_shared<Experiment>(load_experiment(path, coefficient));
   }, py::arg("path"), py::arg("coefficient") = "");
   m.def("_make_experiment", &make_experiment, py::arg("config"), py::arg("runs"));
+  // The runs only (load_experiment_runs: no [static], [rotary] or [model] read), per
+  // coefficient: a held-out cycle's files, resampled and derived exactly as fit reads them.
+  m.def("_read_runs", [](const std::string& path) {
+    py::dict out;
+    for (const Experiment& e : load_experiment_runs(path)) {
+      py::list runs;
+      for (const Run& r : e.runs) {
+        py::dict d = run_dict(r);
+        d["frequency_hz"] = r.frequency_hz;
+        d["axis"] = std::string(axis_name(e.axis));
+        d["warnings"] = r.warnings;
+        runs.append(d);
+      }
+      out[py::str(e.coefficient)] = runs;
+    }
+    return out;
+  }, py::arg("path"));
   // The stall start values' keys (experiment_checks.hpp stall_starts(), the one table), which
   // Experiment's keywords must list (python/tests/test_experiment.py).
   m.def("_stall_start_keys", [] {

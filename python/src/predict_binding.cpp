@@ -5,17 +5,33 @@
 // The motion arrays get the checks `indicial predict` makes on a run CSV (equal lengths,
 // finite, strictly increasing time) and the rate, when not given, is the same Savitzky-Golay
 // derivative of the angle the CSV reader takes.
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "bindings.hpp"
 
 #include "indicial/fitter/csv_reader.hpp"
 #include "indicial/fitter/derivative.hpp"
 #include "indicial/fitter/error.hpp"
+#include "indicial/fitter/experiment_checks.hpp"
 #include "indicial/fitter/predict.hpp"
+#include "indicial/fitter/prediction_output.hpp"
 
 namespace indicial::python {
 namespace {
+
+// An angle array in radians that reaches beyond 2 pi in magnitude is almost certainly degrees
+// (a run file's alpha_rad column is warned by the same rule: csv_reader's warn_angle_unit).
+std::vector<std::string> motion_unit_warnings(const std::vector<double>& angle_rad) {
+  double largest = 0.0;
+  for (double v : angle_rad) largest = std::max(largest, std::abs(v));
+  if (!(largest > 2.0 * 3.14159265358979323846)) return {};
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.6g", largest);
+  return {std::string("the motion angle reaches ") + buf + " rad, beyond 2 pi: it looks like degrees (pass "
+          "radians: numpy.radians)"};
+}
 
 void check_finite(const std::vector<double>& v, const std::string& name) {
   for (std::size_t i = 0; i < v.size(); ++i)
@@ -76,6 +92,14 @@ py::dict predict(const ModelPtr& model, const py::handle& time_s, const py::hand
   // As the command line: a uniform grid (the default) is checked, not assumed (a jittered log
   // read as uniform gave a rate off by 64 % of its amplitude, without a word).
   check_time_grid(t, grid == "nonuniform" ? TimeGrid::nonuniform : TimeGrid::uniform, "time_s");
+  std::vector<std::string> warnings = motion_unit_warnings(a);
+  if (periodic) {  // as `indicial predict --periodic`: one whole cycle, or refused
+    Run probe;
+    probe.time_s = t;
+    probe.motion_angle_rad = a;
+    if (const std::string problem = periodic_closure_problem(probe); !problem.empty())
+      throw InputError("periodic", 0, "the motion is " + problem);
+  }
   std::vector<double> r;
   if (rate.is_none()) {
     r = grid == "nonuniform" ? smooth_derivative_nonuniform(t, a, default_sg_half_window, default_sg_degree)
@@ -111,7 +135,10 @@ py::dict predict(const ModelPtr& model, const py::handle& time_s, const py::hand
     for (std::size_t c = 0; c < p.coefficients.size(); ++c) p.coefficients[c].measured = meas[c];
     score_coefficients(p, score_from_s, "score_from_s");
   }
-  return prediction_dict(p);
+  py::dict d = prediction_dict(p);
+  for (const std::string& w : prediction_warnings(p)) warnings.push_back(w);  // what `predict` prints
+  d["warnings"] = warnings;
+  return d;
 }
 
 }  // namespace

@@ -29,6 +29,8 @@ def test_diagnose_equals_cli(model1_config_on_model2_data, cli, tmp_path):
         assert s["effect"] == c["effect"] and s["detail"] == c["detail"]
         assert abs(s["statistic"] - c["statistic"]) <= 1e-12 * abs(c["statistic"])
         assert abs(s["fit_error_after"] - c["fit_error_after"]) <= 1e-12 * c["fit_error_after"]
+        assert s["rule"] == c["rule"]  # what decided, with its held-out evidence as diagnosis.json's
+        assert list(s["held_out_rms_after"]) == pytest.approx(c.get("held_out_rms_after", []), rel=1e-12)
     assert abs(d.final_fit_error - expected["final_fit_error"]) <= 1e-12 * expected["final_fit_error"]
     assert d.final_fit_error < d.initial_fit_error
     assert d.model.lags() == 1 and d.fit.termination == "converged"

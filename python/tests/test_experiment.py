@@ -67,6 +67,9 @@ def test_non_contiguous_and_integer_arrays_are_converted():
     (dict(n=5), indicial.InputError, "run 1: has 5 samples; a run needs at least 11"),
     (dict(alpha_rad=np.zeros((400, 2))), indicial.InputError, "motion angle: expected a 1-D array"),
     (dict(time_s=None), TypeError, "time_s: expected an array of numbers, got None"),
+    # a third of a cycle declared periodic: the file reader refuses it, so Run(...) does (its
+    # write_files would write a run `indicial fit` refuses)
+    (dict(n=130, periodic=True), indicial.InputError, "run 1: is declared periodic .* not one whole cycle"),
 ])
 def test_bad_arrays_raise(change, exc, message):
     n = change.pop("n", 400)

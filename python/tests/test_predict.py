@@ -82,3 +82,43 @@ def test_a_jittered_time_grid_is_refused_unless_declared(cli_fit):
     assert np.all(np.isfinite(p.predicted["Cm"]))
     with pytest.raises(indicial.InputError, match="^time_grid: expected 'uniform' or 'nonuniform'"):
         indicial.predict(model, time_s=t, alpha_rad=a, time_grid="jittered")
+
+
+def test_predict_checks_a_cycle_and_warns_as_the_command_line(cli_fit):
+    """A notebook user's trial (2026-11-30): periodic=True on a third of a cycle was predicted
+    (the command line refuses it), and nothing was said of samples outside the envelope or of
+    degrees passed as alpha_rad."""
+    model = indicial.Model.load(str(cli_fit / "model.coef"))
+    t = np.arange(200) * 0.005
+    a = 0.5 - 0.3 * np.cos(2 * np.pi * t)  # one whole cycle of 200 samples
+    with pytest.raises(indicial.InputError, match="^periodic: the motion is declared periodic .* not one whole cycle"):
+        indicial.predict(model, time_s=t[:70], alpha_rad=a[:70], periodic=True)
+    with pytest.warns(indicial.IndicialWarning, match="outside the model's envelope") as w:
+        p = indicial.predict(model, time_s=t, alpha_rad=a + 0.6, periodic=True)
+    assert p.warnings and str(w[0].message) == p.warnings[0]
+    with pytest.warns(indicial.IndicialWarning, match="beyond 2 pi: it looks like degrees"):
+        indicial.predict(model, time_s=t, alpha_rad=np.degrees(a))
+
+
+def test_read_runs_is_predict_runs_cycle(cli_fit, cli, tmp_path):
+    """read_runs: an experiment file's run as fit reads it, with no [static] needed; predicted, it
+    is `indicial predict --experiment E --run 1` (the same samples, the same numbers)."""
+    model_path = str(cli_fit / "model.coef")
+    ph = np.sort(np.random.default_rng(5).uniform(0, 2 * np.pi, 60))
+    with open(tmp_path / "a.csv", "w") as f:
+        f.write("x,y\n" + "".join(f"{p!r},{np.degrees(0.5 - 0.3 * np.cos(p))!r}\n" for p in ph))
+    with open(tmp_path / "c.csv", "w") as f:
+        f.write("x,y\n" + "".join(f"{p!r},{-0.02 * np.sin(p)!r}\n" for p in ph[::2]))
+    e = tmp_path / "held.toml"
+    e.write_text('axis = "pitch"\ncoefficient = "Cm"\nreference_length_m = 0.5\nairspeed_mps = 20\n'
+                 'runs = [{files = [{file = "a.csv", columns = {phase_rad = "x", alpha_deg = "y"}}, '
+                 '{file = "c.csv", columns = {phase_rad = "x", Cm = "y"}}], frequency_hz = 0.5}]\n')
+    r = indicial.read_runs(str(e))["Cm"][0]
+    assert r["periodic"] and len(r["time_s"]) == 60 and r["frequency_hz"] == 0.5
+    p = indicial.predict(indicial.Model.load(model_path), time_s=r["time_s"], alpha_rad=r["motion_angle_rad"],
+                         q_radps=r["rate_radps"], periodic=True, airspeed_mps=r["airspeed_mps"],
+                         measured={"Cm": r["coefficient"]})
+    cli("predict", model_path, "--experiment", e, "--run", "1", "--out", tmp_path / "p.csv")
+    rows = [line.split(",") for line in (tmp_path / "p.csv").read_text().splitlines()
+            if line and not line.startswith("#") and not line.startswith("time_s")]
+    np.testing.assert_allclose(p.predicted["Cm"], [float(x[2]) for x in rows], rtol=0, atol=1e-12)
