@@ -190,7 +190,10 @@ void predict_and_write(const PredictOptions& o, const indicial::ModelSet<double,
   inputs.push_back(o.model_path);
   inputs.push_back(o.experiment);
   for (const std::string& f : {o.out, metrics_path, o.plot}) refuse_output_onto_input(f, inputs);
-  std::vector<std::string> comments = {"indicial predict " + o.model_path + " " + data_label,
+  const std::string command = o.run > 0 ? "--experiment " + o.experiment + " --run " + std::to_string(o.run) + " (" +
+                                               data_label + ")"
+                                         : data_label;
+  std::vector<std::string> comments = {"indicial predict " + o.model_path + " " + command,
                                        periodic ? "predicted with the runtime (indicial::Predictor): the "
                                                     "cycle's periodic steady state"
                                                   : "predicted with the runtime (indicial::Predictor), reset "
