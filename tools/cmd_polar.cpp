@@ -78,9 +78,9 @@ const indicial::tools::RegisterCommand register_polar([](CLI::App& app) {
       "A static table from quasi-static cycles: the runs of an experiment file (read as fit reads\n"
       "them; it needs no [static] yet) binned by the model angle, a row per bin: the samples' mean\n"
       "angle and mean coefficient(s). By default the outward samples only (the angle moving away\n"
-      "from zero: the return stroke stays separated inside the static stall angle). Writes alpha_deg\n"
-      "(beta_deg in roll and yaw) and a\n"
-      "column per coefficient: a [static] table and a model.stall_polar.");
+      "from zero: the return stroke stays separated inside the static stall angle). Writes\n"
+      "alpha_deg (beta_deg in roll and yaw) and a column per coefficient: a [static] table and a\n"
+      "model.stall_polar.");
   sub->add_option("EXPERIMENT", opt->experiment, "experiment file (.toml) naming the quasi-static runs")->required();
   sub->add_option("--out", opt->out, "output CSV")->required();
   sub->add_option("--bin-deg", opt->polar.bin_deg, "bin width, deg (bins centred on multiples of it; default 1)");
