@@ -16,8 +16,8 @@
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/experiment_toml.hpp"
 #include "indicial/fitter/output.hpp"
+#include "indicial/fitter/provenance.hpp"
 #include "indicial/fitter/quasi_static_polar.hpp"
-#include "indicial/model.hpp"
 
 namespace {
 
@@ -28,14 +28,10 @@ struct PolarCommandOptions {
   bool force = false;
 };
 
-// The experiment file and every run file it names (a run of several files: each).
-std::vector<std::string> polar_inputs(const std::string& experiment, const std::vector<indicial::Experiment>& es) {
-  std::vector<std::string> inputs = {experiment};
-  for (const indicial::Run& r : es.front().runs) {
-    if (r.source_files.empty()) inputs.push_back(r.path);
-    inputs.insert(inputs.end(), r.source_files.begin(), r.source_files.end());
-  }
-  return inputs;
+std::map<std::string, indicial::PolarStroke> stroke_names() {
+  std::map<std::string, indicial::PolarStroke> names;
+  for (const auto& nv : indicial::polar_stroke_names) names[nv.name] = nv.value;
+  return names;
 }
 
 void run_polar(const PolarCommandOptions& o) {
@@ -46,7 +42,8 @@ void run_polar(const PolarCommandOptions& o) {
   const std::vector<Experiment> es = load_experiment_runs(o.experiment);
   for (const Experiment& e : es) tools::print_warnings(e.warnings);
   const QuasiStaticPolar p = quasi_static_polar(es, o.polar);
-  refuse_output_onto_input(o.out, polar_inputs(o.experiment, es));  // --force replaces outputs, never an input
+  // --force replaces outputs, never an input: the experiment file and every run file it names.
+  refuse_output_onto_input(o.out, experiment_input_paths(es.front()));
   const char* stroke = o.polar.stroke == PolarStroke::outward ? "the outward samples (model angle moving away from zero)"
                        : o.polar.stroke == PolarStroke::rising ? "the rising samples (model angle increasing)"
                                                                : "every sample";
@@ -88,9 +85,7 @@ const indicial::tools::RegisterCommand register_polar([](CLI::App& app) {
   sub->add_option("--stroke", opt->polar.stroke,
                   "outward (default: the model angle moving away from zero, the stroke on which the flow "
                   "separates, either side of zero), rising (the angle increasing) or both")
-      ->transform(CLI::CheckedTransformer(std::map<std::string, indicial::PolarStroke>{
-          {"outward", indicial::PolarStroke::outward}, {"rising", indicial::PolarStroke::rising},
-          {"both", indicial::PolarStroke::both}}));
+      ->transform(CLI::CheckedTransformer(stroke_names()));
   sub->add_option("--hold-deg", opt->polar.hold_deg,
                   "one more row this far beyond each end, holding the end values, so that the table covers "
                   "cycles reaching beyond the quasi-static ones (default 0: none; as a lift polar a held row "

@@ -658,10 +658,9 @@ def read_runs(path: str) -> Dict[str, list]:
     airspeed_mps=r["airspeed_mps"], measured={"CL": r["coefficient"]})`` (``indicial predict
     --experiment held.toml --run 1``)."""
     out = {name: list(runs) for name, runs in _indicial._read_runs(str(path)).items()}
-    seen = set()
-    for runs in out.values():
-        for r in runs:
-            _warn([w for w in r["warnings"] if not (w in seen or seen.add(w))])
+    # Each coefficient reads the same files: a file's warning once.
+    warnings = [w for runs in out.values() for r in runs for w in r["warnings"]]
+    _warn(list(dict.fromkeys(warnings)))
     return out
 
 

@@ -5,6 +5,7 @@
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/experiment_toml.hpp"
 #include "indicial/fitter/output.hpp"
+#include "indicial/fitter/provenance.hpp"
 #include "indicial/fitter/quasi_static_polar.hpp"
 
 namespace indicial::python {
@@ -17,15 +18,13 @@ py::dict polar_of_file(const std::string& path, double bin_deg, int min_samples,
   o.bin_deg = bin_deg;
   o.min_samples = min_samples;
   o.hold_deg = hold_deg;
-  if (stroke == "outward") {
-    o.stroke = PolarStroke::outward;
-  } else if (stroke == "rising") {
-    o.stroke = PolarStroke::rising;
-  } else if (stroke == "both") {
-    o.stroke = PolarStroke::both;
-  } else {
-    throw InputError("stroke", 0, "expected one of 'outward', 'rising', 'both', found '" + stroke + "'");
+  std::string allowed;
+  bool known = false;
+  for (const auto& nv : polar_stroke_names) {
+    if (stroke == nv.name) o.stroke = nv.value, known = true;
+    allowed += (allowed.empty() ? "'" : ", '") + std::string(nv.name) + "'";
   }
+  if (!known) throw InputError("stroke", 0, "expected one of " + allowed + ", found '" + stroke + "'");
   if (const std::string why = o.invalid_reason(); !why.empty()) throw InputError("quasi_static_polar", 0, why);
   const std::vector<Experiment> es = load_experiment_runs(path);
   const QuasiStaticPolar p = quasi_static_polar(es, o);
@@ -42,12 +41,7 @@ py::dict polar_of_file(const std::string& path, double bin_deg, int min_samples,
   d["held_rows"] = p.held_rows;
   d["axis"] = std::string(axis_name(es.front().axis));
   d["csv"] = quasi_static_polar_csv(p, es.front().axis, {"indicial.quasi_static_polar " + path});
-  std::vector<std::string> inputs = {path};  // what write() must never replace
-  for (const Run& r : es.front().runs) {
-    if (r.source_files.empty()) inputs.push_back(r.path);
-    inputs.insert(inputs.end(), r.source_files.begin(), r.source_files.end());
-  }
-  d["inputs"] = inputs;
+  d["inputs"] = experiment_input_paths(es.front());  // what write() must never replace
   std::vector<std::string> warnings;
   for (const Experiment& e : es) warnings.insert(warnings.end(), e.warnings.begin(), e.warnings.end());
   d["warnings"] = warnings;

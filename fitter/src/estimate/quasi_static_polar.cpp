@@ -97,8 +97,7 @@ QuasiStaticPolar quasi_static_polar(const std::vector<Experiment>& experiments, 
     // Say why: too few samples per bin, or (static runs, a constant angle) none rising.
     const std::string stroke = o.stroke != PolarStroke::both
                                    ? fmt::format(" ({} of {} samples are on the {} stroke: with runs that do not "
-                                                 "move, --stroke both)", considered, total,
-                                                 o.stroke == PolarStroke::rising ? "rising" : "outward")
+                                                 "move, --stroke both)", considered, total, name_of(o.stroke))
                                    : std::string();
     throw InputError(first.path, 0, fmt::format("the polar has {} row(s): {} bin(s) of {:g} deg held fewer than {} "
                                                 "samples{} (wider bins, or more or slower cycles)",

@@ -904,17 +904,26 @@ void set_data_range(Experiment& e) {
 
 namespace {
 
+// What every reader of the runs reads first: the top level, [columns], [csv] and the runs
+// entries (load_one goes on to the model sections, load_experiment_runs to the runs).
+Experiment read_run_format(LoadContext& c, const toml::table& root, const std::string& coefficient,
+                           std::vector<RunEntry>* entries) {
+  Experiment e;
+  e.path = c.r.file();
+  read_top_level(c, root, coefficient, e);
+  read_columns_section(c, root.get("columns"));
+  read_csv_section(c, root.get("csv"));
+  *entries = read_run_entries(c, root, e);
+  return e;
+}
+
 // One coefficient's experiment from the parsed file (see load_experiments).
 Experiment load_one(const std::string& toml_path, const toml::table& root, const std::string& coefficient,
                     const std::vector<std::string>& coefficients) {
   const TomlReader r(toml_path);
   LoadContext c{r, fs::path(toml_path).parent_path(), {}, root.source(), {}, {}, {}};
-  Experiment e;
-  e.path = toml_path;
-  read_top_level(c, root, coefficient, e);
-  read_columns_section(c, root.get("columns"));
-  read_csv_section(c, root.get("csv"));
-  const std::vector<RunEntry> entries = read_run_entries(c, root, e);
+  std::vector<RunEntry> entries;
+  Experiment e = read_run_format(c, root, coefficient, &entries);
   read_static_section(c, root, section_for(c, root, "static", coefficients, coefficient), e);
   const toml::node* rotary = section_for(c, root, "rotary", coefficients, coefficient);
   const toml::node* model = section_for(c, root, "model", coefficients, coefficient);
@@ -961,12 +970,9 @@ std::vector<Experiment> load_experiment_runs(const std::string& toml_path) {
   for (const std::string& name : coefficients) {
     const TomlReader r(toml_path);
     LoadContext c{r, fs::path(toml_path).parent_path(), {}, root.source(), {}, {}, {}};
-    Experiment e;
-    e.path = toml_path;
-    read_top_level(c, root, name, e);
-    read_columns_section(c, root.get("columns"));
-    read_csv_section(c, root.get("csv"));
-    read_runs(c, read_run_entries(c, root, e), e);
+    std::vector<RunEntry> entries;
+    Experiment e = read_run_format(c, root, name, &entries);
+    read_runs(c, entries, e);
     out.push_back(std::move(e));
   }
   return out;

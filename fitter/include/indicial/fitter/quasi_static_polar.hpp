@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "indicial/fitter/experiment.hpp"
+#include "indicial/fitter/experiment_toml.hpp"
 
 namespace indicial {
 
@@ -31,6 +32,10 @@ namespace indicial {
 // the stroke on which the flow separates, on either side of a cycle through zero; rising: the
 // angle increasing only; both: every sample.
 enum class PolarStroke { outward, rising, both };
+// The names `indicial polar --stroke` and Python's `stroke=` take (one table for both).
+inline constexpr std::array<NamedValue<PolarStroke>, 3> polar_stroke_names{
+    {{"outward", PolarStroke::outward}, {"rising", PolarStroke::rising}, {"both", PolarStroke::both}}};
+inline constexpr const auto& names_of(PolarStroke) { return polar_stroke_names; }
 
 struct QuasiStaticPolarOptions {
   double bin_deg = 1.0;                      // > 0: bins centred on multiples of it
