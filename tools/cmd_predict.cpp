@@ -119,9 +119,8 @@ std::vector<indicial::Run> read_experiment_run(const PredictOptions& o,
     throw InputError("--run", 0, o.experiment + " is a " + axis_name(es.front().axis) + " experiment; the model is " +
                                      axis_name(model.axis));
   if (model.axis != Axis::pitch && es.front().alpha0_rad != model.alpha0_rad)
-    tools::print_warnings({o.experiment + ": alpha0 " + format_double(es.front().alpha0_rad * 180.0 / 3.14159265358979323846) +
-                           " deg differs from the model's " + format_double(model.alpha0_rad * 180.0 / 3.14159265358979323846) +
-                           " deg: the run is predicted at the model's"});
+    tools::print_warnings({o.experiment + ": alpha0 " + deg_text(es.front().alpha0_rad) + " deg differs from the model's " +
+                           deg_text(model.alpha0_rad) + " deg: the run is predicted at the model's"});
   const std::size_t n_runs = es.front().runs.size();
   if (static_cast<std::size_t>(o.run) > n_runs)
     throw InputError("--run", 0, o.experiment + " has " + std::to_string(n_runs) + " run(s): give 1.." +
