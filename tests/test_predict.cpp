@@ -61,6 +61,23 @@ TEST_CASE("predict: metrics on hand-checked values") {
   CHECK(m.rms_error == doctest::Approx(std::sqrt(2.0)));
   CHECK(m.max_error == doctest::Approx(2.0));
   CHECK(m.theil_inequality == doctest::Approx(std::sqrt(2.0) / 2.0));
+  // Theil's decomposition: mean e = 1, e - mean e = (-1, 1): RMS about it 1, U^M = 1 / 2.
+  CHECK(m.mean_error == doctest::Approx(1.0));
+  CHECK(m.rms_about_mean == doctest::Approx(1.0));
+  CHECK(m.bias_proportion == doctest::Approx(0.5));
+  CHECK(perfect.mean_error == 0.0);
+  CHECK(perfect.bias_proportion == 0.0);
+  // A pure offset is all bias; a zero-mean error none, and RMS^2 = bias^2 + spread^2.
+  const auto offset = indicial::score_prediction({0.3, -0.1, 0.7}, {0.35, -0.05, 0.75});
+  CHECK(offset.mean_error == doctest::Approx(0.05));
+  CHECK(offset.rms_about_mean == doctest::Approx(0.0).scale(1.0).epsilon(1e-12));
+  CHECK(offset.bias_proportion == doctest::Approx(1.0));
+  const auto spread = indicial::score_prediction({0.0, 0.0, 0.0, 0.0}, {0.1, -0.1, 0.3, -0.3});
+  CHECK(spread.mean_error == doctest::Approx(0.0).scale(1.0).epsilon(1e-15));
+  CHECK(spread.bias_proportion == doctest::Approx(0.0).scale(1.0).epsilon(1e-15));
+  const auto mixed = indicial::score_prediction({1.0, 2.0, 3.0}, {1.5, 2.1, 3.7});
+  CHECK(mixed.rms_error * mixed.rms_error ==
+        doctest::Approx(mixed.mean_error * mixed.mean_error + mixed.rms_about_mean * mixed.rms_about_mean));
   // p = -m is the worst case: TIC = 1; p = 0 also gives 1.
   CHECK(indicial::score_prediction({0.3, -0.1, 0.7}, {-0.3, 0.1, -0.7}).theil_inequality ==
         doctest::Approx(1.0));
@@ -235,6 +252,12 @@ TEST_CASE("predict: CLI writes the CSV and metrics and plot and refuses overwrit
         doctest::Approx(p.coefficients[0].model_metrics.rms_error).epsilon(1e-12).scale(0));
   CHECK(jc["quasi_steady"]["theil_inequality"].get<double>() ==
         doctest::Approx(p.coefficients[0].quasi_steady_metrics.theil_inequality).epsilon(1e-12).scale(0));
+  CHECK(jc["model"]["rms_about_mean"].get<double>() ==
+        doctest::Approx(p.coefficients[0].model_metrics.rms_about_mean).epsilon(1e-12).scale(0));
+  CHECK(jc["quasi_steady"]["mean_error"].get<double>() ==
+        doctest::Approx(p.coefficients[0].quasi_steady_metrics.mean_error).epsilon(1e-12).scale(0));
+  CHECK(jc["model"]["bias_proportion"].get<double>() ==
+        doctest::Approx(p.coefficients[0].model_metrics.bias_proportion).epsilon(1e-12).scale(0));
   // With the true model on noisy data the model's error is the noise (SNR 40: sigma ~ 0.0035).
   CHECK(jc["model"]["rms_error"].get<double>() < 0.006);
   CHECK(jc["model"]["rms_error"].get<double>() < jc["quasi_steady"]["rms_error"].get<double>() / 5);

@@ -274,7 +274,8 @@ const indicial::tools::RegisterCommand register_predict([](CLI::App& app) {
       "(static + rotary) and the measured <c> where present. Where measured, prints and writes\n"
       "RMS error, maximum error and Theil's inequality coefficient\n"
       "  TIC = sqrt(mean e^2) / (sqrt(mean m^2) + sqrt(mean p^2))   (0 perfect, 1 worst)\n"
-      "for the model and for the quasi-steady model.");
+      "and the bias, mean e (e = predicted - measured), with the RMS about it (a run's zero drift\n"
+      "apart from the error in the shape), for the model and for the quasi-steady model.");
   sub->add_option("MODEL", opt->model_path, "coefficient file (.coef)")->required();
   sub->add_option("DATA", opt->data_paths,
                   "run CSV: time_s (or a phase column), the angle column, optional rate and coefficients; or "

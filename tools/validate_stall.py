@@ -168,6 +168,12 @@ def rms(a, b):
     return math.sqrt(sum((x - y) ** 2 for x, y in zip(a, b)) / len(a))
 
 
+def bias(a, b):
+    """The mean of a - b: the part of the error a constant removes (Theil's decomposition,
+    RMS^2 = bias^2 + spread^2; `indicial predict`'s mean_error)."""
+    return sum(x - y for x, y in zip(a, b)) / len(a)
+
+
 def main():
     usage = __doc__.split('\n\n')[1]
     if sys.argv[1:2] in (['-h'], ['--help']):
@@ -260,11 +266,13 @@ def main():
                     continue
                 pred = list(csv.DictReader(line for line in open(out) if not line.startswith('#')))
                 res[f'{kind}_{coef}'] = rms([float(p[f'{coef}_pred']) for p in pred], meas)
+                res[f'{kind}_{coef}_bias'] = bias([float(p[f'{coef}_pred']) for p in pred], meas)
                 # Quasi-steady = the static table alone: the report model's column (C_aq = 0;
                 # a diagnosed model's quasi-steady column includes its rotary term).
                 if kind == 'report':
-                    res[f'qs_{coef}'] = rms([float(p[f'{coef}_quasi_steady']) for p in pred], meas) \
-                        if f'{coef}_quasi_steady' in pred[0] else float('nan')
+                    qs = [float(p[f'{coef}_quasi_steady']) for p in pred] if f'{coef}_quasi_steady' in pred[0] else []
+                    res[f'qs_{coef}'] = rms(qs, meas) if qs else float('nan')
+                    res[f'qs_{coef}_bias'] = bias(qs, meas) if qs else float('nan')
         results.append(res)
     report(results, (polar, source, stall_deg), (fit, held), models)
 
@@ -289,6 +297,34 @@ def diagnosis_lines(coef, dj):
               f"fit cycles' folds {mb:.4f} -> {ma:.4f}")
         else:
             p(f'  * step {i}: `{st.get("effect")}` ({st.get("term")})')
+
+
+def bias_table(results):
+    """Theil's decomposition of the held-out error: each cycle's own bias (mean error) apart
+    from its shape. The data's per-run zero drift is in the bias, and no model of the motion
+    predicts it; the peer's share cannot be given (bl-reference.csv has its RMS only)."""
+    p = print
+    p('\nThe bias in the held-out error (Theil\'s decomposition, RMS^2 = bias^2 + spread^2 per cycle, '
+      'bias = the cycle\'s mean error; `indicial predict`\'s `mean_error`): share of the mean square error '
+      'over the cycles that is bias, and the mean RMS about each cycle\'s own bias. Where the measured '
+      'cycles carry a zero drift of their own (a tunnel run\'s), no model of the motion predicts it: it '
+      'bounds what any model reaches. The peer\'s decomposition is not known (its RMS only).\n')
+    p('| regime | coef | QS: bias share | report: bias share | extended: bias share | diagnosed: bias share | '
+      'diagnosed: mean RMS | diagnosed: mean RMS about the bias |')
+    p('|---|---|---|---|---|---|---|---|')
+    for regime in ('attached', 'light', 'deep', 'all'):
+        rs = [r for r in results if regime == 'all' or r['regime'] == regime]
+        for coef in ('CL', 'Cm'):
+            cells = []
+            for k in ('qs', 'report', 'extended', 'diagnosed'):
+                pairs = [(r.get(f'{k}_{coef}', float('nan')), r.get(f'{k}_{coef}_bias', float('nan'))) for r in rs]
+                pairs = [(e, b) for e, b in pairs if not (math.isnan(e) or math.isnan(b))]
+                mse = sum(e * e for e, _ in pairs)
+                cells.append(f'{sum(b * b for _, b in pairs) / mse:.2f}' if mse > 0 else 'n/a')
+            spread = mean([math.sqrt(max(0.0, r.get(f'diagnosed_{coef}', float('nan')) ** 2 -
+                                         r.get(f'diagnosed_{coef}_bias', float('nan')) ** 2)) for r in rs])
+            dia = mean([r.get(f'diagnosed_{coef}', float('nan')) for r in rs])
+            p(f'| {regime} | {coef} | ' + ' | '.join(cells) + f' | {dia:.4f} | {spread:.4f} |')
 
 
 def report(results, static, cycles, models):
@@ -334,6 +370,7 @@ def report(results, static, cycles, models):
             half = sum(1 for r in rs if r.get(f'diagnosed_{coef}', float('nan')) <= 0.5 * r.get(f'qs_{coef}', float('nan')))
             p(f'| {regime} | {len(rs)} | {coef} | {qs:.4f} | {rep:.4f} | {ext:.4f} | {dia:.4f} | {blv:.4f} | '
               f'{ext / blv:.2f} | {dia / blv:.2f} | {dia / qs:.2f} | {half} of {len(rs)} |')
+    bias_table(results)
     p('\nPer cycle (RMS):\n')
     cols = [(f'{k}_{c}', f'{lab} {c}') for c in ('CL', 'Cm')
             for k, lab in (('qs', 'QS'), ('report', 'report'), ('extended', 'ext'), ('diagnosed', 'diag'), ('bl', 'BL'))]

@@ -604,7 +604,8 @@ class Prediction:
     ``clamped_samples``, ``scored_samples`` (the samples the metrics cover: from
     ``score_from_s`` on), and per coefficient name: ``predicted[name]`` (full model),
     ``quasi_steady[name]`` (static + rotary), ``metrics[name]`` (model and quasi-steady RMS,
-    max error and Theil's inequality coefficient, when measured was given), and ``warnings``
+    max error, Theil's inequality coefficient and the bias ``mean_error`` with ``rms_about_mean``
+    and ``bias_proportion``, when measured was given), and ``warnings``
     (issued as IndicialWarning too: samples outside the model's envelope, an angle array that
     looks like degrees)."""
 

@@ -45,6 +45,9 @@ py::dict metrics_dict(const ErrorMetrics& m) {
   d["rms_error"] = m.rms_error;
   d["max_error"] = m.max_error;
   d["theil_inequality"] = m.theil_inequality;
+  d["mean_error"] = m.mean_error;
+  d["rms_about_mean"] = m.rms_about_mean;
+  d["bias_proportion"] = m.bias_proportion;
   return d;
 }
 

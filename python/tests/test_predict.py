@@ -27,6 +27,11 @@ def test_predict_equals_cli(case_dir, cli_fit, cli, tmp_path, periodic):
         assert np.all(np.abs(got - expected[key]) <= 1e-12 * np.maximum(1.0, np.abs(expected[key]))), key
     m = p.metrics["Cm"]["model"]
     assert m["n_samples"] == len(run["time_s"]) and 0 < m["theil_inequality"] < 0.1
+    # Theil's decomposition, as the CLI's metrics file writes it.
+    e = p.predicted["Cm"] - np.asarray(run["coefficient"])
+    assert abs(m["mean_error"] - e.mean()) <= 1e-12 and abs(m["rms_about_mean"] - e.std()) <= 1e-12
+    assert abs(m["rms_error"] ** 2 - m["mean_error"] ** 2 - m["rms_about_mean"] ** 2) <= 1e-12
+    assert 0 <= m["bias_proportion"] <= 1
 
 
 def test_predict_derives_the_rate_and_checks_inputs(cli_fit):

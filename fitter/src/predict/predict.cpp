@@ -33,9 +33,10 @@ ErrorMetrics score_prediction(const std::vector<double>& measured,
     throw std::invalid_argument("score_prediction: measured and predicted differ in length or are empty");
   ErrorMetrics m;
   m.n_samples = measured.size();
-  double see = 0.0, smm = 0.0, spp = 0.0;
+  double see = 0.0, smm = 0.0, spp = 0.0, se = 0.0;
   for (std::size_t i = 0; i < measured.size(); ++i) {
     const double e = predicted[i] - measured[i];
+    se += e;
     see += e * e;
     smm += measured[i] * measured[i];
     spp += predicted[i] * predicted[i];
@@ -47,6 +48,17 @@ ErrorMetrics score_prediction(const std::vector<double>& measured,
   // Why the branch: both signals identically zero is a perfect (if empty) prediction; the
   // formula would be 0/0.
   m.theil_inequality = denominator > 0.0 ? m.rms_error / denominator : 0.0;
+  m.mean_error = se / n;
+  // The spread about the mean from a second pass (no cancellation of see / n - mean^2 when
+  // the bias dominates).
+  double sdd = 0.0;
+  for (std::size_t i = 0; i < measured.size(); ++i) {
+    const double d = predicted[i] - measured[i] - m.mean_error;
+    sdd += d * d;
+  }
+  m.rms_about_mean = std::sqrt(sdd / n);
+  // Why the branch: a perfect prediction has no error to apportion.
+  m.bias_proportion = see > 0.0 ? std::min(1.0, m.mean_error * m.mean_error / (see / n)) : 0.0;
   return m;
 }
 

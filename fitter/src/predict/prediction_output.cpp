@@ -98,7 +98,10 @@ std::string prediction_metrics_json(const Prediction& p) {
   auto metrics = [](const ErrorMetrics& m) {
     return nlohmann::json{{"rms_error", m.rms_error},
                           {"max_error", m.max_error},
-                          {"theil_inequality", m.theil_inequality}};
+                          {"theil_inequality", m.theil_inequality},
+                          {"mean_error", m.mean_error},
+                          {"rms_about_mean", m.rms_about_mean},
+                          {"bias_proportion", m.bias_proportion}};
   };
   nlohmann::json arr = nlohmann::json::array();
   for (const auto& c : p.coefficients) {
@@ -129,9 +132,11 @@ std::vector<std::string> prediction_metrics_lines(const Prediction& p) {
     const auto& a = c.model_metrics;
     const auto& q = c.quasi_steady_metrics;
     lines.push_back(c.name + " model:        RMS " + fmt_num(a.rms_error) + "  max " +
-                    fmt_num(a.max_error) + "  TIC " + fmt_num(a.theil_inequality));
+                    fmt_num(a.max_error) + "  TIC " + fmt_num(a.theil_inequality) + "  bias " +
+                    fmt_num(a.mean_error) + "  RMS about bias " + fmt_num(a.rms_about_mean));
     lines.push_back(c.name + " quasi-steady: RMS " + fmt_num(q.rms_error) + "  max " +
-                    fmt_num(q.max_error) + "  TIC " + fmt_num(q.theil_inequality));
+                    fmt_num(q.max_error) + "  TIC " + fmt_num(q.theil_inequality) + "  bias " +
+                    fmt_num(q.mean_error) + "  RMS about bias " + fmt_num(q.rms_about_mean));
   }
   return lines;
 }

@@ -59,6 +59,13 @@ struct ErrorMetrics {
   double rms_error = 0.0;   // sqrt(mean e^2)
   double max_error = 0.0;   // max |e|
   double theil_inequality = 0.0;  // TIC, see the essay; 0 when m and p are both identically 0
+  // Theil's decomposition of the mean square error, MSE = mean_error^2 + rms_about_mean^2:
+  // the bias a constant could remove (a tunnel run's zero drift, a static table offset) apart
+  // from the error in the shape. bias_proportion = mean_error^2 / MSE (Theil's U^M, 0 when
+  // MSE = 0).
+  double mean_error = 0.0;       // mean e (the bias: > 0 predicts high)
+  double rms_about_mean = 0.0;   // sqrt(mean (e - mean e)^2)
+  double bias_proportion = 0.0;  // mean_error^2 / rms_error^2, in [0, 1]
 };
 
 // Throws std::invalid_argument when the lengths differ or are zero.
