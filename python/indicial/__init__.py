@@ -106,6 +106,10 @@ class Run:
       periodic       True for one ensemble-averaged cycle (periodic steady state)
       airspeed_mps   this run's airspeed, m/s (default: the experiment's)
       name           how messages and results name the run
+
+    ``Run.from_dict(d)`` takes a run as ``Experiment.runs`` and ``read_runs`` give it (the
+    axis-neutral ``motion_angle_rad`` and ``rate_radps``, whatever the axis), e.g. to refit
+    some of an experiment's runs.
     """
 
     def __init__(self, *, time_s, coefficient, alpha_rad=None, q_radps=None, phi_rad=None, p_radps=None,
@@ -115,9 +119,24 @@ class Run:
                            psi_rad=psi_rad, r_radps=r_radps)
         self.time_s, self.coefficient = time_s, coefficient
         self.periodic, self.airspeed_mps, self.time_grid, self.name = periodic, airspeed_mps, time_grid, name
+        self._neutral = None  # (angle, rate) of from_dict: the experiment's axis, whatever it is
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "Run":
+        """A Run from one of ``Experiment.runs`` or ``read_runs``: its ``time_s``,
+        ``motion_angle_rad``, ``rate_radps``, ``coefficient``, ``periodic``, ``airspeed_mps``,
+        ``time_grid`` and ``name`` (other keys ignored). The motion is taken as the angle of
+        whichever axis the Experiment it joins has: the dicts carry no axis-specific names."""
+        missing = [k for k in ("time_s", "motion_angle_rad", "coefficient") if k not in d]
+        if missing:
+            raise InputError(f"Run.from_dict: missing {', '.join(missing)} (a run of Experiment.runs or read_runs)")
+        r = cls(time_s=d["time_s"], coefficient=d["coefficient"], periodic=bool(d.get("periodic", False)),
+                airspeed_mps=d.get("airspeed_mps"), time_grid=d.get("time_grid", "uniform"), name=d.get("name"))
+        r._neutral = (d["motion_angle_rad"], d.get("rate_radps"))
+        return r
 
     def _dict(self, axis: str) -> dict:
-        angle, rate = _motion(axis, self.kwargs)
+        angle, rate = self._neutral if self._neutral is not None else _motion(axis, self.kwargs)
         return dict(time_s=self.time_s, motion_angle_rad=angle, rate_radps=rate, coefficient=self.coefficient,
                     periodic=bool(self.periodic), airspeed_mps=self.airspeed_mps, time_grid=self.time_grid,
                     name=self.name)
@@ -261,8 +280,11 @@ class Experiment:
 
     @property
     def runs(self) -> List[dict]:
-        """Each run's arrays: time_s, motion_angle_rad, rate_radps (rad/s), coefficient."""
-        return self._e.runs
+        """Each run's arrays: time_s, motion_angle_rad, rate_radps (rad/s), coefficient (the
+        measured values of ``coefficient_name``), with periodic, airspeed_mps, time_grid and
+        name: ``predict(model, run=r)`` predicts and scores it, ``Run.from_dict(r)`` makes it
+        a Run again."""
+        return [dict(r, coefficient_name=self._e.coefficient) for r in self._e.runs]
 
     def write_files(self, directory: str, force: bool = False) -> None:
         """Writes DIR/experiment.toml and DIR/run<i>.csv (and DIR/static_table.csv with a static
@@ -390,7 +412,9 @@ class BatchStepper:
     keeps its state and outputs while the others step; then StepError is raised unless
     errors="keep". ``status`` holds each instance's last status, after ``run`` its first
     refusal of the run if it had one (0 ok, 1 angle_clamped, other values:
-    ``BatchStepper.status_names``). ``airspeed_mps`` not given: the model's reference airspeed
+    ``BatchStepper.status_names``); ``clamped_steps`` counts, per instance, the steps of the
+    last ``step`` or ``run`` whose angle was clamped (a run's clamping that its last status
+    does not show). ``airspeed_mps`` not given: the model's reference airspeed
     at ``reset``, the instance's airspeed of its last reset or accepted step at ``step`` and
     ``run``. The GIL is released while stepping."""
 
@@ -413,6 +437,9 @@ class BatchStepper:
         return self._s.run(angle, rate, float(dt_s), airspeed_mps, out, errors)
 
     status = property(lambda self: self._s.status)
+    clamped_steps = property(lambda self: self._s.clamped_steps,
+                             doc="per instance, the steps of the last step() or run() whose angle was clamped "
+                                 "to the model's envelope (status angle_clamped: extrapolated, not refused)")
     outputs = property(lambda self: self._s.outputs)
     coefficients = property(lambda self: list(self._s.coefficients))
     closed = property(lambda self: self._s.closed)
@@ -627,9 +654,27 @@ class Prediction:
         return f"<indicial.Prediction {', '.join(self.predicted)}: {len(self.time_s)} samples>"
 
 
-def predict(model: Model, *, time_s, airspeed_mps: Optional[float] = None, periodic: bool = False,
-            measured: Optional[Dict[str, Sequence[float]]] = None, time_grid: str = "uniform",
-            score_from_s: float = -math.inf, **motion) -> Prediction:
+def _run_arguments(model: Model, run: dict, given: dict, motion: dict) -> dict:
+    """predict's arguments from a run dict (Experiment.runs, read_runs): its arrays, periodic,
+    airspeed and time grid, and its measured coefficient when the model has it."""
+    clash = [k for k, v in given.items() if v is not None] + sorted(motion)
+    if clash:
+        raise TypeError(f"predict: run= gives the motion, time and measurement; not also {', '.join(clash)}")
+    missing = [k for k in ("time_s", "motion_angle_rad") if k not in run]
+    if missing:
+        raise InputError(f"predict: run= is missing {', '.join(missing)} (a run of Experiment.runs or read_runs)")
+    measured = None
+    name = run.get("coefficient_name")
+    if name is not None and name in model.coefficients and run.get("coefficient") is not None:
+        measured = {name: run["coefficient"]}
+    return dict(time_s=run["time_s"], angle=run["motion_angle_rad"], rate=run.get("rate_radps"),
+                periodic=bool(run.get("periodic", False)), airspeed_mps=run.get("airspeed_mps"),
+                time_grid=run.get("time_grid", "uniform"), measured=measured)
+
+
+def predict(model: Model, *, time_s=None, airspeed_mps: Optional[float] = None, periodic: Optional[bool] = None,
+            measured: Optional[Dict[str, Sequence[float]]] = None, time_grid: Optional[str] = None,
+            score_from_s: float = -math.inf, run: Optional[dict] = None, **motion) -> Prediction:
     """Runs the runtime over a sampled motion (``indicial predict``): from the steady state at
     the first sample, or, with periodic=True, the periodic steady state of one cycle
     (``--periodic``). The motion by the model's axis' names (alpha_rad and optional q_radps in
@@ -638,10 +683,22 @@ def predict(model: Model, *, time_s, airspeed_mps: Optional[float] = None, perio
     (``--score-from-s``: a raw log's start-up transient left out; every sample is still
     predicted). ``periodic=True`` needs one whole cycle (refused otherwise, as ``--periodic``).
     The command line's warnings are issued as IndicialWarning. The GIL is released while
-    stepping."""
-    angle, rate = _motion(model.axis, motion)
+    stepping.
+
+    ``run=r``, one of ``Experiment.runs`` or ``read_runs``' run dicts, gives the time, motion,
+    periodic, airspeed and time grid, and scores its measured coefficient when the model has it
+    (``indicial predict --experiment E --run N``); then none of those is given apart."""
+    if run is not None:
+        a = _run_arguments(model, run, dict(time_s=time_s, airspeed_mps=airspeed_mps, periodic=periodic,
+                                             measured=measured, time_grid=time_grid), motion)
+        time_s, angle, rate = a["time_s"], a["angle"], a["rate"]
+        airspeed_mps, periodic, measured, time_grid = a["airspeed_mps"], a["periodic"], a["measured"], a["time_grid"]
+    else:
+        if time_s is None:
+            raise TypeError("predict: time_s (or run=) is required")
+        angle, rate = _motion(model.axis, motion)
     p = Prediction(_indicial._predict(model._m, time_s, angle, rate, airspeed_mps, bool(periodic), measured,
-                                      time_grid, _real(score_from_s, "score_from_s")))
+                                      time_grid or "uniform", _real(score_from_s, "score_from_s")))
     _warn(p.warnings)
     return p
 
@@ -651,14 +708,13 @@ def read_runs(path: str) -> Dict[str, list]:
     or ``files = [...]`` at their own phases, resampled; [columns] and each file's own map;
     Cnormal/Ctangential; phase columns), without its [static], [rotary] or [model] (not
     needed): {coefficient: [run dict]}, each run dict with ``time_s``, ``motion_angle_rad``,
-    ``rate_radps``, ``coefficient`` (measured), ``periodic``, ``airspeed_mps``,
-    ``frequency_hz``, ``axis``, ``name``, ``warnings`` (issued as IndicialWarning too). A
-    held-out digitized cycle so reaches ``predict``:
-    ``r = read_runs("held.toml")["CL"][0]; predict(model, time_s=r["time_s"],
-    alpha_rad=r["motion_angle_rad"], q_radps=r["rate_radps"], periodic=r["periodic"],
-    airspeed_mps=r["airspeed_mps"], measured={"CL": r["coefficient"]})`` (``indicial predict
-    --experiment held.toml --run 1``)."""
-    out = {name: list(runs) for name, runs in _indicial._read_runs(str(path)).items()}
+    ``rate_radps``, ``coefficient`` (the measured values of ``coefficient_name``),
+    ``periodic``, ``airspeed_mps``, ``time_grid``, ``frequency_hz``, ``axis``, ``name``,
+    ``warnings`` (issued as IndicialWarning too). A held-out digitized cycle so reaches
+    ``predict``: ``predict(model, run=read_runs("held.toml")["CL"][0])`` (``indicial predict
+    --experiment held.toml --run 1``), predicted and scored."""
+    out = {name: [dict(r, coefficient_name=name) for r in runs]
+           for name, runs in _indicial._read_runs(str(path)).items()}
     # Each coefficient reads the same files: a file's warning once.
     warnings = [w for runs in out.values() for r in runs for w in r["warnings"]]
     _warn(list(dict.fromkeys(warnings)))

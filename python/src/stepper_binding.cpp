@@ -29,6 +29,7 @@
 //    with dynamic-stall families with FamilyStates.
 #include <algorithm>
 #include <atomic>
+#include <cstdint>
 #include <memory>
 
 #include "bindings.hpp"
@@ -123,6 +124,7 @@ class BatchStepper {
     else
       core_ = make_core_for<FitCapacity>(*model, n, delayed, families);
     status_.assign(n, StepStatus::not_reset);
+    clamped_.assign(n, 0);
     airspeed_.assign(n, model->set->airspeed_mps);
     outputs_ = py::array_t<double>({static_cast<py::ssize_t>(n), static_cast<py::ssize_t>(core_->n_out)});
     std::fill(outputs_.mutable_data(), outputs_.mutable_data() + outputs_.size(), 0.0);
@@ -165,6 +167,8 @@ class BatchStepper {
     {
       py::gil_scoped_release release;
       first = core_->step(a.data, r.data, v.data, dt_s, o, status_.data());
+      std::fill(clamped_.begin(), clamped_.end(), 0);
+      count_clamped(first);
     }
     keep_airspeeds(v);
     if (!stepped(first)) raise_first_refusal(errors, "step");  // step_batch returns the first refusal
@@ -202,8 +206,10 @@ class BatchStepper {
       py::gil_scoped_release release;
       const std::size_t row = n * static_cast<std::size_t>(core_->n_out);
       const std::size_t n_out = static_cast<std::size_t>(core_->n_out);
+      std::fill(clamped_.begin(), clamped_.end(), 0);
       for (std::size_t k = 0; k < t_count; ++k) {
         const StepStatus s = core_->step(ap + k * n, rp + k * n, v.data, dt_s, o + k * row, status_.data());
+        count_clamped(s);
         if (stepped(s)) continue;
         // A refused instance keeps its outputs: its row repeats the previous step's.
         const double* before = k > 0 ? o + (k - 1) * row : outputs_.data();
@@ -233,6 +239,14 @@ class BatchStepper {
                       "; refused instances keep their state and outputs, the others stepped (see .status)");
     }
     return target;
+  }
+
+  // Per instance, the steps of the last step() or run() call its angle was clamped in (status
+  // angle_clamped: outputs produced, the unsteady terms held at the envelope's edge).
+  py::array_t<std::int64_t> clamped_steps() const {
+    py::array_t<std::int64_t> c(static_cast<py::ssize_t>(clamped_.size()));
+    std::copy(clamped_.begin(), clamped_.end(), c.mutable_data());
+    return c;
   }
 
   py::array_t<int> status() const {
@@ -334,6 +348,14 @@ class BatchStepper {
   static void check_errors_value(const std::string& errors) {
     if (errors != "raise" && errors != "keep") throw InputError("errors", 0, "expected 'raise' or 'keep'");
   }
+  // step_batch returns ok only when no instance was clamped or refused: the per-instance
+  // statuses are read only otherwise.
+  void count_clamped(StepStatus batch) {
+    if (batch == StepStatus::ok) return;
+    for (std::size_t i = 0; i < status_.size(); ++i)
+      if (status_[i] == StepStatus::angle_clamped) ++clamped_[i];
+  }
+
   void raise_first_refusal(const std::string& errors, const std::string& what) const {
     if (errors == "keep") return;
     std::size_t refused = 0, first = status_.size();
@@ -356,6 +378,7 @@ class BatchStepper {
   ModelPtr model_;
   std::unique_ptr<BatchCore> core_;
   std::vector<StepStatus> status_;
+  std::vector<std::int64_t> clamped_;  // clamped_steps(): per instance, of the last step or run
   std::vector<double> airspeed_;  // per instance: the default airspeed (airspeed_inputs)
   py::array_t<double> outputs_;
   struct Fill {
@@ -444,6 +467,7 @@ void bind_stepper(py::module_& m) {
            py::arg("dt_s"), py::arg("airspeed_mps") = py::none(), py::arg("out") = py::none(),
            py::arg("errors") = "raise")
       .def_property_readonly("status", &BatchStepper::status)
+      .def_property_readonly("clamped_steps", &BatchStepper::clamped_steps)
       .def_property_readonly("outputs", &BatchStepper::outputs)
       .def_property_readonly("coefficients", &BatchStepper::coefficients)
       .def_property_readonly("closed", &BatchStepper::closed)

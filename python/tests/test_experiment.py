@@ -30,6 +30,22 @@ def test_from_toml_reads_runs(case_dir):
     assert r["time_s"].shape == r["motion_angle_rad"].shape == r["coefficient"].shape
 
 
+def test_runs_feed_run_from_dict_and_rebuild_the_experiment(case_dir):
+    """Experiment.runs -> Run.from_dict -> Experiment: the same arrays (some runs of an
+    experiment refitted in a notebook), the axis-neutral motion taken as the experiment's."""
+    e = indicial.Experiment.from_toml(str(case_dir / "experiment.toml"))
+    runs = e.runs
+    assert all(r["coefficient_name"] == "Cm" for r in runs)
+    again = indicial.Experiment(coefficient="Cm", reference_length_m=e.reference_length_m,
+                                airspeed_mps=e.airspeed_mps, runs=[indicial.Run.from_dict(r) for r in runs[:2]])
+    for a, b in zip(again.runs, runs[:2]):
+        for key in ("time_s", "motion_angle_rad", "rate_radps", "coefficient"):
+            np.testing.assert_array_equal(a[key], b[key])
+        assert a["periodic"] == b["periodic"] and a["time_grid"] == b["time_grid"]
+    with pytest.raises(indicial.InputError, match="^Run.from_dict: missing motion_angle_rad, coefficient"):
+        indicial.Run.from_dict({"time_s": runs[0]["time_s"]})
+
+
 def test_from_toml_error_is_the_cli_message(tmp_path, cli):
     bad = tmp_path / "bad.toml"
     bad.write_text('coefficient = "Cm"\nreference_length_m = 1\nairspeed_mps = 10\nruns = ["nope.csv"]\nbogus = 1\n')

@@ -120,10 +120,21 @@ def test_read_runs_is_predict_runs_cycle(cli_fit, cli, tmp_path):
                  '{file = "c.csv", columns = {phase_rad = "x", Cm = "y"}}], frequency_hz = 0.5}]\n')
     r = indicial.read_runs(str(e))["Cm"][0]
     assert r["periodic"] and len(r["time_s"]) == 60 and r["frequency_hz"] == 0.5
-    p = indicial.predict(indicial.Model.load(model_path), time_s=r["time_s"], alpha_rad=r["motion_angle_rad"],
+    model = indicial.Model.load(model_path)
+    p = indicial.predict(model, time_s=r["time_s"], alpha_rad=r["motion_angle_rad"],
                          q_radps=r["rate_radps"], periodic=True, airspeed_mps=r["airspeed_mps"],
                          measured={"Cm": r["coefficient"]})
     cli("predict", model_path, "--experiment", e, "--run", "1", "--out", tmp_path / "p.csv")
     rows = [line.split(",") for line in (tmp_path / "p.csv").read_text().splitlines()
             if line and not line.startswith("#") and not line.startswith("time_s")]
     np.testing.assert_allclose(p.predicted["Cm"], [float(x[2]) for x in rows], rtol=0, atol=1e-12)
+    # run=r is the same call: its time, motion, periodic and airspeed, its Cm scored.
+    q = indicial.predict(model, run=r)
+    assert r["coefficient_name"] == "Cm" and q.metrics["Cm"]["model"] == p.metrics["Cm"]["model"]
+    np.testing.assert_array_equal(q.predicted["Cm"], p.predicted["Cm"])
+    with pytest.raises(TypeError, match="^predict: run= gives the motion.*not also periodic, alpha_rad"):
+        indicial.predict(model, run=r, periodic=False, alpha_rad=r["motion_angle_rad"])
+    with pytest.raises(indicial.InputError, match="run= is missing motion_angle_rad"):
+        indicial.predict(model, run={"time_s": r["time_s"]})
+    with pytest.raises(TypeError, match=r"time_s \(or run=\) is required"):
+        indicial.predict(model, alpha_rad=r["motion_angle_rad"])

@@ -242,3 +242,30 @@ def test_reset_without_airspeed_is_the_reference_and_errors_is_checked_first(mod
     with pytest.raises(indicial.InputError, match="^errors: expected 'raise' or 'keep'"):
         b.reset(alpha_rad=alpha[0] + 0.1, errors="bogus")
     assert np.array_equal(b.outputs, before)  # nothing changed
+
+
+def test_clamped_steps_count_a_runs_clamping_its_last_status_hides(model):
+    """clamped_steps: per instance, the steps of the last run (or step) whose angle was clamped,
+    as single predictors' statuses count them; the last status alone says ok."""
+    lo, hi = model.envelope_rad
+    n, steps, dt = 3, 40, 0.002
+    alpha = np.full((steps, n), 0.5 * (lo + hi))
+    alpha[10:15, 0] = hi + 0.05       # five steps beyond the envelope, then back
+    alpha[20:21, 2] = lo - 0.05       # one
+    q = np.zeros_like(alpha)
+    batch = indicial.BatchStepper(model, n)
+    batch.reset(alpha_rad=alpha[0])
+    batch.run(alpha_rad=alpha, q_radps=q, dt_s=dt)
+    singles = []
+    for i in range(n):
+        p = indicial.Predictor(model)
+        p.reset(alpha_rad=alpha[0, i])
+        count = 0
+        for k in range(steps):
+            p.step(alpha_rad=alpha[k, i], q_radps=0.0, dt_s=dt)
+            count += p.last_status == "angle_clamped"
+        singles.append(count)
+    assert list(batch.clamped_steps) == singles == [5, 0, 1]
+    assert list(batch.status) == [0, 0, 0]
+    batch.step(alpha_rad=np.array([hi + 0.05, 0.6, 0.6]), q_radps=0.0, dt_s=dt)   # the last call's only
+    assert list(batch.clamped_steps) == [1, 0, 0]
