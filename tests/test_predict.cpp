@@ -327,6 +327,46 @@ std::string fit_dynamic_stall_cl(const fs::path& sim, const fs::path& fit) {
   return (fit / "model.coef").string();
 }
 
+// --run reads the model's coefficients that E does not model from E's run files where they are
+// (a C_m experiment's cycle carries C_L): scored as the same file given as DATA scores them;
+// where a file lacks one, a note says so and the prediction is still written.
+TEST_CASE("predict: --run scores the model's coefficients the experiment does not model") {
+  TempDir tmp;
+  const std::string exe = INDICIAL_EXE;
+  const fs::path sim = tmp.path / "sim";
+  const std::string coef = fit_dynamic_stall_cl(sim, tmp.path / "fit");  // a C_L model
+  const fs::path by_run = tmp.path / "run.csv", by_file = tmp.path / "file.csv";
+  REQUIRE(run(exe + " predict " + coef + " --experiment " + (sim / "experiment-Cm.toml").string() +
+              " --run 2 --out " + by_run.string()) == 0);
+  REQUIRE(run(exe + " predict " + coef + " " + (sim / "a8_k0.080_v30.csv").string() +
+              " --reduced-frequency 0.08 --airspeed-mps 30 --out " + by_file.string()) == 0);
+  const std::string a = slurp_file(by_run.string()), b = slurp_file(by_file.string());
+  auto data_of = [](const std::string& text) { return text.substr(text.find("\ntime_s")); };
+  CHECK(data_of(a).rfind("\ntime_s,alpha_deg,CL_pred,CL_quasi_steady,CL\n", 0) == 0);
+  CHECK(data_of(a) == data_of(b));  // the same samples, predictions and measured C_L
+  const nlohmann::json j = nlohmann::json::parse(slurp_file((tmp.path / "run.metrics.json").string()));
+  CHECK(j["coefficients"][0]["measured"] == true);
+  // A held-out cycle with no C_L column: predicted, not scored, and said.
+  {
+    std::ofstream f(tmp.path / "cm_only.csv");
+    f << "phase_rad,alpha_deg,Cm\n";
+    for (int i = 0; i < 64; ++i) {
+      const double ph = 2 * 3.141592653589793 * i / 64;
+      f << ph << "," << 8 + 6 * std::sin(ph) << "," << -0.01 * std::sin(ph) << "\n";
+    }
+  }
+  const fs::path held = tmp.path / "held.toml", err = tmp.path / "err.txt", out = tmp.path / "cm.csv";
+  std::ofstream(held) << "axis = \"pitch\"\ncoefficient = \"Cm\"\nreference_length_m = 0.15\nairspeed_mps = 30\n"
+                         "runs = [{file = \"cm_only.csv\", reduced_frequency = 0.08}]\n";
+  REQUIRE(std::system((exe + " predict " + coef + " --experiment " + held.string() + " --run 1 --out " + out.string() +
+                       " 2> " + err.string()).c_str()) == 0);
+  const std::string said = slurp_file(err.string());
+  CHECK(said.find("indicial: note: not scored: CL: ") != std::string::npos);
+  CHECK(said.find("(" + held.string() + " does not model it)") != std::string::npos);
+  CHECK(slurp_file(out.string()).find("CL_pred") != std::string::npos);
+  CHECK_FALSE(fs::exists(tmp.path / "cm.metrics.json"));
+}
+
 // A phase cycle carries no airspeed: without --airspeed-mps it is predicted at the model's
 // reference airspeed, and says so (a user's trial predicted cycles at 27 and 54 m/s at 40 m/s
 // without a word); with it nothing is said. --quiet silences the notes, not the warning.

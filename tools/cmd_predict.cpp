@@ -114,7 +114,11 @@ std::vector<indicial::Run> read_experiment_run(const PredictOptions& o,
                                      "and --airspeed-mps do not apply");
   // The runs only: a held-out cycle's experiment need not have a [static] table covering it, or
   // knots inside it (the model predicted is MODEL's, not the experiment's).
-  const std::vector<Experiment> es = load_experiment_runs(o.experiment);
+  // The model's other coefficients too, where the run's files have them (a C_L experiment's
+  // cycle carries Cm): scored, not only predicted.
+  std::vector<std::string> names, not_read;
+  for (int c = 0; c < model.n_coefficients; ++c) names.push_back(model.coefficients[c].name);
+  const std::vector<Experiment> es = load_experiment_runs(o.experiment, names, &not_read);
   if (es.front().axis != model.axis)
     throw InputError("--run", 0, o.experiment + " is a " + axis_name(es.front().axis) + " experiment; the model is " +
                                      axis_name(model.axis));
@@ -130,9 +134,16 @@ std::vector<indicial::Run> read_experiment_run(const PredictOptions& o,
   for (int c = 0; c < model.n_coefficients; ++c) {
     const auto same = std::find_if(es.begin(), es.end(), [&](const Experiment& e) { return e.coefficient == model.coefficients[c].name; });
     Run run = (same != es.end() ? *same : es.front()).runs[index];
-    if (same == es.end()) run.coefficient.clear();  // not measured in E: predicted only
+    if (same == es.end()) run.coefficient.clear();  // not in E's files: predicted only
     runs.push_back(std::move(run));
   }
+  for (std::string& why : not_read) {
+    // The reader's "did you mean 'Cm'? (... map it: CL = "Cm")" advises a fit that needs the
+    // column; a coefficient predict only scores where present has nothing to map.
+    why = why.substr(0, why.find("; did you mean"));
+    why = "not scored: " + why + " (" + o.experiment + " does not model it)";
+  }
+  tools::print_notes(not_read, o.quiet ? tools::Verbosity::quiet : tools::Verbosity::progress);
   return runs;
 }
 

@@ -963,17 +963,29 @@ RunCsvOptions run_file_format(const std::string& toml_path) {
   return options;
 }
 
-std::vector<Experiment> load_experiment_runs(const std::string& toml_path) {
+std::vector<Experiment> load_experiment_runs(const std::string& toml_path, const std::vector<std::string>& also,
+                                             std::vector<std::string>* not_read) {
   std::vector<std::string> coefficients;
   const toml::table root = parse_checked(toml_path, coefficients);
-  std::vector<Experiment> out;
-  for (const std::string& name : coefficients) {
+  auto read = [&](const std::string& name) {
     const TomlReader r(toml_path);
     LoadContext c{r, fs::path(toml_path).parent_path(), {}, root.source(), {}, {}, {}};
     std::vector<RunEntry> entries;
     Experiment e = read_run_format(c, root, name, &entries);
     read_runs(c, entries, e);
-    out.push_back(std::move(e));
+    return e;
+  };
+  std::vector<Experiment> out;
+  for (const std::string& name : coefficients) out.push_back(read(name));
+  for (const std::string& name : also) {
+    if (std::find(coefficients.begin(), coefficients.end(), name) != coefficients.end()) continue;
+    // Why the catch: a coefficient the file does not model is optional here; the file's own
+    // coefficients above are read (and refused) as fit reads them.
+    try {
+      out.push_back(read(name));
+    } catch (const InputError& err) {
+      if (not_read) not_read->push_back(name + ": " + err.what());
+    }
   }
   return out;
 }
