@@ -367,6 +367,58 @@ TEST_CASE("predict: --run scores the model's coefficients the experiment does no
   CHECK_FALSE(fs::exists(tmp.path / "cm.metrics.json"));
 }
 
+// --all-runs: every run of E predicted as --run N predicts it, into one directory (all or
+// nothing), with summary.csv's row per run the numbers of that run's own metrics file.
+TEST_CASE("predict: --all-runs predicts every run of the experiment as --run N does") {
+  TempDir tmp;
+  const std::string exe = INDICIAL_EXE;
+  const fs::path sim = tmp.path / "sim";
+  const std::string coef = fit_dynamic_stall_cl(sim, tmp.path / "fit");
+  const std::string e = (sim / "experiment-CL.toml").string();
+  const fs::path all = tmp.path / "all";
+  REQUIRE(run(exe + " predict " + coef + " --experiment " + e + " --all-runs --out " + all.string() + " --quiet") == 0);
+  std::ifstream summary(all / "summary.csv");
+  std::string line;
+  std::getline(summary, line);
+  CHECK(line == "run,name,coefficient,n_samples,clamped_samples,rms_error,quasi_steady_rms_error,"
+                "ratio_to_quasi_steady,mean_error,rms_about_mean,max_error");
+  int rows = 0;
+  while (std::getline(summary, line)) {
+    ++rows;
+    std::vector<std::string> f;
+    std::stringstream ss(line);
+    for (std::string cell; std::getline(ss, cell, ',');) f.push_back(cell);
+    REQUIRE(f.size() == 11);
+    CHECK(f[0] == std::to_string(rows));
+    CHECK(f[2] == "CL");
+    // The same run by --run N: the same prediction file's data and metrics.
+    const fs::path one = tmp.path / ("one" + f[0] + ".csv");
+    REQUIRE(run(exe + " predict " + coef + " --experiment " + e + " --run " + f[0] + " --out " + one.string() +
+                " --quiet") == 0);
+    const std::string a = slurp_file(one.string()), b = slurp_file((all / ("run" + f[0] + ".csv")).string());
+    CHECK(a.substr(a.find("\ntime_s")) == b.substr(b.find("\ntime_s")));
+    const nlohmann::json j = nlohmann::json::parse(slurp_file((tmp.path / ("one" + f[0] + ".metrics.json")).string()));
+    const auto& m = j["coefficients"][0]["model"];
+    CHECK(std::stod(f[5]) == m["rms_error"].get<double>());
+    CHECK(std::stod(f[6]) == j["coefficients"][0]["quasi_steady"]["rms_error"].get<double>());
+    CHECK(std::stod(f[7]) == doctest::Approx(std::stod(f[5]) / std::stod(f[6])).epsilon(1e-15));
+    CHECK(std::stod(f[8]) == m["mean_error"].get<double>());
+    CHECK(std::stod(f[9]) == m["rms_about_mean"].get<double>());
+  }
+  CHECK(rows == 3);
+  // All or nothing: a non-empty directory is refused without --force, replaced with it; the
+  // options that name one file, and --run beside it, are refused and nothing is written.
+  CHECK(run(exe + " predict " + coef + " --experiment " + e + " --all-runs --out " + all.string() + " --quiet") != 0);
+  CHECK(run(exe + " predict " + coef + " --experiment " + e + " --all-runs --out " + all.string() +
+            " --quiet --force") == 0);
+  const fs::path none = tmp.path / "none";
+  for (const std::string extra : {" --run 1", " --plot p.png", " --metrics m.json", " --airspeed-mps 30"})
+    CHECK(run(exe + " predict " + coef + " --experiment " + e + " --all-runs --out " + none.string() + extra) != 0);
+  CHECK(run(exe + " predict " + coef + " " + (sim / "a8_k0.080_v30.csv").string() + " --all-runs --out " +
+            none.string()) != 0);
+  CHECK_FALSE(fs::exists(none));
+}
+
 // A phase cycle carries no airspeed: without --airspeed-mps it is predicted at the model's
 // reference airspeed, and says so (a user's trial predicted cycles at 27 and 54 m/s at 40 m/s
 // without a word); with it nothing is said. --quiet silences the notes, not the warning.

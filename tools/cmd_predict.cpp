@@ -5,6 +5,7 @@
 //                    [--frequency-hz F | --reduced-frequency K] [--samples N] [--experiment E.toml]
 //                    [--score-from-s T] [--force] [--quiet]
 //   indicial predict MODEL.coef --experiment E.toml --run N --out FILE.csv [...]
+//   indicial predict MODEL.coef --experiment E.toml --all-runs --out DIR [--score-from-s T] [--force] [--quiet]
 //
 // --run N predicts the experiment's run N exactly as fit and diagnose read it (its files, its
 // [columns] and each file's own map, its frequency, airspeed and periodicity): a held-out
@@ -26,6 +27,8 @@
 #include <memory>
 #include <string>
 #include <vector>
+
+#include <fmt/format.h>
 
 #include "command.hpp"
 #include "indicial/fitter/experiment_checks.hpp"
@@ -57,6 +60,7 @@ struct PredictOptions {
   std::string experiment;          // read DATA with this experiment's [columns] and [csv]
   int run = 0;                     // --run N (1-based): predict run N of --experiment, read as fit reads it
   bool run_given = false;          // --run on the command line (0 and negatives are refused)
+  bool all_runs = false;           // --all-runs: every run of --experiment into the directory --out
   bool force = false;
   bool periodic = false;
   bool quiet = false;              // --quiet: no input notes on stderr
@@ -100,18 +104,21 @@ std::vector<indicial::Run> read_cycle_of_files(const PredictOptions& o, const in
   return runs;
 }
 
-// --experiment E.toml --run N: the run as E's readers make it, one per model coefficient (the
-// coefficient's own experiment where E models it; else the motion of E's first, unmeasured).
-std::vector<indicial::Run> read_experiment_run(const PredictOptions& o,
-                                               const indicial::ModelSet<double, indicial::FitCapacity>& model) {
+// --experiment E.toml with --run N or --all-runs: E's runs as its readers make them, per
+// coefficient (the model's, read from E's files where E does not model them; notes say which
+// could not be read).
+std::vector<indicial::Experiment> read_experiment_runs(const PredictOptions& o,
+                                                       const indicial::ModelSet<double, indicial::FitCapacity>& model) {
   using namespace indicial;
-  if (o.experiment.empty()) throw InputError("--run", 0, "needs --experiment E.toml (the experiment whose run it names)");
+  const std::string flag = o.all_runs ? "--all-runs" : "--run";
+  if (o.experiment.empty()) throw InputError(flag, 0, "needs --experiment E.toml (the experiment whose runs it predicts)");
   if (!o.data_paths.empty())
-    throw InputError("--run", 0, "predicts a run of --experiment: give it or DATA files, not both");
+    throw InputError(flag, 0, "predicts runs of --experiment: give it or DATA files, not both");
+  if (o.all_runs && o.run_given) throw InputError("--all-runs", 0, "predicts every run: --run N does not apply");
   if (o.frequency_hz != 0.0 || o.reduced_frequency != 0.0 || o.samples != 0 || o.grid_given || o.airspeed_mps != 0.0)
-    throw InputError("--run", 0, "the run's frequency, samples, time grid and airspeed are its entry's in " +
-                                     o.experiment + ": --frequency-hz, --reduced-frequency, --samples, --time-grid "
-                                     "and --airspeed-mps do not apply");
+    throw InputError(flag, 0, "the run's frequency, samples, time grid and airspeed are its entry's in " +
+                                  o.experiment + ": --frequency-hz, --reduced-frequency, --samples, --time-grid "
+                                  "and --airspeed-mps do not apply");
   // The runs only: a held-out cycle's experiment need not have a [static] table covering it, or
   // knots inside it (the model predicted is MODEL's, not the experiment's).
   // The model's other coefficients too, where the run's files have them (a C_L experiment's
@@ -120,23 +127,11 @@ std::vector<indicial::Run> read_experiment_run(const PredictOptions& o,
   for (int c = 0; c < model.n_coefficients; ++c) names.push_back(model.coefficients[c].name);
   const std::vector<Experiment> es = load_experiment_runs(o.experiment, names, &not_read);
   if (es.front().axis != model.axis)
-    throw InputError("--run", 0, o.experiment + " is a " + axis_name(es.front().axis) + " experiment; the model is " +
-                                     axis_name(model.axis));
+    throw InputError(flag, 0, o.experiment + " is a " + axis_name(es.front().axis) + " experiment; the model is " +
+                                  axis_name(model.axis));
   if (model.axis != Axis::pitch && es.front().alpha0_rad != model.alpha0_rad)
     tools::print_warnings({o.experiment + ": alpha0 " + deg_text(es.front().alpha0_rad) + " deg differs from the model's " +
                            deg_text(model.alpha0_rad) + " deg: the run is predicted at the model's"});
-  const std::size_t n_runs = es.front().runs.size();
-  if (static_cast<std::size_t>(o.run) > n_runs)
-    throw InputError("--run", 0, o.experiment + " has " + std::to_string(n_runs) + " run(s): give 1.." +
-                                     std::to_string(n_runs));
-  const std::size_t index = static_cast<std::size_t>(o.run - 1);
-  std::vector<Run> runs;
-  for (int c = 0; c < model.n_coefficients; ++c) {
-    const auto same = std::find_if(es.begin(), es.end(), [&](const Experiment& e) { return e.coefficient == model.coefficients[c].name; });
-    Run run = (same != es.end() ? *same : es.front()).runs[index];
-    if (same == es.end()) run.coefficient.clear();  // not in E's files: predicted only
-    runs.push_back(std::move(run));
-  }
   for (std::string& why : not_read) {
     // The reader's "did you mean 'Cm'? (... map it: CL = "Cm")" advises a fit that needs the
     // column; a coefficient predict only scores where present has nothing to map.
@@ -144,16 +139,48 @@ std::vector<indicial::Run> read_experiment_run(const PredictOptions& o,
     why = "not scored: " + why + " (" + o.experiment + " does not model it)";
   }
   tools::print_notes(not_read, o.quiet ? tools::Verbosity::quiet : tools::Verbosity::progress);
+  return es;
+}
+
+// Run `index` (0-based) of E's runs, one per model coefficient: the coefficient's own where
+// read, else the motion of E's first, unmeasured (predicted only).
+std::vector<indicial::Run> experiment_run(const std::vector<indicial::Experiment>& es, std::size_t index,
+                                          const indicial::ModelSet<double, indicial::FitCapacity>& model) {
+  using namespace indicial;
+  std::vector<Run> runs;
+  for (int c = 0; c < model.n_coefficients; ++c) {
+    const auto same = std::find_if(es.begin(), es.end(), [&](const Experiment& e) { return e.coefficient == model.coefficients[c].name; });
+    Run run = (same != es.end() ? *same : es.front()).runs[index];
+    if (same == es.end()) run.coefficient.clear();  // not in E's files: predicted only
+    runs.push_back(std::move(run));
+  }
   return runs;
 }
 
+// The run files a prediction read (never overwritten, even with --force).
+std::vector<std::string> run_inputs(const indicial::Run& run) {
+  std::vector<std::string> inputs = run.source_files;
+  if (inputs.empty()) inputs.push_back(run.path);
+  return inputs;
+}
+
+// One run predicted and scored: the prediction, its metric lines and warnings, and the CSV's
+// comment lines.
+struct PredictedRun {
+  indicial::Prediction p;
+  std::vector<std::string> lines;     // prediction_metrics_lines
+  std::vector<std::string> warnings;  // prediction_warnings (unnamed)
+  std::vector<std::string> comments;  // the CSV's # lines
+  std::string angle_column;
+  bool any_measured = false;
+};
+
 // Predicts the run (one per model coefficient: the measured column where present) at the
-// airspeed, scores it and writes the outputs (all or none), as `predict` prints them.
-void predict_and_write(const PredictOptions& o, const indicial::ModelSet<double, indicial::FitCapacity>& model,
-                       const std::vector<indicial::Run>& runs, double airspeed, const std::string& data_label,
-                       const std::vector<std::string>& data_inputs) {
+// airspeed and scores it, printing the reader's notes and warnings.
+PredictedRun predict_run(const PredictOptions& o, const indicial::ModelSet<double, indicial::FitCapacity>& model,
+                         const std::vector<indicial::Run>& runs, double airspeed, const std::string& data_label,
+                         const std::string& command) {
   using namespace indicial;
-  const Overwrite overwrite = o.force ? Overwrite::replace : Overwrite::refuse;
   const Run& run = runs.front();
   tools::print_notes(run.notes, o.quiet ? tools::Verbosity::quiet : tools::Verbosity::progress);
   tools::print_warnings(run.warnings);
@@ -161,31 +188,53 @@ void predict_and_write(const PredictOptions& o, const indicial::ModelSet<double,
   // constants (l / V) and, with --reduced-frequency, its frequency: without --airspeed-mps it is
   // predicted at the model's reference airspeed, said (a user's trial predicted 27 and 54 m/s
   // cycles at 40 m/s without a word).
-  if (o.airspeed_mps == 0.0 && o.run == 0 && run.time_source == TimeSource::phase_column) {
+  if (o.airspeed_mps == 0.0 && o.run == 0 && !o.all_runs && run.time_source == TimeSource::phase_column) {
     tools::print_warnings({data_label + ": no --airspeed-mps: the cycle is predicted at the model's reference "
                                           "airspeed, " + format_double(airspeed) + " m/s (give the cycle's own)"});
   }
   // A phase column is one ensemble-averaged cycle: periodic whether or not --periodic is given.
   // (An experiment's run, --run, is periodic as its entry says.)
-  const bool periodic = o.periodic || run.time_source == TimeSource::phase_column || (o.run > 0 && run.periodic);
+  const bool from_experiment = o.run > 0 || o.all_runs;
+  const bool periodic = o.periodic || run.time_source == TimeSource::phase_column || (from_experiment && run.periodic);
   if (o.periodic && run.time_source == TimeSource::time_column) {
     const std::string problem = periodic_closure_problem(run);
     if (!problem.empty()) throw InputError(data_label, 0, "--periodic: the file is " + problem);
   }
-  const std::string angle_column = run.angle_column;  // echoed in the unit the file used
-
+  PredictedRun r;
+  r.angle_column = run.angle_column;  // echoed in the unit the file used
   require_runtime_accepts(model, o.model_path, ModelFile::read);  // a refused model names the file
-  Prediction p = periodic ? predict_periodic(model, run.time_s, run.motion_angle_rad, run.rate_radps, airspeed,
-                                               o.model_path)
-                            : predict_motion(model, run.time_s, run.motion_angle_rad, run.rate_radps, airspeed,
-                                             o.model_path);
-  bool any_measured = false;
-  for (std::size_t c = 0; c < p.coefficients.size(); ++c) {
-    p.coefficients[c].measured = runs[c].coefficient;
-    any_measured = any_measured || !runs[c].coefficient.empty();
+  r.p = periodic ? predict_periodic(model, run.time_s, run.motion_angle_rad, run.rate_radps, airspeed, o.model_path)
+                 : predict_motion(model, run.time_s, run.motion_angle_rad, run.rate_radps, airspeed, o.model_path);
+  for (std::size_t c = 0; c < r.p.coefficients.size(); ++c) {
+    r.p.coefficients[c].measured = runs[c].coefficient;
+    r.any_measured = r.any_measured || !runs[c].coefficient.empty();
   }
-  score_coefficients(p, o.score_from_s);
-  const std::vector<std::string> lines = prediction_metrics_lines(p);
+  score_coefficients(r.p, o.score_from_s);
+  r.lines = prediction_metrics_lines(r.p);
+  r.comments = {"indicial predict " + o.model_path + " " + command,
+                periodic ? "predicted with the runtime (indicial::Predictor): the cycle's periodic steady state"
+                         : "predicted with the runtime (indicial::Predictor), reset to the steady state at the first "
+                           "sample"};
+  for (const auto& l : r.lines) r.comments.push_back(l);
+  r.warnings = prediction_warnings(r.p);
+  for (const auto& w : r.warnings) r.comments.push_back("warning: " + w);
+  return r;
+}
+
+// Predicts the run and writes the outputs (all or none), as `predict` prints them.
+void predict_and_write(const PredictOptions& o, const indicial::ModelSet<double, indicial::FitCapacity>& model,
+                       const std::vector<indicial::Run>& runs, double airspeed, const std::string& data_label,
+                       const std::vector<std::string>& data_inputs) {
+  using namespace indicial;
+  const Overwrite overwrite = o.force ? Overwrite::replace : Overwrite::refuse;
+  const std::string command = o.run > 0 ? "--experiment " + o.experiment + " --run " + std::to_string(o.run) + " (" +
+                                               data_label + ")"
+                                         : data_label;
+  const PredictedRun r = predict_run(o, model, runs, airspeed, data_label, command);
+  const Prediction& p = r.p;
+  const bool any_measured = r.any_measured;
+  const std::vector<std::string>& lines = r.lines;
+  const std::vector<std::string>& warnings = r.warnings;
 
   // Refuse before writing anything, so that outputs appear all or none (barring disk errors).
   const std::string metrics_path =
@@ -200,23 +249,12 @@ void predict_and_write(const PredictOptions& o, const indicial::ModelSet<double,
   inputs.push_back(o.model_path);
   inputs.push_back(o.experiment);
   for (const std::string& f : {o.out, metrics_path, o.plot}) refuse_output_onto_input(f, inputs);
-  const std::string command = o.run > 0 ? "--experiment " + o.experiment + " --run " + std::to_string(o.run) + " (" +
-                                               data_label + ")"
-                                         : data_label;
-  std::vector<std::string> comments = {"indicial predict " + o.model_path + " " + command,
-                                       periodic ? "predicted with the runtime (indicial::Predictor): the "
-                                                    "cycle's periodic steady state"
-                                                  : "predicted with the runtime (indicial::Predictor), reset "
-                                                    "to the steady state at the first sample"};
-  for (const auto& l : lines) comments.push_back(l);
-  const std::vector<std::string> warnings = prediction_warnings(p);
-  for (const auto& w : warnings) comments.push_back("warning: " + w);
   if (!o.plot.empty()) {
     write_prediction_plot(p, o.plot, "indicial predict: " + std::filesystem::path(data_label).filename().string(),
                           overwrite, o.gnuplot);
   }
   if (!metrics_path.empty()) write_file_atomically(metrics_path, prediction_metrics_json(p), overwrite);
-  write_file_atomically(o.out, prediction_csv(p, angle_column, comments), overwrite);
+  write_file_atomically(o.out, prediction_csv(p, r.angle_column, r.comments), overwrite);
 
   std::printf("predict: %zu samples, %zu coefficient(s) -> %s\n", p.time_s.size(),
               p.coefficients.size(), o.out.c_str());
@@ -229,6 +267,82 @@ void predict_and_write(const PredictOptions& o, const indicial::ModelSet<double,
   if (!o.plot.empty()) std::printf("predict: plot -> %s\n", o.plot.c_str());
 }
 
+// A summary.csv field: quoted as RFC 4180 when it holds a comma, quote or newline (a file name).
+std::string csv_field(const std::string& text) {
+  if (text.find_first_of(",\"\n") == std::string::npos) return text;
+  std::string q = "\"";
+  for (char ch : text) q += ch == '"' ? std::string("\"\"") : std::string(1, ch);
+  return q + "\"";
+}
+
+// --all-runs: the summary table, one row per run and scored coefficient.
+std::string all_runs_summary_csv(const std::vector<std::vector<std::string>>& rows) {
+  std::string out =
+      "run,name,coefficient,n_samples,clamped_samples,rms_error,quasi_steady_rms_error,ratio_to_quasi_steady,"
+      "mean_error,rms_about_mean,max_error\n";
+  for (const auto& row : rows) {
+    for (std::size_t i = 0; i < row.size(); ++i) out += (i ? "," : "") + row[i];
+    out += "\n";
+  }
+  return out;
+}
+
+// Every run of --experiment predicted as --run N predicts it, into the directory --out (all or
+// nothing): run<N>.csv and run<N>.metrics.json per run, summary.csv (one row per run and scored
+// coefficient: RMS, quasi-steady RMS, their ratio, the bias and the RMS about it), and the
+// table on stdout with, per coefficient, the mean RMS ratio and the runs at <= 0.5x.
+void predict_all_runs(const PredictOptions& o, const indicial::ModelSet<double, indicial::FitCapacity>& model) {
+  using namespace indicial;
+  if (!o.plot.empty() || !o.metrics.empty())
+    throw InputError("--all-runs", 0, "writes run<N>.csv, run<N>.metrics.json and summary.csv into the directory "
+                                      "--out: --plot and --metrics do not apply");
+  const std::vector<Experiment> es = read_experiment_runs(o, model);
+  std::vector<std::string> inputs = {o.model_path, o.experiment};
+  for (const Run& r : es.front().runs)
+    for (const std::string& f : run_inputs(r)) inputs.push_back(f);
+  OutputDir dir(o.out, o.force ? Overwrite::replace : Overwrite::refuse, inputs);
+  std::vector<std::vector<std::string>> rows;
+  std::map<std::string, std::vector<double>> ratios;  // per coefficient, over the scored runs
+  for (std::size_t i = 0; i < es.front().runs.size(); ++i) {
+    const std::vector<Run> runs = experiment_run(es, i, model);
+    const double airspeed = runs.front().airspeed_mps > 0.0 ? runs.front().airspeed_mps : model.airspeed_mps;
+    const std::string n = std::to_string(i + 1);
+    const PredictedRun r = predict_run(o, model, runs, airspeed, runs.front().path,
+                                       "--experiment " + o.experiment + " --run " + n + " (" + runs.front().path + ")");
+    dir.write("run" + n + ".csv", prediction_csv(r.p, r.angle_column, r.comments));
+    if (r.any_measured) dir.write("run" + n + ".metrics.json", prediction_metrics_json(r.p));
+    std::vector<std::string> named;
+    for (const std::string& w : r.warnings) named.push_back(runs.front().path + ": " + w);
+    tools::print_warnings(named);
+    for (const CoefficientPrediction& c : r.p.coefficients) {
+      if (c.scored != CoefficientPrediction::Scored::scored) continue;
+      const ErrorMetrics& m = c.model_metrics;
+      const double qs = c.quasi_steady_metrics.rms_error;
+      const double ratio = qs > 0.0 ? m.rms_error / qs : std::numeric_limits<double>::quiet_NaN();
+      ratios[c.name].push_back(ratio);
+      rows.push_back({n, csv_field(runs.front().path), c.name, std::to_string(m.n_samples),
+                      std::to_string(r.p.clamped_samples), format_double(m.rms_error), format_double(qs),
+                      format_double(ratio), format_double(m.mean_error), format_double(m.rms_about_mean),
+                      format_double(m.max_error)});
+      std::printf("%s", fmt::format("predict: run {} {}: RMS {:.6g} (quasi-steady {:.6g}, ratio {:.3g}), bias {:.6g}\n",
+                                    n, c.name, m.rms_error, qs, ratio, m.mean_error).c_str());
+    }
+  }
+  dir.write("summary.csv", all_runs_summary_csv(rows));
+  dir.commit();
+  for (const auto& [name, rs] : ratios) {
+    std::size_t half = 0;
+    double sum = 0.0;
+    for (double v : rs) {
+      half += v <= 0.5 ? 1 : 0;
+      sum += v;
+    }
+    std::printf("predict: %s over %zu run(s): mean ratio to quasi-steady %.3g, %zu at <= 0.5x\n", name.c_str(),
+                rs.size(), sum / static_cast<double>(rs.size()), half);
+  }
+  std::printf("predict: %zu run(s) -> %s (run<N>.csv, summary.csv)\n", es.front().runs.size(), o.out.c_str());
+}
+
 void run_predict(const PredictOptions& o) {
   using namespace indicial;
   if (o.out.empty()) throw InputError("--out", 0, "an output CSV path is required");
@@ -237,19 +351,26 @@ void run_predict(const PredictOptions& o) {
   for (const std::string& f : o.data_paths)
     if (std::filesystem::is_directory(f)) throw InputError(f + " is a directory, expected a CSV file");
   if (o.run_given && o.run < 1) throw InputError("--run", 0, "must be >= 1 (runs are numbered from 1)");
-  if (o.data_paths.empty() && o.run == 0)
-    throw InputError("DATA", 0, "give the run file(s) to predict, or --experiment E.toml --run N");
+  if (o.data_paths.empty() && o.run == 0 && !o.all_runs)
+    throw InputError("DATA", 0, "give the run file(s) to predict, or --experiment E.toml --run N (or --all-runs)");
   if (o.data_paths.size() == 1 && o.samples != 0)
     throw InputError("--samples", 0, "is for several DATA files (one cycle at their own phases); one run file is "
                                      "predicted at its own samples");
   const auto model = std::make_unique<ModelSet<double, FitCapacity>>(read_model_file(o.model_path));
   if (o.airspeed_mps < 0.0) throw InputError("--airspeed-mps", 0, "must be > 0");
+  if (o.all_runs) {
+    predict_all_runs(o, *model);
+    return;
+  }
   if (o.run > 0) {
-    const std::vector<Run> runs = read_experiment_run(o, *model);
-    std::vector<std::string> inputs = runs.front().source_files;
-    if (inputs.empty()) inputs.push_back(runs.front().path);
+    const std::vector<Experiment> es = read_experiment_runs(o, *model);
+    const std::size_t n_runs = es.front().runs.size();
+    if (static_cast<std::size_t>(o.run) > n_runs)
+      throw InputError("--run", 0, o.experiment + " has " + std::to_string(n_runs) + " run(s): give 1.." +
+                                       std::to_string(n_runs));
+    const std::vector<Run> runs = experiment_run(es, static_cast<std::size_t>(o.run - 1), *model);
     const double airspeed = runs.front().airspeed_mps > 0.0 ? runs.front().airspeed_mps : model->airspeed_mps;
-    predict_and_write(o, *model, runs, airspeed, runs.front().path, inputs);
+    predict_and_write(o, *model, runs, airspeed, runs.front().path, run_inputs(runs.front()));
     return;
   }
   const double airspeed = o.airspeed_mps > 0.0 ? o.airspeed_mps : model->airspeed_mps;
@@ -293,7 +414,7 @@ const indicial::tools::RegisterCommand register_predict([](CLI::App& app) {
                   "several files, one cycle whose quantities are at their own phases (each file its own phase "
                   "column: a digitized history, an experiment's files = [...]), with --frequency-hz or "
                   "--reduced-frequency (or none: --experiment E.toml --run N)");
-  sub->add_option("--out", opt->out, "output CSV")->required();
+  sub->add_option("--out", opt->out, "output CSV (with --all-runs: an output directory)")->required();
   sub->add_option("--plot", opt->plot, "overlay plot PNG (gnuplot): against time and against angle");
   sub->add_option("--gnuplot", opt->gnuplot, "gnuplot executable (default: gnuplot on PATH)");
   sub->add_option("--metrics", opt->metrics, "metrics JSON (default: OUT with .metrics.json)");
@@ -328,6 +449,11 @@ const indicial::tools::RegisterCommand register_predict([](CLI::App& app) {
                   "with --experiment and no DATA: predict the experiment's run N (1-based) exactly as fit reads "
                   "it -- its files, [columns] and each file's own map, frequency, airspeed and periodicity (a "
                   "held-out cycle kept in an experiment file; digitized files headed x,y)");
+  sub->add_flag("--all-runs", opt->all_runs,
+                "with --experiment and no DATA: predict every run of the experiment as --run N does, into the "
+                "directory --out: run<N>.csv and run<N>.metrics.json, and summary.csv (per run and coefficient: RMS, "
+                "quasi-steady RMS, their ratio, bias, RMS about the bias, max error); a held-out experiment scored "
+                "in one command");
   sub->add_option("--score-from-s", opt->score_from_s,
                   "score (RMS, max, TIC) only the samples at time >= T s; every sample is still predicted and "
                   "written (a raw multi-cycle log: leave out the start-up transient of the initial state)");
