@@ -299,6 +299,12 @@ def diagnosis_lines(coef, dj):
             p(f'  * step {i}: `{st.get("effect")}` ({st.get("term")})')
 
 
+def by_regime(results):
+    """(regime, its results) for attached, light, deep and all."""
+    for regime in ('attached', 'light', 'deep', 'all'):
+        yield regime, [r for r in results if regime == 'all' or r['regime'] == regime]
+
+
 def bias_table(results):
     """Theil's decomposition of the held-out error: each cycle's own bias (mean error) apart
     from its shape. The data's per-run zero drift is in the bias, and no model of the motion
@@ -312,8 +318,7 @@ def bias_table(results):
     p('| regime | coef | QS: bias share | report: bias share | extended: bias share | diagnosed: bias share | '
       'diagnosed: mean RMS | diagnosed: mean RMS about the bias |')
     p('|---|---|---|---|---|---|---|---|')
-    for regime in ('attached', 'light', 'deep', 'all'):
-        rs = [r for r in results if regime == 'all' or r['regime'] == regime]
+    for regime, rs in by_regime(results):
         for coef in ('CL', 'Cm'):
             cells = []
             for k in ('qs', 'report', 'extended', 'diagnosed'):
@@ -362,8 +367,7 @@ def report(results, static, cycles, models):
     p('| regime | cycles | coef | quasi-steady | report model | extended | diagnosed | BL peer | extended / BL | '
       'diagnosed / BL | diagnosed / QS | diagnosed <= 0.5x QS |')
     p('|---|---|---|---|---|---|---|---|---|---|---|---|')
-    for regime in ('attached', 'light', 'deep', 'all'):
-        rs = [r for r in results if regime == 'all' or r['regime'] == regime]
+    for regime, rs in by_regime(results):
         for coef in ('CL', 'Cm'):
             qs, rep, ext, dia, blv = (mean([r.get(f'{k}_{coef}', float('nan')) for r in rs])
                                       for k in ('qs', 'report', 'extended', 'diagnosed', 'bl'))
