@@ -101,6 +101,20 @@ TEST_CASE("fit.json agrees with an in-process fit, and model.coef predicts the f
     CHECK(j["parameters"][i]["value"].get<double>() == doctest::Approx(r.parameters[i].value).epsilon(1e-12).scale(0));
     CHECK(j["parameters"][i]["cr_bound"].get<double>() == doctest::Approx(r.parameters[i].cr_bound).epsilon(1e-12).scale(0));
   }
+  // Per run: the RMS and the mean of measured - model, from the in-process fit's residuals.
+  REQUIRE(j["runs"].size() == r.runs.size());
+  for (std::size_t ri = 0; ri < r.runs.size(); ++ri) {
+    double sum = 0.0, sum2 = 0.0;
+    const auto& s = r.runs[ri];
+    for (std::size_t k = 0; k < s.residual.size(); ++k) {
+      CHECK(s.residual[k] == doctest::Approx(s.measured[k] - s.model[k]).epsilon(1e-12));
+      sum += s.residual[k];
+      sum2 += s.residual[k] * s.residual[k];
+    }
+    const double n = static_cast<double>(s.residual.size());
+    CHECK(j["runs"][ri]["mean_residual"].get<double>() == doctest::Approx(sum / n).epsilon(1e-9).scale(1e-15));
+    CHECK(j["runs"][ri]["fit_error"].get<double>() == doctest::Approx(std::sqrt(sum2 / n)).epsilon(1e-9));
+  }
 
   // The runtime, written independently of report.cpp's replay: load the file, start each run from
   // its y0_r, step through it and compare every sample with the fitter's model series.

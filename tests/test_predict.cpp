@@ -361,8 +361,26 @@ TEST_CASE("predict: --run scores the model's coefficients the experiment does no
   REQUIRE(std::system((exe + " predict " + coef + " --experiment " + held.string() + " --run 1 --out " + out.string() +
                        " 2> " + err.string()).c_str()) == 0);
   const std::string said = slurp_file(err.string());
-  CHECK(said.find("indicial: note: not scored: CL: ") != std::string::npos);
-  CHECK(said.find("(" + held.string() + " does not model it)") != std::string::npos);
+  CHECK(said.find("indicial: note: " + (tmp.path / "cm_only.csv").string() + ": no CL column: CL predicted, not scored (" +
+                  held.string() + " does not model it)") != std::string::npos);
+  // A C_L column that is there is read as fit reads it: a bad value is refused, not skipped.
+  {
+    std::ofstream f(tmp.path / "bad_cl.csv");
+    f << "phase_rad,alpha_deg,Cm,CL\n";
+    for (int i = 0; i < 64; ++i) {
+      const double ph = 2 * 3.141592653589793 * i / 64;
+      f << ph << "," << 8 + 6 * std::sin(ph) << "," << -0.01 * std::sin(ph) << "," << (i == 20 ? "0.5x" : "0.5") << "\n";
+    }
+  }
+  const fs::path bad = tmp.path / "bad.toml";
+  std::ofstream(bad) << "axis = \"pitch\"\ncoefficient = \"Cm\"\nreference_length_m = 0.15\nairspeed_mps = 30\n"
+                        "runs = [{file = \"cm_only.csv\", reduced_frequency = 0.08}, "
+                        "{file = \"bad_cl.csv\", reduced_frequency = 0.08}]\n";
+  const fs::path bad_out = tmp.path / "bad_out.csv";
+  REQUIRE(std::system((exe + " predict " + coef + " --experiment " + bad.string() + " --run 1 --out " +
+                       bad_out.string() + " 2> " + err.string()).c_str()) != 0);
+  CHECK(slurp_file(err.string()).find("bad_cl.csv:22: column 'CL'") != std::string::npos);
+  CHECK_FALSE(fs::exists(bad_out));
   CHECK(slurp_file(out.string()).find("CL_pred") != std::string::npos);
   CHECK_FALSE(fs::exists(tmp.path / "cm.metrics.json"));
 }
@@ -412,10 +430,17 @@ TEST_CASE("predict: --all-runs predicts every run of the experiment as --run N d
   CHECK(run(exe + " predict " + coef + " --experiment " + e + " --all-runs --out " + all.string() +
             " --quiet --force") == 0);
   const fs::path none = tmp.path / "none";
-  for (const std::string extra : {" --run 1", " --plot p.png", " --metrics m.json", " --airspeed-mps 30"})
+  for (const std::string extra : {" --run 1", " --plot p.png", " --metrics m.json", " --airspeed-mps 30", " --periodic"})
     CHECK(run(exe + " predict " + coef + " --experiment " + e + " --all-runs --out " + none.string() + extra) != 0);
   CHECK(run(exe + " predict " + coef + " " + (sim / "a8_k0.080_v30.csv").string() + " --all-runs --out " +
             none.string()) != 0);
+  // A run refused part-way (--score-from-s beyond the second run's cycle, 0.39 s): the error
+  // names that run and its file, and nothing is written, not even the runs predicted before it.
+  const fs::path err = tmp.path / "err.txt";
+  CHECK(std::system((exe + " predict " + coef + " --experiment " + e + " --all-runs --score-from-s 0.5 --quiet --out " +
+                     none.string() + " > /dev/null 2> " + err.string()).c_str()) != 0);
+  CHECK(slurp_file(err.string()).find("--all-runs: run 2 (" + (sim / "a8_k0.080_v30.csv").string() + "): ") !=
+        std::string::npos);
   CHECK_FALSE(fs::exists(none));
 }
 

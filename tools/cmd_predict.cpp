@@ -20,6 +20,7 @@
 // coefficient, for the model and for the quasi-steady model) and writes them to the CSV's
 // comment lines and to FILE.metrics.json (or --metrics). See fitter/.../predict.hpp.
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <limits>
@@ -115,45 +116,47 @@ std::vector<indicial::Experiment> read_experiment_runs(const PredictOptions& o,
   if (!o.data_paths.empty())
     throw InputError(flag, 0, "predicts runs of --experiment: give it or DATA files, not both");
   if (o.all_runs && o.run_given) throw InputError("--all-runs", 0, "predicts every run: --run N does not apply");
-  if (o.frequency_hz != 0.0 || o.reduced_frequency != 0.0 || o.samples != 0 || o.grid_given || o.airspeed_mps != 0.0)
-    throw InputError(flag, 0, "the run's frequency, samples, time grid and airspeed are its entry's in " +
-                                  o.experiment + ": --frequency-hz, --reduced-frequency, --samples, --time-grid "
-                                  "and --airspeed-mps do not apply");
+  if (o.frequency_hz != 0.0 || o.reduced_frequency != 0.0 || o.samples != 0 || o.grid_given || o.airspeed_mps != 0.0 ||
+      o.periodic)
+    throw InputError(flag, 0, "the run's frequency, samples, time grid, airspeed and periodicity are its entry's in " +
+                                  o.experiment + ": --frequency-hz, --reduced-frequency, --samples, --time-grid, "
+                                  "--airspeed-mps and --periodic do not apply");
   // The runs only: a held-out cycle's experiment need not have a [static] table covering it, or
   // knots inside it (the model predicted is MODEL's, not the experiment's).
   // The model's other coefficients too, where the run's files have them (a C_L experiment's
   // cycle carries Cm): scored, not only predicted.
-  std::vector<std::string> names, not_read;
+  std::vector<std::string> names;
   for (int c = 0; c < model.n_coefficients; ++c) names.push_back(model.coefficients[c].name);
-  const std::vector<Experiment> es = load_experiment_runs(o.experiment, names, &not_read);
+  const std::vector<Experiment> es = load_experiment_runs(o.experiment, names);
   if (es.front().axis != model.axis)
     throw InputError(flag, 0, o.experiment + " is a " + axis_name(es.front().axis) + " experiment; the model is " +
                                   axis_name(model.axis));
   if (model.axis != Axis::pitch && es.front().alpha0_rad != model.alpha0_rad)
     tools::print_warnings({o.experiment + ": alpha0 " + deg_text(es.front().alpha0_rad) + " deg differs from the model's " +
                            deg_text(model.alpha0_rad) + " deg: the run is predicted at the model's"});
-  for (std::string& why : not_read) {
-    // The reader's "did you mean 'Cm'? (... map it: CL = "Cm")" advises a fit that needs the
-    // column; a coefficient predict only scores where present has nothing to map.
-    why = why.substr(0, why.find("; did you mean"));
-    why = "not scored: " + why + " (" + o.experiment + " does not model it)";
-  }
-  tools::print_notes(not_read, o.quiet ? tools::Verbosity::quiet : tools::Verbosity::progress);
   return es;
 }
 
-// Run `index` (0-based) of E's runs, one per model coefficient: the coefficient's own where
-// read, else the motion of E's first, unmeasured (predicted only).
-std::vector<indicial::Run> experiment_run(const std::vector<indicial::Experiment>& es, std::size_t index,
+// Run `index` (0-based) of E's runs, one per model coefficient (read_experiment_runs read each
+// one; where the run's files lack one it is predicted only, said in a note).
+std::vector<indicial::Run> experiment_run(const PredictOptions& o, const std::vector<indicial::Experiment>& es,
+                                          std::size_t index,
                                           const indicial::ModelSet<double, indicial::FitCapacity>& model) {
   using namespace indicial;
   std::vector<Run> runs;
+  std::vector<std::string> notes;
   for (int c = 0; c < model.n_coefficients; ++c) {
-    const auto same = std::find_if(es.begin(), es.end(), [&](const Experiment& e) { return e.coefficient == model.coefficients[c].name; });
-    Run run = (same != es.end() ? *same : es.front()).runs[index];
-    if (same == es.end()) run.coefficient.clear();  // not in E's files: predicted only
-    runs.push_back(std::move(run));
+    const std::string& name = model.coefficients[c].name;
+    const auto same = std::find_if(es.begin(), es.end(), [&](const Experiment& e) { return e.coefficient == name; });
+    // Why the fallback: load_experiment_runs reads every name asked; E's first run's motion,
+    // unmeasured, should that ever change.
+    runs.push_back((same != es.end() ? *same : es.front()).runs[index]);
+    if (same == es.end()) runs.back().coefficient.clear();
+    if (runs.back().coefficient.empty())
+      notes.push_back(runs.back().path + ": no " + name + " column: " + name + " predicted, not scored (" +
+                      o.experiment + " does not model it)");
   }
+  tools::print_notes(notes, o.quiet ? tools::Verbosity::quiet : tools::Verbosity::progress);
   return runs;
 }
 
@@ -269,7 +272,7 @@ void predict_and_write(const PredictOptions& o, const indicial::ModelSet<double,
 
 // A summary.csv field: quoted as RFC 4180 when it holds a comma, quote or newline (a file name).
 std::string csv_field(const std::string& text) {
-  if (text.find_first_of(",\"\n") == std::string::npos) return text;
+  if (text.find_first_of(",\"\r\n") == std::string::npos) return text;
   std::string q = "\"";
   for (char ch : text) q += ch == '"' ? std::string("\"\"") : std::string(1, ch);
   return q + "\"";
@@ -304,11 +307,16 @@ void predict_all_runs(const PredictOptions& o, const indicial::ModelSet<double, 
   std::vector<std::vector<std::string>> rows;
   std::map<std::string, std::vector<double>> ratios;  // per coefficient, over the scored runs
   for (std::size_t i = 0; i < es.front().runs.size(); ++i) {
-    const std::vector<Run> runs = experiment_run(es, i, model);
+    const std::vector<Run> runs = experiment_run(o, es, i, model);
     const double airspeed = runs.front().airspeed_mps > 0.0 ? runs.front().airspeed_mps : model.airspeed_mps;
     const std::string n = std::to_string(i + 1);
-    const PredictedRun r = predict_run(o, model, runs, airspeed, runs.front().path,
-                                       "--experiment " + o.experiment + " --run " + n + " (" + runs.front().path + ")");
+    PredictedRun r;
+    try {
+      r = predict_run(o, model, runs, airspeed, runs.front().path,
+                      "--experiment " + o.experiment + " --run " + n + " (" + runs.front().path + ")");
+    } catch (const InputError& err) {  // which run, then why; nothing is written (the directory is staged)
+      throw InputError("--all-runs: run " + n + " (" + runs.front().path + "): " + err.what());
+    }
     dir.write("run" + n + ".csv", prediction_csv(r.p, r.angle_column, r.comments));
     if (r.any_measured) dir.write("run" + n + ".metrics.json", prediction_metrics_json(r.p));
     std::vector<std::string> named;
@@ -331,14 +339,18 @@ void predict_all_runs(const PredictOptions& o, const indicial::ModelSet<double, 
   dir.write("summary.csv", all_runs_summary_csv(rows));
   dir.commit();
   for (const auto& [name, rs] : ratios) {
-    std::size_t half = 0;
+    std::size_t half = 0, finite = 0;
     double sum = 0.0;
     for (double v : rs) {
+      if (!std::isfinite(v)) continue;  // a quasi-steady RMS of 0 has no ratio
+      ++finite;
       half += v <= 0.5 ? 1 : 0;
       sum += v;
     }
-    std::printf("predict: %s over %zu run(s): mean ratio to quasi-steady %.3g, %zu at <= 0.5x\n", name.c_str(),
-                rs.size(), sum / static_cast<double>(rs.size()), half);
+    std::printf("predict: %s over %zu run(s): mean ratio to quasi-steady %.3g, %zu at <= 0.5x%s\n", name.c_str(),
+                finite, finite > 0 ? sum / static_cast<double>(finite) : std::nan(""), half,
+                finite < rs.size() ? fmt::format(" ({} without a ratio: quasi-steady RMS 0)", rs.size() - finite).c_str()
+                                   : "");
   }
   std::printf("predict: %zu run(s) -> %s (run<N>.csv, summary.csv)\n", es.front().runs.size(), o.out.c_str());
 }
@@ -368,7 +380,7 @@ void run_predict(const PredictOptions& o) {
     if (static_cast<std::size_t>(o.run) > n_runs)
       throw InputError("--run", 0, o.experiment + " has " + std::to_string(n_runs) + " run(s): give 1.." +
                                        std::to_string(n_runs));
-    const std::vector<Run> runs = experiment_run(es, static_cast<std::size_t>(o.run - 1), *model);
+    const std::vector<Run> runs = experiment_run(o, es, static_cast<std::size_t>(o.run - 1), *model);
     const double airspeed = runs.front().airspeed_mps > 0.0 ? runs.front().airspeed_mps : model->airspeed_mps;
     predict_and_write(o, *model, runs, airspeed, runs.front().path, run_inputs(runs.front()));
     return;

@@ -326,8 +326,10 @@ def bias_table(results):
                 pairs = [(e, b) for e, b in pairs if not (math.isnan(e) or math.isnan(b))]
                 mse = sum(e * e for e, _ in pairs)
                 cells.append(f'{sum(b * b for _, b in pairs) / mse:.2f}' if mse > 0 else 'n/a')
-            spread = mean([math.sqrt(max(0.0, r.get(f'diagnosed_{coef}', float('nan')) ** 2 -
-                                         r.get(f'diagnosed_{coef}_bias', float('nan')) ** 2)) for r in rs])
+            # A failed prediction is NaN in both columns (mean() leaves it out), never a 0.
+            spread = mean([math.sqrt(max(0.0, d)) if not math.isnan(d) else float('nan')
+                           for d in (r.get(f'diagnosed_{coef}', float('nan')) ** 2 -
+                                     r.get(f'diagnosed_{coef}_bias', float('nan')) ** 2 for r in rs)])
             dia = mean([r.get(f'diagnosed_{coef}', float('nan')) for r in rs])
             p(f'| {regime} | {coef} | ' + ' | '.join(cells) + f' | {dia:.4f} | {spread:.4f} |')
 

@@ -120,6 +120,7 @@ class Run:
         self.time_s, self.coefficient = time_s, coefficient
         self.periodic, self.airspeed_mps, self.time_grid, self.name = periodic, airspeed_mps, time_grid, name
         self._neutral = None  # (angle, rate) of from_dict: the experiment's axis, whatever it is
+        self._from = (None, None)  # from_dict: (coefficient_name, axis) of the dict
 
     @classmethod
     def from_dict(cls, d: dict) -> "Run":
@@ -133,6 +134,9 @@ class Run:
         r = cls(time_s=d["time_s"], coefficient=d["coefficient"], periodic=bool(d.get("periodic", False)),
                 airspeed_mps=d.get("airspeed_mps"), time_grid=d.get("time_grid", "uniform"), name=d.get("name"))
         r._neutral = (d["motion_angle_rad"], d.get("rate_radps"))
+        # What the dict says it is, for Experiment to check (a C_L run in a Cm experiment, a
+        # roll run in a pitch one, would be fitted silently otherwise).
+        r._from = (d.get("coefficient_name"), d.get("axis"))
         return r
 
     def _dict(self, axis: str) -> dict:
@@ -247,6 +251,11 @@ class Experiment:
         for i, r in enumerate(runs):
             if not isinstance(r, Run):
                 raise TypeError(f"runs[{i}]: expected indicial.Run, got {type(r).__name__}")
+            name, run_axis = r._from
+            if name is not None and name != coefficient:
+                raise InputError(f"runs[{i}]: Run.from_dict of a {name} run; the experiment's coefficient is {coefficient}")
+            if run_axis is not None and run_axis != axis:
+                raise InputError(f"runs[{i}]: Run.from_dict of a {run_axis} run; the experiment's axis is {axis}")
         self._e = _indicial._make_experiment(config, [r._dict(axis) for r in runs])
 
     @classmethod
@@ -281,10 +290,10 @@ class Experiment:
     @property
     def runs(self) -> List[dict]:
         """Each run's arrays: time_s, motion_angle_rad, rate_radps (rad/s), coefficient (the
-        measured values of ``coefficient_name``), with periodic, airspeed_mps, time_grid and
-        name: ``predict(model, run=r)`` predicts and scores it, ``Run.from_dict(r)`` makes it
-        a Run again."""
-        return [dict(r, coefficient_name=self._e.coefficient) for r in self._e.runs]
+        measured values of ``coefficient_name``), with periodic, airspeed_mps, time_grid, name
+        and axis: ``predict(model, run=r)`` predicts and scores it, ``Run.from_dict(r)`` makes
+        it a Run again."""
+        return [dict(r, coefficient_name=self._e.coefficient, axis=self.axis) for r in self._e.runs]
 
     def write_files(self, directory: str, force: bool = False) -> None:
         """Writes DIR/experiment.toml and DIR/run<i>.csv (and DIR/static_table.csv with a static
@@ -439,7 +448,8 @@ class BatchStepper:
     status = property(lambda self: self._s.status)
     clamped_steps = property(lambda self: self._s.clamped_steps,
                              doc="per instance, the steps of the last step() or run() whose angle was clamped "
-                                 "to the model's envelope (status angle_clamped: extrapolated, not refused)")
+                                 "to the model's envelope (status angle_clamped: extrapolated, not refused); "
+                                 "0 after the instance's reset")
     outputs = property(lambda self: self._s.outputs)
     coefficients = property(lambda self: list(self._s.coefficients))
     closed = property(lambda self: self._s.closed)
@@ -663,10 +673,17 @@ def _run_arguments(model: Model, run: dict, given: dict, motion: dict) -> dict:
     missing = [k for k in ("time_s", "motion_angle_rad") if k not in run]
     if missing:
         raise InputError(f"predict: run= is missing {', '.join(missing)} (a run of Experiment.runs or read_runs)")
+    axis = run.get("axis")
+    if axis is not None and axis != model.axis:   # as `predict --experiment E --run N` refuses it
+        raise InputError(f"predict: run= is a {axis} run; the model is {model.axis}")
     measured = None
     name = run.get("coefficient_name")
-    if name is not None and name in model.coefficients and run.get("coefficient") is not None:
-        measured = {name: run["coefficient"]}
+    if name is not None and run.get("coefficient") is not None:
+        if name in model.coefficients:
+            measured = {name: run["coefficient"]}
+        else:
+            _warn([f"predict: the run measures {name}, which the model does not have "
+                   f"({', '.join(model.coefficients)}): predicted, not scored"])
     return dict(time_s=run["time_s"], angle=run["motion_angle_rad"], rate=run.get("rate_radps"),
                 periodic=bool(run.get("periodic", False)), airspeed_mps=run.get("airspeed_mps"),
                 time_grid=run.get("time_grid", "uniform"), measured=measured)

@@ -149,6 +149,7 @@ class BatchStepper {
       if (stepped(status_[i])) {
         core_->evaluate(i, v.at(i), o + i * row);
         airspeed_[i] = v.at(i);
+        clamped_[i] = 0;  // a reset instance has stepped nothing since
       }
     }
     raise_first_refusal(errors, "reset");
@@ -242,7 +243,8 @@ class BatchStepper {
   }
 
   // Per instance, the steps of the last step() or run() call its angle was clamped in (status
-  // angle_clamped: outputs produced, the unsteady terms held at the envelope's edge).
+  // angle_clamped: outputs produced, the unsteady terms held at the envelope's edge); 0 after
+  // the instance's reset.
   py::array_t<std::int64_t> clamped_steps() const {
     py::array_t<std::int64_t> c(static_cast<py::ssize_t>(clamped_.size()));
     std::copy(clamped_.begin(), clamped_.end(), c.mutable_data());

@@ -44,6 +44,13 @@ def test_runs_feed_run_from_dict_and_rebuild_the_experiment(case_dir):
         assert a["periodic"] == b["periodic"] and a["time_grid"] == b["time_grid"]
     with pytest.raises(indicial.InputError, match="^Run.from_dict: missing motion_angle_rad, coefficient"):
         indicial.Run.from_dict({"time_s": runs[0]["time_s"]})
+    # A run of another coefficient or axis is refused, not fitted as this one's.
+    with pytest.raises(indicial.InputError, match=r"^runs\[0\]: Run.from_dict of a Cm run; the experiment's coefficient is CL"):
+        indicial.Experiment(coefficient="CL", reference_length_m=1.0, airspeed_mps=30.0,
+                            runs=[indicial.Run.from_dict(runs[0])])
+    with pytest.raises(indicial.InputError, match=r"^runs\[0\]: Run.from_dict of a pitch run; the experiment's axis is roll"):
+        indicial.Experiment(coefficient="Cm", reference_length_m=1.0, airspeed_mps=30.0, axis="roll",
+                            runs=[indicial.Run.from_dict(runs[0])])
 
 
 def test_from_toml_error_is_the_cli_message(tmp_path, cli):

@@ -31,7 +31,7 @@ def test_predict_equals_cli(case_dir, cli_fit, cli, tmp_path, periodic):
     e = p.predicted["Cm"] - np.asarray(run["coefficient"])
     assert abs(m["mean_error"] - e.mean()) <= 1e-12 and abs(m["rms_about_mean"] - e.std()) <= 1e-12
     assert abs(m["rms_error"] ** 2 - m["mean_error"] ** 2 - m["rms_about_mean"] ** 2) <= 1e-12
-    assert 0 <= m["bias_proportion"] <= 1
+    assert abs(m["bias_proportion"] - m["mean_error"] ** 2 / m["rms_error"] ** 2) <= 1e-12
 
 
 def test_predict_derives_the_rate_and_checks_inputs(cli_fit):
@@ -138,3 +138,9 @@ def test_read_runs_is_predict_runs_cycle(cli_fit, cli, tmp_path):
         indicial.predict(model, run={"time_s": r["time_s"]})
     with pytest.raises(TypeError, match=r"time_s \(or run=\) is required"):
         indicial.predict(model, alpha_rad=r["motion_angle_rad"])
+    # Another axis is refused (as --run refuses it); a coefficient the model lacks is warned of.
+    with pytest.raises(indicial.InputError, match="^predict: run= is a roll run; the model is pitch"):
+        indicial.predict(model, run=dict(r, axis="roll"))
+    with pytest.warns(indicial.IndicialWarning, match="the run measures CL, which the model does not have"):
+        q = indicial.predict(model, run=dict(r, coefficient_name="CL"))
+    assert q.metrics == {}

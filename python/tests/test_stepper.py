@@ -269,3 +269,5 @@ def test_clamped_steps_count_a_runs_clamping_its_last_status_hides(model):
     assert list(batch.status) == [0, 0, 0]
     batch.step(alpha_rad=np.array([hi + 0.05, 0.6, 0.6]), q_radps=0.0, dt_s=dt)   # the last call's only
     assert list(batch.clamped_steps) == [1, 0, 0]
+    batch.reset(alpha_rad=0.6)
+    assert list(batch.clamped_steps) == [0, 0, 0]

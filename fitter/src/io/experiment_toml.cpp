@@ -680,7 +680,7 @@ void read_model_section(LoadContext& c, const toml::node* model_node, bool rotar
 }
 
 // A runs entry `files = [...]`: each file's series at its own phases, resampled onto one grid.
-Run read_run_of_files(const LoadContext& c, const RunEntry& entry, const Experiment& e) {
+Run read_run_of_files(const LoadContext& c, const RunEntry& entry, const Experiment& e, CoefficientPresence presence) {
   if (!entry.frequency_given)
     throw InputError(c.r.file(), entry.line, "run '" + entry.file + "' (files at their own phases) needs the cycle's "
                                              "frequency: give frequency_hz or reduced_frequency in its entry");
@@ -713,7 +713,7 @@ Run read_run_of_files(const LoadContext& c, const RunEntry& entry, const Experim
   }
   Run run;
   try {
-    run = resample_phase_series(series, e.coefficient, CoefficientPresence::required, entry.csv.frequency_hz,
+    run = resample_phase_series(series, e.coefficient, presence, entry.csv.frequency_hz,
                                 entry.samples, label);
   } catch (const InputError& err) {
     // The run's own errors (no angle, a coefficient in two files) name its label, not a file:
@@ -800,7 +800,10 @@ void attach_spread(const LoadContext& c, const RunEntry& entry, const std::strin
 }
 
 // Reads every run file and records the model angle's range over all of them (set_data_range).
-void read_runs(const LoadContext& c, const std::vector<RunEntry>& entries, Experiment& e) {
+// presence: CoefficientPresence::optional reads a coefficient the file does not model where a
+// run has it (load_experiment_runs' `also`); an absent column leaves that run's empty.
+void read_runs(const LoadContext& c, const std::vector<RunEntry>& entries, Experiment& e,
+               CoefficientPresence presence = CoefficientPresence::required) {
   for (const auto& entry : entries) {
     const std::vector<std::string> names = entry.files.empty() ? std::vector<std::string>{entry.file} : entry.files;
     for (const std::string& name : names) {
@@ -810,8 +813,8 @@ void read_runs(const LoadContext& c, const std::vector<RunEntry>& entries, Exper
         throw InputError(c.r.file(), entry.line, "run file '" + name + "' not found (looked for " + path + ")");
     }
     Run run = entry.files.empty()
-                  ? read_run_csv(c.resolve(entry.file), e.axis, e.coefficient, CoefficientPresence::required, entry.csv)
-                  : read_run_of_files(c, entry, e);
+                  ? read_run_csv(c.resolve(entry.file), e.axis, e.coefficient, presence, entry.csv)
+                  : read_run_of_files(c, entry, e, presence);
     run.experiment_line = entry.line;
     run.airspeed_mps = entry.airspeed_mps;
     if (run.time_source == TimeSource::phase_column) {
@@ -963,30 +966,22 @@ RunCsvOptions run_file_format(const std::string& toml_path) {
   return options;
 }
 
-std::vector<Experiment> load_experiment_runs(const std::string& toml_path, const std::vector<std::string>& also,
-                                             std::vector<std::string>* not_read) {
+std::vector<Experiment> load_experiment_runs(const std::string& toml_path, const std::vector<std::string>& also) {
   std::vector<std::string> coefficients;
   const toml::table root = parse_checked(toml_path, coefficients);
-  auto read = [&](const std::string& name) {
+  auto read = [&](const std::string& name, CoefficientPresence presence) {
     const TomlReader r(toml_path);
     LoadContext c{r, fs::path(toml_path).parent_path(), {}, root.source(), {}, {}, {}};
     std::vector<RunEntry> entries;
     Experiment e = read_run_format(c, root, name, &entries);
-    read_runs(c, entries, e);
+    read_runs(c, entries, e, presence);
     return e;
   };
   std::vector<Experiment> out;
-  for (const std::string& name : coefficients) out.push_back(read(name));
-  for (const std::string& name : also) {
-    if (std::find(coefficients.begin(), coefficients.end(), name) != coefficients.end()) continue;
-    // Why the catch: a coefficient the file does not model is optional here; the file's own
-    // coefficients above are read (and refused) as fit reads them.
-    try {
-      out.push_back(read(name));
-    } catch (const InputError& err) {
-      if (not_read) not_read->push_back(name + ": " + err.what());
-    }
-  }
+  for (const std::string& name : coefficients) out.push_back(read(name, CoefficientPresence::required));
+  for (const std::string& name : also)
+    if (std::find(coefficients.begin(), coefficients.end(), name) == coefficients.end())
+      out.push_back(read(name, CoefficientPresence::optional));
   return out;
 }
 

@@ -180,7 +180,8 @@ nlohmann::json fit_json(const FitResult& r, const Experiment& e, const FitOption
   j["runs"] = nlohmann::json::array();
   for (std::size_t ri = 0; ri < r.runs.size(); ++ri) {
     const RunSeries& s = r.runs[ri];
-    nlohmann::json run = {{"path", display_path(s.path, e)}, {"samples", s.time_s.size()}, {"fit_error", finite_or_null(run_fit_error(s))}};
+    nlohmann::json run = {{"path", display_path(s.path, e)}, {"samples", s.time_s.size()}, {"fit_error", finite_or_null(run_fit_error(s))},
+                          {"mean_residual", finite_or_null(run_mean_residual(s))}};
     if (ri < e.runs.size()) {  // the run's own airspeed and time grid (issue 12)
       run["airspeed_mps"] = e.runs[ri].airspeed_mps;
       run["time_grid"] = name_of(e.runs[ri].time_grid);

@@ -137,8 +137,12 @@ std::string report_result(const FitResult& r, const Experiment& e) {
     m += "Held at known values (`model.stall_known`; not estimated, no bounds): " + held + ".\n\n";
   }
 
-  m += "### Per-run fit\n\n| run | samples | rms residual |\n|---|---:|---:|\n";
-  for (const RunSeries& s : r.runs) m += fmt::format("| {} | {} | {} |\n", display_path(s.path, e), s.time_s.size(), num(run_fit_error(s)));
+  m += "### Per-run fit\n\nmean residual: measured - model averaged over the run (> 0: the model is low); "
+       "runs at one condition whose means differ point at a per-run zero drift.\n\n"
+       "| run | samples | rms residual | mean residual |\n|---|---:|---:|---:|\n";
+  for (const RunSeries& s : r.runs)
+    m += fmt::format("| {} | {} | {} | {} |\n", display_path(s.path, e), s.time_s.size(), num(run_fit_error(s)),
+                     num(run_mean_residual(s)));
   m += "\n";
   return m;
 }

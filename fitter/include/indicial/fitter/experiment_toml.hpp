@@ -109,13 +109,12 @@ std::vector<Experiment> load_experiments(const std::string& toml_path);
 // airspeed, [columns], [csv], runs), without [static], [rotary] and [model] (not required, not
 // read, not checked): for `indicial polar`, which makes the static table, and `indicial predict
 // --run`, which predicts a run whatever the experiment's model.
-// `also`: coefficients the file does not model, read from the same run files where they can be
-// (a C_L experiment's files with a Cm column, predicted by a C_L + C_m model), appended after
-// the file's own; one that cannot be read is left out and its reason appended to `not_read`
-// ("Cm: <the reader's message>").
+// `also`: coefficients the file does not model, read from the same run files where a run has
+// them (a C_L experiment's files with a Cm column, predicted by a C_L + C_m model), one
+// Experiment each after the file's own: a run without the column has an empty `coefficient`;
+// a column that is there is read and checked as the file's own (a bad value is refused).
 std::vector<Experiment> load_experiment_runs(const std::string& toml_path,
-                                             const std::vector<std::string>& also = {},
-                                             std::vector<std::string>* not_read = nullptr);
+                                             const std::vector<std::string>& also = {});
 
 // How the experiment's run files are read: its [columns] map and its [csv] dialect (the rest of
 // the file is checked for TOML syntax only). `indicial predict --experiment` reads a run file

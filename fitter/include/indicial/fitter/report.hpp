@@ -202,6 +202,10 @@ std::string estimates_text_table(const std::vector<ParameterEstimate>& parameter
 
 // Root-mean-square of a run's residuals (measured - model); NaN for an empty run.
 double run_fit_error(const RunSeries& s);
+// The mean of a run's residuals (measured - model; > 0: the model is low on the run); NaN for
+// an empty run. Runs at one condition whose means differ are a tunnel's per-run zero drift, or
+// a condition the model does not follow; no model of the motion removes the former.
+double run_mean_residual(const RunSeries& s);
 
 // Plot data thinning: a curve never gets more than kMaxPlotPoints points (a 160,000-sample
 // run would otherwise make megabytes of data and gnuplot would spend seconds drawing points a
