@@ -106,8 +106,8 @@ std::vector<indicial::Run> read_cycle_of_files(const PredictOptions& o, const in
 }
 
 // --experiment E.toml with --run N or --all-runs: E's runs as its readers make them, per
-// coefficient (the model's, read from E's files where E does not model them; notes say which
-// could not be read).
+// coefficient: E's own, and the model's others read from E's files where a run has them
+// (experiment_run notes the runs that do not).
 std::vector<indicial::Experiment> read_experiment_runs(const PredictOptions& o,
                                                        const indicial::ModelSet<double, indicial::FitCapacity>& model) {
   using namespace indicial;
