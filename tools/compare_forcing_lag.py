@@ -41,14 +41,19 @@ VARIANTS = {
 FORMS = tuple(VARIANTS)
 
 
-def fit_model(exe, work, coef, form, runs, vref, knots):
-    exp = os.path.join(work, f'exp-{coef}-{form}.toml')
+def variant_experiment(exp, coef, form, runs, vref, knots):
+    """Writes the extended model's experiment file with the variant's [model] keys."""
     vs.experiment(exp, coef, runs, True, vref, knots)
     with open(exp) as f:
         text = f.read()
     text = text.replace('[model]\n', '[model]\n' + VARIANTS[form])
     with open(exp, 'w') as f:
         f.write(text)
+
+
+def fit_model(exe, work, coef, form, runs, vref, knots):
+    exp = os.path.join(work, f'exp-{coef}-{form}.toml')
+    variant_experiment(exp, coef, form, runs, vref, knots)
     out = os.path.join(work, f'fit-{coef}-{form}')
     t0 = time.time()
     # 200 iterations, as tools/validate_stall.py's fits (the first-order C_m fit stopped at the
