@@ -22,11 +22,11 @@ namespace indicial::python {
 namespace {
 
 // An angle array in radians that reaches beyond 2 pi in magnitude is almost certainly degrees
-// (a run file's alpha_rad column is warned by the same rule: csv_reader's warn_angle_unit).
+// (radians_look_like_degrees: the rule a run file's alpha_rad column is warned by).
 std::vector<std::string> motion_unit_warnings(const std::vector<double>& angle_rad) {
   double largest = 0.0;
   for (double v : angle_rad) largest = std::max(largest, std::abs(v));
-  if (!(largest > 2.0 * 3.14159265358979323846)) return {};
+  if (!radians_look_like_degrees(largest)) return {};
   char buf[64];
   std::snprintf(buf, sizeof buf, "%.6g", largest);
   return {std::string("the motion angle reaches ") + buf + " rad, beyond 2 pi: it looks like degrees (pass "

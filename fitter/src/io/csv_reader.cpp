@@ -1060,7 +1060,7 @@ void warn_angle_unit(const std::string& path, const std::string& column, double 
     warnings->push_back(path + ": '" + column + "' never exceeds " + printed(largest, "%.6g") +
                         " in magnitude: it looks like radians in a degree column (name it " +
                         column.substr(0, column.find('_')) + "_rad if so)");
-  } else if (factor == 1.0 && largest > 2.0 * kPi) {
+  } else if (factor == 1.0 && radians_look_like_degrees(largest)) {
     warnings->push_back(path + ": '" + column + "' reaches " + printed(largest, "%.6g") +
                         ", beyond 2 pi: it looks like degrees in a radian column (name it " +
                         column.substr(0, column.find('_')) + "_deg if so)");

@@ -56,6 +56,12 @@ namespace indicial {
 // simulator's csv: motion).
 enum class CoefficientPresence { required, optional };
 
+// An angle in radians beyond 2 pi in magnitude is almost certainly degrees: the rule of a run
+// file's radian angle column (warned by the reader) and of Python's angle arrays (predict).
+inline bool radians_look_like_degrees(double largest_abs_rad) {
+  return largest_abs_rad > 2.0 * 3.14159265358979323846;
+}
+
 // Fewest data rows a run may have: one Savitzky-Golay window (2 * 5 + 1 samples).
 inline constexpr int min_run_samples = 11;
 
