@@ -77,10 +77,10 @@ done
 ins_base="" ins_head_model2="" ins_head_stall2=""
 if command -v valgrind >/dev/null; then
   echo "== callgrind instruction counts per step (50000 steps)"
-  count() {  # count BINARY VARIANT: instructions per step
+  count() {  # count BINARY VARIANT: instructions per step ("" when the binary has no --callgrind mode)
     local f="$work/cg.$RANDOM.out"
     valgrind --tool=callgrind --instr-atstart=no --callgrind-out-file="$f" "$1" --callgrind "$2" 50000 \
-      >/dev/null 2>&1
+      >/dev/null 2>&1 || { echo "vs_baseline.sh: no instruction count of $2 from $1" >&2; return 0; }
     python3 -c "import sys; print(int(sys.argv[1]) / 50000)" "$(sed -n 's/^totals: *//p' "$f" | head -1)"
   }
   ins_base="$(count "$base_bin" state/model2/double)"
@@ -111,7 +111,7 @@ print(f"| this checkout's step with every family (stall2), ns | {quartiles(colum
 print(f"| stall2 / reference step, per round | {quartiles([v[S] / v[B] for v in both])} |")
 print(f"| stall2 / this checkout's Model II step, per round | {quartiles([v[S] / v[M] for v in both])} |")
 print(f"| this checkout's Model II step / reference step, per round | {quartiles([v[M] / v[B] for v in both])} |")
-if ins_base:
+if ins_base and ins_m2 and ins_s2:
     b, m, s = float(ins_base), float(ins_m2), float(ins_s2)
     print(f"\nInstructions per step (callgrind): reference {b:.0f}, this checkout's Model II {m:.0f}, "
           f"stall2 {s:.0f}: stall2 / reference {s / b:.2f}, stall2 / Model II {s / m:.2f}")
