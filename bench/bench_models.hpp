@@ -38,11 +38,13 @@ namespace bench {
 
 using Cap = DefaultCapacity;
 
-enum class ModelKind : int { model_i = 0, model_ii = 1, two_lags = 2, model_ii_stall = 3 };
+// model_ii_stall_hysteresis: model_ii_stall with the static hysteresis (dxr = 3 deg, model.hpp)
+// on both coefficients: every family the step has.
+enum class ModelKind : int { model_i = 0, model_ii = 1, two_lags = 2, model_ii_stall = 3, model_ii_stall_hysteresis = 4 };
 
 inline const char* model_kind_name(ModelKind k) {
   return k == ModelKind::model_i ? "model1" : k == ModelKind::model_ii ? "model2"
-         : k == ModelKind::two_lags ? "twolag" : "stall2";
+         : k == ModelKind::two_lags ? "twolag" : k == ModelKind::model_ii_stall ? "stall2" : "stall2h";
 }
 
 constexpr double kReferenceLengthM = tailless_reference_length_m;  // l / V = 0.02131 s (Table I)
@@ -108,7 +110,8 @@ void fill_coefficient(CoefficientModel<Scalar, Cap>& m, const char* name, bool l
     m.a.knot_coef[0] = Scalar(-9.0);
     m.a.knot_coef[1] = Scalar(7.0);
   }
-  if (kind == ModelKind::model_ii_stall) add_stall_families(m.stall, lift);
+  if (kind == ModelKind::model_ii_stall || kind == ModelKind::model_ii_stall_hysteresis) add_stall_families(m.stall, lift);
+  if (kind == ModelKind::model_ii_stall_hysteresis) m.stall.separation.reattach_shift_rad = Scalar(3.0 * 3.14159265358979323846 / 180.0);
   if (kind == ModelKind::two_lags) {
     m.n_lags = 2;
     set_poly(m.lags[1].b, {15.0});

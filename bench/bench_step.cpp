@@ -11,6 +11,8 @@
 //   state/stall2/<scalar>      indicial::step(model, FamilyState, ...) of Model II with both
 //   step/stall2/double,        dynamic-stall families on C_L and C_m (issue 22); its goal is
 //   c/stall2/double            state/stall2/double <= 2 x state/model2/double in one run
+//   state/stall2h/double       state/stall2/double's model with the static hysteresis (dxr = 3
+//                              deg on both coefficients; model.hpp): every family there is
 //   model/<model>/<scalar>     advance_lags + coefficient_output straight from model.hpp, i.e.
 //                              the step without the runtime's input checks and bookkeeping
 //   floor/<model>/<scalar>     only the work no implementation can avoid: per coefficient the
@@ -470,6 +472,8 @@ void register_stall() {
   register_variant<float, StateStepper<float, indicial::FamilyState<float, Cap>>>("state/stall2/float", 1000, k);
   register_variant<double, PredictorStepper<double>>("step/stall2/double", 1000, k);
   register_variant<double, CStepper>("c/stall2/double", 1000, k);
+  const ModelKind h = ModelKind::model_ii_stall_hysteresis;
+  register_variant<double, StateStepper<double, indicial::FamilyState<double, Cap>>>("state/stall2h/double", 1000, h);
 }
 
 // Checks that Predictor::step (double) gives Stepper's numbers within relative tolerance tol
@@ -553,6 +557,10 @@ int callgrind_main(const std::string& name, std::size_t steps) {
                      return callgrind_run<float, StateStepper<float, indicial::FamilyState<float, Cap>>>(steps, stall);
                    }});
   table.push_back({"c/stall2/double", [=] { return callgrind_run<double, CStepper>(steps, stall); }});
+  table.push_back({"state/stall2h/double", [=] {
+                     return callgrind_run<double, StateStepper<double, indicial::FamilyState<double, Cap>>>(
+                         steps, ModelKind::model_ii_stall_hysteresis);
+                   }});
   for (const auto& [n, fn] : table)
     if (n == name) return fn();
   std::fprintf(stderr, "unknown variant %s\n", name.c_str());

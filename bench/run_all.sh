@@ -68,7 +68,7 @@ if [[ "${SKIP_CALLGRIND:-0}" != 1 ]] && command -v valgrind >/dev/null; then
            state/model2/double c/model2/double model/model2/double \
            floor/model1/double floor/model2/double floor/twolag/double floor/model2/float \
            update/model2/double update/model2/float \
-           state/stall2/double state/stall2/float; do
+           state/stall2/double state/stall2/float state/stall2h/double; do
     f="$out/callgrind.$(echo "$v" | tr / _).out"
     valgrind --tool=callgrind --instr-atstart=no --callgrind-out-file="$f" \
       "$bin/bench_step" --callgrind "$v" "$steps" >/dev/null 2>&1

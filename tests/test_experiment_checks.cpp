@@ -160,7 +160,8 @@ TEST_CASE("a held stall parameter's start key: refused beside it, not written, r
 // documented under its own name in docs/formats.md and `indicial init`'s keys (cmd_init.cpp).
 TEST_CASE("the stall start-value table: each key read, bound-checked, written, read back and documented") {
   const std::vector<std::string> documented = {"stall_T1_start", "stall_T2_start", "stall_CN1_start",
-                                               "stall_Tv_start", "stall_Tvl_start", "stall_T1r_start"};
+                                               "stall_Tv_start", "stall_Tvl_start", "stall_T1r_start",
+                                               "stall_dxr_start"};
   REQUIRE(stall_starts().size() == documented.size());
   std::ifstream formats_file(std::string(INDICIAL_SOURCE_DIR) + "/docs/formats.md");
   std::stringstream formats_text;
@@ -175,22 +176,35 @@ TEST_CASE("the stall start-value table: each key read, bound-checked, written, r
     CHECK(std::string(st.key) == documented[i]);
     CHECK(std::string(stall_start_key(st.parameter)) == st.key);
     CHECK(formats.find(std::string("`") + st.key + "`") != std::string::npos);
-    // T1r's start needs its parameter: model.stall_reattachment = "estimated" (refused without).
+    // T1r's and dxr's starts need their parameter: model.stall_reattachment or
+    // model.stall_hysteresis = "estimated" (refused without).
     const bool reattach = std::string(st.key) == "stall_T1r_start";
+    const bool hysteresis = std::string(st.key) == "stall_dxr_start";
+    const std::string value = hysteresis ? "0.0625" : "2.25";  // dxr in rad, at most 20 deg
     if (reattach)
       CHECK_HAS(load_error(indicial::testing::write_text(dir.path / "e.toml", head + st.key + " = 2.25\n")),
                 "'model.stall_T1r_start' is used only with model.stall_reattachment = \"estimated\"");
-    const std::string head_here = reattach ? head + "stall_reattachment = \"estimated\"\n" : head;
-    const std::string path = indicial::testing::write_text(dir.path / "e.toml", head_here + st.key + " = 2.25\n");
+    if (hysteresis)
+      CHECK_HAS(load_error(indicial::testing::write_text(dir.path / "e.toml", head + st.key + " = 0.0625\n")),
+                "'model.stall_dxr_start' is used only with model.stall_hysteresis = \"estimated\"");
+    const std::string head_here = reattach     ? head + "stall_reattachment = \"estimated\"\n"
+                                  : hysteresis ? head + "stall_hysteresis = \"estimated\"\n"
+                                               : head;
+    const std::string path = indicial::testing::write_text(dir.path / "e.toml", head_here + st.key + " = " + value + "\n");
     const Experiment e = load_experiment(path);
-    CHECK(e.model.stall.*st.value == 2.25);
+    CHECK(e.model.stall.*st.value == std::stod(value));
     const std::string back = write_experiment_toml(e, {});
-    CHECK(back.find(std::string(st.key) + " = 2.25\n") != std::string::npos);
+    CHECK(back.find(std::string(st.key) + " = " + value + "\n") != std::string::npos);
     const std::string again = indicial::testing::write_text(dir.path / "back.toml", back);
-    CHECK(load_experiment(again).model.stall.*st.value == 2.25);
+    CHECK(load_experiment(again).model.stall.*st.value == std::stod(value));
     const std::string bad = indicial::testing::write_text(dir.path / "e.toml", head_here + st.key + " = -1.0\n");
     CHECK_HAS(load_error(bad), std::string("'model.") + st.key +
-                                   (st.bound == StartBound::non_negative ? "' must be >= 0" : "' must be > 0"));
+                                   (st.bound == StartBound::non_negative ? "' must be >= 0"
+                                    : st.bound == StartBound::hysteresis ? "' must be in (0, 0.349] rad (20 deg)"
+                                                                         : "' must be > 0"));
+    if (hysteresis)  // and above 20 deg
+      CHECK_HAS(load_error(indicial::testing::write_text(dir.path / "e.toml", head_here + st.key + " = 0.4\n")),
+                "'model.stall_dxr_start' must be in (0, 0.349] rad (20 deg)");
   }
   // The default CN1 start (0: from the polar) is outside its bound, so not set and not written.
   const StallConfig defaults;

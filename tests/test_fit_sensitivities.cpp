@@ -70,6 +70,7 @@ StallStructure stall(const std::vector<double>& f0_knots_deg) {
   s.f0_correction.powers = {0, 1};
   for (double k : f0_knots_deg) s.f0_correction.knots_rad.push_back(k * kDeg);
   s.reattachment = StallReattachment::estimated;
+  s.hysteresis = StallHysteresis::estimated;
   s.forcing_lag = ForcingLag::first_order;
   return s;
 }
@@ -93,6 +94,7 @@ double value_of(const ParamId& id) {
     case ParamKind::stall_tau1: return 3.0;
     case ParamKind::stall_tau2: return 1.5;
     case ParamKind::stall_tau1_reattach: return 5.0;
+    case ParamKind::stall_reattach_shift: return 0.05;
     case ParamKind::f0_power: return id.power == 0 ? -0.02 : 0.05;
     case ParamKind::f0_knot: return 0.01;
     case ParamKind::stall_cp: return id.power == 0 ? 0.01 : id.power == 1 ? -0.1 : 0.05;
@@ -157,7 +159,7 @@ TEST_CASE("output-error sensitivities match finite differences (lags, delay, sta
   int n_stall = 0, n_lag = 0;
   for (int k = 0; k < L.structural().size(); ++k)
     (is_stall_parameter(L.ids()[static_cast<std::size_t>(k)]) ? n_stall : n_lag) += 1;
-  CHECK(n_stall == 13);                             // the stall output's 16 (its states: 8)
+  CHECK(n_stall == 14);                             // the stall output's 16 (its states, 9: 16)
   CHECK(n_lag + c.structure.y0_per_run() == 11);    // the lag chain's 16
   check_against_finite_differences(c);
 }
@@ -175,6 +177,6 @@ TEST_CASE("output-error sensitivities match finite differences (many stall param
   CHECK(L.find(held) < 0);  // held: not in the vector
   int n_stall = 0;
   for (int k = 0; k < L.structural().size(); ++k) n_stall += is_stall_parameter(L.ids()[static_cast<std::size_t>(k)]);
-  CHECK(n_stall == 19);  // the stall output's 64 (its states, 15: 16); the lags' 2 + 1 y0: 8
+  CHECK(n_stall == 20);  // the stall output's 64 (its states, 16: 16); the lags' 2 + 1 y0: 8
   check_against_finite_differences(c);
 }

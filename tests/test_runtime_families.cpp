@@ -226,6 +226,12 @@ TEST_CASE("a coefficient repeating another's separation update: only from the sa
   CHECK(mr.stall_sharing[1].decay == 0);
   CHECK(mr.stall_sharing[1].separation == indicial::StallSharing::no_sharing);
   check_step_equals_direct_loop(reattach, mr);
+  // A static hysteresis of its own (dxr) is not shared either.
+  Set hysteresis = shared;
+  hysteresis.coefficients[1].stall.separation.reattach_shift_rad = 0.05;
+  const Model mh = runtime_of(hysteresis);
+  CHECK(mh.stall_sharing[1].separation == indicial::StallSharing::no_sharing);
+  check_step_equals_direct_loop(hysteresis, mh);
   Set corrected = shared;
   auto& correction = corrected.coefficients[1].stall.separation.f0_correction;
   correction.n_powers = 2;
@@ -409,6 +415,18 @@ TEST_CASE("coefficient file: families round-trip byte for byte as version 2, ver
   CHECK(r_back.coefficients[1].stall.separation.tau1_reattach_semichords == 8.25);
   CHECK(r_back.coefficients[0].stall.separation.tau1_reattach_semichords == 0.0);
   CHECK(text_of(r_back) == r_text);
+  // The static hysteresis (sep_hysteresis): written only when dxr > 0, read back; a file without
+  // the line has none (what every file before the key meant).
+  CHECK(text.find("sep_hysteresis") == std::string::npos);
+  Set hyst = set;
+  hyst.coefficients[0].stall.separation.reattach_shift_rad = 0.0625;
+  const std::string h_text = text_of(hyst);
+  CHECK(h_text.find("sep_hysteresis 0.0625\n") != std::string::npos);
+  Set h_back{};
+  REQUIRE(indicial::parse_coef_file(h_text.data(), h_text.size(), &h_back, &diag) == LoadStatus::ok);
+  CHECK(h_back.coefficients[0].stall.separation.reattach_shift_rad == 0.0625);
+  CHECK(h_back.coefficients[1].stall.separation.reattach_shift_rad == 0.0);
+  CHECK(text_of(h_back) == h_text);
   // The forcing lag's form (sep_forcing_lag): written only when first_order, read back; a file
   // without the line is delay (what every file before the key meant).
   CHECK(text.find("sep_forcing_lag") == std::string::npos);
@@ -446,6 +464,10 @@ TEST_CASE("coefficient file: bad family values are refused with their line and r
       {"sep_cp 1 0 0\n", "sep_cp 1 0 0\nsep_cp 1 0 0\n", LoadStatus::syntax_error, "key given twice"},
       {"sep_cp 1 0 0\n", "sep_cp 1 0 0\nsep_reattachment 0\n", LoadStatus::invalid_value, "T1r must be > 0"},
       {"sep_cp 1 0 0\n", "sep_cp 1 0 0\nsep_reattachment 9 1\n", LoadStatus::syntax_error, ""},
+      {"sep_cp 1 0 0\n", "sep_cp 1 0 0\nsep_hysteresis 0\n", LoadStatus::invalid_value, "dxr_rad must be > 0"},
+      {"sep_cp 1 0 0\n", "sep_cp 1 0 0\nsep_hysteresis 0.5\n", LoadStatus::invalid_value, "0 to 20 deg"},
+      {"sep_cp 1 0 0\n", "sep_cp 1 0 0\nsep_hysteresis 0.05\nsep_hysteresis 0.05\n", LoadStatus::syntax_error,
+       "key given twice"},
       {"sep_cp 1 0 0\n", "sep_cp 1 0 0\nsep_forcing_lag filtered\n", LoadStatus::invalid_value,
        "sep_forcing_lag must be delay or first_order"},
       {"sep_cp 1 0 0\n", "sep_cp 1 0 0\nsep_forcing_lag\n", LoadStatus::syntax_error, "needs one value"},

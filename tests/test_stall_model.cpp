@@ -3,7 +3,7 @@
 // for any step, the discrete update advance_stall against a Boost.Odeint Dormand-Prince
 // integration of stall_derivatives (error and measured order), double against float, the
 // autodiff sensitivities the fitter uses against central finite differences, the feasible set,
-// the logistic switch's saturation.
+// the logistic switch's saturation, the static hysteresis's loop.
 #include <doctest/doctest.h>
 
 #include <Eigen/Core>
@@ -165,17 +165,22 @@ TEST_CASE("advance stall is second order against an odeint integration") {
   const double period = 2.0 * kPi / mo.omega_radps;
   // The third case: a reattachment time constant of its own (T1r = 3 T1, model.hpp): the update
   // switches its decay at the step where the forcing crosses f, still order 2. The fourth: the
-  // forcing angle as a first-order filter (ForcingLag::first_order, a fourth state).
+  // forcing angle as a first-order filter (ForcingLag::first_order, a fourth state). The fifth
+  // and sixth: a static hysteresis of 3 deg (dxr, model.hpp): f held inside its band, the
+  // update deciding at each step's start whether it separates, reattaches or holds.
   using indicial::ForcingLag;
-  struct Case { indicial::StallFamilies fam; double t1r; ForcingLag lag; };
-  for (const Case c : {Case{indicial::StallFamilies::separation, 0.0, ForcingLag::delay},
-                       Case{indicial::StallFamilies::separation_and_vortex, 0.0, ForcingLag::delay},
-                       Case{indicial::StallFamilies::separation_and_vortex, 9.0, ForcingLag::delay},
-                       Case{indicial::StallFamilies::separation_and_vortex, 9.0, ForcingLag::first_order}}) {
+  struct Case { indicial::StallFamilies fam; double t1r; ForcingLag lag; double dxr_deg; };
+  for (const Case c : {Case{indicial::StallFamilies::separation, 0.0, ForcingLag::delay, 0.0},
+                       Case{indicial::StallFamilies::separation_and_vortex, 0.0, ForcingLag::delay, 0.0},
+                       Case{indicial::StallFamilies::separation_and_vortex, 9.0, ForcingLag::delay, 0.0},
+                       Case{indicial::StallFamilies::separation_and_vortex, 9.0, ForcingLag::first_order, 0.0},
+                       Case{indicial::StallFamilies::separation_and_vortex, 0.0, ForcingLag::delay, 3.0},
+                       Case{indicial::StallFamilies::separation_and_vortex, 9.0, ForcingLag::first_order, 3.0}}) {
     const indicial::StallFamilies fam = c.fam;
     auto m = test_model<double>(fam);
     m.separation.tau1_reattach_semichords = c.t1r;
     m.separation.forcing_lag = c.lag;
+    m.separation.reattach_shift_rad = c.dxr_deg * kDeg;
     // The vortex really is shed: the clock passes T_vl and the vortex lift is not small.
     if (fam == indicial::StallFamilies::separation_and_vortex) {
       const auto states = discrete(m, mo, l_over_v, period / 2000, 4000);
@@ -187,10 +192,24 @@ TEST_CASE("advance stall is second order against an odeint integration") {
       CHECK(vmax > 0.2);
       CHECK(cmax > 7.0);
     }
+    // The hysteresis is really there: its output moves from the same model's without it.
+    if (c.dxr_deg > 0.0) {
+      auto none = m;
+      none.separation.reattach_shift_rad = 0.0;
+      const auto with = discrete(m, mo, l_over_v, period / 2000, 4000);
+      const auto without = discrete(none, mo, l_over_v, period / 2000, 4000);
+      double moved = 0.0;
+      for (std::size_t k = 0; k < with.size(); ++k) {
+        const double x = mo.alpha(static_cast<double>(k) * period / 2000);
+        moved = std::max(moved, std::abs(indicial::stall_output(m, x, with[k]) - indicial::stall_output(none, x, without[k])));
+      }
+      std::printf("stall dxr %g deg: output moved by up to %.3f from dxr = 0\n", c.dxr_deg, moved);
+      CHECK(moved > 0.05);
+    }
     std::vector<double> err;
     for (int n : {500, 1000, 2000, 4000}) err.push_back(max_output_error(m, mo, l_over_v, 2 * period / n, n));
-    for (std::size_t i = 0; i < err.size(); ++i) std::printf("stall %s T1r %g %s n=%d err %.3e\n",
-        indicial::stall_families_name(fam), c.t1r, indicial::forcing_lag_name(c.lag), 500 << i, err[i]);
+    for (std::size_t i = 0; i < err.size(); ++i) std::printf("stall %s T1r %g %s dxr %g deg n=%d err %.3e\n",
+        indicial::stall_families_name(fam), c.t1r, indicial::forcing_lag_name(c.lag), c.dxr_deg, 500 << i, err[i]);
     CHECK(err.back() < 2e-5);
     // The order over the three halvings: single halvings scatter (2.2 .. 1.5) because the
     // forcing has kinks (the linear f0 table's rows every 0.5 deg, the clipping), where one
@@ -198,6 +217,51 @@ TEST_CASE("advance stall is second order against an odeint integration") {
     const double order = std::log2(err.front() / err.back()) / 3.0;
     std::printf("  measured order over three halvings %.2f\n", order);
     CHECK(order > 1.8);
+  }
+}
+
+// The static hysteresis (dxr, model.hpp): on a cycle slow enough that the lag T1 is nothing
+// (k = 0.0005, 0.00025: a lag of T1 = 3 semichords there moves f by < 0.005), f follows f0c(x) on the upstroke and f0c(x + dxr) on the downstroke, at
+// either rate (a loop that does not close as the rate falls); without it (dxr = 0) the
+// downstroke retraces the upstroke. Separation family, T2 = 0 (no lag of the forcing).
+TEST_CASE("static hysteresis: the quasi-static loop is f0c on the upstroke, f0c(x + dxr) on the downstroke") {
+  const double l_over_v = 0.275 / 40.0;
+  const double dxr = 3.0 * kDeg;
+  auto run = [&](double k, double shift_rad, bool downstroke, double x_deg) {
+    auto m = test_model<double>(indicial::StallFamilies::separation);
+    m.separation.tau2_semichords = 0.0;
+    m.separation.reattach_shift_rad = shift_rad;
+    Motion mo;
+    mo.mean_rad = 15.0 * kDeg;
+    mo.omega_radps = k / l_over_v;
+    const double period = 2.0 * kPi / mo.omega_radps;
+    const int n = 20000;  // per cycle; the angle at sample i of the second cycle
+    const auto states = discrete(m, mo, l_over_v, period / n, 2 * n);
+    // The sample of the second cycle nearest x_deg on the chosen stroke (alpha = mean - amp cos).
+    const double c = (mo.mean_rad - x_deg * kDeg) / mo.amplitude_rad;
+    const double phase = std::acos(c);
+    const double t = (downstroke ? 2.0 * kPi - phase : phase) / mo.omega_radps + period;
+    const auto i = static_cast<std::size_t>(std::lround(t / (period / n)));
+    return std::pair<double, double>{states[i].separation_point, mo.alpha(static_cast<double>(i) * period / n)};
+  };
+  for (double x_deg : {12.0, 14.0, 16.0, 18.0}) {
+    for (double k : {0.0005, 0.00025}) {
+      const auto up = run(k, dxr, false, x_deg);
+      const auto down = run(k, dxr, true, x_deg);
+      const auto down0 = run(k, 0.0, true, x_deg);
+      auto m = test_model<double>(indicial::StallFamilies::separation);
+      m.separation.reattach_shift_rad = dxr;
+      const double u_up = indicial::static_separation(m.separation, up.second);
+      const double u_down = indicial::static_separation(m.separation, down.second);
+      const double r_down = indicial::reattachment_target(m.separation, down.second, u_down);
+      INFO("x " << x_deg << " deg, k " << k << ": up f " << up.first << " (f0c " << u_up << "), down f "
+                << down.first << " (f0c(x + dxr) " << r_down << ", f0c " << u_down << "), without dxr "
+                << down0.first);
+      CHECK(std::abs(up.first - u_up) < 0.01);
+      CHECK(std::abs(down.first - r_down) < 0.01);
+      CHECK(std::abs(down0.first - u_down) < 0.01);
+      CHECK(u_down - r_down > 0.05);  // a loop worth testing at this angle
+    }
   }
 }
 
@@ -346,6 +410,46 @@ TEST_CASE("stall autodiff sensitivities match finite differences") {
   }
 }
 
+// dxr's derivative (the fitter's sensitivity of the static hysteresis) against central finite
+// differences: the band's edges move with dxr, f's path with them, on a cycle that separates,
+// holds and reattaches.
+TEST_CASE("stall autodiff sensitivity to the static hysteresis matches finite differences") {
+  using AD = Eigen::AutoDiffScalar<Eigen::Matrix<double, 1, 1>>;
+  const double l_over_v = 0.275 / 30.0;
+  Motion mo;
+  mo.mean_rad = 15.0 * kDeg;
+  mo.omega_radps = 0.05 / l_over_v;
+  const double dt = 2.0 * kPi / mo.omega_radps / 256;
+  auto objective = [&](auto m) {
+    using T = std::decay_t<decltype(m.separation.cp_k0)>;
+    indicial::StallState<T> s;
+    indicial::stall_steady_state(m, T(mo.alpha(0)), &s);
+    T sum = T(0);
+    for (int k = 0; k < 384; ++k) {
+      indicial::advance_stall(m, {T(mo.alpha(k * dt)), T(mo.alpha((k + 1) * dt)), T(dt), T(l_over_v)}, &s);
+      sum = sum + T(std::sin(0.05 * k)) * indicial::stall_output(m, T(mo.alpha((k + 1) * dt)), s);
+    }
+    return sum;
+  };
+  auto base = test_model<double>(indicial::StallFamilies::separation_and_vortex);
+  auto ma = test_model<AD>(indicial::StallFamilies::separation_and_vortex);
+  for (double dxr_deg : {1.0, 3.0}) {
+    const double dxr = dxr_deg * kDeg;
+    AD a(dxr);
+    a.derivatives()(0) = 1.0;
+    ma.separation.reattach_shift_rad = a;
+    const AD j = objective(ma);
+    const double h = 1e-7;
+    auto mp = base, mm = base;
+    mp.separation.reattach_shift_rad = dxr + h;
+    mm.separation.reattach_shift_rad = dxr - h;
+    const double fd = (objective(mp) - objective(mm)) / (2 * h);
+    INFO("dxr " << dxr_deg << " deg: autodiff " << j.derivatives()(0) << " fd " << fd);
+    CHECK(std::abs(fd) > 0.1);  // the cycle does see dxr
+    CHECK(j.derivatives()(0) == doctest::Approx(fd).epsilon(1e-5).scale(1.0));
+  }
+}
+
 // The switch skips its exp where 1 + e^-u rounds to 1 (issue 22 item 6): the same bits as the
 // full expression there, and the full expression just below the threshold.
 // (The step's exponential is step_exp: std::exp in double, model.hpp's exp_on in float, the
@@ -446,6 +550,15 @@ TEST_CASE("check stall parameters names the infeasible models") {
   b.separation.tau1_reattach_semichords = 5.0;
   CHECK(indicial::check_stall_parameters(b) == StallCheck::valid);
   b.separation.tau1_reattach_semichords = std::nan("");
+  CHECK(indicial::check_stall_parameters(b) == StallCheck::not_finite);
+  b = m;
+  b.separation.reattach_shift_rad = -1e-3;  // 0 (no hysteresis) to 20 deg are feasible
+  CHECK(indicial::check_stall_parameters(b) == StallCheck::bad_hysteresis);
+  b.separation.reattach_shift_rad = indicial::kMaxReattachShiftRad;
+  CHECK(indicial::check_stall_parameters(b) == StallCheck::valid);
+  b.separation.reattach_shift_rad = 0.35;
+  CHECK(indicial::check_stall_parameters(b) == StallCheck::bad_hysteresis);
+  b.separation.reattach_shift_rad = std::nan("");
   CHECK(indicial::check_stall_parameters(b) == StallCheck::not_finite);
   b = m;
   b.vortex.travel_semichords = -1.0;

@@ -192,6 +192,8 @@ void emit_stall(std::string& o, const std::string& p, const indicial::StallModel
     o += "  " + sp + ".forcing_lag = indicial::ForcingLag::" + indicial::forcing_lag_name(sep.forcing_lag) + ";\n";
   if (sep.tau1_reattach_semichords > 0.0)
     o += "  " + sp + ".tau1_reattach_semichords = " + literal(sep.tau1_reattach_semichords) + ";\n";
+  if (sep.reattach_shift_rad > 0.0)
+    o += "  " + sp + ".reattach_shift_rad = " + literal(sep.reattach_shift_rad) + ";\n";
   o += "  " + sp + ".cp_k0 = " + literal(sep.cp_k0) + ";\n";
   o += "  " + sp + ".cp_k1 = " + literal(sep.cp_k1) + ";\n";
   o += "  " + sp + ".cp_k2 = " + literal(sep.cp_k2) + ";\n";

@@ -43,7 +43,10 @@ std::vector<KeyDoc> stall_start_docs() {
     const std::string def = st.default_text ? st.default_text : indicial::format_double(defaults.*st.value);
     docs.push_back({"model", st.key,
                     std::string("with stall: the start value of ") + st.parameter + " (" + st.unit +
-                        (st.bound == StartBound::positive ? ", > 0" : ", >= 0") + "). Default " + def +
+                        (st.bound == StartBound::positive       ? ", > 0"
+                         : st.bound == StartBound::non_negative ? ", >= 0"
+                                                                : ", > 0, at most 0.349 = 20 deg") +
+                        "). Default " + def +
                         ".\nNone for a parameter held in stall_known.",
                     std::string(st.key) + " = " + indicial::format_double(st.example)});
   }
@@ -198,8 +201,13 @@ const std::vector<KeyDoc>& key_docs() {
                                      "or \"first_order\" (a filter: its amplitude falls with the frequency,\n"
                                      "as Beddoes-Leishman's lagged normal force).",
        "stall_forcing_lag = \"first_order\""},
+      {"model", "stall_hysteresis", "with stall: \"estimated\" gives the separation state a static hysteresis dxr\n"
+                                    "(rad): the flow reattaches only dxr closer to alpha_0 than it separated,\n"
+                                    "at any rate (the quasi-static loop of stall); default \"none\".",
+       "stall_hysteresis = \"estimated\""},
       {"model", "stall_known", "with stall: parameters held at known values, not estimated (T1, T2, k0, k1,\n"
-                               "k2; with the vortex CN1, Tv, Tvl, cv, xv; with stall_reattachment T1r), e.g.\n"
+                               "k2; with the vortex CN1, Tv, Tvl, cv, xv; with stall_reattachment T1r; with\n"
+                               "stall_hysteresis dxr in rad), e.g.\n"
                                "a C_m fit taking T1 and T2 from the C_L fit's model.coef. No start value for\n"
                                "a held parameter.",
        "stall_known = { T1 = 3.0, T2 = 1.5 }"},

@@ -249,7 +249,8 @@ void read_stall_keywords(const py::dict& c, Experiment& e) {
       {"stall_polar_column", "stall_polar_column"}, {"stall_attached_max_deg", "stall_attached_max_deg"},
       {"stall_f0_correction_powers", "stall_f0_correction_powers"},
       {"stall_f0_correction_knots_rad", "stall_f0_correction_knots_deg"}, {"stall_known", "stall_known"},
-      {"stall_reattachment", "stall_reattachment"}, {"stall_forcing_lag", "stall_forcing_lag"}};
+      {"stall_reattachment", "stall_reattachment"}, {"stall_forcing_lag", "stall_forcing_lag"},
+      {"stall_hysteresis", "stall_hysteresis"}};
   std::set<std::string> present;
   for (const auto& [keyword, key] : keys)
     if (given(c, keyword)) present.insert(key);
@@ -259,6 +260,8 @@ void read_stall_keywords(const py::dict& c, Experiment& e) {
     s.reattachment = choice<StallReattachment>("stall_reattachment", c["stall_reattachment"].cast<std::string>());
   if (given(c, "stall_forcing_lag"))
     s.forcing_lag = choice<ForcingLag>("stall_forcing_lag", c["stall_forcing_lag"].cast<std::string>());
+  if (given(c, "stall_hysteresis"))
+    s.hysteresis = choice<StallHysteresis>("stall_hysteresis", c["stall_hysteresis"].cast<std::string>());
   for (const StallStart& st : stall_starts()) {  // the start values: the file's keys as keywords
     if (!given(c, st.key)) continue;
     present.insert(st.key);

@@ -231,7 +231,7 @@ def test_stall_start_keywords_are_the_one_table():
     import inspect
     keys = indicial._indicial._stall_start_keys()
     assert keys == ["stall_T1_start", "stall_T2_start", "stall_CN1_start", "stall_Tv_start", "stall_Tvl_start",
-                    "stall_T1r_start"]
+                    "stall_T1r_start", "stall_dxr_start"]
     signature = [k for k in inspect.signature(indicial.Experiment.__init__).parameters
                  if k.startswith("stall_") and k.endswith("_start")]
     assert sorted(signature) == sorted(keys)
@@ -240,13 +240,19 @@ def test_stall_start_keywords_are_the_one_table():
 def test_each_stall_start_keyword_reaches_the_experiment_file(stall_experiment_kwargs):
     for key in indicial._indicial._stall_start_keys():
         kw = dict(stall_experiment_kwargs, stall_known=None)
-        kw[key] = 2.25
-        if key == "stall_T1r_start":  # T1r's start needs its parameter, as in the file
-            with pytest.raises(indicial.InputError, match='stall_reattachment = "estimated"'):
+        value = 0.0625 if key == "stall_dxr_start" else 2.25  # dxr in rad, at most 20 deg
+        kw[key] = value
+        needs = {"stall_T1r_start": "stall_reattachment", "stall_dxr_start": "stall_hysteresis"}
+        if key in needs:  # T1r's and dxr's starts need their parameter, as in the file
+            with pytest.raises(indicial.InputError, match=needs[key] + ' = "estimated"'):
                 indicial.Experiment(**kw)
-            kw["stall_reattachment"] = "estimated"
-            assert 'stall_reattachment = "estimated"\n' in indicial.Experiment(**kw).toml_text()
-        assert f"{key} = 2.25\n" in indicial.Experiment(**kw).toml_text()
+            kw[needs[key]] = "estimated"
+            assert needs[key] + ' = "estimated"\n' in indicial.Experiment(**kw).toml_text()
+        assert f"{key} = {value:g}\n" in indicial.Experiment(**kw).toml_text()
+    # dxr's start outside (0, 20 deg] is refused with the key named.
+    kw = dict(stall_experiment_kwargs, stall_known=None, stall_hysteresis="estimated", stall_dxr_start=0.5)
+    with pytest.raises(indicial.InputError, match="stall_dxr_start"):
+        indicial.Experiment(**kw)
 
 
 def test_stall_forcing_lag_keyword_reaches_the_experiment_file(stall_experiment_kwargs):

@@ -240,6 +240,10 @@ void describe_estimates(Scored& s, Effect effect) {
                                    estimate_of(f, param_id(ParamKind::stall_tau1_reattach), nan),
                                    estimate_of(f, param_id(ParamKind::stall_tau1), nan));
       break;
+    case Effect::static_hysteresis:
+      s.score.detail = fmt::format("dxr = {:.4g} deg",
+                                   estimate_of(f, param_id(ParamKind::stall_reattach_shift), nan) * 180.0 / 3.141592653589793);
+      break;
     case Effect::pressure_lag:
       s.score.detail = fmt::format("T2 = {:.4g} (l/V) as a first-order lag",
                                    estimate_of(f, param_id(ParamKind::stall_tau2), nan));

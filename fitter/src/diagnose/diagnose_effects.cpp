@@ -230,6 +230,22 @@ void gen_slow_reattachment(const CandidateContext& ctx, std::vector<CandidateSpe
   out.push_back(c);
 }
 
+// The separation state's static hysteresis dxr (model.hpp), on a model that has the families
+// without it: started at the nested start's 1e-3 rad (0.06 deg; dxr = 0 is the feasible set's
+// edge), a band too narrow to move the base's cost, so its first fit begins there.
+void gen_static_hysteresis(const CandidateContext& ctx, std::vector<CandidateSpec>& out) {
+  const StallConfig& have = ctx.model.stall;
+  if (have.families == StallFamilies::none || have.hysteresis == StallHysteresis::estimated) return;
+  CandidateSpec c;
+  c.effect = Effect::static_hysteresis;
+  c.config = ctx.model;
+  c.config.stall.hysteresis = StallHysteresis::estimated;
+  c.starts = {{{param_id(ParamKind::stall_reattach_shift), 1e-3}}};
+  c.term = "dxr";
+  c.detail = "static hysteresis of stall";
+  out.push_back(c);
+}
+
 // The separation state forced through a first-order lag of the angle (model.hpp ForcingLag::
 // first_order, Beddoes-Leishman's leading-edge pressure lag) instead of the angle extrapolated
 // back by T2 (the delay form), on a model that has the families in the delay form. It adds no
@@ -357,6 +373,17 @@ const std::vector<EffectEntry>& effect_registry() {
         "oscillations through stall at several reduced frequencies up to k T2 ~ 1: the two forms "
         "agree at low frequency and part as k T2 grows"},
        SplineFamily::none, gen_pressure_lag},
+      {{Effect::static_hysteresis, EffectExtends::stall_families, "static_hysteresis",
+        "the flow reattaches only at an angle below where it separated, however slow the motion",
+        "the separation state's static hysteresis dxr: while reattaching f relaxes toward f0(x + dxr) "
+        "(further from alpha_0) and holds between that and f0(x) (model.stall_hysteresis = "
+        "\"estimated\"; coefficient-file sep_hysteresis)",
+        "a loop through stall that stays open as the reduced frequency falls: on the downstroke the "
+        "lift stays low (the moment off its static value) down to dxr below the static stall angle "
+        "even on quasi-static cycles, where a time lag's loop closes",
+        "oscillations through stall at low and moderate reduced frequencies (k <= 0.05 with faster "
+        "ones): a time lag's loop shrinks with k, the hysteresis's does not"},
+       SplineFamily::none, gen_static_hysteresis},
   };
   // Why: Effect values index this table (effect_entry); a missing or misplaced entry is a bug.
   static const bool checked = [] {

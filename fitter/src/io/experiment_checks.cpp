@@ -19,13 +19,13 @@ namespace {
 const char* const kStallKeys[] = {"stall_polar", "stall_polar_column", "stall_attached_max_deg",
                                   "stall_f0_correction_degree", "stall_f0_correction_powers",
                                   "stall_f0_correction_knots_deg", "stall_known", "stall_reattachment",
-                                  "stall_forcing_lag"};
+                                  "stall_forcing_lag", "stall_hysteresis"};
 
 // The stall parameters stall_known may name, with the feasible set model.hpp's
 // check_stall_parameters enforces (a parameter with a start value: the start's bound, the same
 // set). Their start keys are stall_starts()'s (stall_start_key).
-enum class Bound { any, positive, non_negative };
-enum class Family { separation, reattachment, vortex };
+enum class Bound { any, positive, non_negative, hysteresis };
+enum class Family { separation, reattachment, hysteresis, vortex };
 struct StallParameter { const char* name; Bound bound; Family family; };
 const StallParameter kStallParameters[] = {
     {"T1", Bound::positive, Family::separation},     {"T2", Bound::non_negative, Family::separation},
@@ -33,7 +33,7 @@ const StallParameter kStallParameters[] = {
     {"k2", Bound::any, Family::separation},          {"CN1", Bound::positive, Family::vortex},
     {"Tv", Bound::positive, Family::vortex},         {"Tvl", Bound::positive, Family::vortex},
     {"cv", Bound::any, Family::vortex},              {"xv", Bound::any, Family::vortex},
-    {"T1r", Bound::positive, Family::reattachment}};
+    {"T1r", Bound::positive, Family::reattachment},   {"dxr", Bound::hysteresis, Family::hysteresis}};
 
 const StallParameter* stall_parameter(const std::string& name) {
   for (const StallParameter& p : kStallParameters)
@@ -50,16 +50,21 @@ void check_stall_known(const StallConfig& s, const std::set<std::string>& given,
     if (!k)
       site.raise(key, "'" + site.name("stall_known") + "' names '" + name + "', not a dynamic-stall parameter (T1, "
                       "T2, k0, k1, k2; with the vortex also CN1, Tv, Tvl, cv, xv; with stall_reattachment = "
-                      "\"estimated\" also T1r)");
+                      "\"estimated\" also T1r; with stall_hysteresis = \"estimated\" also dxr)");
     if (k->family == Family::reattachment && s.reattachment != StallReattachment::estimated)
       site.raise(key, "'" + where + "' is the reattachment time constant: it needs " +
                       site.name("stall_reattachment") + " = \"estimated\"");
+    if (k->family == Family::hysteresis && s.hysteresis != StallHysteresis::estimated)
+      site.raise(key, "'" + where + "' is the static hysteresis: it needs " + site.name("stall_hysteresis") +
+                      " = \"estimated\"");
     if (k->family == Family::vortex && s.families != StallFamilies::separation_and_vortex)
       site.raise(key, "'" + where + "' is a vortex parameter: it needs " + site.name("stall") +
                       " = \"separation_and_vortex\"");
     if (!std::isfinite(v)) site.raise(key, "'" + where + "' must be finite");
     if (k->bound == Bound::positive && !(v > 0.0)) site.raise(key, "'" + where + "' must be > 0");
     if (k->bound == Bound::non_negative && !(v >= 0.0)) site.raise(key, "'" + where + "' must be >= 0");
+    if (k->bound == Bound::hysteresis && !(v >= 0.0 && v <= kMaxReattachShiftRad))
+      site.raise(key, "'" + where + "' must be in [0, 0.349] rad (0 to 20 deg)");
     const char* start_key = stall_start_key(name);
     if (start_key && given.count(start_key))
       site.raise(key, "'" + where + "' holds " + name + " at a known value, and '" + site.name(start_key) +
@@ -172,7 +177,9 @@ void check_stall_keys(const StallConfig& s, const std::set<std::string>& given, 
   }
   auto check_bound = [&](const char* key, bool ok, StartBound bound) {
     if (given.count(key) && !ok)
-      site.raise(key, "'" + site.name(key) + (bound == StartBound::non_negative ? "' must be >= 0" : "' must be > 0"));
+      site.raise(key, "'" + site.name(key) + (bound == StartBound::non_negative ? "' must be >= 0"
+                                              : bound == StartBound::hysteresis ? "' must be in (0, 0.349] rad (20 deg)"
+                                                                                : "' must be > 0"));
   };
   check_bound("stall_attached_max_deg", s.attached_max_deg > 0.0 && std::isfinite(s.attached_max_deg),
               StartBound::positive);
@@ -195,7 +202,9 @@ const std::vector<StallStart>& stall_starts() {
       {"stall_Tvl_start", "Tvl", &StallConfig::travel_start, StartBound::positive, "l / V", nullptr, 7.0},
       {"stall_T1r_start", "T1r", &StallConfig::tau1_reattach_start, StartBound::positive, "l / V",
        "T1's start (stall_T1_start); only with stall_reattachment = \"estimated\"", 8.0,
-       StartUse::with_reattachment_estimated}};
+       StartUse::with_reattachment_estimated},
+      {"stall_dxr_start", "dxr", &StallConfig::reattach_shift_start_rad, StartBound::hysteresis, "rad", nullptr,
+       0.05, StartUse::with_hysteresis_estimated}};
   return starts;
 }
 
@@ -203,6 +212,7 @@ bool stall_start_used(const StallStart& start, const StallConfig& s) {
   switch (start.use) {
     case StartUse::with_families: return true;
     case StartUse::with_reattachment_estimated: return s.reattachment == StallReattachment::estimated;
+    case StartUse::with_hysteresis_estimated: return s.hysteresis == StallHysteresis::estimated;
   }
   return true;
 }
@@ -211,12 +221,19 @@ StartCondition stall_start_condition(const StallStart& start) {
   switch (start.use) {
     case StartUse::with_families: return {nullptr, nullptr};
     case StartUse::with_reattachment_estimated: return {"stall_reattachment", "estimated"};
+    case StartUse::with_hysteresis_estimated: return {"stall_hysteresis", "estimated"};
   }
   return {nullptr, nullptr};
 }
 
 bool start_in_bound(const StallStart& start, double v) {
-  return std::isfinite(v) && (start.bound == StartBound::non_negative ? v >= 0.0 : v > 0.0);
+  if (!std::isfinite(v)) return false;
+  switch (start.bound) {
+    case StartBound::positive: return v > 0.0;
+    case StartBound::non_negative: return v >= 0.0;
+    case StartBound::hysteresis: return v > 0.0 && v <= kMaxReattachShiftRad;
+  }
+  return false;
 }
 
 const char* stall_start_key(const std::string& parameter) {

@@ -350,6 +350,7 @@ enum SeenBit : unsigned {
   seen_vortex_output = 1u << 22,
   seen_sep_reattach = 1u << 23,
   seen_sep_forcing = 1u << 28,
+  seen_sep_hysteresis = 1u << 29,
   seen_lag_poly0 = 1u << 16,  // + j for lag j (up to 4 lags)
   seen_lag_gain0 = 1u << 24,  // + j
 };
@@ -634,6 +635,15 @@ inline KeyRead read_sep_reattach(CoefficientModel<double, Cap>& cm, Tokens& t, i
   return read_ruled(t, rules, {&cm.stall.separation.tau1_reattach_semichords}, seen_sep_reattach);
 }
 
+// `sep_hysteresis dxr_rad` (optional; rad): the static hysteresis of stall (model.hpp): the
+// flow reattaches toward the static separation dxr further from alpha_0, held in between.
+// Without the key dxr is 0: no hysteresis. At most 20 deg (check_stall_parameters).
+template <class Cap>
+inline KeyRead read_sep_hysteresis(CoefficientModel<double, Cap>& cm, Tokens& t, int*) {
+  static constexpr ValueRule rules[1] = {{ValueRule::Kind::positive, "sep_hysteresis: dxr_rad must be > 0"}};
+  return read_ruled(t, rules, {&cm.stall.separation.reattach_shift_rad}, seen_sep_hysteresis);
+}
+
 // `sep_forcing_lag first_order` (optional; model.hpp's ForcingLag): how T2 lags the forcing
 // angle. Without the key, delay (x - T2 (l/V) x', what files before the key meant).
 template <class Cap>
@@ -718,6 +728,7 @@ inline const BlockKey<Cap>* find_block_key(const char* b, const char* e) {
       {"sep_f0_corr_knot", &read_sep_f0_corr<Cap, SplineItem::knot>, coef_file_version_stall},
       {"sep_time_constants", &read_sep_time<Cap>, coef_file_version_stall},
       {"sep_reattachment", &read_sep_reattach<Cap>, coef_file_version_stall},
+      {"sep_hysteresis", &read_sep_hysteresis<Cap>, coef_file_version_stall},
       {"sep_forcing_lag", &read_sep_forcing<Cap>, coef_file_version_stall},
       {"sep_cp", &read_sep_cp<Cap>, coef_file_version_stall},
       {"vortex_shedding", &read_vortex<Cap, VortexItem::shedding>, coef_file_version_stall},
@@ -800,7 +811,8 @@ inline LoadStatus stall_families_of_block(unsigned seen, CoefficientModel<double
                                           std::size_t line, ParseDiagnostic* diag) {
   const unsigned sep_required = seen_sep_polar | seen_sep_time | seen_sep_cp;
   const unsigned vortex_all = seen_vortex_shedding | seen_vortex_time | seen_vortex_clock | seen_vortex_output;
-  const bool any_sep = (seen & (sep_required | seen_sep_corr_poly | seen_sep_reattach | seen_sep_forcing)) != 0 ||
+  const bool any_sep = (seen & (sep_required | seen_sep_corr_poly | seen_sep_reattach | seen_sep_forcing |
+                                seen_sep_hysteresis)) != 0 ||
                        cm->stall.separation.n_f0 > 0 || cm->stall.separation.f0_correction.n_knots > 0;
   const bool any_vortex = (seen & vortex_all) != 0;
   if (!any_sep && !any_vortex) return LoadStatus::ok;
@@ -1117,6 +1129,7 @@ inline void write_stall_families(Sink& s, const StallModel<double, Cap>& st) {
   write_spline(s, sep.f0_correction, "sep_f0_corr_poly", "sep_f0_corr_knot", 0);
   write_values(s, "sep_time_constants", {sep.tau1_semichords, sep.tau2_semichords});
   if (sep.tau1_reattach_semichords > 0.0) write_values(s, "sep_reattachment", {sep.tau1_reattach_semichords});
+  if (sep.reattach_shift_rad > 0.0) write_values(s, "sep_hysteresis", {sep.reattach_shift_rad});
   if (sep.forcing_lag != ForcingLag::delay) {
     s.put("sep_forcing_lag ");
     s.put(forcing_lag_name(sep.forcing_lag));

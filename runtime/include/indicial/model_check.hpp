@@ -146,6 +146,7 @@ inline const char* stall_check_reason(StallCheck c) {
     case StallCheck::nonpositive_threshold: return "vortex_shedding: C_N1 must be > 0";
     case StallCheck::bad_separation_table:
       return "sep_f0_point: at least 2 rows, x_rad strictly increasing, f0 in [0, 1]";
+    case StallCheck::bad_hysteresis: return "sep_hysteresis: dxr_rad must be in [0, 0.349] (0 to 20 deg)";
     case StallCheck::not_finite: return "a dynamic-stall parameter is NaN or Inf";
   }
   return "unknown dynamic-stall check";

@@ -405,6 +405,7 @@ inline void derive_stall_sharing(const ModelSet<Scalar, Cap>& s, StallSharing* s
       if (detail::same_bits(a.separation.tau1_semichords, b.separation.tau1_semichords)) sharing[c].decay = e;
       if (sharing[c].forcing == e && sharing[c].decay == e && a.families == b.families &&
           detail::same_bits(a.separation.tau1_reattach_semichords, b.separation.tau1_reattach_semichords) &&
+          detail::same_bits(a.separation.reattach_shift_rad, b.separation.reattach_shift_rad) &&
           detail::same_spline(a.separation.f0_correction, b.separation.f0_correction))
         sharing[c].separation = e;
     }
@@ -464,7 +465,7 @@ inline bool convert_stall(const StallModel<double, Cap>& a, StallModel<Scalar, C
   auto& sb = b.separation;
   const double values[] = {sa.normal_force_slope_per_rad, sa.zero_lift_angle_rad, sa.tau1_semichords,
                            sa.tau2_semichords, sa.cp_k0, sa.cp_k1, sa.cp_k2, sa.tau1_reattach_semichords,
-                           a.vortex.shedding_threshold, a.vortex.decay_semichords,
+                           sa.reattach_shift_rad, a.vortex.shedding_threshold, a.vortex.decay_semichords,
                            a.vortex.travel_semichords, a.vortex.lift_gain, a.vortex.cp_travel};
   bool ok = true;
   for (double v : values) ok = ok && fits<Scalar>(v);
@@ -480,6 +481,7 @@ inline bool convert_stall(const StallModel<double, Cap>& a, StallModel<Scalar, C
   sb.tau2_semichords = static_cast<Scalar>(sa.tau2_semichords);
   sb.forcing_lag = sa.forcing_lag;
   sb.tau1_reattach_semichords = static_cast<Scalar>(sa.tau1_reattach_semichords);
+  sb.reattach_shift_rad = static_cast<Scalar>(sa.reattach_shift_rad);
   sb.cp_k0 = static_cast<Scalar>(sa.cp_k0);
   sb.cp_k1 = static_cast<Scalar>(sa.cp_k1);
   sb.cp_k2 = static_cast<Scalar>(sa.cp_k2);

@@ -535,6 +535,11 @@ inline constexpr const char* forcing_lag_name(ForcingLag l) {
   return l == ForcingLag::delay ? "delay" : "first_order";
 }
 
+// The largest static-hysteresis shift dxr (SeparationParameters::reattach_shift_rad) of the
+// feasible set: 20 deg. A flow that reattaches only 20 deg below where it separated has no
+// static polar worth the name; the bound keeps a fit's trial steps off such models.
+inline constexpr double kMaxReattachShiftRad = 0.3490658503988659;
+
 // The separation-point family (Goman-Khrabrov state, Kirchhoff output).
 //   parameter                       unit           fitter name   coefficient-file key
 //   normal_force_slope_per_rad      1/rad          (polar)       sep_polar C_Na alpha0_rad
@@ -545,6 +550,7 @@ inline constexpr const char* forcing_lag_name(ForcingLag l) {
 //   tau2_semichords  T2             l/V            T2            sep_time_constants
 //   forcing_lag                     (structure)    (structure)   sep_forcing_lag first_order (optional)
 //   tau1_reattach_semichords T1r    l/V            T1r           sep_reattachment T1r (optional)
+//   reattach_shift_rad  dxr         rad            dxr           sep_hysteresis dxr_rad (optional)
 //   cp_k0, cp_k1, cp_k2             1              k0, k1, k2    sep_cp k0 k1 k2
 // The polar items are derived from the static lift polar (kirchhoff_separation, below) and
 // are not fitted; T1, T2, the f0 correction and k0..k2 are.
@@ -568,6 +574,11 @@ struct SeparationParameters {
   // T1r >= 0: the relaxation of f while the flow REATTACHES (the forcing above f); 0: T1 both
   // ways (one time constant, the default; the coefficient file then has no sep_reattachment).
   Scalar tau1_reattach_semichords = Scalar(0);
+  // dxr >= 0: the static hysteresis of stall (see the essay): while the flow reattaches, f
+  // relaxes toward the static separation dxr further from alpha_0, f0c(x_e + dxr sgn(x_e -
+  // alpha_0)), and holds between that and f0c(x_e); 0: no hysteresis (the default; the
+  // coefficient file then has no sep_hysteresis).
+  Scalar reattach_shift_rad = Scalar(0);
   Scalar cp_k0 = Scalar(0);                       // output shape h(f) = k0 + k1 (1 - f)
   Scalar cp_k1 = Scalar(0);                       //              + k2 4 f^2 (1 - f^2)
   Scalar cp_k2 = Scalar(0);
@@ -1461,6 +1472,20 @@ inline void lag_derivatives(const CoefficientModel<Scalar, Cap>& m, const Scalar
 //   T1r = 4 T1 held, one start, gave the same); for C_m the fit with T1r ended higher (0.0342
 //   against 0.0312) and held-out worse (0.79x against 0.74x). Hence a parameter of its own
 //   (model.stall_reattachment = "estimated", diagnose's slow_reattachment), not a fixed ratio.
+//   Static hysteresis (dxr > 0; model.stall_hysteresis = "estimated", diagnose's
+//   static_hysteresis): the flow that has separated reattaches only at an angle dxr closer to
+//   alpha_0 than where it separated, at any rate (a play operator on f, Preisach's simplest):
+//     u = f0c(x_e), r = min(u, f0c(x_e + dxr sgn(x_e - alpha_0)))     (r <= u)
+//     f > u: T1 (l/V) f' = u - f         (separating, as above)
+//     f < r: T1r (l/V) f' = r - f        (reattaching; T1 when T1r = 0)
+//     else:  f' = 0                      (held inside the band [r, u])
+//   dxr = 0 is the model above exactly (r = u, the band empty). Why: the Glasgow quasi-static
+//   cycles (k <= 0.015) read C_L 1.36 on the upstroke and 0.82 on the downstroke at 15 deg,
+//   1.24 against 0.95 at 13 deg: a loop that a time lag (T1, T1r) makes only in proportion to
+//   the rate. Measured on tools/validate_stall.py's fit and held-out cycles (the extended C_L
+//   model, dxr held at 0, 1.5, 3, 5 deg, everything else fitted): fit error 0.1051, 0.1017,
+//   0.0993, 0.0998, held-out RMS 0.78x, 0.75x, 0.73x, 0.76x the Beddoes-Leishman peer; the
+//   C_m fit rose with it (0.0313 -> 0.0326 at 3 deg), so it is a parameter of its own.
 //   f0c(x) = clip_[0,1]( f0(x) + df0(x) )      f0: the static table, df0: a fitted spline
 //   N(x)   = C_Na (x - alpha_0)                the attached normal force (a line)
 //   K(f)   = ((1 + sqrt f) / 2)^2              Kirchhoff's flow factor
@@ -1533,6 +1558,8 @@ inline void lag_derivatives(const CoefficientModel<Scalar, Cap>& m, const Scalar
 //          combination of f0, u0, u1 and stays in [0, 1] without clipping. With T1r > 0, z =
 //          h / T1r when (u0 + u1) / 2 > f0 (reattaching over the step, decided at its start:
 //          an O(h^2) local error at the step where the two meet, where f' is near 0 anyway).
+//          With dxr > 0, when reattaching so decided: the same update toward r0, r1 (the
+//          reattachment targets at x_e0, x_e1) when (r0 + r1) / 2 > f0, else f1 = f0 (held).
 //   tau_v: exponential integrator with the shedding switch at the step's midpoint (g at the
 //          mean lagged angle, (x_e0 + x_e1) / 2: the midpoint rule):
 //          z_c = h (1 - g) / T_r, tau1 = exp(-z_c) tau0 + phi1(z_c) h g.
@@ -1873,12 +1900,57 @@ struct StallProgress {
   Scalar on_chord;   // the feed gate's s at the mid clock
 };
 
-// Stage 1: f over the step (T1, or T1r while reattaching); f1 into s.
+// The reattachment target r(x) = min(u, f0c(x + dxr sgn(x - alpha_0))), u = f0c(x) (the
+// essay's static hysteresis).
+template <class Scalar, class Cap>
+inline Scalar reattachment_target(const SeparationParameters<Scalar, Cap>& p, const Scalar& x_rad,
+                                  const Scalar& u) {
+  const Scalar side = x_rad - p.zero_lift_angle_rad;
+  const Scalar shifted = side > Scalar(0)   ? Scalar(x_rad + p.reattach_shift_rad)
+                         : side < Scalar(0) ? Scalar(x_rad - p.reattach_shift_rad)
+                                            : x_rad;
+  const Scalar r = static_separation(p, shifted);
+  return r < u ? r : u;
+}
+
+// Stage 1 with the static hysteresis (dxr > 0): as stall_separation_stage, but a step that
+// reattaches (u0 + u1 > 2 f0) goes toward the reattachment targets r0, r1 (T1r, or T1) when
+// their mean is above f0, else f holds (f1 = f0). Inlined, unlike stall_filtered_angles: a
+// call here (any call: every xmm register is caller-saved) cost the runtime's flattened step
+// of a model WITHOUT hysteresis 40-45 instructions of spills (callgrind, state/stall2/double
+// 1952 -> 1995, with the branch to it at the stage's start or inside its reattaching branch);
+// inlined it costs that step nothing measurable (1952) and a model with it 2006
+// (state/stall2h/double; 2082 with the call).
+template <class Scalar, class Cap>
+INDICIAL_HOT_INLINE void stall_separation_stage_hysteresis(const SeparationParameters<Scalar, Cap>& p, Scalar h,
+                                                         const StallLookups<Scalar>& k, StallState<Scalar>* s) {
+  const Scalar u0 = static_separation_from_table(p, k.lagged_x0_rad, k.table_e0);
+  const Scalar u1 = static_separation_from_table(p, k.lagged_x1_rad, k.table_e1);
+  const Scalar f0 = s->separation_point;
+  Scalar t0 = u0, t1 = u1, e = k.decay, w = k.weight;
+  if (u0 + u1 > f0 + f0) {  // reattaching, or held
+    t0 = reattachment_target(p, k.lagged_x0_rad, u0);
+    t1 = reattachment_target(p, k.lagged_x1_rad, u1);
+    if (!(t0 + t1 > f0 + f0)) return;  // held: f1 = f0
+    if (p.tau1_reattach_semichords > Scalar(0)) {
+      const DecayWeights<Scalar> d = decay_weights(Scalar(h / p.tau1_reattach_semichords));
+      e = d.decay;
+      w = d.weight;
+    }
+  }
+  s->separation_point = e * f0 + (w - e) * t0 + (Scalar(1) - w) * t1;
+  flush_below_normal<ScalarOps<Scalar>>(&s->separation_point);
+}
+
+// Stage 1: f over the step (T1, or T1r while reattaching; held inside the hysteresis band);
+// f1 into s.
 template <class Scalar, class Cap>
 INDICIAL_HOT_INLINE void stall_separation_stage(const StallModel<Scalar, Cap>& m, const Scalar& h,
                                                 const StallLookups<Scalar>& k, StallState<Scalar>* s,
                                                 StallProgress<Scalar>* q) {
   const SeparationParameters<Scalar, Cap>& p = m.separation;
+  q->f0 = s->separation_point;
+  if (p.reattach_shift_rad > Scalar(0)) return stall_separation_stage_hysteresis(p, h, k, s);
   const Scalar u0 = static_separation_from_table(p, k.lagged_x0_rad, k.table_e0);
   const Scalar u1 = static_separation_from_table(p, k.lagged_x1_rad, k.table_e1);
   Scalar e = k.decay;
@@ -1890,7 +1962,6 @@ INDICIAL_HOT_INLINE void stall_separation_stage(const StallModel<Scalar, Cap>& m
     e = d.decay;
     w = d.weight;
   }
-  q->f0 = f0;
   s->separation_point = e * f0 + (w - e) * u0 + (Scalar(1) - w) * u1;
   // Decays as e^k f0 where the static f0 is clipped to 0 (deep stall held).
   flush_below_normal<ScalarOps<Scalar>>(&s->separation_point);
@@ -2051,8 +2122,11 @@ inline void stall_derivatives(const StallModel<Scalar, Cap>& m, const Scalar& x_
                         : Scalar(x_rad - p.tau2_semichords * l_over_v_s * xdot_radps);
   const Scalar f = s.separation_point;
   const Scalar u = static_separation(p, xe);
-  const bool reattaching = p.tau1_reattach_semichords > Scalar(0) && u > f;
-  const Scalar fdot = (u - f) * per_s / (reattaching ? p.tau1_reattach_semichords : p.tau1_semichords);
+  const Scalar r = p.reattach_shift_rad > Scalar(0) ? reattachment_target(p, xe, u) : u;
+  const Scalar t1r = p.tau1_reattach_semichords > Scalar(0) ? p.tau1_reattach_semichords : p.tau1_semichords;
+  const Scalar fdot = f > u ? Scalar((u - f) * per_s / p.tau1_semichords)
+                      : f < r ? Scalar((r - f) * per_s / t1r)
+                              : Scalar(0);
   *ds = StallState<Scalar>{Scalar(0), Scalar(0), Scalar(0), Scalar(0)};
   if (m.families == StallFamilies::none) return;
   if (p.forcing_lag == ForcingLag::first_order)
@@ -2079,6 +2153,7 @@ enum class StallCheck : int {
   nonpositive_time_constant,  // T1, T_v, T_vl <= 0, T2 or T1r < 0, or a width / reset <= 0
   nonpositive_threshold,      // C_N1 <= 0
   bad_separation_table,       // < 2 rows, rows not strictly increasing, a value outside [0, 1]
+  bad_hysteresis,             // dxr < 0 or > kMaxReattachShiftRad
   not_finite                  // a NaN or infinite parameter
 };
 
@@ -2089,10 +2164,13 @@ inline StallCheck check_stall_parameters(const StallModel<Scalar, Cap>& m) {
   const SeparationParameters<Scalar, Cap>& p = m.separation;
   const double vals[] = {double(p.normal_force_slope_per_rad), double(p.zero_lift_angle_rad),
                          double(p.tau1_semichords), double(p.tau2_semichords), double(p.cp_k0),
-                         double(p.cp_k1), double(p.cp_k2), double(p.tau1_reattach_semichords)};
+                         double(p.cp_k1), double(p.cp_k2), double(p.tau1_reattach_semichords),
+                         double(p.reattach_shift_rad)};
   for (double d : vals) if (!isfinite(d)) return StallCheck::not_finite;
   if (!(p.tau1_semichords > Scalar(0)) || p.tau2_semichords < Scalar(0) || p.tau1_reattach_semichords < Scalar(0))
     return StallCheck::nonpositive_time_constant;
+  if (p.reattach_shift_rad < Scalar(0) || p.reattach_shift_rad > Scalar(kMaxReattachShiftRad))
+    return StallCheck::bad_hysteresis;
   if (p.n_f0 < 2 || p.n_f0 > Cap::max_table_points) return StallCheck::bad_separation_table;
   for (int i = 0; i < p.n_f0; ++i) {
     if (!isfinite(p.f0_x_rad[i]) || !isfinite(double(p.f0_value[i]))) return StallCheck::not_finite;

@@ -31,7 +31,8 @@
 // arithmetic gives the fixed point's derivatives with respect to the parameters (s* =
 // c / (1 - Phi) as functions of them), which is what the fitter's sensitivities need.
 // Exception: with a reattachment constant T1r > 0 f's decay depends on f itself (T1r while
-// f0c(x_e) > f), so its P is piecewise affine; its secant step is repeated, at most
+// f0c(x_e) > f), and so with a static hysteresis dxr > 0 (held inside its band), so its P is
+// piecewise affine; its secant step is repeated, at most
 // kPeriodicStallMaxSecants times, until |P(f) - f| <= kPeriodicStallTolerance.
 // Where Phi is not below 1 - kPeriodicStallMinDecay (a clock tau_v whose shedding switch stays
 // saturated over the whole cycle: it grows without bound and has no periodic value; or a decay
@@ -61,7 +62,7 @@ inline constexpr double kPeriodicStallMinDecay = 1e-9;    // 1 - Phi below this:
 struct StallPeriodicStates {
   bool forcing_angle = false;        // x_e: ForcingLag::first_order with T2 > 0
   bool separation = false;           // f: any family
-  bool piecewise_separation = false; // f with T1r > 0 (P piecewise affine)
+  bool piecewise_separation = false; // f with T1r > 0 or dxr > 0 (P piecewise affine)
   bool vortex = false;               // tau_v and v: separation_and_vortex
 };
 
@@ -70,7 +71,8 @@ inline StallPeriodicStates stall_periodic_states(const StallModel<Scalar, Cap>& 
   StallPeriodicStates s;
   if (m.families == StallFamilies::none) return s;
   s.separation = true;
-  s.piecewise_separation = m.separation.tau1_reattach_semichords > Scalar(0);
+  s.piecewise_separation = m.separation.tau1_reattach_semichords > Scalar(0) ||
+                           m.separation.reattach_shift_rad > Scalar(0);
   s.forcing_angle = m.separation.forcing_lag == ForcingLag::first_order && m.separation.tau2_semichords > Scalar(0);
   s.vortex = m.families == StallFamilies::separation_and_vortex;
   return s;

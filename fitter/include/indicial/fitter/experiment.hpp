@@ -113,6 +113,11 @@ enum class LagStart { estimated, at_rest };
 // stall_reattachment = "estimated"; diagnose's slow_reattachment).
 enum class StallReattachment { as_separation, estimated };
 
+// Whether the separation state has a static hysteresis (dxr, model.hpp: the flow reattaches
+// only dxr closer to alpha_0 than it separated, at any rate): none (the default) or estimated
+// ([model] stall_hysteresis = "estimated"; diagnose's static_hysteresis).
+enum class StallHysteresis { none, estimated };
+
 // The dynamic-stall families of one coefficient (issue 22; model.hpp's "Dynamic stall"). [model]
 // keys stall, stall_polar, stall_polar_column, stall_attached_max_deg,
 // stall_f0_correction_{degree,powers,knots_deg}, stall_{T1,T2,CN1,Tv,Tvl}_start (docs/formats.md).
@@ -133,6 +138,8 @@ struct StallConfig {
   double tau2_start = 1.5;
   double tau1_reattach_start = 0.0;       // T1r (with reattachment = estimated); 0: T1's start
   StallReattachment reattachment = StallReattachment::as_separation;
+  double reattach_shift_start_rad = 0.035;  // dxr (with hysteresis = estimated): 2 deg
+  StallHysteresis hysteresis = StallHysteresis::none;
   // [model] stall_forcing_lag: how T2 lags the forcing angle (model.hpp's ForcingLag; structure,
   // not fitted). "delay" (default) or "first_order".
   ForcingLag forcing_lag = ForcingLag::delay;

@@ -68,6 +68,8 @@ inline constexpr std::array<NamedValue<StallFamilies>, 3> stall_families_names{
      {"separation_and_vortex", StallFamilies::separation_and_vortex}}};
 inline constexpr std::array<NamedValue<StallReattachment>, 2> stall_reattachment_names{
     {{"as_separation", StallReattachment::as_separation}, {"estimated", StallReattachment::estimated}}};
+inline constexpr std::array<NamedValue<StallHysteresis>, 2> stall_hysteresis_names{
+    {{"none", StallHysteresis::none}, {"estimated", StallHysteresis::estimated}}};
 inline constexpr std::array<NamedValue<ForcingLag>, 2> forcing_lag_names{
     {{"delay", ForcingLag::delay}, {"first_order", ForcingLag::first_order}}};
 inline constexpr std::array<NamedValue<TimeGrid>, 2> time_grid_names{
@@ -86,6 +88,7 @@ inline constexpr const auto& names_of(TimeGrid) { return time_grid_names; }
 inline constexpr const auto& names_of(StallFamilies) { return stall_families_names; }
 inline constexpr const auto& names_of(StallReattachment) { return stall_reattachment_names; }
 inline constexpr const auto& names_of(ForcingLag) { return forcing_lag_names; }
+inline constexpr const auto& names_of(StallHysteresis) { return stall_hysteresis_names; }
 
 // The file's name of `value` (e.g. "stepwise").
 template <class E>

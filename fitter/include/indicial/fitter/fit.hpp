@@ -273,7 +273,8 @@ enum class ParamKind {
   shedding_threshold,         // C_N1 (CN1)
   vortex_decay, vortex_travel,  // T_v, T_vl in l / V (Tv, Tvl)
   vortex_lift, vortex_cp,     // c_v, x_v (cv, xv)
-  stall_tau1_reattach         // T1r in l / V: f's time constant while reattaching (T1r)
+  stall_tau1_reattach,        // T1r in l / V: f's time constant while reattaching (T1r)
+  stall_reattach_shift        // dxr in rad: the static hysteresis of stall (dxr)
 };
 
 struct ParamId {
