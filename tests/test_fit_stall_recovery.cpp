@@ -24,6 +24,26 @@ TEST_SUITE_BEGIN("unit");  // the ctest label (tests/CMakeLists.txt)
 using namespace indicial;
 using namespace indicial::testing;
 
+namespace {
+
+// A family term of its own (sep_reattachment, sep_hysteresis): the fit's coefficient file
+// carries its line and the runtime steps it as the fitter; the model fitted without it
+// (`without`, on the same cycles) cannot reach the noise and has no such line.
+void check_term_written_and_needed(const FitResult& fit, const Experiment& e, const FitResult& without,
+                                   const std::string& line_key) {
+  const std::string text = coef_file_text(fit.model, "stall.coef");
+  CHECK(text.find(line_key + " ") != std::string::npos);
+  const RuntimeCheck rc = replay_in_runtime(fit, e, text);
+  CHECK(rc.load_status == LoadStatus::ok);
+  CHECK(rc.steps_not_ok == 0);
+  CHECK(rc.max_abs_difference < 1e-12);
+  MESSAGE("s(v): with " << line_key << " " << fit.fit_error << ", without " << without.fit_error);
+  CHECK(without.fit_error > 1.2 * kNoiseSigma);
+  CHECK(coef_file_text(without.model, "s.coef").find(line_key) == std::string::npos);
+}
+
+}  // namespace
+
 TEST_CASE("fit stall families recovers a seeded odeint truth within 3 bounds") {
   TruthExperiment te = truth_experiment();
   Experiment& e = te.e;
@@ -86,18 +106,8 @@ TEST_CASE("fit stall families recovers a reattachment time constant of its own")
   check_within_3_bounds(fit, truth);
   CHECK(std::abs(fit.fit_error / kNoiseSigma - 1.0) < 0.1);
   CHECK(fit.model.coefficients[0].stall.separation.tau1_reattach_semichords > 0.0);
-  // The coefficient file carries it (sep_reattachment) and the runtime steps it as the fitter.
-  const std::string text = coef_file_text(fit.model, "stall.coef");
-  CHECK(text.find("sep_reattachment ") != std::string::npos);
-  const RuntimeCheck rc = replay_in_runtime(fit, e, text);
-  CHECK(rc.load_status == LoadStatus::ok);
-  CHECK(rc.steps_not_ok == 0);
-  CHECK(rc.max_abs_difference < 1e-12);
   // One time constant both ways cannot reach the noise on these cycles.
-  const FitResult symmetric = fit_experiment(te.e, one_start);
-  MESSAGE("s(v): T1r estimated " << fit.fit_error << ", T1 both ways " << symmetric.fit_error);
-  CHECK(symmetric.fit_error > 1.2 * kNoiseSigma);
-  CHECK(coef_file_text(symmetric.model, "s.coef").find("sep_reattachment") == std::string::npos);
+  check_term_written_and_needed(fit, e, fit_experiment(te.e, one_start), "sep_reattachment");
 }
 
 // model.stall_hysteresis = "estimated" (model.hpp's dxr): a truth whose flow reattaches only 2.5
@@ -120,16 +130,7 @@ TEST_CASE("fit stall families recovers a static hysteresis") {
       {"T1", p.tau1_semichords}, {"dxr", p.reattach_shift_rad}, {"T2", p.tau2_semichords}};
   check_within_3_bounds(fit, truth);
   CHECK(std::abs(fit.fit_error / kNoiseSigma - 1.0) < 0.1);
-  const std::string text = coef_file_text(fit.model, "stall.coef");
-  CHECK(text.find("sep_hysteresis ") != std::string::npos);
-  const RuntimeCheck rc = replay_in_runtime(fit, e, text);
-  CHECK(rc.load_status == LoadStatus::ok);
-  CHECK(rc.steps_not_ok == 0);
-  CHECK(rc.max_abs_difference < 1e-12);
-  const FitResult without = fit_experiment(te.e, one_start);
-  MESSAGE("s(v): dxr estimated " << fit.fit_error << ", without " << without.fit_error);
-  CHECK(without.fit_error > 1.2 * kNoiseSigma);
-  CHECK(coef_file_text(without.model, "s.coef").find("sep_hysteresis") == std::string::npos);
+  check_term_written_and_needed(fit, e, fit_experiment(te.e, one_start), "sep_hysteresis");
 }
 
 // model.stall_known: T1 and T2 held at the truth's values are not estimated (absent from the

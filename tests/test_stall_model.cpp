@@ -91,6 +91,21 @@ double max_output_error(const indicial::StallModel<double, Cap>& m, const Motion
   return err;
 }
 
+// The sensitivity tests' objective: the outputs over 384 steps of dt (1.5 cycles of their
+// motion's 256 steps) from the steady state, weighted by sin(0.05 k) to mix the samples; in the
+// model's scalar (double, or the autodiff type whose derivatives are checked).
+template <class T>
+T weighted_output_sum(const indicial::StallModel<T, Cap>& m, const Motion& mo, double dt, double l_over_v) {
+  indicial::StallState<T> s;
+  indicial::stall_steady_state(m, T(mo.alpha(0)), &s);
+  T sum = T(0);
+  for (int k = 0; k < 384; ++k) {
+    indicial::advance_stall(m, {T(mo.alpha(k * dt)), T(mo.alpha((k + 1) * dt)), T(dt), T(l_over_v)}, &s);
+    sum = sum + T(std::sin(0.05 * k)) * indicial::stall_output(m, T(mo.alpha((k + 1) * dt)), s);
+  }
+  return sum;
+}
+
 }  // namespace
 
 TEST_CASE("kirchhoff inversion recovers f and clips to the unit interval") {
@@ -368,18 +383,7 @@ TEST_CASE("stall autodiff sensitivities match finite differences") {
     }
   };
   const double theta[12] = {3.0, 1.7, 1.0, -0.1, 0.05, -0.05, 1.3, 6.0, 7.0, 1.0, 0.4, 0.01};
-  // Sum of outputs over 1.5 cycles, weighted to mix the samples.
-  auto objective = [&](auto m) {
-    using T = std::decay_t<decltype(m.separation.cp_k0)>;
-    indicial::StallState<T> s;
-    indicial::stall_steady_state(m, T(mo.alpha(0)), &s);
-    T sum = T(0);
-    for (int k = 0; k < 384; ++k) {
-      indicial::advance_stall(m, {T(mo.alpha(k * dt)), T(mo.alpha((k + 1) * dt)), T(dt), T(l_over_v)}, &s);
-      sum = sum + T(std::sin(0.05 * k)) * indicial::stall_output(m, T(mo.alpha((k + 1) * dt)), s);
-    }
-    return sum;
-  };
+  auto objective = [&](const auto& m) { return weighted_output_sum(m, mo, dt, l_over_v); };
   indicial::StallModel<AD, Cap> ma;
   // Convert the double model, then seed the parameters.
   ma.families = base.families;
@@ -420,17 +424,7 @@ TEST_CASE("stall autodiff sensitivity to the static hysteresis matches finite di
   mo.mean_rad = 15.0 * kDeg;
   mo.omega_radps = 0.05 / l_over_v;
   const double dt = 2.0 * kPi / mo.omega_radps / 256;
-  auto objective = [&](auto m) {
-    using T = std::decay_t<decltype(m.separation.cp_k0)>;
-    indicial::StallState<T> s;
-    indicial::stall_steady_state(m, T(mo.alpha(0)), &s);
-    T sum = T(0);
-    for (int k = 0; k < 384; ++k) {
-      indicial::advance_stall(m, {T(mo.alpha(k * dt)), T(mo.alpha((k + 1) * dt)), T(dt), T(l_over_v)}, &s);
-      sum = sum + T(std::sin(0.05 * k)) * indicial::stall_output(m, T(mo.alpha((k + 1) * dt)), s);
-    }
-    return sum;
-  };
+  auto objective = [&](const auto& m) { return weighted_output_sum(m, mo, dt, l_over_v); };
   auto base = test_model<double>(indicial::StallFamilies::separation_and_vortex);
   auto ma = test_model<AD>(indicial::StallFamilies::separation_and_vortex);
   for (double dxr_deg : {1.0, 3.0}) {
