@@ -78,6 +78,7 @@ struct Variant {
   StallFamilies families;
   indicial::ForcingLag lag;
   double t1r_semichords;
+  double dxr_deg = 0.0;  // the static hysteresis (model.hpp's dxr): f piecewise too
 };
 
 constexpr Variant kVariants[] = {
@@ -86,12 +87,15 @@ constexpr Variant kVariants[] = {
     {"first-order forcing lag", StallFamilies::separation_and_vortex, indicial::ForcingLag::first_order, 0.0},
     {"reattachment constant", StallFamilies::separation_and_vortex, indicial::ForcingLag::delay, 10.0},
     {"both", StallFamilies::separation_and_vortex, indicial::ForcingLag::first_order, 30.0},
+    {"static hysteresis", StallFamilies::separation_and_vortex, indicial::ForcingLag::delay, 0.0, 3.0},
+    {"hysteresis and T1r", StallFamilies::separation_and_vortex, indicial::ForcingLag::first_order, 10.0, 3.0},
 };
 
 indicial::StallModel<double, Cap> variant_model(const Variant& v) {
   auto m = test_model<double>(v.families);
   m.separation.forcing_lag = v.lag;
   m.separation.tau1_reattach_semichords = v.t1r_semichords;
+  m.separation.reattach_shift_rad = v.dxr_deg * indicial::test_models::kDeg;
   return m;
 }
 
@@ -112,7 +116,7 @@ TEST_CASE("periodic stall state is a fixed point of one cycle for every family a
       // Two cycles per group, x_e's only with its state; further ones only for a piecewise f.
       const int groups = (v.lag == indicial::ForcingLag::first_order ? 1 : 0) + 1 +
                          (v.families == StallFamilies::separation_and_vortex ? 1 : 0);
-      if (v.t1r_semichords == 0.0) CHECK(r.cycles == 2 * groups);
+      if (v.t1r_semichords == 0.0 && v.dxr_deg == 0.0) CHECK(r.cycles == 2 * groups);
       CHECK(r.secants < indicial::kPeriodicStallMaxSecants - 1);
     }
   }
@@ -148,37 +152,41 @@ TEST_CASE("periodic stall state holds where a slow vortex decay keeps three warm
 
 // The fitter's sensitivities of a periodic run (fit_output_error.cpp) come from this solver run
 // on an autodiff scalar: d s* / d theta against central differences of the double solver, for
-// the time constants and the shedding threshold, with a piecewise f (T1r) and without.
+// the time constants and the shedding threshold, with a piecewise f (T1r, the static
+// hysteresis) and without.
 TEST_CASE("periodic stall state derivatives match central differences") {
-  using AD = Eigen::AutoDiffScalar<Eigen::Matrix<double, 5, 1>>;
+  using AD = Eigen::AutoDiffScalar<Eigen::Matrix<double, 6, 1>>;
   auto set = [](auto& m, int i, const auto& value) {
     switch (i) {
       case 0: m.separation.tau1_semichords = value; break;
       case 1: m.separation.tau2_semichords = value; break;
       case 2: m.vortex.decay_semichords = value; break;
       case 3: m.vortex.shedding_threshold = value; break;
-      default: m.separation.tau1_reattach_semichords = value; break;
+      case 4: m.separation.tau1_reattach_semichords = value; break;
+      default: m.separation.reattach_shift_rad = value; break;
     }
   };
   for (const Variant& v : kVariants) {
     const auto base = variant_model(v);
-    const double theta[5] = {3.0, 1.7, 40.0, 1.3, v.t1r_semichords};
-    const int n_params = v.t1r_semichords > 0.0 ? 5 : 4;
+    const double theta[6] = {3.0, 1.7, 40.0, 1.3, v.t1r_semichords, base.separation.reattach_shift_rad};
+    std::vector<int> active = {0, 1, 2, 3};  // T1r and dxr where the variant has them
+    if (v.t1r_semichords > 0.0) active.push_back(4);
+    if (v.dxr_deg > 0.0) active.push_back(5);
     auto ad = test_model<AD>(v.families);
     ad.separation.forcing_lag = v.lag;
-    for (int i = 0; i < 5; ++i) {
+    for (int i = 0; i < 6; ++i) {
       AD x(theta[i]);
       x.derivatives().setZero();
-      if (i < n_params) x.derivatives()(i) = 1.0;
+      if (std::find(active.begin(), active.end(), i) != active.end()) x.derivatives()(i) = 1.0;
       set(ad, i, x);
     }
     Cycle c;
     StallState<AD> sa;
     solve(ad, c, &sa);
-    for (int i = 0; i < n_params; ++i) {
+    for (int i : active) {
       const double h = 1e-6 * theta[i];
       auto plus = base, minus = base;
-      for (int j = 0; j < 5; ++j) {
+      for (int j = 0; j < 6; ++j) {
         set(plus, j, theta[j]);
         set(minus, j, theta[j]);
       }
