@@ -231,8 +231,8 @@ void gen_slow_reattachment(const CandidateContext& ctx, std::vector<CandidateSpe
 }
 
 // The separation state's static hysteresis dxr (model.hpp), on a model that has the families
-// without it: started at the nested start's 1e-3 rad (0.06 deg; dxr = 0 is the feasible set's
-// edge), a band too narrow to move the base's cost, so its first fit begins there.
+// without it: started at kHysteresisNestedStartRad (fit.hpp), as the fit's nested trial, a band
+// too narrow to move the base's cost, so its first fit begins there.
 void gen_static_hysteresis(const CandidateContext& ctx, std::vector<CandidateSpec>& out) {
   const StallConfig& have = ctx.model.stall;
   if (have.families == StallFamilies::none || have.hysteresis == StallHysteresis::estimated) return;
@@ -240,7 +240,7 @@ void gen_static_hysteresis(const CandidateContext& ctx, std::vector<CandidateSpe
   c.effect = Effect::static_hysteresis;
   c.config = ctx.model;
   c.config.stall.hysteresis = StallHysteresis::estimated;
-  c.starts = {{{param_id(ParamKind::stall_reattach_shift), 1e-3}}};
+  c.starts = {{{param_id(ParamKind::stall_reattach_shift), kHysteresisNestedStartRad}}};
   c.term = "dxr";
   c.detail = "static hysteresis of stall";
   out.push_back(c);

@@ -481,17 +481,12 @@ StallStartTrial nested_constant_trial(const FitContext& c, const Estimate& est, 
 void search_stall_starts(const FitContext& c, Estimate& est, const Eigen::VectorXd& theta0,
                          StallStartSearchResult& out);
 
-// The start of dxr in the nested trial below: 1e-3 rad (0.06 deg), a band too narrow to move
-// the fit error (the model at dxr = 0 is the sub-model; 0 itself is the feasible set's edge,
-// where a trial step to dxr < 0 is refused), yet dxr's sensitivity is there to follow.
-constexpr double kNestedHysteresisStartRad = 1e-3;
-
 // With dxr estimated (stall_hysteresis = "estimated"): the model nests the one without the
 // hysteresis (dxr = 0), yet a fit from the grid alone can end far above it (measured: the
 // Glasgow C_m fit cycles of tools/validate_stall.py, s(v) 0.0376 with dxr -> 1.7e-7 against
 // 0.0313 without; and a start from the sub-model's grid alone, without its own nested trials,
 // 0.0368). So the model without it gets the whole search (search_stall_starts, its nested
-// trials included) and one more start is its best fit with dxr = kNestedHysteresisStartRad:
+// trials included) and one more start is its best fit with dxr = kHysteresisNestedStartRad:
 // the kept fit can then not end above the search without the hysteresis. Costs that search.
 // Returns the trial; *fit is its fit.
 StallStartTrial nested_hysteresis_trial(const FitContext& c, const Estimate& est, const ParameterLayout& L,
@@ -508,14 +503,14 @@ StallStartTrial nested_hysteresis_trial(const FitContext& c, const Estimate& est
     return failed_trial("the model's fit without the hysteresis (no dxr) did not propagate from any start", fit);
   Eigen::VectorXd start = theta0;
   for (int i = 0; i < Ls.size(); ++i) start(L.find(Ls.ids()[static_cast<std::size_t>(i)])) = sub.ml.theta(i);
-  start(L.find(param_id(ParamKind::stall_reattach_shift))) = kNestedHysteresisStartRad;
+  start(L.find(param_id(ParamKind::stall_reattach_shift))) = kHysteresisNestedStartRad;
   *fit = c.fit(est.s, est.runs, est.rotary, start);
   StallStartTrial trial;
-  trial.start = {{"dxr", kNestedHysteresisStartRad}};
+  trial.start = {{"dxr", kHysteresisNestedStartRad}};
   trial.fit_error = fit->summary.fit_error;
   trial.origin = fmt::format("from the best fit without the hysteresis (no dxr, {} starts, s(v) = {:.6g}), "
                              "dxr = {:g} rad", sub_search.trials.size(), sub.ml.summary.fit_error,
-                             kNestedHysteresisStartRad);
+                             kHysteresisNestedStartRad);
   return trial;
 }
 

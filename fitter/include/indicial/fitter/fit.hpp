@@ -277,6 +277,12 @@ enum class ParamKind {
   stall_reattach_shift        // dxr in rad: the static hysteresis of stall (dxr)
 };
 
+// Where dxr starts when a model without the hysteresis is extended by it (the fit's nested
+// trial, diagnose's static_hysteresis candidate): 1e-3 rad (0.06 deg), a band too narrow to
+// move the fit error (dxr = 0 is that model, and the feasible set's edge, where a trial step to
+// dxr < 0 is refused), yet dxr's sensitivity is there to follow.
+inline constexpr double kHysteresisNestedStartRad = 1e-3;
+
 struct ParamId {
   ParamKind kind = ParamKind::a_power;
   int lag = 0;            // 0-based lag: b_power, b_knot, gain, initial_state
