@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <mutex>
 #include <string>
 
 #include "diagnose/diagnose_internal.hpp"
@@ -94,6 +95,52 @@ TEST_CASE("held-out test: runs dealt into folds are compared fold by fold") {
   CHECK_FALSE(per_fold.enters);
 }
 
+TEST_CASE("fold plan: whole groups when every run has one, runs otherwise") {
+  using diagnose_detail::fold_plan;
+  Experiment e;
+  const auto with_groups = [&](std::vector<std::string> groups) {
+    e.runs.assign(groups.size(), Run{});
+    for (std::size_t r = 0; r < groups.size(); ++r) e.runs[r].group = groups[r];
+  };
+  // Three groups in the order they first appear; each a fold.
+  with_groups({"entry 5", "entry 6", "entry 5", "entry 7", "entry 6"});
+  diagnose_detail::FoldPlan p = fold_plan(e, 10);
+  CHECK(p.unit == CrossValidationUnit::group);
+  CHECK(p.folds == 3);
+  CHECK(p.groups == std::vector<std::string>{"entry 5", "entry 6", "entry 7"});
+  CHECK(p.fold_of_run == std::vector<int>{0, 1, 0, 2, 1});
+  // More groups than max_folds: group g into fold g mod K.
+  p = fold_plan(e, 2);
+  CHECK(p.folds == 2);
+  CHECK(p.fold_of_run == std::vector<int>{0, 1, 0, 0, 1});
+  // One group says nothing about entries: runs are left out, as without groups.
+  with_groups({"entry 5", "entry 5", "entry 5", "entry 5"});
+  p = fold_plan(e, 10);
+  CHECK(p.unit == CrossValidationUnit::run);
+  CHECK(p.groups.empty());
+  CHECK(p.folds == 4);
+  CHECK(p.fold_of_run == std::vector<int>{0, 1, 2, 3});
+  with_groups({"", "", "", "", ""});
+  p = fold_plan(e, 2);
+  CHECK(p.unit == CrossValidationUnit::run);
+  CHECK(p.fold_of_run == std::vector<int>{0, 1, 0, 1, 0});
+}
+
+TEST_CASE("held-out test: with groups, d is taken per group") {
+  using diagnose_detail::held_out_test;
+  // The runs of the four-run case above in groups {1, 2} and {3, 4} instead of r mod 2: d =
+  // {-1.15, -0.85}, mean -1.0, SE 0.15: enters (dealt r mod 2 it did not).
+  auto base = held_out({1.0, 1.0, 1.0, 1.0});
+  auto with = held_out({std::exp(-2.0), std::exp(-0.3), std::exp(-2.0), std::exp(0.3)});
+  base.folds = with.folds = 2;
+  base.fold_of_run = with.fold_of_run = {0, 0, 1, 1};
+  const HeldOutTest t = held_out_test(Effect::bias, "con", "first term", base, with, 0.10, 0.04);
+  CHECK(t.folds == 2);
+  CHECK(t.mean_log_ratio == doctest::Approx(-1.0));
+  CHECK(t.standard_error == doctest::Approx(0.15));
+  CHECK(t.enters);
+}
+
 TEST_CASE("held-out test: the minimum gain shrinks as 3 / folds beyond three folds") {
   using diagnose_detail::held_out_test;
   using diagnose_detail::min_gain_for_folds;
@@ -161,6 +208,50 @@ TEST_CASE("leave-one-run-out: a knot the other runs do not reach is left out of 
     CHECK(h.scored_fraction[static_cast<std::size_t>(r)] > 0.4);
     CHECK(h.scored_fraction[static_cast<std::size_t>(r)] < 0.6);
   }
+}
+
+TEST_CASE("leave-one-run-out with groups: a fold fits the other groups' runs and predicts its own") {
+  // Four runs in two groups (runs 1, 3 and 2, 4): each fold's fit sees exactly the other
+  // group's runs, and every run is predicted by the fold that left its group out.
+  SimulationCase c = matrix_base_case("Cm", MatrixMotion::sine_from_rest);
+  c.motions.push_back(c.motions.back());
+  c.motions.back().amplitude_rad *= 0.8;
+  std::vector<SimulatedRun> runs;
+  for (const auto& m : c.motions) runs.push_back(simulate_reference(c.truth, m));
+  add_measurement_noise(runs, 40.0, 7, NoiseModel{});
+  Experiment e = experiment_from_simulation(c, runs);
+  REQUIRE(e.runs.size() == 4);
+  for (std::size_t r = 0; r < 4; ++r) {
+    e.runs[r].path = "run" + std::to_string(r + 1);
+    e.runs[r].group = r % 2 == 0 ? "entry A" : "entry B";
+  }
+  const FitResult full = fit_experiment(e, FitOptions{});
+  REQUIRE(std::isfinite(full.fit_error));
+  std::mutex seen_mutex;
+  std::vector<std::string> seen;
+  const auto fold_fit = [&](const Experiment& x, const ModelConfig& m, const diagnose_detail::StartValues& sv) {
+    std::string names;
+    for (const Run& r : x.runs) names += r.path + " ";
+    {
+      std::lock_guard<std::mutex> lock(seen_mutex);
+      seen.push_back(names);
+    }
+    Experiment y = x;
+    y.model = m;
+    FitOptions o;
+    for (const auto& [id, v] : sv) o.start_values.emplace_back(parameter_name(id), v);
+    return fit_experiment(y, o);
+  };
+  const diagnose_detail::HeldOut h =
+      diagnose_detail::held_out_errors(e, e.model, diagnose_detail::estimates_by_id(full), 2, 10, fold_fit);
+  INFO(h.message);
+  CHECK(h.ok);
+  CHECK(h.folds == 2);
+  CHECK(h.fold_of_run == std::vector<int>{0, 1, 0, 1});
+  std::sort(seen.begin(), seen.end());
+  CHECK(seen == std::vector<std::string>{"run1 run3 ", "run2 run4 "});
+  REQUIRE(h.mse.size() == 4);
+  for (double v : h.mse) CHECK(std::isfinite(v));
 }
 
 TEST_CASE("leave-one-run-out: a left-out run is scored inside the fold's range and its margin, or everywhere") {

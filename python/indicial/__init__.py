@@ -106,6 +106,10 @@ class Run:
       periodic       True for one ensemble-averaged cycle (periodic steady state)
       airspeed_mps   this run's airspeed, m/s (default: the experiment's)
       name           how messages and results name the run
+      group          the tunnel entry, campaign or session the run belongs to (the experiment
+                     file's runs key ``group``): when every run has one, ``diagnose``'s
+                     cross-validation leaves whole groups out (docs/diagnose.md, "Groups");
+                     either every run of an Experiment has a group or none does
 
     ``Run.from_dict(d)`` takes a run as ``Experiment.runs`` and ``read_runs`` give it (the
     axis-neutral ``motion_angle_rad`` and ``rate_radps``, whatever the axis), e.g. to refit
@@ -114,11 +118,12 @@ class Run:
 
     def __init__(self, *, time_s, coefficient, alpha_rad=None, q_radps=None, phi_rad=None, p_radps=None,
                  psi_rad=None, r_radps=None, periodic: bool = False, airspeed_mps: Optional[float] = None,
-                 time_grid: str = "uniform", name: Optional[str] = None):
+                 time_grid: str = "uniform", name: Optional[str] = None, group: Optional[str] = None):
         self.kwargs = dict(alpha_rad=alpha_rad, q_radps=q_radps, phi_rad=phi_rad, p_radps=p_radps,
                            psi_rad=psi_rad, r_radps=r_radps)
         self.time_s, self.coefficient = time_s, coefficient
         self.periodic, self.airspeed_mps, self.time_grid, self.name = periodic, airspeed_mps, time_grid, name
+        self.group = group
         self._neutral = None  # (angle, rate) of from_dict: the experiment's axis, whatever it is
         self._from = (None, None)  # from_dict: (coefficient_name, axis) of the dict
 
@@ -126,13 +131,14 @@ class Run:
     def from_dict(cls, d: dict) -> "Run":
         """A Run from one of ``Experiment.runs`` or ``read_runs``: its ``time_s``,
         ``motion_angle_rad``, ``rate_radps``, ``coefficient``, ``periodic``, ``airspeed_mps``,
-        ``time_grid`` and ``name`` (other keys ignored). The motion is taken as the angle of
+        ``time_grid``, ``name`` and ``group`` (other keys ignored). The motion is taken as the angle of
         whichever axis the Experiment it joins has: the dicts carry no axis-specific names."""
         missing = [k for k in ("time_s", "motion_angle_rad", "coefficient") if k not in d]
         if missing:
             raise InputError(f"Run.from_dict: missing {', '.join(missing)} (a run of Experiment.runs or read_runs)")
         r = cls(time_s=d["time_s"], coefficient=d["coefficient"], periodic=bool(d.get("periodic", False)),
-                airspeed_mps=d.get("airspeed_mps"), time_grid=d.get("time_grid", "uniform"), name=d.get("name"))
+                airspeed_mps=d.get("airspeed_mps"), time_grid=d.get("time_grid", "uniform"), name=d.get("name"),
+                group=d.get("group"))
         r._neutral = (d["motion_angle_rad"], d.get("rate_radps"))
         # What the dict says it is, for Experiment to check (a C_L run in a Cm experiment, a
         # roll run in a pitch one, would be fitted silently otherwise).
@@ -143,7 +149,7 @@ class Run:
         angle, rate = self._neutral if self._neutral is not None else _motion(axis, self.kwargs)
         return dict(time_s=self.time_s, motion_angle_rad=angle, rate_radps=rate, coefficient=self.coefficient,
                     periodic=bool(self.periodic), airspeed_mps=self.airspeed_mps, time_grid=self.time_grid,
-                    name=self.name)
+                    name=self.name, group=self.group)
 
 
 class Experiment:
@@ -626,7 +632,7 @@ def diagnose(experiment: Experiment, *, alpha: float = 0.01, max_steps: int = 6,
     (docs/diagnose.md, "Options"): ``rule`` ``"auto"`` (leave-one-run-out with ``cv_min_runs``,
     3, or more runs, else likelihood ratio), ``"cv"`` or ``"lr"``; ``cv_min_runs`` (>= 2) the runs
     leave-one-run-out needs; ``max_folds`` (>= 2) the folds runs are dealt
-    into; ``min_gain`` and ``min_in_sample_gain`` (each in [0, 1)) the cross-validation rule's
+    into (whole groups when every run has a ``group``: docs/diagnose.md, "Groups"); ``min_gain`` and ``min_in_sample_gain`` (each in [0, 1)) the cross-validation rule's
     held-out and in-sample gains, fractions of the mean square error (the held-out one with three
     folds or fewer; with K > 3 folds ``min_gain`` 3 / K); ``threads`` (>= 1) fits run
     in parallel (a scan's candidates, the held-out folds, each fit's stall start grid; the

@@ -77,6 +77,11 @@ Run make_run(const py::dict& d, const std::string& label) {
   run.periodic = d.contains("periodic") && d["periodic"].cast<bool>();
   run.airspeed_mps = d.contains("airspeed_mps") && !d["airspeed_mps"].is_none() ? d["airspeed_mps"].cast<double>() : 0.0;
   if (d.contains("time_grid")) run.time_grid = choice<TimeGrid>(label + ": time_grid", d["time_grid"].cast<std::string>());
+  if (d.contains("group") && !d["group"].is_none()) {
+    run.group = py::str(d["group"]).cast<std::string>();
+    if (run.group.find_first_not_of(" \t") == std::string::npos)
+      throw InputError(label, 0, "group is empty: name the tunnel entry, campaign or session the run belongs to");
+  }
   const std::size_t n = run.time_s.size();
   auto same = [&](const std::vector<double>& v, const char* what) {
     if (v.size() != n)
@@ -357,6 +362,9 @@ std::shared_ptr<Experiment> make_experiment(const py::dict& c, const py::list& r
     if (run.airspeed_mps == 0.0) run.airspeed_mps = e->airspeed_mps;
     e->runs.push_back(std::move(run));
   }
+  std::string group_problem;
+  if (const long r = run_group_problem(*e, &group_problem); r >= 0)
+    throw InputError("run " + std::to_string(r + 1), 0, group_problem);
   set_data_range(*e);
   check_knots(*e, e->model.a.knots_rad, "a_knots_rad");
   check_knots(*e, e->model.b1.knots_rad, "b1_knots_rad");
@@ -442,6 +450,7 @@ py::dict run_dict(const Run& r) {
   d["periodic"] = r.periodic;
   d["airspeed_mps"] = r.airspeed_mps;
   d["time_grid"] = name_of(r.time_grid);
+  d["group"] = r.group.empty() ? py::object(py::none()) : py::object(py::str(r.group));
   return d;
 }
 

@@ -365,3 +365,23 @@ def test_written_phase_cycles_read_back_and_fit_alike(tmp_path, cli):
     for pa, pb in zip(a["parameters"], b["parameters"]):
         assert pa["name"] == pb["name"]
         assert pb["value"] == pytest.approx(pa["value"], rel=1e-9, abs=1e-12)
+
+
+def test_run_groups_reach_the_experiment_file_and_a_mix_is_refused(tmp_path):
+    """Run(group=...) is the runs entry's `group` (the tunnel entry a run belongs to):
+    kept in Experiment.runs, written by write_files and read back by the file reader; a
+    run without one beside runs with one, or an empty one, is refused as the file is."""
+    runs = [indicial.Run(**sine_run(), group=g) for g in ("entry 5", "entry 6", "entry 5")]
+    e = indicial.Experiment(coefficient="Cm", reference_length_m=0.5, airspeed_mps=30.0, runs=runs)
+    assert [r["group"] for r in e.runs] == ["entry 5", "entry 6", "entry 5"]
+    e.write_files(str(tmp_path / "x"))
+    back = indicial.Experiment.from_toml(str(tmp_path / "x" / "experiment.toml"))
+    assert [r["group"] for r in back.runs] == ["entry 5", "entry 6", "entry 5"]
+    assert indicial.Run.from_dict(back.runs[1]).group == "entry 6"
+    assert experiment().runs[0]["group"] is None
+    with pytest.raises(indicial.InputError, match="^run 2: run 'run 2' has no 'group' while run 'run 1' has group"):
+        indicial.Experiment(coefficient="Cm", reference_length_m=0.5, airspeed_mps=30.0,
+                            runs=[indicial.Run(**sine_run(), group="a"), indicial.Run(**sine_run())])
+    with pytest.raises(indicial.InputError, match="^run 1: group is empty"):
+        indicial.Experiment(coefficient="Cm", reference_length_m=0.5, airspeed_mps=30.0,
+                            runs=[indicial.Run(**sine_run(), group=" ")])

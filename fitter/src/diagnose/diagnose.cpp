@@ -808,9 +808,18 @@ KappaRule choose_rule(const Experiment& e, const DiagnoseOptions& o, DiagnoseRes
   if (o.rule != RuleChoice::likelihood_ratio && enough) {
     d.rule = DecisionRule::leave_one_run_out;
     d.rule_reason = fmt::format("{} runs: an effect enters only when it lowers the error of runs left out of its fit", runs);
-    d.cv_folds = std::min(runs, o.cv_max_folds);
-    if (d.cv_folds < runs)
+    const diagnose_detail::FoldPlan plan = diagnose_detail::fold_plan(e, o.cv_max_folds);
+    d.cv_folds = plan.folds;
+    d.cv_unit = plan.unit;
+    d.cv_groups = plan.groups;
+    if (plan.unit == CrossValidationUnit::group) {
+      d.rule_reason += fmt::format(" (whole groups left out: {} groups", plan.groups.size());
+      d.rule_reason += plan.folds < static_cast<int>(plan.groups.size())
+                           ? fmt::format(" in {} folds, group g with fold g mod {})", plan.folds, plan.folds)
+                           : std::string(", one per fold)");
+    } else if (d.cv_folds < runs) {
       d.rule_reason += fmt::format(" ({} folds of runs: run r left out with fold r mod {})", d.cv_folds, d.cv_folds);
+    }
   } else if (d.replication.source != NoiseSource::none) {
     d.rule = DecisionRule::lr_replication_noise;
     const double r1 = d.replication.lag1_correlation;

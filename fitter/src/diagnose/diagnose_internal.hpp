@@ -138,10 +138,22 @@ int choose_family(const std::vector<FamilyResult>& fr, const DiagnoseOptions& o,
 // from a least-squares lag-1 initial state). ok = false when some fold cannot be scored (its
 // fit failed or is rank deficient -- a term the other runs do not determine -- or the runtime
 // refuses it); `message` says which and why.
+// The folds (fold_plan): runs dealt by their order (run r into fold r mod K, K = min(runs,
+// max_folds)), or, when every run has a group and there are at least two, whole groups (group
+// g, in order of first appearance, into fold g mod K, K = min(groups, max_folds)).
+struct FoldPlan {
+  int folds = 0;
+  std::vector<int> fold_of_run;      // each run's fold, 0-based
+  CrossValidationUnit unit = CrossValidationUnit::run;
+  std::vector<std::string> groups;  // unit group: the groups, in order of first appearance
+};
+FoldPlan fold_plan(const Experiment& e, int max_folds);
+
 struct HeldOut {
   std::vector<double> mse;  // per run, over its scored samples
   std::vector<double> scored_fraction;  // per run: the share of its samples scored (1: all)
-  int folds = 0;            // run r was left out with fold r mod folds (folds == runs or 0: one run each)
+  int folds = 0;            // the number of folds (folds == runs or 0: one run each)
+  std::vector<int> fold_of_run;  // each run's fold (empty: run r in fold r mod folds)
   double fit_error = std::numeric_limits<double>::quiet_NaN();  // the model's fit to ALL runs, s(v)
   bool ok = false;
   std::string message;

@@ -549,6 +549,8 @@ nlohmann::json diagnosis_json(const DiagnoseResult& d, const Experiment& e, cons
   j["rule_reason"] = d.rule_reason;
   if (d.rule == DecisionRule::leave_one_run_out) {
     j["cv_folds"] = d.cv_folds;
+    j["cv_unit"] = cross_validation_unit_name(d.cv_unit);
+    if (d.cv_unit == CrossValidationUnit::group) j["cv_groups"] = d.cv_groups;
     j["cv_min_gain"] = o.cv_min_gain;
     j["cv_min_gain_applied"] = diagnose_detail::min_gain_for_folds(o.cv_min_gain, d.cv_folds);
     j["cv_min_in_sample_gain"] = o.cv_min_in_sample_gain;

@@ -79,6 +79,16 @@ std::string deg_text(double rad) {
   return buf;
 }
 
+long run_group_problem(const Experiment& e, std::string* problem) {
+  const auto grouped = std::find_if(e.runs.begin(), e.runs.end(), [](const Run& r) { return !r.group.empty(); });
+  const auto ungrouped = std::find_if(e.runs.begin(), e.runs.end(), [](const Run& r) { return r.group.empty(); });
+  problem->clear();
+  if (grouped == e.runs.end() || ungrouped == e.runs.end()) return -1;
+  *problem = "run '" + ungrouped->path + "' has no 'group' while run '" + grouped->path + "' has group '" +
+             grouped->group + "': give every run a group (diagnose's cross-validation leaves whole groups out) or none";
+  return static_cast<long>(ungrouped - e.runs.begin());
+}
+
 std::string periodic_closure_problem(const Run& run) {
   const std::vector<double>& a = run.motion_angle_rad;
   const std::size_t n = a.size();

@@ -54,6 +54,7 @@ struct RunEntry {
   bool frequency_given = false;
   double airspeed_mps = 0.0;         // the run's V (default: the experiment's)
   int cycles_averaged = 0;           // cycles behind an ensemble average's spread column (0: not given)
+  std::string group;                 // the run's group (Run::group; empty: not given)
 };
 
 // A use of a runtime capacity found while reading, checked once the structure is known
@@ -308,7 +309,7 @@ RunEntry read_run_table(const LoadContext& c, const toml::node& entry, const Exp
   const TomlReader& r = c.r;
   const toml::table& t = *entry.as_table();
   r.check_keys(t, {"file", "files", "samples", "periodic", "frequency_hz", "reduced_frequency", "airspeed_mps",
-                   "time_grid", "cycles_averaged"}, "runs.");
+                   "time_grid", "cycles_averaged", "group"}, "runs.");
   RunEntry re;
   re.line = static_cast<long>(entry.source().begin.line);
   const toml::node* f = t.get("file");
@@ -318,6 +319,11 @@ RunEntry read_run_table(const LoadContext& c, const toml::node& entry, const Exp
   if (f) re.file = r.string(*f, "runs.file");
   if (fs) read_run_files(r, *fs, t, re);
   if (const toml::node* n = t.get("periodic")) re.periodic = r.boolean(*n, "runs.periodic");
+  if (const toml::node* n = t.get("group")) {
+    re.group = r.string(*n, "runs.group");
+    if (re.group.find_first_not_of(" \t") == std::string::npos)
+      r.fail(*n, "'runs.group' is empty: name the tunnel entry, campaign or session the run belongs to");
+  }
   re.airspeed_mps = e.airspeed_mps;
   if (const toml::node* n = t.get("airspeed_mps")) {
     re.airspeed_mps = r.number(*n, "runs.airspeed_mps");
@@ -819,6 +825,7 @@ void read_runs(const LoadContext& c, const std::vector<RunEntry>& entries, Exper
                   : read_run_of_files(c, entry, e, presence);
     run.experiment_line = entry.line;
     run.airspeed_mps = entry.airspeed_mps;
+    run.group = entry.group;
     if (run.time_source == TimeSource::phase_column) {
       if (entry.periodic == false)
         throw InputError(c.r.file(), entry.line, "run '" + entry.file + "' has a phase column, so it is one periodic "
@@ -839,6 +846,9 @@ void read_runs(const LoadContext& c, const std::vector<RunEntry>& entries, Exper
     e.warnings.insert(e.warnings.end(), run.warnings.begin(), run.warnings.end());
     e.runs.push_back(std::move(run));
   }
+  std::string problem;
+  const long ungrouped = run_group_problem(e, &problem);
+  if (ungrouped >= 0) throw InputError(c.r.file(), entries[static_cast<std::size_t>(ungrouped)].line, problem);
   set_data_range(e);
 }
 
@@ -1085,6 +1095,7 @@ std::string run_entry(const Run& run, double experiment_airspeed_mps) {
     if (run.resampled_points > 0) out += ", samples = " + std::to_string(run.resampled_points);
     if (run.airspeed_mps > 0.0 && run.airspeed_mps != experiment_airspeed_mps)
       out += ", airspeed_mps = " + format_double(run.airspeed_mps);
+    if (!run.group.empty()) out += ", group = " + toml_string(run.group);
     return out + "}";
   }
   // (A time column's frequency is the motion's, kept for the noise from its cycles.)
@@ -1094,6 +1105,7 @@ std::string run_entry(const Run& run, double experiment_airspeed_mps) {
     keys += ", airspeed_mps = " + format_double(run.airspeed_mps);
   if (run.time_grid == TimeGrid::nonuniform) keys += std::string(", time_grid = \"") + name_of(run.time_grid) + "\"";
   if (run.ensemble_count >= 2.0) keys += ", cycles_averaged = " + format_double(run.ensemble_count);
+  if (!run.group.empty()) keys += ", group = " + toml_string(run.group);
   return keys.empty() ? toml_string(run.path) : "{file = " + toml_string(run.path) + keys + "}";
 }
 

@@ -146,8 +146,10 @@ struct DiagnoseOptions {
                                      // at least this fraction: the materiality floor that keeps a
                                      // chance held-out gain of three runs out (in [0, 1); 0: off;
                                      // docs/diagnose.md, "Which rule decides")
-  int cv_max_folds = 10;             // more runs than this: runs dealt into this many folds (run r
-                                     // into fold r mod cv_max_folds), each fold left out at once
+  int cv_max_folds = 10;             // more runs (or groups) than this: runs dealt into this many
+                                     // folds (run r into fold r mod cv_max_folds; group g, in order
+                                     // of first appearance, into fold g mod cv_max_folds), each fold
+                                     // left out at once
   int threads = 2;                   // fits run in parallel (candidates of a scan, held-out
                                      // folds, and each fit's stall start grid: fit.threads is
                                      // replaced by this in every fit diagnose runs)
@@ -317,6 +319,16 @@ enum class DiagnoseStop {
 };
 const char* diagnose_stop_name(DiagnoseStop s);  // "nothing_significant", "max_steps"
 
+// What the leave-one-run-out rule leaves out of a fold: runs (dealt into folds by their order),
+// or whole groups of runs (Run::group, the experiment's `runs` entries' `group` key: a tunnel
+// entry, campaign or session), used when every run has a group and there are at least two
+// groups. Why groups: runs of one entry share its offsets (a balance's zero, the model's
+// installation), so a term can lower the error of a left-out run of the same entry and still
+// not carry to another one -- measured on the development set (docs/validation-stall.md), where
+// the fit cycles are two campaigns and the held-out cycles a third.
+enum class CrossValidationUnit { run, group };
+inline const char* cross_validation_unit_name(CrossValidationUnit u) { return u == CrossValidationUnit::group ? "group" : "run"; }
+
 struct DiagnoseResult {
   DiagnoseStop stopped = DiagnoseStop::nothing_significant;
   double initial_fit_error = 0.0;
@@ -327,6 +339,8 @@ struct DiagnoseResult {
                                        // test could not run says so in its rule_note)
   std::string rule_reason;             // one line: why this rule
   int cv_folds = 0;                    // leave_one_run_out: folds (== runs: one run each); else 0
+  CrossValidationUnit cv_unit = CrossValidationUnit::run;  // leave_one_run_out: what a fold leaves out
+  std::vector<std::string> cv_groups;  // cv_unit group: the groups, in order of first appearance
   NoiseEstimate final_noise;           // from the final fit's residuals
   std::vector<DiagnoseStep> steps;
   std::vector<DiagnoseRound> rounds;

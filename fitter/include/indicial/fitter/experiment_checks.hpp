@@ -64,6 +64,12 @@ std::string deg_text(double rad);
 // angle's jump at the wrap exceeds twice the largest step inside the run.
 std::string periodic_closure_problem(const Run& run);
 
+// Why the runs' groups (Run::group) cannot be used: the index of the first run without a group
+// when another run has one (either every run of an experiment has a group or none does: a
+// forgotten group would put a run into a fold of its own), with the problem in `problem`; -1
+// and "" when they can.
+long run_group_problem(const Experiment& e, std::string* problem);
+
 // A static table or lift polar of x_rad (rad) and value: equal lengths, 2..max_table_points
 // rows, x strictly increasing.
 void check_static_table(const std::vector<double>& x_rad, const std::vector<double>& value, const TableSite& site);
