@@ -95,35 +95,42 @@ TEST_CASE("held-out test: runs dealt into folds are compared fold by fold") {
   CHECK_FALSE(per_fold.enters);
 }
 
-TEST_CASE("fold plan: whole groups when every run has one, runs otherwise") {
+TEST_CASE("fold plan: runs by their order, or whole groups (--cv-unit group)") {
   using diagnose_detail::fold_plan;
   Experiment e;
   const auto with_groups = [&](std::vector<std::string> groups) {
     e.runs.assign(groups.size(), Run{});
-    for (std::size_t r = 0; r < groups.size(); ++r) e.runs[r].group = groups[r];
+    for (std::size_t r = 0; r < groups.size(); ++r) {
+      e.runs[r].group = groups[r];
+      e.runs[r].path = "r" + std::to_string(r + 1) + ".csv";
+    }
   };
   // Three groups in the order they first appear; each a fold.
   with_groups({"entry 5", "entry 6", "entry 5", "entry 7", "entry 6"});
-  diagnose_detail::FoldPlan p = fold_plan(e, 10);
+  diagnose_detail::FoldPlan p = fold_plan(e, 10, CrossValidationUnit::group);
   CHECK(p.unit == CrossValidationUnit::group);
   CHECK(p.folds == 3);
   CHECK(p.groups == std::vector<std::string>{"entry 5", "entry 6", "entry 7"});
   CHECK(p.fold_of_run == std::vector<int>{0, 1, 0, 2, 1});
   // More groups than max_folds: group g into fold g mod K.
-  p = fold_plan(e, 2);
+  p = fold_plan(e, 2, CrossValidationUnit::group);
   CHECK(p.folds == 2);
   CHECK(p.fold_of_run == std::vector<int>{0, 1, 0, 0, 1});
-  // One group says nothing about entries: runs are left out, as without groups.
-  with_groups({"entry 5", "entry 5", "entry 5", "entry 5"});
-  p = fold_plan(e, 10);
+  // Unit run (the default) ignores the groups: run r into fold r mod K.
+  p = fold_plan(e, 2, CrossValidationUnit::run);
   CHECK(p.unit == CrossValidationUnit::run);
   CHECK(p.groups.empty());
-  CHECK(p.folds == 4);
-  CHECK(p.fold_of_run == std::vector<int>{0, 1, 2, 3});
-  with_groups({"", "", "", "", ""});
-  p = fold_plan(e, 2);
-  CHECK(p.unit == CrossValidationUnit::run);
   CHECK(p.fold_of_run == std::vector<int>{0, 1, 0, 1, 0});
+  p = fold_plan(e, 10, CrossValidationUnit::run);
+  CHECK(p.folds == 5);
+  CHECK(p.fold_of_run == std::vector<int>{0, 1, 2, 3, 4});
+  // Groups asked for: one group, or a run without one, is an error that says which.
+  with_groups({"entry 5", "entry 5", "entry 5"});
+  CHECK_THROWS_WITH_AS(fold_plan(e, 10, CrossValidationUnit::group),
+                       doctest::Contains("every run is in group 'entry 5'"), InputError);
+  with_groups({"entry 5", "", "entry 6"});
+  CHECK_THROWS_WITH_AS(fold_plan(e, 10, CrossValidationUnit::group),
+                       doctest::Contains("run 'r2.csv' has no 'group'"), InputError);
 }
 
 TEST_CASE("held-out test: with groups, d is taken per group") {
@@ -243,7 +250,8 @@ TEST_CASE("leave-one-run-out with groups: a fold fits the other groups' runs and
     return fit_experiment(y, o);
   };
   const diagnose_detail::HeldOut h =
-      diagnose_detail::held_out_errors(e, e.model, diagnose_detail::estimates_by_id(full), 2, 10, fold_fit);
+      diagnose_detail::held_out_errors(e, e.model, diagnose_detail::estimates_by_id(full), 2, 10, fold_fit,
+                                       CrossValidationUnit::group);
   INFO(h.message);
   CHECK(h.ok);
   CHECK(h.folds == 2);

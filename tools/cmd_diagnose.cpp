@@ -1,7 +1,8 @@
 // `indicial diagnose`: the missing-effect workflow (fitter/include/indicial/fitter/diagnose.hpp).
 //
 //   indicial diagnose EXPERIMENT.toml --out DIR [--force] [--alpha 0.01] [--max-steps N]
-//                     [--knot-spacing-deg D] [--rule auto|cv|lr] [--cv-min-runs N] [--max-folds K] [--min-gain G]
+//                     [--knot-spacing-deg D] [--rule auto|cv|lr] [--cv-min-runs N] [--cv-unit run|group]
+//                     [--max-folds K] [--min-gain G]
 //                     [--min-in-sample-gain G] [--threads N] [--stall-start-search configured|grid]
 //                     [--stall-prior beddoes_leishman|none]
 //                     [--no-plots] [--gnuplot EXE] [--quiet]
@@ -136,6 +137,13 @@ const indicial::tools::RegisterCommand register_diagnose([](CLI::App& app) {
           CLI::ignore_case));
   sub->add_option("--cv-min-runs", opt->diag.cv_min_runs,
                   "runs --rule auto needs for leave-one-run-out, and --rule cv requires (default 3; >= 2)");
+  sub->add_option("--cv-unit", opt->diag.cv_unit,
+                  "cross-validation: what a fold leaves out: run (default) or group (whole groups of runs: "
+                  "every runs entry needs a group = \"...\", the tunnel entry, campaign or session; at least two)")
+      ->transform(CLI::CheckedTransformer(
+          std::map<std::string, indicial::CrossValidationUnit>{{"run", indicial::CrossValidationUnit::run},
+                                                               {"group", indicial::CrossValidationUnit::group}},
+          CLI::ignore_case));
   sub->add_option("--max-folds", opt->diag.cv_max_folds,
                   "cross-validation with more runs than this: the runs dealt into this many folds (run r "
                   "into fold r mod K), each left out at once (default 10; fewer runs: one run per fold)");

@@ -107,8 +107,8 @@ class Run:
       airspeed_mps   this run's airspeed, m/s (default: the experiment's)
       name           how messages and results name the run
       group          the tunnel entry, campaign or session the run belongs to (the experiment
-                     file's runs key ``group``): when every run has one, ``diagnose``'s
-                     cross-validation leaves whole groups out (docs/diagnose.md, "Groups");
+                     file's runs key ``group``): ``diagnose(..., cv_unit="group")`` leaves
+                     whole groups out of its cross-validation (docs/diagnose.md, "Groups");
                      either every run of an Experiment has a group or none does
 
     ``Run.from_dict(d)`` takes a run as ``Experiment.runs`` and ``read_runs`` give it (the
@@ -623,7 +623,8 @@ effect_names = _indicial._effect_names()
 
 def diagnose(experiment: Experiment, *, alpha: float = 0.01, max_steps: int = 6, knot_spacing_deg: float = 5.0,
              knot_margin_fraction: float = 0.1, max_scan_knots: int = 16, max_family_terms: int = 4,
-             indistinguishable_bic: float = 6.0, rule: str = "auto", cv_min_runs: int = 3, max_folds: int = 10,
+             indistinguishable_bic: float = 6.0, rule: str = "auto", cv_min_runs: int = 3, cv_unit: str = "run",
+             max_folds: int = 10,
              min_gain: float = 0.10, min_in_sample_gain: float = 0.04, threads: int = 2, warn: bool = True,
              **fit_options) -> Diagnosis:
     """Finds where model and measurement disagree, names the missing effect (one of
@@ -631,8 +632,9 @@ def diagnose(experiment: Experiment, *, alpha: float = 0.01, max_steps: int = 6,
     (``indicial diagnose``). Keywords are the command line's options with ``_`` for ``-``
     (docs/diagnose.md, "Options"): ``rule`` ``"auto"`` (leave-one-run-out with ``cv_min_runs``,
     3, or more runs, else likelihood ratio), ``"cv"`` or ``"lr"``; ``cv_min_runs`` (>= 2) the runs
-    leave-one-run-out needs; ``max_folds`` (>= 2) the folds runs are dealt
-    into (whole groups when every run has a ``group``: docs/diagnose.md, "Groups"); ``min_gain`` and ``min_in_sample_gain`` (each in [0, 1)) the cross-validation rule's
+    leave-one-run-out needs; ``cv_unit`` what a fold leaves out, ``"run"`` (default) or
+    ``"group"`` (whole groups of runs: every Run needs a ``group``; docs/diagnose.md, "Groups");
+    ``max_folds`` (>= 2) the folds runs (or groups) are dealt into; ``min_gain`` and ``min_in_sample_gain`` (each in [0, 1)) the cross-validation rule's
     held-out and in-sample gains, fractions of the mean square error (the held-out one with three
     folds or fewer; with K > 3 folds ``min_gain`` 3 / K); ``threads`` (>= 1) fits run
     in parallel (a scan's candidates, the held-out folds, each fit's stall start grid; the
@@ -641,7 +643,7 @@ def diagnose(experiment: Experiment, *, alpha: float = 0.01, max_steps: int = 6,
     opts = dict(alpha=alpha, max_steps=max_steps, knot_spacing_deg=knot_spacing_deg,
                 knot_margin_fraction=knot_margin_fraction, max_scan_knots=max_scan_knots,
                 max_family_terms=max_family_terms, indistinguishable_bic=indistinguishable_bic,
-                rule=rule, cv_min_runs=cv_min_runs, max_folds=max_folds, min_gain=min_gain,
+                rule=rule, cv_min_runs=cv_min_runs, cv_unit=cv_unit, max_folds=max_folds, min_gain=min_gain,
                 min_in_sample_gain=min_in_sample_gain, threads=threads)
     opts.update(_fit_options(**fit_options))
     d = Diagnosis(_indicial._diagnose(experiment._e, opts))

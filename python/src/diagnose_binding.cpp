@@ -74,6 +74,9 @@ DiagnoseOptions diagnose_options_from(const py::dict& kw) {
     else if (key == "min_in_sample_gain") o.cv_min_in_sample_gain = v.cast<double>();
     else if (key == "min_gain") o.cv_min_gain = v.cast<double>();
     else if (key == "max_folds") o.cv_max_folds = v.cast<int>();
+    else if (key == "cv_unit")
+      o.cv_unit = pick<CrossValidationUnit>(key, v.cast<std::string>(), {{"run", CrossValidationUnit::run},
+                                                                         {"group", CrossValidationUnit::group}});
     else if (key == "cv_min_runs") o.cv_min_runs = v.cast<int>();
     else if (key == "threads") o.threads = v.cast<int>();
     else if (key == "rule")

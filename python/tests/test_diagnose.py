@@ -87,9 +87,38 @@ def test_diagnose_rule_options_reach_diagnosis_json(model1_config_on_model2_data
     (dict(start_values={"b1_0": float("nan")}), r"^start_values: must be finite numbers, found b1_0=nan$"),
     (dict(threads=0), r"^threads \(--threads\): must be >= 1.*found 0$"),
     (dict(rule="loo"), r"^rule: expected one of 'auto', 'cv', 'lr', found 'loo'$"),
+    (dict(cv_unit="entry"), r"^cv_unit: expected one of 'group', 'run', found 'entry'$"),
 ])
 def test_diagnose_bad_option_is_refused(model1_config_on_model2_data, option, message):
     e = indicial.Experiment.from_toml(str(model1_config_on_model2_data))
     with pytest.raises(ValueError, match=message) as refused:
         indicial.diagnose(e, warn=False, **option)
     assert isinstance(refused.value, indicial.InputError)
+
+
+def test_cv_unit_group_leaves_whole_groups_out(model1_config_on_model2_data, cli, tmp_path):
+    """cv_unit="group" (--cv-unit group): the runs' groups are the folds (two groups of the three
+    runs: two folds), said in diagnosis.json as the command line says it; without groups it is
+    an error naming the run, before anything is fitted."""
+    text = model1_config_on_model2_data.read_text()
+    runs = [l for l in text.splitlines() if l.startswith("runs = ")][0]
+    names = json.loads(runs[len("runs = "):])
+    assert len(names) == 3
+    entries = ", ".join(f'{{file = "{n}", group = "{g}"}}' for n, g in zip(names, ("entry A", "entry B", "entry A")))
+    path = model1_config_on_model2_data.parent / "grouped.toml"
+    path.write_text(text.replace(runs, f"runs = [{entries}]"))
+    grouped = indicial.Experiment.from_toml(str(path))
+    assert [r["group"] for r in grouped.runs] == ["entry A", "entry B", "entry A"]
+    j = json.loads(indicial.diagnose(grouped, max_steps=1, cv_unit="group", warn=False).diagnosis_json())
+    assert j["rule"] == "leave_one_run_out" and j["cv_unit"] == "group"
+    assert j["cv_groups"] == ["entry A", "entry B"] and j["cv_folds"] == 2
+    assert "whole groups left out: 2 groups" in j["rule_reason"]
+    by_run = json.loads(indicial.diagnose(grouped, max_steps=0, warn=False).diagnosis_json())
+    assert by_run["cv_unit"] == "run" and by_run["cv_folds"] == 3 and "cv_groups" not in by_run
+    cli("diagnose", path, "--out", tmp_path / "d", "--no-plots", "--quiet",
+        "--max-steps", "1", "--cv-unit", "group", check=False)
+    expected = json.loads((tmp_path / "d" / "diagnosis.json").read_text())
+    assert expected["cv_groups"] == j["cv_groups"] and expected["cv_folds"] == 2
+    plain = indicial.Experiment.from_toml(str(model1_config_on_model2_data))
+    with pytest.raises(indicial.InputError, match="--cv-unit group: run '.*' has no 'group'"):
+        indicial.diagnose(plain, max_steps=1, cv_unit="group", warn=False)

@@ -319,7 +319,8 @@ class Diagnoser {
   // Per-run held-out errors of model m, folds warm-started from its full fit.
   HeldOut held_out(const Experiment& w, const ModelConfig& m, const FitResult& full) {
     HeldOut h = held_out_errors(w, m, estimates_by_id(full), o_.threads, o_.cv_max_folds,
-                                [this](const Experiment& x, const ModelConfig& c, const StartValues& sv) { return fit(x, c, sv); });
+                                [this](const Experiment& x, const ModelConfig& c, const StartValues& sv) { return fit(x, c, sv); },
+                                o_.cv_unit);
     h.fit_error = full.fit_error;
     return h;
   }
@@ -808,7 +809,7 @@ KappaRule choose_rule(const Experiment& e, const DiagnoseOptions& o, DiagnoseRes
   if (o.rule != RuleChoice::likelihood_ratio && enough) {
     d.rule = DecisionRule::leave_one_run_out;
     d.rule_reason = fmt::format("{} runs: an effect enters only when it lowers the error of runs left out of its fit", runs);
-    const diagnose_detail::FoldPlan plan = diagnose_detail::fold_plan(e, o.cv_max_folds);
+    const diagnose_detail::FoldPlan plan = diagnose_detail::fold_plan(e, o.cv_max_folds, o.cv_unit);
     d.cv_folds = plan.folds;
     d.cv_unit = plan.unit;
     d.cv_groups = plan.groups;

@@ -58,16 +58,14 @@
 // scored by one fitted model are not independent. With R <= max_folds, K = R: leave-one-run-out
 // exactly as above.
 //
-// Groups (fold_plan): when every run has a group (Run::group, a runs entry's `group`: the tunnel
-// entry, campaign or session it was measured in) and there are at least two groups, a fold
-// leaves out whole groups (group g, in order of first appearance, into fold g mod max_folds), so
-// a term enters only when it lowers the error of an entry its fit never saw. Why: runs of one
-// entry share what changes between entries (a balance's zero, the model's installation), and a
-// term that fits those shared offsets lowers the error of a left-out run of the same entry
-// without carrying to another -- on the development set the per-cycle offsets are 27 % of the
-// diagnosed C_L model's held-out mean square error on a campaign the fit never saw
-// (docs/validation-stall.md). Everything else (scoring, d per fold, the minimum gain for K
-// folds) is as for runs.
+// Groups (fold_plan, DiagnoseOptions::cv_unit group, `--cv-unit group`): every run has a group
+// (Run::group, a runs entry's `group`: the tunnel entry, campaign or session it was measured
+// in), and a fold leaves out whole groups (group g, in order of first appearance, into fold g
+// mod max_folds), so a term enters only when it lowers the error of an entry its fit never saw.
+// Runs of one entry share what changes between entries (a balance's zero, the model's
+// installation): a term can lower the error of a left-out run of the same entry without
+// carrying to another. Everything else (scoring, d per fold, the minimum gain for K folds) is
+// as for runs. Not the default: diagnose.hpp's CrossValidationUnit says why (measured).
 #include <algorithm>
 #include <cmath>
 #include <fmt/format.h>
@@ -221,30 +219,32 @@ std::vector<char> scored_samples(const Run& run, Axis axis, double alpha0_rad, c
 
 bool majority_improved(int improved, int runs) { return 2 * improved > runs; }
 
-FoldPlan fold_plan(const Experiment& e, int max_folds) {
+FoldPlan fold_plan(const Experiment& e, int max_folds, CrossValidationUnit unit) {
   FoldPlan p;
   const std::size_t n = e.runs.size();
   const std::size_t k_max = static_cast<std::size_t>(std::max(1, max_folds));
-  const bool all_grouped =
-      n > 0 && std::all_of(e.runs.begin(), e.runs.end(), [](const Run& r) { return !r.group.empty(); });
-  std::vector<int> group_of(n, 0);
-  if (all_grouped) {
-    for (std::size_t r = 0; r < n; ++r) {
-      const auto it = std::find(p.groups.begin(), p.groups.end(), e.runs[r].group);
-      group_of[r] = static_cast<int>(it - p.groups.begin());
-      if (it == p.groups.end()) p.groups.push_back(e.runs[r].group);
-    }
-  }
   p.fold_of_run.resize(n);
-  if (p.groups.size() >= 2) {
-    p.unit = CrossValidationUnit::group;
-    p.folds = static_cast<int>(std::min(p.groups.size(), k_max));
-    for (std::size_t r = 0; r < n; ++r) p.fold_of_run[r] = group_of[r] % p.folds;
-  } else {
-    p.groups.clear();  // one group (or none): runs are left out
+  if (unit == CrossValidationUnit::run) {
     p.folds = static_cast<int>(std::min(n, k_max));
     for (std::size_t r = 0; r < n; ++r) p.fold_of_run[r] = static_cast<int>(r % static_cast<std::size_t>(p.folds));
+    return p;
   }
+  for (std::size_t r = 0; r < n; ++r) {
+    const Run& run = e.runs[r];
+    if (run.group.empty())
+      throw InputError(run.path, run.experiment_line,
+                       "--cv-unit group: run '" + run.path + "' has no 'group' (give every runs entry a group: "
+                       "the tunnel entry, campaign or session it was measured in)");
+    const auto it = std::find(p.groups.begin(), p.groups.end(), run.group);
+    p.fold_of_run[r] = static_cast<int>(it - p.groups.begin());
+    if (it == p.groups.end()) p.groups.push_back(run.group);
+  }
+  if (p.groups.size() < 2)
+    throw InputError(e.path, 0, "--cv-unit group: every run is in group '" + (p.groups.empty() ? std::string() : p.groups[0]) +
+                                    "'; leaving whole groups out needs at least two");
+  p.unit = CrossValidationUnit::group;
+  p.folds = static_cast<int>(std::min(p.groups.size(), k_max));
+  for (int& f : p.fold_of_run) f %= p.folds;
   return p;
 }
 
@@ -260,9 +260,9 @@ std::string fold_label(const FoldPlan& p, std::size_t j, std::size_t runs) {
 }  // namespace
 
 HeldOut held_out_errors(const Experiment& w, const ModelConfig& m, const Estimates& start, int threads,
-                        int max_folds, const FoldFit& fit) {
+                        int max_folds, const FoldFit& fit, CrossValidationUnit unit) {
   const std::size_t n = w.runs.size();
-  const FoldPlan plan = fold_plan(w, max_folds);
+  const FoldPlan plan = fold_plan(w, max_folds, unit);
   HeldOut h;
   h.folds = plan.folds;
   h.fold_of_run = plan.fold_of_run;

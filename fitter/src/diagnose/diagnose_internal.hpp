@@ -138,16 +138,17 @@ int choose_family(const std::vector<FamilyResult>& fr, const DiagnoseOptions& o,
 // from a least-squares lag-1 initial state). ok = false when some fold cannot be scored (its
 // fit failed or is rank deficient -- a term the other runs do not determine -- or the runtime
 // refuses it); `message` says which and why.
-// The folds (fold_plan): runs dealt by their order (run r into fold r mod K, K = min(runs,
-// max_folds)), or, when every run has a group and there are at least two, whole groups (group
-// g, in order of first appearance, into fold g mod K, K = min(groups, max_folds)).
+// The folds (fold_plan): unit run, runs dealt by their order (run r into fold r mod K, K =
+// min(runs, max_folds)); unit group, whole groups (group g, in order of first appearance, into
+// fold g mod K, K = min(groups, max_folds)): an InputError when a run has no group or there is
+// only one.
 struct FoldPlan {
   int folds = 0;
   std::vector<int> fold_of_run;      // each run's fold, 0-based
   CrossValidationUnit unit = CrossValidationUnit::run;
   std::vector<std::string> groups;  // unit group: the groups, in order of first appearance
 };
-FoldPlan fold_plan(const Experiment& e, int max_folds);
+FoldPlan fold_plan(const Experiment& e, int max_folds, CrossValidationUnit unit);
 
 struct HeldOut {
   std::vector<double> mse;  // per run, over its scored samples
@@ -160,7 +161,7 @@ struct HeldOut {
 };
 using FoldFit = std::function<FitResult(const Experiment&, const ModelConfig&, const StartValues&)>;
 HeldOut held_out_errors(const Experiment& w, const ModelConfig& m, const Estimates& start, int threads,
-                        int max_folds, const FoldFit& fit);
+                        int max_folds, const FoldFit& fit, CrossValidationUnit unit = CrossValidationUnit::run);
 // The paired comparison (HeldOutTest in diagnose.hpp): d_r = ln(mse_with_r / mse_without_r);
 // enters when mean d + SE(d) < 0, mean d < ln(1 - min_gain), it improves more than half of
 // the runs (majority_improved) and the fits to every run differ by ln(MSE ratio) < ln(1 -

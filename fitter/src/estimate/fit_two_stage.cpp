@@ -384,6 +384,20 @@ std::vector<MLResult> fit_stall_grid(const FitContext& c, const Estimate& est, c
   return fits;
 }
 
+// A sub-model's parameters (layout Ls) read from the full model's vector theta (layout L), by
+// parameter id; and written back into it (embed_into). Every id of Ls is in L (a sub-model
+// drops parameters, it adds none).
+Eigen::VectorXd restrict_to(const ParameterLayout& Ls, const ParameterLayout& L, const Eigen::VectorXd& theta) {
+  Eigen::VectorXd sub(Ls.size());
+  for (int i = 0; i < Ls.size(); ++i) sub(i) = theta(L.find(Ls.ids()[static_cast<std::size_t>(i)]));
+  return sub;
+}
+
+void embed_into(const ParameterLayout& Ls, const Eigen::VectorXd& theta_sub, const ParameterLayout& L,
+                Eigen::VectorXd* theta) {
+  for (int i = 0; i < Ls.size(); ++i) (*theta)(L.find(Ls.ids()[static_cast<std::size_t>(i)])) = theta_sub(i);
+}
+
 // A start from a nested sub-model (the symmetric one, the constant-coefficient one, below): the
 // sub-model `sub` fitted from its own grid (its start theta0's values by parameter id), and the
 // full model's start from its best fit: the sub-model's estimates by id, every other parameter
@@ -392,13 +406,11 @@ bool nested_start(const FitContext& c, const Estimate& est, const ParameterLayou
                   const UnsteadyStructure& sub, const Eigen::VectorXd& others, Eigen::VectorXd* start,
                   std::string* said) {
   const ParameterLayout Ls(sub, est.runs);
-  Eigen::VectorXd theta0_sub(Ls.size());
-  for (int i = 0; i < Ls.size(); ++i) theta0_sub(i) = theta0(L.find(Ls.ids()[static_cast<std::size_t>(i)]));
-  const std::vector<MLResult> fits = fit_stall_grid(c, est, sub, stall_start_grid(Ls, theta0_sub), nullptr);
+  const std::vector<MLResult> fits = fit_stall_grid(c, est, sub, stall_start_grid(Ls, restrict_to(Ls, L, theta0)), nullptr);
   const MLResult& best = fits[lowest_cost(fits)];
   if (!std::isfinite(best.summary.cost) || best.theta.size() != Ls.size()) return false;
   *start = others;
-  for (int i = 0; i < Ls.size(); ++i) (*start)(L.find(Ls.ids()[static_cast<std::size_t>(i)])) = best.theta(i);
+  embed_into(Ls, best.theta, L, start);
   *said = fmt::format("{} grid starts, s(v) = {:.6g}", fits.size(), best.summary.fit_error);
   return true;
 }
@@ -494,15 +506,14 @@ StallStartTrial nested_hysteresis_trial(const FitContext& c, const Estimate& est
   Estimate sub = est;
   sub.s.stall.hysteresis = StallHysteresis::none;
   const ParameterLayout Ls(sub.s, sub.runs);
-  Eigen::VectorXd theta0_sub(Ls.size());
-  for (int i = 0; i < Ls.size(); ++i) theta0_sub(i) = theta0(L.find(Ls.ids()[static_cast<std::size_t>(i)]));
+  const Eigen::VectorXd theta0_sub = restrict_to(Ls, L, theta0);
   sub.ml = c.fit(sub.s, sub.runs, sub.rotary, theta0_sub);
   StallStartSearchResult sub_search;
   search_stall_starts(c, sub, theta0_sub, sub_search);
   if (!std::isfinite(sub.ml.summary.cost) || sub.ml.theta.size() != Ls.size())
     return failed_trial("the model's fit without the hysteresis (no dxr) did not propagate from any start", fit);
   Eigen::VectorXd start = theta0;
-  for (int i = 0; i < Ls.size(); ++i) start(L.find(Ls.ids()[static_cast<std::size_t>(i)])) = sub.ml.theta(i);
+  embed_into(Ls, sub.ml.theta, L, &start);
   start(L.find(param_id(ParamKind::stall_reattach_shift))) = kHysteresisNestedStartRad;
   *fit = c.fit(est.s, est.runs, est.rotary, start);
   StallStartTrial trial;

@@ -133,6 +133,20 @@ enum class DecisionRule {
                          // error can read as colored noise -- said in the outputs)
 };
 const char* decision_rule_name(DecisionRule r);  // "leave_one_run_out", ...
+// What the leave-one-run-out rule leaves out of a fold (DiagnoseOptions::cv_unit, `--cv-unit`):
+// runs (the default; dealt into folds by their order), or whole groups of runs (Run::group, the
+// `runs` entries' `group` key: a tunnel entry, campaign or session; every run must have one and
+// there must be at least two groups). Why groups: runs of one entry share its offsets (a
+// balance's zero, the model's installation), so a term can lower the error of a left-out run of
+// the same entry and still not carry to another. Why not the default: with few groups the test
+// is coarse (two folds: the full --min-gain, a standard error from two values); measured on the
+// development set (docs/validation-stall.md: 104 fit cycles of two campaigns, a third held out)
+// leaving out whole campaigns chose fewer effects for C_L and predicted the third campaign
+// worse than ten folds of runs (0.76x against 0.70x the Beddoes-Leishman peer's RMS; C_m 0.73x
+// both).
+enum class CrossValidationUnit { run, group };
+inline const char* cross_validation_unit_name(CrossValidationUnit u) { return u == CrossValidationUnit::group ? "group" : "run"; }
+
 enum class RuleChoice { automatic, leave_one_run_out, likelihood_ratio };
 
 struct DiagnoseOptions {
@@ -146,10 +160,12 @@ struct DiagnoseOptions {
                                      // at least this fraction: the materiality floor that keeps a
                                      // chance held-out gain of three runs out (in [0, 1); 0: off;
                                      // docs/diagnose.md, "Which rule decides")
-  int cv_max_folds = 10;             // more runs (or groups) than this: runs dealt into this many
-                                     // folds (run r into fold r mod cv_max_folds; group g, in order
-                                     // of first appearance, into fold g mod cv_max_folds), each fold
-                                     // left out at once
+  CrossValidationUnit cv_unit = CrossValidationUnit::run;  // what a fold leaves out: runs, or
+                                     // whole groups of runs (Run::group; every run must have one)
+  int cv_max_folds = 10;             // more runs (or groups, cv_unit group) than this: dealt into
+                                     // this many folds (run r into fold r mod cv_max_folds; group g,
+                                     // in order of first appearance, into fold g mod cv_max_folds),
+                                     // each fold left out at once
   int threads = 2;                   // fits run in parallel (candidates of a scan, held-out
                                      // folds, and each fit's stall start grid: fit.threads is
                                      // replaced by this in every fit diagnose runs)
@@ -318,16 +334,6 @@ enum class DiagnoseStop {
   max_steps             // DiagnoseOptions::max_steps effects added and one still significant
 };
 const char* diagnose_stop_name(DiagnoseStop s);  // "nothing_significant", "max_steps"
-
-// What the leave-one-run-out rule leaves out of a fold: runs (dealt into folds by their order),
-// or whole groups of runs (Run::group, the experiment's `runs` entries' `group` key: a tunnel
-// entry, campaign or session), used when every run has a group and there are at least two
-// groups. Why groups: runs of one entry share its offsets (a balance's zero, the model's
-// installation), so a term can lower the error of a left-out run of the same entry and still
-// not carry to another one -- measured on the development set (docs/validation-stall.md), where
-// the fit cycles are two campaigns and the held-out cycles a third.
-enum class CrossValidationUnit { run, group };
-inline const char* cross_validation_unit_name(CrossValidationUnit u) { return u == CrossValidationUnit::group ? "group" : "run"; }
 
 struct DiagnoseResult {
   DiagnoseStop stopped = DiagnoseStop::nothing_significant;
