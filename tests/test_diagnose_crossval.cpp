@@ -22,6 +22,15 @@ using namespace indicial::testing;
 
 namespace {
 
+// A fold's fit as diagnose runs it: the fold's experiment with the model m, from start values sv.
+FitResult fit_fold(const Experiment& x, const ModelConfig& m, const diagnose_detail::StartValues& sv) {
+  Experiment y = x;
+  y.model = m;
+  FitOptions o;
+  for (const auto& [id, v] : sv) o.start_values.emplace_back(parameter_name(id), v);
+  return fit_experiment(y, o);
+}
+
 diagnose_detail::HeldOut held_out(std::vector<double> mse) {
   diagnose_detail::HeldOut h;
   h.mse = std::move(mse);
@@ -190,15 +199,8 @@ TEST_CASE("leave-one-run-out: a knot the other runs do not reach is left out of 
   e.model.a.knots_rad = {60.0 * kDeg};
   const FitResult full = fit_experiment(e, FitOptions{});
   REQUIRE(std::isfinite(full.fit_error));
-  const auto fold_fit = [](const Experiment& x, const ModelConfig& m, const diagnose_detail::StartValues& sv) {
-    Experiment y = x;
-    y.model = m;
-    FitOptions o;
-    for (const auto& [id, v] : sv) o.start_values.emplace_back(parameter_name(id), v);
-    return fit_experiment(y, o);
-  };
   const diagnose_detail::HeldOut h =
-      diagnose_detail::held_out_errors(e, e.model, diagnose_detail::estimates_by_id(full), 2, 10, fold_fit);
+      diagnose_detail::held_out_errors(e, e.model, diagnose_detail::estimates_by_id(full), 2, 10, fit_fold);
   INFO(h.message);
   CHECK(h.ok);
   CHECK(h.folds == 3);
@@ -243,11 +245,7 @@ TEST_CASE("leave-one-run-out with groups: a fold fits the other groups' runs and
       std::lock_guard<std::mutex> lock(seen_mutex);
       seen.push_back(names);
     }
-    Experiment y = x;
-    y.model = m;
-    FitOptions o;
-    for (const auto& [id, v] : sv) o.start_values.emplace_back(parameter_name(id), v);
-    return fit_experiment(y, o);
+    return fit_fold(x, m, sv);
   };
   const diagnose_detail::HeldOut h =
       diagnose_detail::held_out_errors(e, e.model, diagnose_detail::estimates_by_id(full), 2, 10, fold_fit,
