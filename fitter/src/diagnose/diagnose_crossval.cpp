@@ -232,7 +232,7 @@ FoldPlan fold_plan(const Experiment& e, int max_folds, CrossValidationUnit unit)
   for (std::size_t r = 0; r < n; ++r) {
     const Run& run = e.runs[r];
     if (run.group.empty())
-      throw InputError(run.path, run.experiment_line,
+      throw InputError(e.path, run.experiment_line,  // the experiment file's runs entry
                        "--cv-unit group: run '" + run.path + "' has no 'group' (give every runs entry a group: "
                        "the tunnel entry, campaign or session it was measured in)");
     const auto it = std::find(p.groups.begin(), p.groups.end(), run.group);
