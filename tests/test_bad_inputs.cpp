@@ -470,6 +470,15 @@ TEST_CASE("runs: a spread column that is negative, without cycles_averaged, or w
                      "the file's average and spread column were taken over; one cycle has no spread)");
 }
 
+TEST_CASE("runs: an empty group, or a run without one beside runs with one") {
+  expect_fit_refusal(good_run_csv(), with_runs(R"({file = "run.csv", group = ""})"),
+                     "experiment.toml:5: 'runs.group' is empty: name the tunnel entry, campaign or session the run "
+                     "belongs to");
+  expect_fit_refusal(good_run_csv(), with_runs(R"({file = "run.csv", group = "entry 5"}, "run.csv")"),
+                     "experiment.toml:5: run 'run.csv' has no 'group' while run 'run.csv' has group 'entry 5': give "
+                     "every run a group (diagnose --cv-unit group leaves whole groups out) or none");
+}
+
 TEST_CASE("a missing run file names the experiment's line") {
   expect_fit_refusal(good_run_csv(), with_runs(R"("run.csv", "nope.csv")"),
                      "experiment.toml:5: run file 'nope.csv' not found (looked for {DIR}/nope.csv)");

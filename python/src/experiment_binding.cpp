@@ -362,9 +362,10 @@ std::shared_ptr<Experiment> make_experiment(const py::dict& c, const py::list& r
     if (run.airspeed_mps == 0.0) run.airspeed_mps = e->airspeed_mps;
     e->runs.push_back(std::move(run));
   }
-  std::string group_problem;
-  if (const long r = run_group_problem(*e, &group_problem); r >= 0)
-    throw InputError("run " + std::to_string(r + 1), 0, group_problem);
+  if (const std::optional<GroupMix> mix = run_group_mix(*e))
+    throw InputError("run " + std::to_string(mix->ungrouped + 1), 0,
+                     run_group_mix_problem(e->runs[mix->ungrouped].path, e->runs[mix->grouped].path,
+                                           e->runs[mix->grouped].group));
   set_data_range(*e);
   check_knots(*e, e->model.a.knots_rad, "a_knots_rad");
   check_knots(*e, e->model.b1.knots_rad, "b1_knots_rad");

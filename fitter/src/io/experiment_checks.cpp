@@ -79,14 +79,17 @@ std::string deg_text(double rad) {
   return buf;
 }
 
-long run_group_problem(const Experiment& e, std::string* problem) {
+std::optional<GroupMix> run_group_mix(const Experiment& e) {
   const auto grouped = std::find_if(e.runs.begin(), e.runs.end(), [](const Run& r) { return !r.group.empty(); });
   const auto ungrouped = std::find_if(e.runs.begin(), e.runs.end(), [](const Run& r) { return r.group.empty(); });
-  problem->clear();
-  if (grouped == e.runs.end() || ungrouped == e.runs.end()) return -1;
-  *problem = "run '" + ungrouped->path + "' has no 'group' while run '" + grouped->path + "' has group '" +
-             grouped->group + "': give every run a group (diagnose's cross-validation leaves whole groups out) or none";
-  return static_cast<long>(ungrouped - e.runs.begin());
+  if (grouped == e.runs.end() || ungrouped == e.runs.end()) return std::nullopt;
+  return GroupMix{static_cast<std::size_t>(ungrouped - e.runs.begin()), static_cast<std::size_t>(grouped - e.runs.begin())};
+}
+
+std::string run_group_mix_problem(const std::string& ungrouped_name, const std::string& grouped_name,
+                                  const std::string& group) {
+  return "run '" + ungrouped_name + "' has no 'group' while run '" + grouped_name + "' has group '" + group +
+         "': give every run a group (diagnose --cv-unit group leaves whole groups out) or none";
 }
 
 std::string periodic_closure_problem(const Run& run) {

@@ -846,9 +846,10 @@ void read_runs(const LoadContext& c, const std::vector<RunEntry>& entries, Exper
     e.warnings.insert(e.warnings.end(), run.warnings.begin(), run.warnings.end());
     e.runs.push_back(std::move(run));
   }
-  std::string problem;
-  const long ungrouped = run_group_problem(e, &problem);
-  if (ungrouped >= 0) throw InputError(c.r.file(), entries[static_cast<std::size_t>(ungrouped)].line, problem);
+  if (const std::optional<GroupMix> mix = run_group_mix(e))
+    throw InputError(c.r.file(), entries[mix->ungrouped].line,
+                     run_group_mix_problem(entries[mix->ungrouped].file, entries[mix->grouped].file,
+                                           e.runs[mix->grouped].group));
   set_data_range(e);
 }
 

@@ -24,6 +24,7 @@
 #include <cstddef>
 #include <functional>
 #include <set>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -64,11 +65,17 @@ std::string deg_text(double rad);
 // angle's jump at the wrap exceeds twice the largest step inside the run.
 std::string periodic_closure_problem(const Run& run);
 
-// Why the runs' groups (Run::group) cannot be used: the index of the first run without a group
-// when another run has one (either every run of an experiment has a group or none does: a
-// forgotten group would put a run into a fold of its own), with the problem in `problem`; -1
-// and "" when they can.
-long run_group_problem(const Experiment& e, std::string* problem);
+// The runs' groups (Run::group): either every run of an experiment has a group or none does (a
+// forgotten group would put a run into a fold of its own). A mix: the first run without a group
+// and the first run with one (indices into e.runs); otherwise nullopt.
+struct GroupMix {
+  std::size_t ungrouped = 0;
+  std::size_t grouped = 0;
+};
+std::optional<GroupMix> run_group_mix(const Experiment& e);
+// The message for a mix, the runs named as the caller names them.
+std::string run_group_mix_problem(const std::string& ungrouped_name, const std::string& grouped_name,
+                                  const std::string& group);
 
 // A static table or lift polar of x_rad (rad) and value: equal lengths, 2..max_table_points
 // rows, x strictly increasing.
