@@ -47,9 +47,10 @@ struct Run {
   double frequency_hz = 0.0;              // the cycle's frequency; 0 when not given
   // The runs entry's `group` (a tunnel entry, campaign or session; empty: none given). Runs of
   // one group share what changes between entries (a balance's zero, a model's installation, the
-  // tunnel's turbulence); diagnose's cross-validation leaves whole groups out when every run has
-  // one (diagnose.hpp, CrossValidationUnit), so an effect enters only if it carries to an entry
-  // its fit never saw. Either every run of an experiment has a group or none does.
+  // tunnel's turbulence); with DiagnoseOptions::cv_unit group (`diagnose --cv-unit group`;
+  // diagnose.hpp, CrossValidationUnit) diagnose's cross-validation leaves whole groups out, so an
+  // effect enters only if it carries to an entry its fit never saw. Either every run of an
+  // experiment has a group or none does.
   std::string group;
   // An ensemble-averaged file's replication (replication.hpp): the standard deviation of the
   // single cycles at each sample (empty: not given) and how many cycles were averaged (0: not
