@@ -14,7 +14,9 @@
 #include <string>
 #include <vector>
 
+#include "indicial/fitter/error.hpp"
 #include "indicial/fitter/experiment.hpp"
+#include "indicial/fitter/experiment_toml.hpp"
 #include "indicial/fitter/montecarlo.hpp"
 #include "indicial/fitter/simulate.hpp"
 
@@ -134,6 +136,17 @@ inline Experiment pitch_table_experiment(const std::string& path, const std::str
 }
 
 // The estimate named `name` in a fit's parameters, or null.
+// What load_experiment says of the experiment file at `path`: the InputError's message, or
+// "(no error)" when it loads.
+inline std::string load_experiment_error(const std::string& path) {
+  try {
+    (void)load_experiment(path);
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "(no error)";
+}
+
 inline const ParameterEstimate* find_estimate(const FitResult& r, const std::string& name) {
   for (const auto& p : r.parameters)
     if (p.name == name) return &p;

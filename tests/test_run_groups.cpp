@@ -9,6 +9,7 @@
 
 #include "indicial/fitter/error.hpp"
 #include "indicial/fitter/experiment_toml.hpp"
+#include "fit_test_data.hpp"
 #include "test_support.hpp"
 
 TEST_SUITE_BEGIN("unit");  // the ctest label (tests/CMakeLists.txt)
@@ -37,12 +38,7 @@ std::string experiment(const std::string& runs) {
 }
 
 std::string load_error(const TempDir& dir, const std::string& text) {
-  try {
-    (void)load_experiment(testing::write_text(dir.path / "experiment.toml", text));
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "(no error)";
+  return load_experiment_error(testing::write_text(dir.path / "experiment.toml", text));
 }
 
 }  // namespace

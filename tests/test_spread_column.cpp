@@ -45,12 +45,7 @@ std::string experiment(const std::string& runs) {
 }
 
 std::string load_error(const TempDir& dir, const std::string& name, const std::string& text) {
-  try {
-    (void)load_experiment(testing::write_text(dir.path / name, text));
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "(no error)";
+  return load_experiment_error(testing::write_text(dir.path / name, text));
 }
 
 }  // namespace
