@@ -53,7 +53,8 @@ What it does (every choice is stated in the report it prints):
     104 runs the ten folds guard the choice and the time is affordable), its final model.coef.
  5. Per held-out cycle: RMS of prediction minus measurement over the 128 samples (the
     periodic steady state, `indicial predict --periodic`), grouped by the cycle's largest
-    angle (cycle_catalog.regime) [attached < 15 deg <= light stall < 22 deg <= deep stall].
+    angle (cycle_catalog.regime) [attached < 15 deg <= light stall < 22 deg <= deep stall],
+    and by reduced frequency (the catalog's k to 0.025).
 """
 import csv
 import json
@@ -308,6 +309,26 @@ def by_regime(results):
         yield regime, [r for r in results if regime == 'all' or r['regime'] == regime]
 
 
+def k_table(results):
+    """Mean held-out RMS per reduced frequency (to 0.025, as the fit cycles are chosen): where in
+    k each model stands against the peer."""
+    p = print
+    p('\nMean held-out RMS per reduced frequency (the catalog\'s k, to 0.025):\n')
+    p('| k | cycles | coef | quasi-steady | report model | extended | diagnosed | BL peer | extended / BL | '
+      'diagnosed / BL |')
+    p('|---|---|---|---|---|---|---|---|---|---|')
+    groups = {}
+    for r in results:
+        groups.setdefault(round(r['k'] / 0.025) * 0.025, []).append(r)
+    for k in sorted(groups):
+        rs = groups[k]
+        for coef in ('CL', 'Cm'):
+            qs, rep, ext, dia, blv = (mean([r.get(f'{m}_{coef}', float('nan')) for r in rs])
+                                      for m in ('qs', 'report', 'extended', 'diagnosed', 'bl'))
+            p(f'| {k:.3f} | {len(rs)} | {coef} | {qs:.4f} | {rep:.4f} | {ext:.4f} | {dia:.4f} | {blv:.4f} | '
+              f'{ext / blv:.2f} | {dia / blv:.2f} |')
+
+
 def bias_table(results):
     """Theil's decomposition of the held-out error: each cycle's own bias (mean error) apart
     from its shape. The data's per-run zero drift is in the bias, and no model of the motion
@@ -379,6 +400,7 @@ def report(results, static, cycles, models):
             half = sum(1 for r in rs if r.get(f'diagnosed_{coef}', float('nan')) <= 0.5 * r.get(f'qs_{coef}', float('nan')))
             p(f'| {regime} | {len(rs)} | {coef} | {qs:.4f} | {rep:.4f} | {ext:.4f} | {dia:.4f} | {blv:.4f} | '
               f'{ext / blv:.2f} | {dia / blv:.2f} | {dia / qs:.2f} | {half} of {len(rs)} |')
+    k_table(results)
     bias_table(results)
     p('\nPer cycle (RMS):\n')
     cols = [(f'{k}_{c}', f'{lab} {c}') for c in ('CL', 'Cm')
