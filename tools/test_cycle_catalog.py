@@ -2,7 +2,8 @@
 """ctest `tools_cycle_catalog`: the validation studies' selection rules (tools/cycle_catalog.py,
 validate_stall.choose_cycles) on databases written here, in the development set's layout but
 with other campaigns, angles and frequencies than it has -- the rules must hold on cycles the
-studies were not written for. Standard library only."""
+studies were not written for; and validate_stall's table per reduced frequency on made results.
+Standard library only."""
 import csv
 import math
 import os
@@ -186,6 +187,30 @@ class CycleCatalogTest(unittest.TestCase):
         self.assertEqual(bl, {})
         self.assertEqual({c["campaign"] for c in held}, {"7"})
         self.assertEqual({c["campaign"] for c in fit}, {"8"})
+
+
+class StallReportTest(unittest.TestCase):
+    def test_k_table_groups_cycles_by_k_to_0025_and_leaves_a_failed_prediction_out(self):
+        def cycle(k, diag_cl):
+            r = {"k": k, "regime": "light"}
+            for coef, scale in (("CL", 1.0), ("Cm", 0.1)):
+                r.update({f"qs_{coef}": 0.4 * scale, f"report_{coef}": 0.3 * scale,
+                          f"extended_{coef}": 0.2 * scale, f"bl_{coef}": 0.25 * scale})
+            r["diagnosed_CL"], r["diagnosed_Cm"] = diag_cl, 0.01
+            return r
+        import contextlib
+        import io
+        out = io.StringIO()
+        with contextlib.redirect_stdout(out):
+            validate_stall.k_table([cycle(0.0247, 0.1), cycle(0.0262, float("nan")), cycle(0.0511, 0.2)])
+        rows = [l.split("|")[1:-1] for l in out.getvalue().splitlines() if l.startswith("| 0.")]
+        cells = {(r[0].strip(), r[2].strip()): [c.strip() for c in r] for r in rows}
+        self.assertEqual(sorted(cells), [("0.025", "CL"), ("0.025", "Cm"), ("0.050", "CL"), ("0.050", "Cm")])
+        self.assertEqual(cells[("0.025", "CL")][1], "2")  # 0.0247 and 0.0262 are both k = 0.025
+        self.assertEqual(cells[("0.025", "CL")][6], "0.1000")  # the NaN (a failed prediction) left out
+        self.assertEqual(cells[("0.025", "CL")][8:], ["0.80", "0.40"])  # extended / BL, diagnosed / BL
+        self.assertEqual(cells[("0.050", "CL")][8:], ["0.80", "0.80"])
+        self.assertEqual(cells[("0.050", "Cm")][9], "0.40")
 
 
 if __name__ == "__main__":
