@@ -135,7 +135,6 @@ inline Experiment pitch_table_experiment(const std::string& path, const std::str
   return e;
 }
 
-// The estimate named `name` in a fit's parameters, or null.
 // What load_experiment says of the experiment file at `path`: the InputError's message, or
 // "(no error)" when it loads.
 inline std::string load_experiment_error(const std::string& path) {
@@ -147,6 +146,7 @@ inline std::string load_experiment_error(const std::string& path) {
   return "(no error)";
 }
 
+// The estimate named `name` in a fit's parameters, or null.
 inline const ParameterEstimate* find_estimate(const FitResult& r, const std::string& name) {
   for (const auto& p : r.parameters)
     if (p.name == name) return &p;

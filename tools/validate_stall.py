@@ -309,6 +309,13 @@ def by_regime(results):
         yield regime, [r for r in results if regime == 'all' or r['regime'] == regime]
 
 
+def model_means(rs, coef):
+    """Mean RMS over the cycles rs of quasi-steady, the report, extended and diagnosed models and
+    the peer, in that order (a failed prediction, NaN, left out)."""
+    return [mean([r.get(f'{m}_{coef}', float('nan')) for r in rs])
+            for m in ('qs', 'report', 'extended', 'diagnosed', 'bl')]
+
+
 def k_table(results):
     """Mean held-out RMS per reduced frequency (to 0.025, as the fit cycles are chosen): where in
     k each model stands against the peer."""
@@ -323,8 +330,7 @@ def k_table(results):
     for k in sorted(groups):
         rs = groups[k]
         for coef in ('CL', 'Cm'):
-            qs, rep, ext, dia, blv = (mean([r.get(f'{m}_{coef}', float('nan')) for r in rs])
-                                      for m in ('qs', 'report', 'extended', 'diagnosed', 'bl'))
+            qs, rep, ext, dia, blv = model_means(rs, coef)
             p(f'| {k:.3f} | {len(rs)} | {coef} | {qs:.4f} | {rep:.4f} | {ext:.4f} | {dia:.4f} | {blv:.4f} | '
               f'{ext / blv:.2f} | {dia / blv:.2f} |')
 
@@ -395,8 +401,7 @@ def report(results, static, cycles, models):
     p('|---|---|---|---|---|---|---|---|---|---|---|---|')
     for regime, rs in by_regime(results):
         for coef in ('CL', 'Cm'):
-            qs, rep, ext, dia, blv = (mean([r.get(f'{k}_{coef}', float('nan')) for r in rs])
-                                      for k in ('qs', 'report', 'extended', 'diagnosed', 'bl'))
+            qs, rep, ext, dia, blv = model_means(rs, coef)
             half = sum(1 for r in rs if r.get(f'diagnosed_{coef}', float('nan')) <= 0.5 * r.get(f'qs_{coef}', float('nan')))
             p(f'| {regime} | {len(rs)} | {coef} | {qs:.4f} | {rep:.4f} | {ext:.4f} | {dia:.4f} | {blv:.4f} | '
               f'{ext / blv:.2f} | {dia / blv:.2f} | {dia / qs:.2f} | {half} of {len(rs)} |')
