@@ -237,9 +237,9 @@ TEST_CASE("TOML: unknown (misspelt) key") {
                      "delay_start_s, further_lag_start, lags, rotary_correction_degree, "
                      "rotary_correction_knots_deg, rotary_correction_powers, stall, stall_CN1_start, "
                      "stall_T1_start, stall_T1r_start, stall_T2_start, stall_Tv_start, stall_Tvl_start, "
-                     "stall_attached_max_deg, stall_dxr_start, stall_f0_correction_degree, "
+                     "stall_attached_max_deg, stall_dxl_start, stall_dxr_start, stall_f0_correction_degree, "
                      "stall_f0_correction_knots_deg, stall_f0_correction_powers, stall_forcing_lag, "
-                     "stall_hysteresis, stall_known, stall_polar, "
+                     "stall_hysteresis, stall_known, stall_lag_limit, stall_polar, "
                      "stall_polar_column, stall_reattachment, "
                      "static_correction_degree, "
                      "static_correction_knots_deg, static_correction_powers, structure)");

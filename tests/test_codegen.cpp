@@ -181,6 +181,7 @@ TEST_CASE("the generated dynamic-stall header runs bit for bit like the text fil
     REQUIRE(indicial::parse_coef_file(text.data(), text.size(), &set, &diag) == indicial::LoadStatus::ok);
     set.coefficients[1].stall.separation.tau1_reattach_semichords = 9.5;
     set.coefficients[1].stall.separation.reattach_shift_rad = 0.0625;
+    set.coefficients[1].stall.separation.lag_limit_rad = 0.046875;
     static char buffer[65536];
     std::size_t n = 0;
     REQUIRE(indicial::write_coef_file(set, buffer, sizeof buffer, &n) == indicial::WriteStatus::ok);
@@ -193,9 +194,11 @@ TEST_CASE("the generated dynamic-stall header runs bit for bit like the text fil
     generated << h.rdbuf();
     CHECK(generated.str().find(".separation.tau1_reattach_semichords = 9.5") != std::string::npos);
     CHECK(generated.str().find(".separation.reattach_shift_rad = 0.0625") != std::string::npos);
+    CHECK(generated.str().find(".separation.lag_limit_rad = 0.046875") != std::string::npos);
     CHECK(run("coef check \"" + coef + "\"", &out) == 0);
     CHECK(out.find("T1r 9.5 (reattaching)") != std::string::npos);
     CHECK(out.find("static hysteresis dxr 3.58099 deg") != std::string::npos);
+    CHECK(out.find("T2's lag limited to 2.68574 deg") != std::string::npos);
   }
   // A changed family parameter is caught by the check (the step constants say families).
   auto changed = dynamic_stall_lift_moment;

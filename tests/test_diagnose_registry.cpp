@@ -23,7 +23,7 @@ namespace {
 // the polar they stand on, the parameters held known.
 bool same_families(const StallConfig& a, const StallConfig& b) {
   return a.families == b.families && a.reattachment == b.reattachment && a.forcing_lag == b.forcing_lag &&
-         a.hysteresis == b.hysteresis &&
+         a.hysteresis == b.hysteresis && a.lag_limit == b.lag_limit &&
          a.polar_x_rad == b.polar_x_rad && a.polar_lift == b.polar_lift && a.known == b.known;
 }
 
@@ -75,7 +75,7 @@ TEST_CASE("diagnose registry: an effect's extends says what its candidates chang
   const std::set<Effect> report = extending(EffectExtends::report_model);
   const std::set<Effect> stall = extending(EffectExtends::stall_families);
   CHECK(stall == std::set<Effect>{Effect::separation_lag, Effect::vortex_shedding, Effect::slow_reattachment,
-                                  Effect::pressure_lag, Effect::static_hysteresis});
+                                  Effect::pressure_lag, Effect::static_hysteresis, Effect::lag_limit});
   // No polar: only report-model effects (every one of them has a candidate here).
   CHECK(offered(ModelConfig{}) == report);
   // A polar through stall: the families are offered too.
@@ -89,7 +89,15 @@ TEST_CASE("diagnose registry: an effect's extends says what its candidates chang
   CHECK(with_families.count(Effect::slow_reattachment) == 1);
   CHECK(with_families.count(Effect::pressure_lag) == 1);
   CHECK(with_families.count(Effect::static_hysteresis) == 1);
+  CHECK(with_families.count(Effect::lag_limit) == 1);
   // With the hysteresis already estimated it is not offered again.
   model.stall.hysteresis = StallHysteresis::estimated;
   CHECK(offered(model).count(Effect::static_hysteresis) == 0);
+  // The lag limit acts on the delay form only, and excludes the first-order form's candidate.
+  model.stall.lag_limit = StallLagLimit::estimated;
+  CHECK(offered(model).count(Effect::lag_limit) == 0);
+  CHECK(offered(model).count(Effect::pressure_lag) == 0);
+  model.stall.lag_limit = StallLagLimit::none;
+  model.stall.forcing_lag = ForcingLag::first_order;
+  CHECK(offered(model).count(Effect::lag_limit) == 0);
 }

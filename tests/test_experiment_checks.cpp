@@ -161,7 +161,7 @@ TEST_CASE("a held stall parameter's start key: refused beside it, not written, r
 TEST_CASE("the stall start-value table: each key read, bound-checked, written, read back and documented") {
   const std::vector<std::string> documented = {"stall_T1_start", "stall_T2_start", "stall_CN1_start",
                                                "stall_Tv_start", "stall_Tvl_start", "stall_T1r_start",
-                                               "stall_dxr_start"};
+                                               "stall_dxr_start", "stall_dxl_start"};
   REQUIRE(stall_starts().size() == documented.size());
   std::ifstream formats_file(std::string(INDICIAL_SOURCE_DIR) + "/docs/formats.md");
   std::stringstream formats_text;
@@ -176,19 +176,25 @@ TEST_CASE("the stall start-value table: each key read, bound-checked, written, r
     CHECK(std::string(st.key) == documented[i]);
     CHECK(std::string(stall_start_key(st.parameter)) == st.key);
     CHECK(formats.find(std::string("`") + st.key + "`") != std::string::npos);
-    // T1r's and dxr's starts need their parameter: model.stall_reattachment or
-    // model.stall_hysteresis = "estimated" (refused without).
+    // T1r's, dxr's and dxl's starts need their parameter: model.stall_reattachment,
+    // model.stall_hysteresis or model.stall_lag_limit = "estimated" (refused without).
     const bool reattach = std::string(st.key) == "stall_T1r_start";
     const bool hysteresis = std::string(st.key) == "stall_dxr_start";
-    const std::string value = hysteresis ? "0.0625" : "2.25";  // dxr in rad, at most 20 deg
+    const bool lag_limit = std::string(st.key) == "stall_dxl_start";
+    const bool angle = hysteresis || lag_limit;
+    const std::string value = angle ? "0.0625" : "2.25";  // dxr and dxl in rad, at most 20 deg
     if (reattach)
       CHECK_HAS(load_error(indicial::testing::write_text(dir.path / "e.toml", head + st.key + " = 2.25\n")),
                 "'model.stall_T1r_start' is used only with model.stall_reattachment = \"estimated\"");
     if (hysteresis)
       CHECK_HAS(load_error(indicial::testing::write_text(dir.path / "e.toml", head + st.key + " = 0.0625\n")),
                 "'model.stall_dxr_start' is used only with model.stall_hysteresis = \"estimated\"");
+    if (lag_limit)
+      CHECK_HAS(load_error(indicial::testing::write_text(dir.path / "e.toml", head + st.key + " = 0.0625\n")),
+                "'model.stall_dxl_start' is used only with model.stall_lag_limit = \"estimated\"");
     const std::string head_here = reattach     ? head + "stall_reattachment = \"estimated\"\n"
                                   : hysteresis ? head + "stall_hysteresis = \"estimated\"\n"
+                                  : lag_limit  ? head + "stall_lag_limit = \"estimated\"\n"
                                                : head;
     const std::string path = indicial::testing::write_text(dir.path / "e.toml", head_here + st.key + " = " + value + "\n");
     const Experiment e = load_experiment(path);
@@ -200,12 +206,16 @@ TEST_CASE("the stall start-value table: each key read, bound-checked, written, r
     const std::string bad = indicial::testing::write_text(dir.path / "e.toml", head_here + st.key + " = -1.0\n");
     CHECK_HAS(load_error(bad), std::string("'model.") + st.key +
                                    (st.bound == StartBound::non_negative ? "' must be >= 0"
-                                    : st.bound == StartBound::hysteresis ? "' must be in (0, 0.349] rad (20 deg)"
+                                    : st.bound == StartBound::angle_to_20_deg ? "' must be in (0, 0.349] rad (20 deg)"
                                                                          : "' must be > 0"));
-    if (hysteresis)  // and above 20 deg
+    if (angle)  // and above 20 deg
       CHECK_HAS(load_error(indicial::testing::write_text(dir.path / "e.toml", head_here + st.key + " = 0.4\n")),
-                "'model.stall_dxr_start' must be in (0, 0.349] rad (20 deg)");
+                std::string("'model.") + st.key + "' must be in (0, 0.349] rad (20 deg)");
   }
+  // The lag limit acts on the delay form's lag only: with the first-order form it is refused.
+  CHECK_HAS(load_error(indicial::testing::write_text(
+                dir.path / "e.toml", head + "stall_lag_limit = \"estimated\"\nstall_forcing_lag = \"first_order\"\n")),
+            "'model.stall_lag_limit' = \"estimated\" limits the delay form's lag");
   // The default CN1 start (0: from the polar) is outside its bound, so not set and not written.
   const StallConfig defaults;
   for (const StallStart& st : stall_starts())

@@ -95,6 +95,7 @@ double value_of(const ParamId& id) {
     case ParamKind::stall_tau2: return 1.5;
     case ParamKind::stall_tau1_reattach: return 5.0;
     case ParamKind::stall_reattach_shift: return 0.05;
+    case ParamKind::stall_lag_limit: return 0.02;  // 1.1 deg: the lag on these cycles reaches 2
     case ParamKind::f0_power: return id.power == 0 ? -0.02 : 0.05;
     case ParamKind::f0_knot: return 0.01;
     case ParamKind::stall_cp: return id.power == 0 ? 0.01 : id.power == 1 ? -0.1 : 0.05;
@@ -161,6 +162,20 @@ TEST_CASE("output-error sensitivities match finite differences (lags, delay, sta
     (is_stall_parameter(L.ids()[static_cast<std::size_t>(k)]) ? n_stall : n_lag) += 1;
   CHECK(n_stall == 14);                             // the stall output's 16 (its states, 9: 16)
   CHECK(n_lag + c.structure.y0_per_run() == 11);    // the lag chain's 16
+  check_against_finite_differences(c);
+}
+
+// The delay form with its lag limit D estimated (model.hpp's lag limit; first_order takes none).
+TEST_CASE("output-error sensitivities match finite differences (the delay form's lag limit)") {
+  Case c;
+  c.structure.a.powers = {0};
+  c.structure.b = {SplineTerms{{0}, {}, 1}};
+  c.structure.stall = stall({});
+  c.structure.stall.forcing_lag = ForcingLag::delay;
+  c.structure.stall.lag_limit = StallLagLimit::estimated;
+  c.runs = {run(14.0, 9.0, 0.1, true, 96), run(12.0, 8.0, 0.07, false, 80)};
+  const ParameterLayout L(c.structure, c.runs);
+  CHECK(L.find(param_id(ParamKind::stall_lag_limit)) >= 0);
   check_against_finite_differences(c);
 }
 

@@ -232,6 +232,14 @@ TEST_CASE("a coefficient repeating another's separation update: only from the sa
   const Model mh = runtime_of(hysteresis);
   CHECK(mh.stall_sharing[1].separation == indicial::StallSharing::no_sharing);
   check_step_equals_direct_loop(hysteresis, mh);
+  // A lag limit of its own (D) changes the lagged angles: neither the forcing nor the
+  // separation update is shared.
+  Set limited = shared;
+  limited.coefficients[1].stall.separation.lag_limit_rad = 0.03;
+  const Model ml = runtime_of(limited);
+  CHECK(ml.stall_sharing[1].forcing == indicial::StallSharing::no_sharing);
+  CHECK(ml.stall_sharing[1].separation == indicial::StallSharing::no_sharing);
+  check_step_equals_direct_loop(limited, ml);
   Set corrected = shared;
   auto& correction = corrected.coefficients[1].stall.separation.f0_correction;
   correction.n_powers = 2;
@@ -427,6 +435,17 @@ TEST_CASE("coefficient file: families round-trip byte for byte as version 2, ver
   CHECK(h_back.coefficients[0].stall.separation.reattach_shift_rad == 0.0625);
   CHECK(h_back.coefficients[1].stall.separation.reattach_shift_rad == 0.0);
   CHECK(text_of(h_back) == h_text);
+  // The lag limit (sep_lag_limit): the same, written only when D > 0.
+  CHECK(text.find("sep_lag_limit") == std::string::npos);
+  Set lim = set;
+  lim.coefficients[1].stall.separation.lag_limit_rad = 0.09375;
+  const std::string l_text = text_of(lim);
+  CHECK(l_text.find("sep_lag_limit 0.09375\n") != std::string::npos);
+  Set l_back{};
+  REQUIRE(indicial::parse_coef_file(l_text.data(), l_text.size(), &l_back, &diag) == LoadStatus::ok);
+  CHECK(l_back.coefficients[1].stall.separation.lag_limit_rad == 0.09375);
+  CHECK(l_back.coefficients[0].stall.separation.lag_limit_rad == 0.0);
+  CHECK(text_of(l_back) == l_text);
   // The forcing lag's form (sep_forcing_lag): written only when first_order, read back; a file
   // without the line is delay (what every file before the key meant).
   CHECK(text.find("sep_forcing_lag") == std::string::npos);
@@ -468,6 +487,10 @@ TEST_CASE("coefficient file: bad family values are refused with their line and r
       {"sep_cp 1 0 0\n", "sep_cp 1 0 0\nsep_hysteresis 0.5\n", LoadStatus::invalid_value, "0 to 20 deg"},
       {"sep_cp 1 0 0\n", "sep_cp 1 0 0\nsep_hysteresis 0.05\nsep_hysteresis 0.05\n", LoadStatus::syntax_error,
        "key given twice"},
+      {"sep_cp 1 0 0\n", "sep_cp 1 0 0\nsep_lag_limit -0.1\n", LoadStatus::invalid_value, "D_rad must be > 0"},
+      {"sep_cp 1 0 0\n", "sep_cp 1 0 0\nsep_lag_limit 0.4\n", LoadStatus::invalid_value, "0 to 20 deg"},
+      {"sep_cp 1 0 0\n", "sep_cp 1 0 0\nsep_lag_limit 0.05\nsep_forcing_lag first_order\n",
+       LoadStatus::invalid_value, "only with the delay forcing lag"},
       {"sep_cp 1 0 0\n", "sep_cp 1 0 0\nsep_forcing_lag filtered\n", LoadStatus::invalid_value,
        "sep_forcing_lag must be delay or first_order"},
       {"sep_cp 1 0 0\n", "sep_cp 1 0 0\nsep_forcing_lag\n", LoadStatus::syntax_error, "needs one value"},

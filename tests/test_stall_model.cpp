@@ -3,7 +3,7 @@
 // for any step, the discrete update advance_stall against a Boost.Odeint Dormand-Prince
 // integration of stall_derivatives (error and measured order), double against float, the
 // autodiff sensitivities the fitter uses against central finite differences, the feasible set,
-// the logistic switch's saturation, the static hysteresis's loop.
+// the logistic switch's saturation, the static hysteresis's loop, the lag limit.
 #include <doctest/doctest.h>
 
 #include <Eigen/Core>
@@ -182,20 +182,24 @@ TEST_CASE("advance stall is second order against an odeint integration") {
   // switches its decay at the step where the forcing crosses f, still order 2. The fourth: the
   // forcing angle as a first-order filter (ForcingLag::first_order, a fourth state). The fifth
   // and sixth: a static hysteresis of 3 deg (dxr, model.hpp): f held inside its band, the
-  // update deciding at each step's start whether it separates, reattaches or holds.
+  // update deciding at each step's start whether it separates, reattaches or holds. The
+  // seventh: the forcing lag limited to D = 1 deg (model.hpp's lag limit; the lag T2 (l/V) x'
+  // reaches 1.7 x 0.1 x 10 = 1.7 deg here, so the limit acts).
   using indicial::ForcingLag;
-  struct Case { indicial::StallFamilies fam; double t1r; ForcingLag lag; double dxr_deg; };
-  for (const Case c : {Case{indicial::StallFamilies::separation, 0.0, ForcingLag::delay, 0.0},
-                       Case{indicial::StallFamilies::separation_and_vortex, 0.0, ForcingLag::delay, 0.0},
-                       Case{indicial::StallFamilies::separation_and_vortex, 9.0, ForcingLag::delay, 0.0},
-                       Case{indicial::StallFamilies::separation_and_vortex, 9.0, ForcingLag::first_order, 0.0},
-                       Case{indicial::StallFamilies::separation_and_vortex, 0.0, ForcingLag::delay, 3.0},
-                       Case{indicial::StallFamilies::separation_and_vortex, 9.0, ForcingLag::first_order, 3.0}}) {
+  struct Case { indicial::StallFamilies fam; double t1r; ForcingLag lag; double dxr_deg; double limit_deg; };
+  for (const Case c : {Case{indicial::StallFamilies::separation, 0.0, ForcingLag::delay, 0.0, 0.0},
+                       Case{indicial::StallFamilies::separation_and_vortex, 0.0, ForcingLag::delay, 0.0, 0.0},
+                       Case{indicial::StallFamilies::separation_and_vortex, 9.0, ForcingLag::delay, 0.0, 0.0},
+                       Case{indicial::StallFamilies::separation_and_vortex, 9.0, ForcingLag::first_order, 0.0, 0.0},
+                       Case{indicial::StallFamilies::separation_and_vortex, 0.0, ForcingLag::delay, 3.0, 0.0},
+                       Case{indicial::StallFamilies::separation_and_vortex, 9.0, ForcingLag::first_order, 3.0, 0.0},
+                       Case{indicial::StallFamilies::separation_and_vortex, 9.0, ForcingLag::delay, 0.0, 1.0}}) {
     const indicial::StallFamilies fam = c.fam;
     auto m = test_model<double>(fam);
     m.separation.tau1_reattach_semichords = c.t1r;
     m.separation.forcing_lag = c.lag;
     m.separation.reattach_shift_rad = c.dxr_deg * kDeg;
+    m.separation.lag_limit_rad = c.limit_deg * kDeg;
     // The vortex really is shed: the clock passes T_vl and the vortex lift is not small.
     if (fam == indicial::StallFamilies::separation_and_vortex) {
       const auto states = discrete(m, mo, l_over_v, period / 2000, 4000);
@@ -208,9 +212,10 @@ TEST_CASE("advance stall is second order against an odeint integration") {
       CHECK(cmax > 7.0);
     }
     // The hysteresis is really there: its output moves from the same model's without it.
-    if (c.dxr_deg > 0.0) {
+    if (c.dxr_deg > 0.0 || c.limit_deg > 0.0) {
       auto none = m;
       none.separation.reattach_shift_rad = 0.0;
+      none.separation.lag_limit_rad = 0.0;
       const auto with = discrete(m, mo, l_over_v, period / 2000, 4000);
       const auto without = discrete(none, mo, l_over_v, period / 2000, 4000);
       double moved = 0.0;
@@ -218,13 +223,14 @@ TEST_CASE("advance stall is second order against an odeint integration") {
         const double x = mo.alpha(static_cast<double>(k) * period / 2000);
         moved = std::max(moved, std::abs(indicial::stall_output(m, x, with[k]) - indicial::stall_output(none, x, without[k])));
       }
-      std::printf("stall dxr %g deg: output moved by up to %.3f from dxr = 0\n", c.dxr_deg, moved);
+      std::printf("stall dxr %g deg, D %g deg: output moved by up to %.3f from neither\n", c.dxr_deg, c.limit_deg, moved);
       CHECK(moved > 0.05);
     }
     std::vector<double> err;
     for (int n : {500, 1000, 2000, 4000}) err.push_back(max_output_error(m, mo, l_over_v, 2 * period / n, n));
-    for (std::size_t i = 0; i < err.size(); ++i) std::printf("stall %s T1r %g %s dxr %g deg n=%d err %.3e\n",
-        indicial::stall_families_name(fam), c.t1r, indicial::forcing_lag_name(c.lag), c.dxr_deg, 500 << i, err[i]);
+    for (std::size_t i = 0; i < err.size(); ++i) std::printf("stall %s T1r %g %s dxr %g deg D %g deg n=%d err %.3e\n",
+        indicial::stall_families_name(fam), c.t1r, indicial::forcing_lag_name(c.lag), c.dxr_deg, c.limit_deg,
+        500 << i, err[i]);
     CHECK(err.back() < 2e-5);
     // The order over the three halvings: single halvings scatter (2.2 .. 1.5) because the
     // forcing has kinks (the linear f0 table's rows every 0.5 deg, the clipping), where one
@@ -444,6 +450,92 @@ TEST_CASE("stall autodiff sensitivity to the static hysteresis matches finite di
   }
 }
 
+// The lag limit D (model.hpp): on sinusoids of growing rate the forcing angle's largest lag
+// behind the angle, max |x - x_e|, is the delay's T2 (l/V) max|x'| while that is small against
+// D, and never reaches D however fast the motion; D = 0 is the delay itself, bit for bit.
+TEST_CASE("lag limit: the forcing angle's lag is the delay's at low rates and stays below D") {
+  const double l_over_v = 0.275 / 40.0;
+  const double limit = 2.0 * kDeg;
+  for (const double k : {0.005, 0.05, 0.15, 0.5}) {
+    Motion mo;
+    mo.mean_rad = 8.0 * kDeg;
+    mo.omega_radps = k / l_over_v;
+    const double period = 2.0 * kPi / mo.omega_radps;
+    const int n = 512;
+    auto m = test_model<double>(indicial::StallFamilies::separation);
+    auto unlimited = m;
+    m.separation.lag_limit_rad = limit;
+    double lag_max = 0.0, delay_max = 0.0;
+    for (int i = 0; i < n; ++i) {
+      const double dt = period / n;
+      const indicial::StallStep<double> g{mo.alpha(i * dt), mo.alpha((i + 1) * dt), dt, l_over_v};
+      double forcing = 0.0;
+      indicial::StallLookups<double> lk, lu;
+      indicial::stall_lagged_angles(m.separation, g, dt / l_over_v, &forcing, &lk);
+      indicial::stall_lagged_angles(unlimited.separation, g, dt / l_over_v, &forcing, &lu);
+      lag_max = std::max(lag_max, std::abs(g.x1_rad - lk.lagged_x1_rad));
+      delay_max = std::max(delay_max, std::abs(g.x1_rad - lu.lagged_x1_rad));
+      // The continuous form at the step's start: the same limited lag of T2 (l/V) x'.
+      const double xdot = mo.amplitude_rad * mo.omega_radps * std::sin(mo.omega_radps * i * dt);
+      const double expect = limit * std::tanh(m.separation.tau2_semichords * l_over_v * xdot / limit);
+      CHECK(indicial::limited_lag(m.separation, m.separation.tau2_semichords * l_over_v * xdot) ==
+            doctest::Approx(expect).epsilon(1e-12).scale(limit));
+    }
+    INFO("k " << k << ": largest lag " << lag_max / kDeg << " deg, delay's " << delay_max / kDeg << " deg");
+    CHECK(lag_max < limit);
+    CHECK(lag_max <= delay_max);
+    if (delay_max < 0.1 * limit) CHECK(lag_max == doctest::Approx(delay_max).epsilon(0.005));
+    if (delay_max > 3.0 * limit) CHECK(lag_max > 0.99 * limit);
+  }
+  // D = 0: no limit, the same bits as the delay.
+  auto m = test_model<double>(indicial::StallFamilies::separation);
+  CHECK(indicial::limited_lag(m.separation, 0.0123) == 0.0123);
+  // Odd, and finite at any rate (no exp overflow).
+  m.separation.lag_limit_rad = limit;
+  CHECK(indicial::limited_lag(m.separation, -0.0123) == -indicial::limited_lag(m.separation, 0.0123));
+  CHECK(indicial::limited_lag(m.separation, 1e300) == limit);
+  CHECK(indicial::limited_lag(m.separation, -1e300) == -limit);
+}
+
+// D's derivative (the fitter's sensitivity of the lag limit) against central finite
+// differences, on a deep-stall cycle fast enough for the limit to act.
+TEST_CASE("stall autodiff sensitivity to the lag limit matches finite differences") {
+  using AD = Eigen::AutoDiffScalar<Eigen::Matrix<double, 1, 1>>;
+  const double l_over_v = 0.275 / 30.0;
+  Motion mo;
+  mo.mean_rad = 15.0 * kDeg;
+  mo.omega_radps = 0.1 / l_over_v;
+  const double dt = 2.0 * kPi / mo.omega_radps / 256;
+  auto objective = [&](auto m) {
+    using T = std::decay_t<decltype(m.separation.cp_k0)>;
+    indicial::StallState<T> s;
+    indicial::stall_steady_state(m, T(mo.alpha(0)), &s);
+    T sum = T(0);
+    for (int k = 0; k < 384; ++k) {
+      indicial::advance_stall(m, {T(mo.alpha(k * dt)), T(mo.alpha((k + 1) * dt)), T(dt), T(l_over_v)}, &s);
+      sum = sum + T(std::sin(0.05 * k)) * indicial::stall_output(m, T(mo.alpha((k + 1) * dt)), s);
+    }
+    return sum;
+  };
+  auto base = test_model<double>(indicial::StallFamilies::separation_and_vortex);
+  auto ma = test_model<AD>(indicial::StallFamilies::separation_and_vortex);
+  for (double limit_deg : {1.0, 3.0}) {
+    const double limit = limit_deg * kDeg;
+    AD a(limit);
+    a.derivatives()(0) = 1.0;
+    ma.separation.lag_limit_rad = a;
+    const AD j = objective(ma);
+    const double h = 1e-7;
+    auto mp = base, mm = base;
+    mp.separation.lag_limit_rad = limit + h;
+    mm.separation.lag_limit_rad = limit - h;
+    const double fd = (objective(mp) - objective(mm)) / (2 * h);
+    INFO("D " << limit_deg << " deg: autodiff " << j.derivatives()(0) << " fd " << fd);
+    CHECK(std::abs(fd) > 0.1);  // the cycle does see D
+    CHECK(j.derivatives()(0) == doctest::Approx(fd).epsilon(1e-5).scale(1.0));
+  }
+}
+
 // The switch skips its exp where 1 + e^-u rounds to 1 (issue 22 item 6): the same bits as the
 // full expression there, and the full expression just below the threshold.
 // (The step's exponential is step_exp: std::exp in double, model.hpp's exp_on in float, the
@@ -553,6 +645,18 @@ TEST_CASE("check stall parameters names the infeasible models") {
   b.separation.reattach_shift_rad = 0.35;
   CHECK(indicial::check_stall_parameters(b) == StallCheck::bad_hysteresis);
   b.separation.reattach_shift_rad = std::nan("");
+  CHECK(indicial::check_stall_parameters(b) == StallCheck::not_finite);
+  b = m;
+  b.separation.lag_limit_rad = -1e-3;  // 0 (no limit) to 20 deg are feasible, with the delay form
+  CHECK(indicial::check_stall_parameters(b) == StallCheck::bad_lag_limit);
+  b.separation.lag_limit_rad = indicial::kMaxLagLimitRad;
+  CHECK(indicial::check_stall_parameters(b) == StallCheck::valid);
+  b.separation.lag_limit_rad = 0.35;
+  CHECK(indicial::check_stall_parameters(b) == StallCheck::bad_lag_limit);
+  b.separation.lag_limit_rad = 0.05;
+  b.separation.forcing_lag = indicial::ForcingLag::first_order;
+  CHECK(indicial::check_stall_parameters(b) == StallCheck::bad_lag_limit);
+  b.separation.lag_limit_rad = std::nan("");
   CHECK(indicial::check_stall_parameters(b) == StallCheck::not_finite);
   b = m;
   b.vortex.travel_semichords = -1.0;

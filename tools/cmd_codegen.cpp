@@ -194,6 +194,7 @@ void emit_stall(std::string& o, const std::string& p, const indicial::StallModel
     o += "  " + sp + ".tau1_reattach_semichords = " + literal(sep.tau1_reattach_semichords) + ";\n";
   if (sep.reattach_shift_rad > 0.0)
     o += "  " + sp + ".reattach_shift_rad = " + literal(sep.reattach_shift_rad) + ";\n";
+  if (sep.lag_limit_rad > 0.0) o += "  " + sp + ".lag_limit_rad = " + literal(sep.lag_limit_rad) + ";\n";
   o += "  " + sp + ".cp_k0 = " + literal(sep.cp_k0) + ";\n";
   o += "  " + sp + ".cp_k1 = " + literal(sep.cp_k1) + ";\n";
   o += "  " + sp + ".cp_k2 = " + literal(sep.cp_k2) + ";\n";

@@ -46,6 +46,7 @@ void print_stall_summary(const indicial::StallModel<double, indicial::DefaultCap
   if (p.tau1_reattach_semichords > 0.0) std::printf(", T1r %g (reattaching)", p.tau1_reattach_semichords);
   if (p.reattach_shift_rad > 0.0)
     std::printf(", static hysteresis dxr %g deg", p.reattach_shift_rad * 180.0 / 3.141592653589793);
+  if (p.lag_limit_rad > 0.0) std::printf(", T2's lag limited to %g deg", p.lag_limit_rad * 180.0 / 3.141592653589793);
   if (p.forcing_lag != indicial::ForcingLag::delay)
     std::printf(", T2 a %s lag", indicial::forcing_lag_name(p.forcing_lag));
   if (st.families == indicial::StallFamilies::separation_and_vortex)

@@ -207,9 +207,13 @@ const std::vector<KeyDoc>& key_docs() {
                                     "(rad): the flow reattaches only dxr closer to alpha_0 than it separated,\n"
                                     "at any rate (the quasi-static loop of stall); default \"none\".",
        "stall_hysteresis = \"estimated\""},
+      {"model", "stall_lag_limit", "with stall and the delay forcing lag: \"estimated\" limits the forcing angle's\n"
+                                   "lag to dxl = D (rad): x - D tanh(T2 (l/V) x' / D), so fast motions are\n"
+                                   "delayed by at most D; default \"none\" (x - T2 (l/V) x').",
+       "stall_lag_limit = \"estimated\""},
       {"model", "stall_known", "with stall: parameters held at known values, not estimated (T1, T2, k0, k1,\n"
                                "k2; with the vortex CN1, Tv, Tvl, cv, xv; with stall_reattachment T1r; with\n"
-                               "stall_hysteresis dxr in rad), e.g.\n"
+                               "stall_hysteresis dxr, with stall_lag_limit dxl, both in rad), e.g.\n"
                                "a C_m fit taking T1 and T2 from the C_L fit's model.coef. No start value for\n"
                                "a held parameter.",
        "stall_known = { T1 = 3.0, T2 = 1.5 }"},

@@ -204,6 +204,10 @@ class Experiment:
                            than it separated, at any rate
       stall_dxr_start      start value of dxr (rad, in (0, 0.349]; default 0.035 = 2 deg; needs
                            stall_hysteresis)
+      stall_lag_limit      "none" (default) or "estimated": the forcing angle's lag limited to D
+                           (rad), x_e = x - D tanh(T2 (l/V) x' / D); with the delay forcing lag only
+      stall_dxl_start      start value of D (rad, in (0, 0.349]; default 0.1 = 5.7 deg; needs
+                           stall_lag_limit)
       stall_T1_start, stall_T2_start, stall_Tv_start, stall_Tvl_start, stall_T1r_start
                            start values in semichords (units of l / V; default 3, 1.5, 6, 7 and for
                            T1r T1's start; T2 >= 0, the others > 0; stall_T1r_start needs
@@ -212,7 +216,7 @@ class Experiment:
       stall_known          {name: value} of stall parameters held at known values, not estimated:
                            T1, T2 (l / V), k0, k1, k2, and with the vortex CN1 (C_N), Tv, Tvl
                            (l / V), cv, xv, with stall_reattachment T1r, with stall_hysteresis dxr
-                           (rad); e.g. {"T1": 3.4, "T2": 1.1}
+                           and with stall_lag_limit dxl (rad); e.g. {"T1": 3.4, "T2": 1.1}
                            from the C_L fit's model
       Every stall_* keyword needs ``stall``. Bad values raise InputError naming the keyword, with
       the experiment file's messages.
@@ -236,7 +240,8 @@ class Experiment:
                  stall_Tvl_start: Optional[float] = None, stall_known: Optional[Dict[str, float]] = None,
                  stall_reattachment: Optional[str] = None, stall_T1r_start: Optional[float] = None,
                  stall_forcing_lag: Optional[str] = None, stall_hysteresis: Optional[str] = None,
-                 stall_dxr_start: Optional[float] = None):
+                 stall_dxr_start: Optional[float] = None, stall_lag_limit: Optional[str] = None,
+                 stall_dxl_start: Optional[float] = None):
         if axis not in _ANGLE:
             raise InputError(f"axis: expected one of 'pitch', 'roll', 'yaw', found '{axis}'")
         config = dict(coefficient=coefficient, reference_length_m=float(reference_length_m),
@@ -261,6 +266,7 @@ class Experiment:
                       stall_Tvl_start=stall_Tvl_start, stall_reattachment=stall_reattachment,
                       stall_T1r_start=stall_T1r_start, stall_forcing_lag=stall_forcing_lag,
                       stall_hysteresis=stall_hysteresis, stall_dxr_start=stall_dxr_start,
+                      stall_lag_limit=stall_lag_limit, stall_dxl_start=stall_dxl_start,
                       stall_known=None if stall_known is None else dict(stall_known))
         for i, r in enumerate(runs):
             if not isinstance(r, Run):

@@ -255,7 +255,7 @@ void read_stall_keywords(const py::dict& c, Experiment& e) {
       {"stall_f0_correction_powers", "stall_f0_correction_powers"},
       {"stall_f0_correction_knots_rad", "stall_f0_correction_knots_deg"}, {"stall_known", "stall_known"},
       {"stall_reattachment", "stall_reattachment"}, {"stall_forcing_lag", "stall_forcing_lag"},
-      {"stall_hysteresis", "stall_hysteresis"}};
+      {"stall_hysteresis", "stall_hysteresis"}, {"stall_lag_limit", "stall_lag_limit"}};
   std::set<std::string> present;
   for (const auto& [keyword, key] : keys)
     if (given(c, keyword)) present.insert(key);
@@ -267,6 +267,8 @@ void read_stall_keywords(const py::dict& c, Experiment& e) {
     s.forcing_lag = choice<ForcingLag>("stall_forcing_lag", c["stall_forcing_lag"].cast<std::string>());
   if (given(c, "stall_hysteresis"))
     s.hysteresis = choice<StallHysteresis>("stall_hysteresis", c["stall_hysteresis"].cast<std::string>());
+  if (given(c, "stall_lag_limit"))
+    s.lag_limit = choice<StallLagLimit>("stall_lag_limit", c["stall_lag_limit"].cast<std::string>());
   for (const StallStart& st : stall_starts()) {  // the start values: the file's keys as keywords
     if (!given(c, st.key)) continue;
     present.insert(st.key);

@@ -231,7 +231,7 @@ def test_stall_start_keywords_are_the_one_table():
     import inspect
     keys = indicial._indicial._stall_start_keys()
     assert keys == ["stall_T1_start", "stall_T2_start", "stall_CN1_start", "stall_Tv_start", "stall_Tvl_start",
-                    "stall_T1r_start", "stall_dxr_start"]
+                    "stall_T1r_start", "stall_dxr_start", "stall_dxl_start"]
     signature = [k for k in inspect.signature(indicial.Experiment.__init__).parameters
                  if k.startswith("stall_") and k.endswith("_start")]
     assert sorted(signature) == sorted(keys)
@@ -240,10 +240,11 @@ def test_stall_start_keywords_are_the_one_table():
 def test_each_stall_start_keyword_reaches_the_experiment_file(stall_experiment_kwargs):
     for key in indicial._indicial._stall_start_keys():
         kw = dict(stall_experiment_kwargs, stall_known=None)
-        value = 0.0625 if key == "stall_dxr_start" else 2.25  # dxr in rad, at most 20 deg
+        value = 0.0625 if key in ("stall_dxr_start", "stall_dxl_start") else 2.25  # rad, at most 20 deg
         kw[key] = value
-        needs = {"stall_T1r_start": "stall_reattachment", "stall_dxr_start": "stall_hysteresis"}
-        if key in needs:  # T1r's and dxr's starts need their parameter, as in the file
+        needs = {"stall_T1r_start": "stall_reattachment", "stall_dxr_start": "stall_hysteresis",
+                 "stall_dxl_start": "stall_lag_limit"}
+        if key in needs:  # T1r's, dxr's and dxl's starts need their parameter, as in the file
             with pytest.raises(indicial.InputError, match=needs[key] + ' = "estimated"'):
                 indicial.Experiment(**kw)
             kw[needs[key]] = "estimated"
@@ -252,6 +253,14 @@ def test_each_stall_start_keyword_reaches_the_experiment_file(stall_experiment_k
     # dxr's start outside (0, 20 deg] is refused with the key named.
     kw = dict(stall_experiment_kwargs, stall_known=None, stall_hysteresis="estimated", stall_dxr_start=0.5)
     with pytest.raises(indicial.InputError, match="stall_dxr_start"):
+        indicial.Experiment(**kw)
+
+
+def test_stall_lag_limit_keyword_needs_the_delay_form(stall_experiment_kwargs):
+    kw = dict(stall_experiment_kwargs, stall_lag_limit="estimated")
+    assert 'stall_lag_limit = "estimated"\n' in indicial.Experiment(**kw).toml_text()
+    kw["stall_forcing_lag"] = "first_order"
+    with pytest.raises(indicial.InputError, match="stall_lag_limit"):
         indicial.Experiment(**kw)
 
 

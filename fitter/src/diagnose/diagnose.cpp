@@ -244,6 +244,11 @@ void describe_estimates(Scored& s, Effect effect) {
       s.score.detail = fmt::format("dxr = {:.4g} deg",
                                    estimate_of(f, param_id(ParamKind::stall_reattach_shift), nan) * 180.0 / 3.141592653589793);
       break;
+    case Effect::lag_limit:
+      s.score.detail = fmt::format("D = {:.4g} deg (T2 = {:.4g} (l/V))",
+                                   estimate_of(f, param_id(ParamKind::stall_lag_limit), nan) * 180.0 / 3.141592653589793,
+                                   estimate_of(f, param_id(ParamKind::stall_tau2), nan));
+      break;
     case Effect::pressure_lag:
       s.score.detail = fmt::format("T2 = {:.4g} (l/V) as a first-order lag",
                                    estimate_of(f, param_id(ParamKind::stall_tau2), nan));

@@ -253,13 +253,33 @@ void gen_static_hysteresis(const CandidateContext& ctx, std::vector<CandidateSpe
 // is (the two forms have the same phase lag k T2 at low reduced frequency k).
 void gen_pressure_lag(const CandidateContext& ctx, std::vector<CandidateSpec>& out) {
   const StallConfig& have = ctx.model.stall;
-  if (have.families == StallFamilies::none || have.forcing_lag != ForcingLag::delay) return;
+  if (have.families == StallFamilies::none || have.forcing_lag != ForcingLag::delay ||
+      have.lag_limit != StallLagLimit::none)
+    return;
   CandidateSpec c;
   c.effect = Effect::pressure_lag;
   c.config = ctx.model;
   c.config.stall.forcing_lag = ForcingLag::first_order;
   c.term = "T2 as a first-order lag";
   c.detail = "forcing through a first-order lag";
+  out.push_back(c);
+}
+
+// The forcing angle's lag limited to D (model.hpp's lag limit: x_e = x - D tanh(T2 (l/V) x' /
+// D)), on a model that has the families in the delay form without it: started from the current
+// estimates, D at its configured start (stall_dxl_start, 0.1 rad).
+void gen_lag_limit(const CandidateContext& ctx, std::vector<CandidateSpec>& out) {
+  const StallConfig& have = ctx.model.stall;
+  if (have.families == StallFamilies::none || have.forcing_lag != ForcingLag::delay ||
+      have.lag_limit == StallLagLimit::estimated)
+    return;
+  CandidateSpec c;
+  c.effect = Effect::lag_limit;
+  c.config = ctx.model;
+  c.config.stall.lag_limit = StallLagLimit::estimated;
+  c.starts = {{{param_id(ParamKind::stall_lag_limit), have.lag_limit_start_rad}}};
+  c.term = "dxl";
+  c.detail = "limit of the forcing angle's lag";
   out.push_back(c);
 }
 
@@ -384,6 +404,16 @@ const std::vector<EffectEntry>& effect_registry() {
         "oscillations through stall at low and moderate reduced frequencies (k <= 0.05 with faster "
         "ones): a time lag's loop shrinks with k, the hysteresis's does not"},
        SplineFamily::none, gen_static_hysteresis},
+      {{Effect::lag_limit, EffectExtends::stall_families, "lag_limit",
+        "the onset of separation is delayed by the motion, less and less as the motion gets faster",
+        "the forcing angle's lag limited to D: x_e = x - D tanh(T2 (l/V) x' / D) (model.stall_lag_limit = "
+        "\"estimated\"; coefficient-file sep_lag_limit)",
+        "on fast cycles the model separates late and stays separated where the measurement barely "
+        "separates (light stall at high reduced frequency), while slow cycles fit: a delay that "
+        "grows with the rate without bound over-shoots the fast ones",
+        "oscillations through stall over a range of reduced frequencies, fast ones (k T2 ~ 0.5 and "
+        "above) with slow ones"},
+       SplineFamily::none, gen_lag_limit},
   };
   // Why: Effect values index this table (effect_entry); a missing or misplaced entry is a bug.
   static const bool checked = [] {

@@ -60,6 +60,7 @@ struct StallStructure {
   double shedding_threshold_start = 1.0;  // N(x) where f0 first falls below 0.7 (above alpha_0)
   StallReattachment reattachment = StallReattachment::as_separation;  // T1r estimated or not (0)
   StallHysteresis hysteresis = StallHysteresis::none;                 // dxr estimated or not (0)
+  StallLagLimit lag_limit = StallLagLimit::none;                      // D estimated or not (0)
   ForcingLag forcing_lag = ForcingLag::delay;                         // StallConfig::forcing_lag
   std::vector<std::pair<ParamId, double>> known;  // StallConfig::known: held, not estimated
   bool is_known(const ParamId& id) const {
@@ -213,6 +214,7 @@ void set_parameter(const ParamId& id, const S& v, CoefficientModel<S, Cap>& m) {
     case ParamKind::stall_tau2: m.stall.separation.tau2_semichords = v; break;
     case ParamKind::stall_tau1_reattach: m.stall.separation.tau1_reattach_semichords = v; break;
     case ParamKind::stall_reattach_shift: m.stall.separation.reattach_shift_rad = v; break;
+    case ParamKind::stall_lag_limit: m.stall.separation.lag_limit_rad = v; break;
     case ParamKind::f0_power: m.stall.separation.f0_correction.power_coef[id.power] = v; break;
     case ParamKind::f0_knot: m.stall.separation.f0_correction.knot_coef[id.knot] = v; break;
     case ParamKind::stall_cp:

@@ -63,6 +63,7 @@ std::string parameter_name(const ParamId& id) {
     case ParamKind::stall_tau2: return "T2";
     case ParamKind::stall_tau1_reattach: return "T1r";
     case ParamKind::stall_reattach_shift: return "dxr";
+    case ParamKind::stall_lag_limit: return "dxl";
     case ParamKind::f0_power: return "f0c_" + power;
     case ParamKind::f0_knot: return "f0cK" + knot;
     case ParamKind::stall_cp: return "k" + power;
@@ -102,6 +103,7 @@ bool scan_name(NameScanner& c, ParamId& r) {
   // The dynamic-stall names (before the numbered prefixes: "cv" is no gain c{k}).
   struct Whole { const char* text; ParamKind kind; };
   static const Whole whole[] = {{"T1r", ParamKind::stall_tau1_reattach}, {"dxr", ParamKind::stall_reattach_shift},
+                                {"dxl", ParamKind::stall_lag_limit},
                                 {"T1", ParamKind::stall_tau1},       {"T2", ParamKind::stall_tau2},
                                 {"CN1", ParamKind::shedding_threshold}, {"Tvl", ParamKind::vortex_travel},
                                 {"Tv", ParamKind::vortex_decay},     {"cv", ParamKind::vortex_lift},
@@ -223,6 +225,7 @@ std::vector<ParamId> structural_terms(const UnsteadyStructure& s) {
     add_stall(param_id(ParamKind::stall_tau2));
     if (s.stall.reattachment == StallReattachment::estimated) add_stall(param_id(ParamKind::stall_tau1_reattach));
     if (s.stall.hysteresis == StallHysteresis::estimated) add_stall(param_id(ParamKind::stall_reattach_shift));
+    if (s.stall.lag_limit == StallLagLimit::estimated) add_stall(param_id(ParamKind::stall_lag_limit));
     add_spline_terms(t, s.stall.f0_correction, ParamKind::f0_power, ParamKind::f0_knot, 0);
     for (int k = 0; k < 3; ++k) {
       add_stall(param_id(ParamKind::stall_cp, 0, k));
@@ -242,6 +245,7 @@ bool is_stall_parameter(const ParamId& id) {
     case ParamKind::stall_tau2:
     case ParamKind::stall_tau1_reattach:
     case ParamKind::stall_reattach_shift:
+    case ParamKind::stall_lag_limit:
     case ParamKind::f0_power:
     case ParamKind::f0_knot:
     case ParamKind::stall_cp:

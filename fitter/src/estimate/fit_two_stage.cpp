@@ -56,6 +56,7 @@ double default_start(const ParamId& id, double b1_0, const std::vector<PreparedR
     // T1r starts at T1's start unless given: the model with one time constant both ways.
     case ParamKind::stall_tau1_reattach: return sc.tau1_reattach_start > 0.0 ? sc.tau1_reattach_start : sc.tau1_start;
     case ParamKind::stall_reattach_shift: return sc.reattach_shift_start_rad;
+    case ParamKind::stall_lag_limit: return sc.lag_limit_start_rad;
     case ParamKind::stall_cp:
       return id.power == 0 ? (lift ? 1.0 : 0.0)
                            : !moment ? 0.0 : id.power == 1 ? -0.135 : 0.04;

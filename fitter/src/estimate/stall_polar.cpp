@@ -38,6 +38,7 @@ StallStructure stall_structure(const StallConfig& c, const std::string& context_
   s.families = c.families;
   s.reattachment = c.reattachment;
   s.hysteresis = c.hysteresis;
+  s.lag_limit = c.lag_limit;
   s.forcing_lag = c.forcing_lag;
   s.f0_correction.powers = c.f0_correction.powers;
   s.f0_correction.knots_rad = c.f0_correction.knots_rad;

@@ -19,13 +19,14 @@ namespace {
 const char* const kStallKeys[] = {"stall_polar", "stall_polar_column", "stall_attached_max_deg",
                                   "stall_f0_correction_degree", "stall_f0_correction_powers",
                                   "stall_f0_correction_knots_deg", "stall_known", "stall_reattachment",
-                                  "stall_forcing_lag", "stall_hysteresis"};
+                                  "stall_forcing_lag", "stall_hysteresis", "stall_lag_limit"};
 
 // The stall parameters stall_known may name, with the feasible set model.hpp's
 // check_stall_parameters enforces (a parameter with a start value: the start's bound, the same
 // set). Their start keys are stall_starts()'s (stall_start_key).
-enum class Bound { any, positive, non_negative, hysteresis };
-enum class Family { separation, reattachment, hysteresis, vortex };
+enum class Bound { any, positive, non_negative, angle_to_20_deg };  // the last: [0, 20 deg] in rad
+enum class Family { separation, reattachment, hysteresis, lag_limit, vortex };
+static_assert(kMaxReattachShiftRad == kMaxLagLimitRad, "Bound::angle_to_20_deg is both bounds");
 struct StallParameter { const char* name; Bound bound; Family family; };
 const StallParameter kStallParameters[] = {
     {"T1", Bound::positive, Family::separation},     {"T2", Bound::non_negative, Family::separation},
@@ -33,7 +34,8 @@ const StallParameter kStallParameters[] = {
     {"k2", Bound::any, Family::separation},          {"CN1", Bound::positive, Family::vortex},
     {"Tv", Bound::positive, Family::vortex},         {"Tvl", Bound::positive, Family::vortex},
     {"cv", Bound::any, Family::vortex},              {"xv", Bound::any, Family::vortex},
-    {"T1r", Bound::positive, Family::reattachment},   {"dxr", Bound::hysteresis, Family::hysteresis}};
+    {"T1r", Bound::positive, Family::reattachment},   {"dxr", Bound::angle_to_20_deg, Family::hysteresis},
+    {"dxl", Bound::angle_to_20_deg, Family::lag_limit}};
 
 const StallParameter* stall_parameter(const std::string& name) {
   for (const StallParameter& p : kStallParameters)
@@ -50,12 +52,16 @@ void check_stall_known(const StallConfig& s, const std::set<std::string>& given,
     if (!k)
       site.raise(key, "'" + site.name("stall_known") + "' names '" + name + "', not a dynamic-stall parameter (T1, "
                       "T2, k0, k1, k2; with the vortex also CN1, Tv, Tvl, cv, xv; with stall_reattachment = "
-                      "\"estimated\" also T1r; with stall_hysteresis = \"estimated\" also dxr)");
+                      "\"estimated\" also T1r; with stall_hysteresis = \"estimated\" also dxr; with "
+                      "stall_lag_limit = \"estimated\" also dxl)");
     if (k->family == Family::reattachment && s.reattachment != StallReattachment::estimated)
       site.raise(key, "'" + where + "' is the reattachment time constant: it needs " +
                       site.name("stall_reattachment") + " = \"estimated\"");
     if (k->family == Family::hysteresis && s.hysteresis != StallHysteresis::estimated)
       site.raise(key, "'" + where + "' is the static hysteresis: it needs " + site.name("stall_hysteresis") +
+                      " = \"estimated\"");
+    if (k->family == Family::lag_limit && s.lag_limit != StallLagLimit::estimated)
+      site.raise(key, "'" + where + "' is the forcing lag's limit: it needs " + site.name("stall_lag_limit") +
                       " = \"estimated\"");
     if (k->family == Family::vortex && s.families != StallFamilies::separation_and_vortex)
       site.raise(key, "'" + where + "' is a vortex parameter: it needs " + site.name("stall") +
@@ -63,7 +69,7 @@ void check_stall_known(const StallConfig& s, const std::set<std::string>& given,
     if (!std::isfinite(v)) site.raise(key, "'" + where + "' must be finite");
     if (k->bound == Bound::positive && !(v > 0.0)) site.raise(key, "'" + where + "' must be > 0");
     if (k->bound == Bound::non_negative && !(v >= 0.0)) site.raise(key, "'" + where + "' must be >= 0");
-    if (k->bound == Bound::hysteresis && !(v >= 0.0 && v <= kMaxReattachShiftRad))
+    if (k->bound == Bound::angle_to_20_deg && !(v >= 0.0 && v <= kMaxReattachShiftRad))
       site.raise(key, "'" + where + "' must be in [0, 0.349] rad (0 to 20 deg)");
     const char* start_key = stall_start_key(name);
     if (start_key && given.count(start_key))
@@ -191,7 +197,7 @@ void check_stall_keys(const StallConfig& s, const std::set<std::string>& given, 
   auto check_bound = [&](const char* key, bool ok, StartBound bound) {
     if (given.count(key) && !ok)
       site.raise(key, "'" + site.name(key) + (bound == StartBound::non_negative ? "' must be >= 0"
-                                              : bound == StartBound::hysteresis ? "' must be in (0, 0.349] rad (20 deg)"
+                                              : bound == StartBound::angle_to_20_deg ? "' must be in (0, 0.349] rad (20 deg)"
                                                                                 : "' must be > 0"));
   };
   check_bound("stall_attached_max_deg", s.attached_max_deg > 0.0 && std::isfinite(s.attached_max_deg),
@@ -202,6 +208,10 @@ void check_stall_keys(const StallConfig& s, const std::set<std::string>& given, 
       site.raise(st.key, "'" + site.name(st.key) + "' is used only with " +
                              site.name(stall_start_condition(st).key) + " = \"" + stall_start_condition(st).value + "\"");
   }
+  if (s.lag_limit == StallLagLimit::estimated && s.forcing_lag != ForcingLag::delay)
+    site.raise("stall_lag_limit", "'" + site.name("stall_lag_limit") + "' = \"estimated\" limits the delay form's lag (x - "
+                                  "T2 (l/V) x'); with " + site.name("stall_forcing_lag") + " = \"" +
+                                  name_of(s.forcing_lag) + "\" there is no such lag to limit");
   check_stall_known(s, given, site);
 }
 
@@ -216,8 +226,10 @@ const std::vector<StallStart>& stall_starts() {
       {"stall_T1r_start", "T1r", &StallConfig::tau1_reattach_start, StartBound::positive, "l / V",
        "T1's start (stall_T1_start); only with stall_reattachment = \"estimated\"", 8.0,
        StartUse::with_reattachment_estimated},
-      {"stall_dxr_start", "dxr", &StallConfig::reattach_shift_start_rad, StartBound::hysteresis, "rad", nullptr,
-       0.05, StartUse::with_hysteresis_estimated}};
+      {"stall_dxr_start", "dxr", &StallConfig::reattach_shift_start_rad, StartBound::angle_to_20_deg, "rad", nullptr,
+       0.05, StartUse::with_hysteresis_estimated},
+      {"stall_dxl_start", "dxl", &StallConfig::lag_limit_start_rad, StartBound::angle_to_20_deg, "rad", nullptr, 0.1,
+       StartUse::with_lag_limit_estimated}};
   return starts;
 }
 
@@ -226,6 +238,7 @@ bool stall_start_used(const StallStart& start, const StallConfig& s) {
     case StartUse::with_families: return true;
     case StartUse::with_reattachment_estimated: return s.reattachment == StallReattachment::estimated;
     case StartUse::with_hysteresis_estimated: return s.hysteresis == StallHysteresis::estimated;
+    case StartUse::with_lag_limit_estimated: return s.lag_limit == StallLagLimit::estimated;
   }
   return true;
 }
@@ -235,6 +248,7 @@ StartCondition stall_start_condition(const StallStart& start) {
     case StartUse::with_families: return {nullptr, nullptr};
     case StartUse::with_reattachment_estimated: return {"stall_reattachment", "estimated"};
     case StartUse::with_hysteresis_estimated: return {"stall_hysteresis", "estimated"};
+    case StartUse::with_lag_limit_estimated: return {"stall_lag_limit", "estimated"};
   }
   return {nullptr, nullptr};
 }
@@ -244,7 +258,7 @@ bool start_in_bound(const StallStart& start, double v) {
   switch (start.bound) {
     case StartBound::positive: return v > 0.0;
     case StartBound::non_negative: return v >= 0.0;
-    case StartBound::hysteresis: return v > 0.0 && v <= kMaxReattachShiftRad;
+    case StartBound::angle_to_20_deg: return v > 0.0 && v <= kMaxReattachShiftRad;
   }
   return false;
 }

@@ -602,7 +602,7 @@ std::set<std::string> model_keys() {
                                 "stall", "stall_polar", "stall_polar_column", "stall_attached_max_deg",
                                 "stall_f0_correction_degree", "stall_f0_correction_powers",
                                 "stall_f0_correction_knots_deg", "stall_known", "stall_reattachment",
-                                "stall_forcing_lag", "stall_hysteresis"};
+                                "stall_forcing_lag", "stall_hysteresis", "stall_lag_limit"};
   for (const StallStart& st : stall_starts()) keys.insert(st.key);
   for (int k = 1; k <= FitCapacity::max_lags; ++k)
     for (const std::string& key : lag_b_keys(k)) keys.insert(key);
@@ -752,6 +752,8 @@ void read_stall_keys(LoadContext& c, const toml::node* model_node, Experiment& e
     s.forcing_lag = r.choice<ForcingLag>(*n, "model.stall_forcing_lag");
   if (const toml::node* n = mt.get("stall_hysteresis"))
     s.hysteresis = r.choice<StallHysteresis>(*n, "model.stall_hysteresis");
+  if (const toml::node* n = mt.get("stall_lag_limit"))
+    s.lag_limit = r.choice<StallLagLimit>(*n, "model.stall_lag_limit");
   std::set<std::string> given;
   for (auto&& [key, value] : mt)
     if (key.str().rfind("stall_", 0) == 0) given.insert(std::string(key.str()));
@@ -1223,6 +1225,8 @@ std::string write_experiment_toml(const Experiment& e, const std::vector<std::st
       out += std::string("stall_forcing_lag = \"") + name_of(st.forcing_lag) + "\"\n";
     if (st.hysteresis != StallHysteresis::none)
       out += std::string("stall_hysteresis = \"") + name_of(st.hysteresis) + "\"\n";
+    if (st.lag_limit != StallLagLimit::none)
+      out += std::string("stall_lag_limit = \"") + name_of(st.lag_limit) + "\"\n";
     if (!st.f0_correction.powers.empty()) out += power_terms("stall_f0_correction", st.f0_correction.powers);
     if (!st.f0_correction.knots_rad.empty())
       out += "stall_f0_correction_knots_deg = " + number_list(st.f0_correction.knots_rad, kRadToDeg) + "\n";

@@ -351,6 +351,7 @@ enum SeenBit : unsigned {
   seen_sep_reattach = 1u << 23,
   seen_sep_forcing = 1u << 28,
   seen_sep_hysteresis = 1u << 29,
+  seen_sep_lag_limit = 1u << 30,
   seen_lag_poly0 = 1u << 16,  // + j for lag j (up to 4 lags)
   seen_lag_gain0 = 1u << 24,  // + j
 };
@@ -644,6 +645,15 @@ inline KeyRead read_sep_hysteresis(CoefficientModel<double, Cap>& cm, Tokens& t,
   return read_ruled(t, rules, {&cm.stall.separation.reattach_shift_rad}, seen_sep_hysteresis);
 }
 
+// `sep_lag_limit D_rad` (optional; rad): the limit of the forcing angle's lag (model.hpp): x_e =
+// x - D tanh(T2 (l/V) x' / D). Without the key D is 0: no limit. At most 20 deg, and only with
+// the delay forcing lag (check_stall_parameters).
+template <class Cap>
+inline KeyRead read_sep_lag_limit(CoefficientModel<double, Cap>& cm, Tokens& t, int*) {
+  static constexpr ValueRule rules[1] = {{ValueRule::Kind::positive, "sep_lag_limit: D_rad must be > 0"}};
+  return read_ruled(t, rules, {&cm.stall.separation.lag_limit_rad}, seen_sep_lag_limit);
+}
+
 // `sep_forcing_lag first_order` (optional; model.hpp's ForcingLag): how T2 lags the forcing
 // angle. Without the key, delay (x - T2 (l/V) x', what files before the key meant).
 template <class Cap>
@@ -729,6 +739,7 @@ inline const BlockKey<Cap>* find_block_key(const char* b, const char* e) {
       {"sep_time_constants", &read_sep_time<Cap>, coef_file_version_stall},
       {"sep_reattachment", &read_sep_reattach<Cap>, coef_file_version_stall},
       {"sep_hysteresis", &read_sep_hysteresis<Cap>, coef_file_version_stall},
+      {"sep_lag_limit", &read_sep_lag_limit<Cap>, coef_file_version_stall},
       {"sep_forcing_lag", &read_sep_forcing<Cap>, coef_file_version_stall},
       {"sep_cp", &read_sep_cp<Cap>, coef_file_version_stall},
       {"vortex_shedding", &read_vortex<Cap, VortexItem::shedding>, coef_file_version_stall},
@@ -812,7 +823,7 @@ inline LoadStatus stall_families_of_block(unsigned seen, CoefficientModel<double
   const unsigned sep_required = seen_sep_polar | seen_sep_time | seen_sep_cp;
   const unsigned vortex_all = seen_vortex_shedding | seen_vortex_time | seen_vortex_clock | seen_vortex_output;
   const bool any_sep = (seen & (sep_required | seen_sep_corr_poly | seen_sep_reattach | seen_sep_forcing |
-                                seen_sep_hysteresis)) != 0 ||
+                                seen_sep_hysteresis | seen_sep_lag_limit)) != 0 ||
                        cm->stall.separation.n_f0 > 0 || cm->stall.separation.f0_correction.n_knots > 0;
   const bool any_vortex = (seen & vortex_all) != 0;
   if (!any_sep && !any_vortex) return LoadStatus::ok;
@@ -1130,6 +1141,7 @@ inline void write_stall_families(Sink& s, const StallModel<double, Cap>& st) {
   write_values(s, "sep_time_constants", {sep.tau1_semichords, sep.tau2_semichords});
   if (sep.tau1_reattach_semichords > 0.0) write_values(s, "sep_reattachment", {sep.tau1_reattach_semichords});
   if (sep.reattach_shift_rad > 0.0) write_values(s, "sep_hysteresis", {sep.reattach_shift_rad});
+  if (sep.lag_limit_rad > 0.0) write_values(s, "sep_lag_limit", {sep.lag_limit_rad});
   if (sep.forcing_lag != ForcingLag::delay) {
     s.put("sep_forcing_lag ");
     s.put(forcing_lag_name(sep.forcing_lag));

@@ -147,6 +147,8 @@ inline const char* stall_check_reason(StallCheck c) {
     case StallCheck::bad_separation_table:
       return "sep_f0_point: at least 2 rows, x_rad strictly increasing, f0 in [0, 1]";
     case StallCheck::bad_hysteresis: return "sep_hysteresis: dxr_rad must be in [0, 0.349] (0 to 20 deg)";
+    case StallCheck::bad_lag_limit:
+      return "sep_lag_limit: D_rad must be in [0, 0.349] (0 to 20 deg), and only with the delay forcing lag";
     case StallCheck::not_finite: return "a dynamic-stall parameter is NaN or Inf";
   }
   return "unknown dynamic-stall check";

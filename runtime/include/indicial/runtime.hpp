@@ -400,7 +400,8 @@ inline void derive_stall_sharing(const ModelSet<Scalar, Cap>& s, StallSharing* s
       if (table) sharing[c].table = e;
       // first_order: the lagged angles are each coefficient's own state's (look_up_families)
       if (table && a.separation.forcing_lag == ForcingLag::delay && b.separation.forcing_lag == ForcingLag::delay &&
-          detail::same_bits(a.separation.tau2_semichords, b.separation.tau2_semichords))
+          detail::same_bits(a.separation.tau2_semichords, b.separation.tau2_semichords) &&
+          detail::same_bits(a.separation.lag_limit_rad, b.separation.lag_limit_rad))
         sharing[c].forcing = e;
       if (detail::same_bits(a.separation.tau1_semichords, b.separation.tau1_semichords)) sharing[c].decay = e;
       if (sharing[c].forcing == e && sharing[c].decay == e && a.families == b.families &&
@@ -465,7 +466,7 @@ inline bool convert_stall(const StallModel<double, Cap>& a, StallModel<Scalar, C
   auto& sb = b.separation;
   const double values[] = {sa.normal_force_slope_per_rad, sa.zero_lift_angle_rad, sa.tau1_semichords,
                            sa.tau2_semichords, sa.cp_k0, sa.cp_k1, sa.cp_k2, sa.tau1_reattach_semichords,
-                           sa.reattach_shift_rad, a.vortex.shedding_threshold, a.vortex.decay_semichords,
+                           sa.reattach_shift_rad, sa.lag_limit_rad, a.vortex.shedding_threshold, a.vortex.decay_semichords,
                            a.vortex.travel_semichords, a.vortex.lift_gain, a.vortex.cp_travel};
   bool ok = true;
   for (double v : values) ok = ok && fits<Scalar>(v);
@@ -482,6 +483,7 @@ inline bool convert_stall(const StallModel<double, Cap>& a, StallModel<Scalar, C
   sb.forcing_lag = sa.forcing_lag;
   sb.tau1_reattach_semichords = static_cast<Scalar>(sa.tau1_reattach_semichords);
   sb.reattach_shift_rad = static_cast<Scalar>(sa.reattach_shift_rad);
+  sb.lag_limit_rad = static_cast<Scalar>(sa.lag_limit_rad);
   sb.cp_k0 = static_cast<Scalar>(sa.cp_k0);
   sb.cp_k1 = static_cast<Scalar>(sa.cp_k1);
   sb.cp_k2 = static_cast<Scalar>(sa.cp_k2);

@@ -92,8 +92,9 @@ namespace indicial {
 // list and report descriptions come from there. The dynamic-stall effects come last, from
 // separation_lag on (EffectDescription::extends says which those are).
 enum class Effect { b1_alpha, a_alpha, rotary_alpha, bias, time_delay, second_lag, static_error,
-                    separation_lag, vortex_shedding, slow_reattachment, pressure_lag, static_hysteresis };
-inline constexpr int effect_count = 12;  // the registry checks it has exactly this many entries
+                    separation_lag, vortex_shedding, slow_reattachment, pressure_lag, static_hysteresis,
+                    lag_limit };
+inline constexpr int effect_count = 13;  // the registry checks it has exactly this many entries
 
 // How far diagnose fits on the models its rounds compare against (the configured model, the
 // model after each step) when their fit ends at the iteration limit: from their own estimates,
@@ -105,7 +106,7 @@ inline constexpr int model_iteration_factor = 4;
 enum class EffectExtends {
   report_model,    // the report's model: its splines, lags, delay, bias, static curve
   stall_families   // model.hpp's separation and vortex families: offered only where a lift polar
-                   // runs through stall (slow_reattachment, pressure_lag and static_hysteresis: on a model that has
+                   // runs through stall (slow_reattachment, pressure_lag, static_hysteresis and lag_limit: on a model that has
                    // the families already)
 };
 

@@ -125,6 +125,11 @@ enum class StallReattachment { as_separation, estimated };
 // ([model] stall_hysteresis = "estimated"; diagnose's static_hysteresis).
 enum class StallHysteresis { none, estimated };
 
+// Whether the forcing angle's lag is limited (D, model.hpp: x_e = x - D tanh(T2 (l/V) x' / D),
+// with the delay forcing lag only): none (the default: x - T2 (l/V) x') or estimated ([model]
+// stall_lag_limit = "estimated"; diagnose's lag_limit).
+enum class StallLagLimit { none, estimated };
+
 // The dynamic-stall families of one coefficient (issue 22; model.hpp's "Dynamic stall"). [model]
 // keys stall, stall_polar, stall_polar_column, stall_attached_max_deg,
 // stall_f0_correction_{degree,powers,knots_deg}, stall_{T1,T2,CN1,Tv,Tvl}_start (docs/formats.md).
@@ -147,6 +152,8 @@ struct StallConfig {
   StallReattachment reattachment = StallReattachment::as_separation;
   double reattach_shift_start_rad = 0.035;  // dxr (with hysteresis = estimated): 2 deg
   StallHysteresis hysteresis = StallHysteresis::none;
+  double lag_limit_start_rad = 0.1;  // D (with lag_limit = estimated): 5.7 deg
+  StallLagLimit lag_limit = StallLagLimit::none;
   // [model] stall_forcing_lag: how T2 lags the forcing angle (model.hpp's ForcingLag; structure,
   // not fitted). "delay" (default) or "first_order".
   ForcingLag forcing_lag = ForcingLag::delay;

@@ -105,12 +105,13 @@ void check_delay_keys(const ModelConfig& m, bool start_given, const KeySite& sit
 void check_stall_keys(const StallConfig& s, const std::set<std::string>& given, Axis axis, const KeySite& site);
 
 // Which values a stall start value may take (check_stall_keys).
-enum class StartBound { positive, non_negative, hysteresis };  // hysteresis: (0, 20 deg] in rad
+enum class StartBound { positive, non_negative, angle_to_20_deg };  // the last: (0, 20 deg] in rad
 
 // When a stall start value is used: always (with the families), or only when its parameter is
 // estimated at all (T1r: stall_reattachment = "estimated"). Both the reader (refusal) and the
 // writer (left out) ask stall_start_used.
-enum class StartUse { with_families, with_reattachment_estimated, with_hysteresis_estimated };
+enum class StartUse { with_families, with_reattachment_estimated, with_hysteresis_estimated,
+                      with_lag_limit_estimated };
 
 // A start value of a dynamic-stall parameter: its [model] key (the same keyword in Python's
 // Experiment; docs/formats.md's stall table), the stall_known name of the parameter it
@@ -127,7 +128,7 @@ struct StallStart {
 };
 
 // The one table of the start-value keys, in docs/formats.md's order: T1, T2, CN1, Tv, Tvl, T1r,
-// dxr.
+// dxr, dxl.
 const std::vector<StallStart>& stall_starts();
 
 // Whether v is in the start value's feasible set. A default outside it is "not set" (CN1's 0:

@@ -70,6 +70,8 @@ inline constexpr std::array<NamedValue<StallReattachment>, 2> stall_reattachment
     {{"as_separation", StallReattachment::as_separation}, {"estimated", StallReattachment::estimated}}};
 inline constexpr std::array<NamedValue<StallHysteresis>, 2> stall_hysteresis_names{
     {{"none", StallHysteresis::none}, {"estimated", StallHysteresis::estimated}}};
+inline constexpr std::array<NamedValue<StallLagLimit>, 2> stall_lag_limit_names{
+    {{"none", StallLagLimit::none}, {"estimated", StallLagLimit::estimated}}};
 inline constexpr std::array<NamedValue<ForcingLag>, 2> forcing_lag_names{
     {{"delay", ForcingLag::delay}, {"first_order", ForcingLag::first_order}}};
 inline constexpr std::array<NamedValue<TimeGrid>, 2> time_grid_names{
@@ -89,6 +91,7 @@ inline constexpr const auto& names_of(StallFamilies) { return stall_families_nam
 inline constexpr const auto& names_of(StallReattachment) { return stall_reattachment_names; }
 inline constexpr const auto& names_of(ForcingLag) { return forcing_lag_names; }
 inline constexpr const auto& names_of(StallHysteresis) { return stall_hysteresis_names; }
+inline constexpr const auto& names_of(StallLagLimit) { return stall_lag_limit_names; }
 
 // The file's name of `value` (e.g. "stepwise").
 template <class E>

@@ -274,7 +274,8 @@ enum class ParamKind {
   vortex_decay, vortex_travel,  // T_v, T_vl in l / V (Tv, Tvl)
   vortex_lift, vortex_cp,     // c_v, x_v (cv, xv)
   stall_tau1_reattach,        // T1r in l / V: f's time constant while reattaching (T1r)
-  stall_reattach_shift        // dxr in rad: the static hysteresis of stall (dxr)
+  stall_reattach_shift,       // dxr in rad: the static hysteresis of stall (dxr)
+  stall_lag_limit             // D in rad: the limit of the forcing angle's lag (dxl)
 };
 
 // Where dxr starts when a model without the hysteresis is extended by it (the fit's nested

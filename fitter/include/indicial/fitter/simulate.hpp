@@ -140,6 +140,7 @@ TruthModel to_truth_model(const ModelSet<double, Cap>& in) {
     dp.forcing_lag = sp.forcing_lag;
     dp.tau1_reattach_semichords = sp.tau1_reattach_semichords;
     dp.reattach_shift_rad = sp.reattach_shift_rad;
+    dp.lag_limit_rad = sp.lag_limit_rad;
     dp.cp_k0 = sp.cp_k0;
     dp.cp_k1 = sp.cp_k1;
     dp.cp_k2 = sp.cp_k2;
