@@ -506,17 +506,7 @@ TEST_CASE("stall autodiff sensitivity to the lag limit matches finite difference
   mo.mean_rad = 15.0 * kDeg;
   mo.omega_radps = 0.1 / l_over_v;
   const double dt = 2.0 * kPi / mo.omega_radps / 256;
-  auto objective = [&](auto m) {
-    using T = std::decay_t<decltype(m.separation.cp_k0)>;
-    indicial::StallState<T> s;
-    indicial::stall_steady_state(m, T(mo.alpha(0)), &s);
-    T sum = T(0);
-    for (int k = 0; k < 384; ++k) {
-      indicial::advance_stall(m, {T(mo.alpha(k * dt)), T(mo.alpha((k + 1) * dt)), T(dt), T(l_over_v)}, &s);
-      sum = sum + T(std::sin(0.05 * k)) * indicial::stall_output(m, T(mo.alpha((k + 1) * dt)), s);
-    }
-    return sum;
-  };
+  auto objective = [&](const auto& m) { return weighted_output_sum(m, mo, dt, l_over_v); };
   auto base = test_model<double>(indicial::StallFamilies::separation_and_vortex);
   auto ma = test_model<AD>(indicial::StallFamilies::separation_and_vortex);
   for (double limit_deg : {1.0, 3.0}) {
