@@ -1500,15 +1500,15 @@ inline void lag_derivatives(const CoefficientModel<Scalar, Cap>& m, const Scalar
 //   lag_limit): the forcing angle's lag saturates with the rate,
 //     x_e = x - D tanh(T2 (l/V) x' / D)          (x - T2 (l/V) x' for |T2 (l/V) x'| << D)
 //   so a slow motion is delayed by T2 as before and a fast one by at most D: the onset of
-//   separation moves past the static stall angle with the rate, less and less (Sheng, Galbraith
-//   & Coton's onset angle, measured on this database's ramps, stops growing with the rate).
+//   separation moves past the static stall angle with the rate, less and less (as Sheng,
+//   Galbraith & Coton's stall-onset angle of Glasgow ramp tests levels off with the rate).
 //   D = 0: no limit, the delay above exactly. In the step the lag over the step, T2 (x1 - x0)
 //   / h, is limited so, the same for x_e0 and x_e1 (tanh(u) = 2 S(2u) - 1 with the logistic S
 //   below: no exp overflow, an autodiff derivative everywhere; an absolute error of an ulp of
 //   D, nothing in a lag of a degree). Why: on the Glasgow light-stall cycles at k >= 0.1 the
 //   delay form separates after the peak where the measurement barely does. Measured on
 //   tools/validate_stall.py's fit and held-out cycles (the extended C_L model with dxr, D
-//   held at 1.5, 3, 6, 10 deg and none, everything else fitted): fit error 0.1028, 0.0997,
+//   held at 1.5, 3, 6, 10 deg in a scratch build, and none, everything else fitted): fit error 0.1028, 0.0997,
 //   0.0979, 0.0981, 0.0984, held-out RMS 0.75x, 0.72x, 0.71x, 0.73x, 0.74x the
 //   Beddoes-Leishman peer (light stall 0.87x, 0.82x, 0.78x, 0.89x, 0.88x): the fit cycles'
 //   error is lowest where the held-out error is, so D is a parameter the fit chooses.
