@@ -494,42 +494,67 @@ StallStartTrial nested_constant_trial(const FitContext& c, const Estimate& est, 
 void search_stall_starts(const FitContext& c, Estimate& est, const Eigen::VectorXd& theta0,
                          StallStartSearchResult& out);
 
-// With dxr estimated (stall_hysteresis = "estimated"): the model nests the one without the
-// hysteresis (dxr = 0), yet a fit from the grid alone can end far above it (measured: the
-// Glasgow C_m fit cycles of tools/validate_stall.py, s(v) 0.0376 with dxr -> 1.7e-7 against
-// 0.0313 without; and a start from the sub-model's grid alone, without its own nested trials,
-// 0.0368). So the model without it gets the whole search (search_stall_starts, its nested
-// trials included) and one more start is its best fit with dxr = kHysteresisNestedStartRad:
-// the kept fit can then not end above the search without the hysteresis. Costs that search.
-// Returns the trial; *fit is its fit.
-StallStartTrial nested_hysteresis_trial(const FitContext& c, const Estimate& est, const ParameterLayout& L,
-                                        const Eigen::VectorXd& theta0, MLResult* fit) {
-  Estimate sub = est;
-  sub.s.stall.hysteresis = StallHysteresis::none;
+// A parameter the model nests away (dxr = 0 is the model without the hysteresis; D at its
+// bound is nearly the model without the lag limit), of the start from the model without it:
+// that model (`sub`, layout Ls) gets the whole search (search_stall_starts, its nested trials
+// included) and one more start is its best fit with the parameter `kind` at `value`: the kept
+// fit can then not end above that search but for what the parameter's start moves. Costs that
+// search. `what` names what the sub-model lacks ("the hysteresis"). Returns the trial; *fit is its fit.
+StallStartTrial nested_without_trial(const FitContext& c, const Estimate& est, const ParameterLayout& L,
+                                     const Eigen::VectorXd& theta0, Estimate sub, ParamKind kind, double value,
+                                     const char* what, MLResult* fit) {
   const ParameterLayout Ls(sub.s, sub.runs);
   const Eigen::VectorXd theta0_sub = restrict_to(Ls, L, theta0);
   sub.ml = c.fit(sub.s, sub.runs, sub.rotary, theta0_sub);
   StallStartSearchResult sub_search;
   search_stall_starts(c, sub, theta0_sub, sub_search);
   if (!std::isfinite(sub.ml.summary.cost) || sub.ml.theta.size() != Ls.size())
-    return failed_trial("the model's fit without the hysteresis (no dxr) did not propagate from any start", fit);
+    return failed_trial(fmt::format("the model's fit without {} did not propagate from any start", what).c_str(), fit);
   Eigen::VectorXd start = theta0;
   embed_into(Ls, sub.ml.theta, L, &start);
-  start(L.find(param_id(ParamKind::stall_reattach_shift))) = kHysteresisNestedStartRad;
+  const std::string name = parameter_name(param_id(kind));
+  start(L.find(param_id(kind))) = value;
   *fit = c.fit(est.s, est.runs, est.rotary, start);
   StallStartTrial trial;
-  trial.start = {{"dxr", kHysteresisNestedStartRad}};
+  trial.start = {{name, value}};
   trial.fit_error = fit->summary.fit_error;
-  trial.origin = fmt::format("from the best fit without the hysteresis (no dxr, {} starts, s(v) = {:.6g}), "
-                             "dxr = {:g} rad", sub_search.trials.size(), sub.ml.summary.fit_error,
-                             kHysteresisNestedStartRad);
+  trial.origin = fmt::format("from the best fit without {} (no {}, {} starts, s(v) = {:.6g}), {} = {:g} rad", what, name,
+                             sub_search.trials.size(), sub.ml.summary.fit_error, name, value);
   return trial;
+}
+
+// With dxr estimated (stall_hysteresis = "estimated"): the model nests the one without the
+// hysteresis (dxr = 0), yet a fit from the grid alone can end far above it (measured: the
+// Glasgow C_m fit cycles of tools/validate_stall.py, s(v) 0.0376 with dxr -> 1.7e-7 against
+// 0.0313 without; and a start from the sub-model's grid alone, without its own nested trials,
+// 0.0368). So one more start is the model without it (its whole search) with dxr =
+// kHysteresisNestedStartRad (nested_without_trial).
+StallStartTrial nested_hysteresis_trial(const FitContext& c, const Estimate& est, const ParameterLayout& L,
+                                        const Eigen::VectorXd& theta0, MLResult* fit) {
+  Estimate sub = est;
+  sub.s.stall.hysteresis = StallHysteresis::none;
+  return nested_without_trial(c, est, L, theta0, std::move(sub), ParamKind::stall_reattach_shift,
+                              kHysteresisNestedStartRad, "the hysteresis", fit);
+}
+
+// With D estimated (stall_lag_limit = "estimated"): the model nests the one without the limit
+// (D -> infinity), yet a fit from the grid alone can end far above it (measured:
+// tools/validate_stall.py's extended C_m model on its 104 fit cycles ended at D = 20 deg,
+// s(v) 0.0391, against 0.0313 without D). So one more start is the model without it (its whole
+// search) with D = kLagLimitNestedStartRad (nested_without_trial).
+StallStartTrial nested_lag_limit_trial(const FitContext& c, const Estimate& est, const ParameterLayout& L,
+                                       const Eigen::VectorXd& theta0, MLResult* fit) {
+  Estimate sub = est;
+  sub.s.stall.lag_limit = StallLagLimit::none;
+  return nested_without_trial(c, est, L, theta0, std::move(sub), ParamKind::stall_lag_limit, kLagLimitNestedStartRad,
+                              "the lag limit", fit);
 }
 
 // The stall start grid (FitOptions::stall_start_search): est.ml, the fit from the configured
 // start theta0, is replaced by the lowest-cost fit of the grid's starts (fitted in parallel,
 // c.o.threads), with T1r of the start from the symmetric fit (nested_symmetric_trial), with dxr
-// of the start from the fit without the hysteresis (nested_hysteresis_trial), and with
+// of the start from the fit without the hysteresis (nested_hysteresis_trial), with D of the
+// start from the fit without the lag limit (nested_lag_limit_trial), and with
 // a(x) or b1(x) of several terms of the start from the constant-coefficient fit
 // (nested_constant_trial); every trial is recorded in `out`.
 void search_stall_starts(const FitContext& c, Estimate& est, const Eigen::VectorXd& theta0,
@@ -546,6 +571,10 @@ void search_stall_starts(const FitContext& c, Estimate& est, const Eigen::Vector
   if (L.find(param_id(ParamKind::stall_reattach_shift)) >= 0) {
     fits.emplace_back();
     out.trials.push_back(nested_hysteresis_trial(c, est, L, theta0, &fits.back()));
+  }
+  if (L.find(param_id(ParamKind::stall_lag_limit)) >= 0) {
+    fits.emplace_back();
+    out.trials.push_back(nested_lag_limit_trial(c, est, L, theta0, &fits.back()));
   }
   if (UnsteadyStructure sub; constant_submodel(est.s, &sub)) {
     fits.emplace_back();

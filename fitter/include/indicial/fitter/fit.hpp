@@ -284,6 +284,12 @@ enum class ParamKind {
 // dxr < 0 is refused), yet dxr's sensitivity is there to follow.
 inline constexpr double kHysteresisNestedStartRad = 1e-3;
 
+// Where D starts when a model without the forcing lag's limit is extended by it (the fit's
+// nested trial): 0.9 of its bound kMaxLagLimitRad (18 deg), near the model without the limit
+// (D -> infinity; a lag of 5 deg is cut by 2.5 %, 10 deg by 9 %) yet inside the feasible set,
+// so a trial step toward the bound is not refused at the first iteration.
+inline constexpr double kLagLimitNestedStartRad = 0.9 * kMaxLagLimitRad;
+
 struct ParamId {
   ParamKind kind = ParamKind::a_power;
   int lag = 0;            // 0-based lag: b_power, b_knot, gain, initial_state
@@ -471,8 +477,9 @@ enum class ModelFunction { a, b1, rotary };
 // The stall start grid's trials (StallStartSearch::grid): each start's varied values (by
 // parameter name, in l / V) and the fit error it ended at (NaN: it could not be propagated).
 // `origin` is empty for a grid point; with T1r estimated a trial starts from the symmetric
-// model's best fit (the same grid without T1r), and with a(x) or b1(x) of several terms the last
-// from the constant-coefficient model's best fit (fit_two_stage.cpp), each saying so there.
+// model's best fit (the same grid without T1r), with dxr or D estimated from the best fit
+// without it, and with a(x) or b1(x) of several terms the last from the constant-coefficient
+// model's best fit (fit_two_stage.cpp), each saying so there.
 struct StallStartTrial {
   std::vector<std::pair<std::string, double>> start;
   double fit_error = 0.0;
