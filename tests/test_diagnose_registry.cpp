@@ -101,3 +101,30 @@ TEST_CASE("diagnose registry: an effect's extends says what its candidates chang
   model.stall.forcing_lag = ForcingLag::first_order;
   CHECK(offered(model).count(Effect::lag_limit) == 0);
 }
+
+// The lag limit's candidate starts D twice from the current estimates: at its configured start
+// and near the model without it (kLagLimitNestedStartRad, the fit's nested trial), so that its
+// best fit does not end far above the model it extends (diagnose_effects.cpp, gen_lag_limit).
+TEST_CASE("diagnose registry: the lag limit is started at its configured start and near the model without it") {
+  ModelConfig model = testing::model_with_polar();
+  model.stall.families = StallFamilies::separation;
+  model.stall.lag_limit_start_rad = 0.05;
+  const Experiment e;
+  const FitResult base;
+  const std::vector<double> grid = {0.1, 0.2};
+  int seen = 0;
+  for (const CandidateSpec& c : all_candidates(CandidateContext{e, model, base, grid, 0.1})) {
+    if (c.effect != Effect::lag_limit) continue;
+    ++seen;
+    const ParamId d = param_id(ParamKind::stall_lag_limit);
+    REQUIRE(c.starts.size() == 2);
+    std::vector<double> values;
+    for (const StartValues& s : c.starts) {
+      REQUIRE(s.size() == 1);
+      CHECK(s[0].first == d);
+      values.push_back(s[0].second);
+    }
+    CHECK(values == std::vector<double>{0.05, kLagLimitNestedStartRad});
+  }
+  CHECK(seen == 1);
+}

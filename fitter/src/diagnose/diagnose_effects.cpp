@@ -266,8 +266,11 @@ void gen_pressure_lag(const CandidateContext& ctx, std::vector<CandidateSpec>& o
 }
 
 // The forcing angle's lag limited to D (model.hpp's lag limit: x_e = x - D tanh(T2 (l/V) x' /
-// D)), on a model that has the families in the delay form without it: started from the current
-// estimates, D at its configured start (stall_dxl_start, 0.1 rad).
+// D)), on a model that has the families in the delay form without it: from the current
+// estimates, two starts, the better fit kept: D at its configured start (stall_dxl_start,
+// 0.1 rad), and D at kLagLimitNestedStartRad (fit.hpp), near the model without it, as the
+// fit's nested trial (from 0.1 rad alone the fit of tools/validate_stall.py's C_m cycles ended
+// at the 20 deg bound, far above the model without D).
 void gen_lag_limit(const CandidateContext& ctx, std::vector<CandidateSpec>& out) {
   const StallConfig& have = ctx.model.stall;
   if (have.families == StallFamilies::none || have.forcing_lag != ForcingLag::delay ||
@@ -277,7 +280,8 @@ void gen_lag_limit(const CandidateContext& ctx, std::vector<CandidateSpec>& out)
   c.effect = Effect::lag_limit;
   c.config = ctx.model;
   c.config.stall.lag_limit = StallLagLimit::estimated;
-  c.starts = {{{param_id(ParamKind::stall_lag_limit), have.lag_limit_start_rad}}};
+  c.starts = {{{param_id(ParamKind::stall_lag_limit), have.lag_limit_start_rad}},
+              {{param_id(ParamKind::stall_lag_limit), kLagLimitNestedStartRad}}};
   c.term = "dxl";
   c.detail = "limit of the forcing angle's lag";
   out.push_back(c);
