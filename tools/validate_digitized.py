@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Does a fit from digitized cycles predict as well as a fit from the measured ones?
 
-Usage: nice python3 tools/validate_digitized.py DIR INDICIAL SCRATCH > docs/validation-digitized.md
+Usage: nice python3 tools/validate_digitized.py DIR INDICIAL SCRATCH > docs/validation-digitized.md (not yet run)
 
 Why: issue 22 is accepted in part on another facility's cycles that exist only as digitized
 histories (30-130 points per cycle, each quantity at its own phases, read off plots), while
@@ -135,6 +135,8 @@ def fit_and_predict(work, text, held):
 def summary(rows, cycles, stall_deg, regime_name):
     sel = [(m, q) for (m, q), c in zip(rows, cycles)
            if regime_name == "all" or cycle_catalog.regime(vr.peak_deg(c), stall_deg) == regime_name]
+    if not sel:
+        return 0, float("nan"), 0, float("nan")
     ratios = sorted(m / q for m, q in sel)
     med = ratios[len(ratios) // 2] if len(ratios) % 2 else 0.5 * (ratios[len(ratios) // 2 - 1] + ratios[len(ratios) // 2])
     return len(sel), med, sum(1 for r in ratios if r <= 0.5), sum(m for m, _ in sel) / len(sel)
@@ -143,7 +145,9 @@ def summary(rows, cycles, stall_deg, regime_name):
 def main():
     if len(sys.argv) != 4:
         sys.exit("usage: validate_digitized.py DIR INDICIAL SCRATCH > OUT.md")
-    vr.DATA, vr.EXE, scratch = sys.argv[1], sys.argv[2], sys.argv[3]
+    # Absolute: the experiment files name the cycles, the polar and the copies, and the reader
+    # resolves names from the experiment's folder.
+    vr.DATA, vr.EXE, scratch = (os.path.abspath(a) for a in sys.argv[1:4])
     t0 = time.time()
     catalog = cycle_catalog.read_catalog(vr.DATA)
     os.makedirs(scratch, exist_ok=True)
