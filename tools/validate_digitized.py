@@ -28,7 +28,6 @@ Method (standard library only; every choice is a rule, not a list of cycles):
     (`indicial predict --periodic`); per model: the median over cycles of RMS / quasi-steady
     RMS, the cycles at <= 0.5x, and the mean RMS; attached / light / deep stall apart.
 """
-import concurrent.futures
 import json
 import math
 import os
@@ -36,6 +35,7 @@ import random
 import sys
 import time
 
+import compare_starts
 import cycle_catalog
 import validate_real as vr
 
@@ -110,26 +110,13 @@ def experiment_text(coef, train, static_csv, v_ref, n_points, work):
 
 
 def fit_and_predict(work, text, held):
-    """Fits the experiment text in work; returns (fit error, {parameter: value}, per held-out
-    cycle (model RMS, quasi-steady RMS))."""
-    os.makedirs(work, exist_ok=True)
-    exp = os.path.join(work, "experiment.toml")
-    with open(exp, "w") as f:
-        f.write(text)
-    vr.run([vr.EXE, "fit", exp, "--out", os.path.join(work, "fit"), "--force", "--no-plots", "--quiet"])
+    """compare_starts.fit_and_predict (fit, then every held-out cycle predicted), with the fit's
+    parameter values: (fit error, {parameter: value}, per held-out cycle in `held`'s order
+    (model RMS, quasi-steady RMS))."""
+    fit_error, by_id = compare_starts.fit_and_predict(work, text, held)
     with open(os.path.join(work, "fit", "fit.json")) as f:
-        fj = json.load(f)
-    params = {p["name"]: p["value"] for p in fj.get("parameters", [])}
-    model = os.path.join(work, "fit", "model.coef")
-
-    def one(i_c):  # each prediction in its own scratch directory (predict_rms's p.csv)
-        i, c = i_c
-        sub = os.path.join(work, f"p{i}")
-        os.makedirs(sub, exist_ok=True)
-        return vr.predict_rms(model, c, exp, sub)
-    with concurrent.futures.ThreadPoolExecutor(2) as ex:
-        results = list(ex.map(one, enumerate(held)))
-    return fj["fit_error"], params, results
+        params = {p["name"]: p["value"] for p in json.load(f).get("parameters", [])}
+    return fit_error, params, [by_id[c["id"]] for c in held]
 
 
 def summary(rows, cycles, stall_deg, regime_name):
