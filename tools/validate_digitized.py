@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Does a fit from digitized cycles predict as well as a fit from the measured ones?
 
-Usage: nice python3 tools/validate_digitized.py DIR INDICIAL SCRATCH > docs/validation-digitized.md (not yet run)
+Usage: nice python3 tools/validate_digitized.py DIR INDICIAL SCRATCH > docs/validation-digitized.md
 
 Why: issue 22 is accepted in part on another facility's cycles that exist only as digitized
 histories (30-130 points per cycle, each quantity at its own phases, read off plots), while
